@@ -1,0 +1,10 @@
+// Each subcommand of `fleetmap` registers itself on the top-level CLI11 app.
+#pragma once
+
+#include <CLI/CLI.hpp>
+
+namespace fleetmap::cli {
+
+void AddDemoCommand(CLI::App& app);
+
+}  // namespace fleetmap::cli

@@ -1,0 +1,23 @@
+// fleetmap: version control for the visual experience maps of a robot fleet.
+#include <CLI/CLI.hpp>
+#include <iostream>
+
+#include "commands.h"
+#include "fleetmap/common/error.h"
+
+int main(int argc, char** argv) {
+  CLI::App app{
+      "fleetmap: version control for robot fleets' visual experience maps.\n"
+      "Stores are named by URI: sqlite:PATH (embedded default) or postgresql://USER@HOST/DB."};
+  app.require_subcommand(1);
+  fleetmap::cli::AddDemoCommand(app);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  } catch (const fleetmap::Error& e) {
+    std::cerr << "fleetmap: " << e.what() << "\n";
+    return 1;
+  }
+  return 0;
+}

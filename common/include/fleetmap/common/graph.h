@@ -1,0 +1,117 @@
+// The experience-graph model (DESIGN.md "Data model"; seed 000 §4.3.1 GraphDB).
+// Plain value types: what the stores put and get, and what the EBN core works with.
+#pragma once
+
+#include <Eigen/Core>
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "fleetmap/common/se3.h"
+#include "fleetmap/common/uuid.h"
+
+namespace fleetmap {
+
+// A 256-bit binary feature descriptor (ORB-like), compared by Hamming distance.
+using Descriptor256 = std::array<std::uint8_t, 32>;
+
+// The landmarks of one experience: 3-D points in the node's camera frame (metres, float32)
+// with one descriptor each. INVARIANT: points_camera.size() == descriptors.size().
+struct Landmarks {
+  std::vector<Eigen::Vector3f> points_camera;
+  std::vector<Descriptor256> descriptors;
+
+  std::size_t size() const { return points_camera.size(); }
+  friend bool operator==(const Landmarks&, const Landmarks&) = default;
+};
+
+// An experience: a remembered view of a place. The landmarks travel as one serialised blob
+// (fleetmap.v1.Landmarks, see EncodeLandmarks) so stores never parse them.
+struct Node {
+  Uuid id;
+  std::int64_t stamp_ns = 0;  // capture time, UTC
+  Uuid robot;
+  Uuid outing;
+  std::string landmarks_blob;
+
+  friend bool operator==(const Node&, const Node&) = default;
+};
+
+enum class EdgeKind : int {
+  kMetric = 1,  // 6-DoF relative pose from_T_to
+  kPath = 2,    // non-metric path-memory link of one path (seed 002 §IV)
+};
+
+struct Edge {
+  Uuid id;
+  Uuid from;
+  Uuid to;
+  EdgeKind kind = EdgeKind::kMetric;
+  Se3 from_T_to = Se3::Identity();  // meaningful for metric edges
+  Uuid path;                        // set for path edges, nil otherwise
+};
+
+// Same identity and endpoints, and poses equal within tolerance (a pose that went through a
+// database and back is rebuilt from a quaternion, so exact equality is too strict).
+bool SameEdgeContent(const Edge& a, const Edge& b);
+
+// One outing's sequence of localisations (path memory, seed 002 §IV).
+struct Path {
+  Uuid id;
+  Uuid robot;
+  Uuid outing;
+  std::int64_t start_ns = 0;
+  std::int64_t end_ns = 0;
+
+  friend bool operator==(const Path&, const Path&) = default;
+};
+
+enum class AnnotationTarget : int {
+  kNone = 0,  // the annotation hangs off a parent annotation instead
+  kNode = 1,
+  kEdge = 2,
+};
+
+// Seed 000 §4.2 and §4.3.1: an annotation is on exactly one thing, either a graph element
+// (target_kind + target) or a lower-level annotation (parent).
+struct Annotation {
+  Uuid id;
+  AnnotationTarget target_kind = AnnotationTarget::kNone;
+  Uuid target;  // node or edge UUID when target_kind != kNone
+  Uuid parent;  // parent annotation when target_kind == kNone
+  std::string type;
+  std::string payload;
+
+  friend bool operator==(const Annotation&, const Annotation&) = default;
+};
+
+// Everything one atomic write may carry. Stores apply paths, nodes, edges, then annotations,
+// so a batch may reference its own members.
+struct GraphBatch {
+  std::vector<Path> paths;
+  std::vector<Node> nodes;
+  std::vector<Edge> edges;
+  std::vector<Annotation> annotations;
+};
+
+// A connected piece of the graph as read back by one query.
+struct Subgraph {
+  std::vector<Node> nodes;
+  std::vector<Edge> edges;
+};
+
+// The model-level rules every store enforces before writing: non-nil ids, an edge's path set
+// iff it is a path edge, an annotation on exactly one thing (seed 000 §4.2). Throw
+// Error(kInvalidArgument) naming the offending UUID.
+void Validate(const Node& node);
+void Validate(const Edge& edge);
+void Validate(const Path& path);
+void Validate(const Annotation& annotation);
+
+// Landmark blob codec (fleetmap.v1.Landmarks). Decode throws Error(kCorrupt) on bytes that do
+// not parse or whose point and descriptor counts disagree.
+std::string EncodeLandmarks(const Landmarks& landmarks);
+Landmarks DecodeLandmarks(const std::string& blob);
+
+}  // namespace fleetmap

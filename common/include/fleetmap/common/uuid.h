@@ -1,0 +1,59 @@
+// 128-bit identifiers for nodes, edges, paths, robots and outings (libuuid, RFC 4122).
+// Stored as 16 raw bytes (SQLite BLOB, PostgreSQL uuid); printed in lower-case canonical
+// form "xxxxxxxx-xxxx-xxxx-xxxx-xxxxxxxxxxxx". Ordering is bytewise, so it matches the
+// order of both databases' indexes.
+#pragma once
+
+#include <array>
+#include <compare>
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <string_view>
+
+namespace fleetmap {
+
+class Uuid {
+ public:
+  static constexpr std::size_t kSize = 16;
+  using Bytes = std::array<std::uint8_t, kSize>;
+
+  // The nil UUID (all zero bytes); used for "not set".
+  constexpr Uuid() : bytes_{} {}
+  explicit constexpr Uuid(const Bytes& bytes) : bytes_(bytes) {}
+
+  // A new random (version 4) UUID.
+  static Uuid Generate();
+  // Parses canonical text. Throws Error(kInvalidArgument) on anything else.
+  static Uuid Parse(std::string_view text);
+  // From exactly 16 raw bytes. Throws Error(kInvalidArgument) for any other length.
+  static Uuid FromBytes(std::string_view raw);
+
+  std::string ToString() const;
+  // The 16 raw bytes as a string (for protobuf bytes fields).
+  std::string ToBytesString() const;
+  const Bytes& bytes() const { return bytes_; }
+  const std::uint8_t* data() const { return bytes_.data(); }
+
+  bool IsNil() const;
+
+  friend auto operator<=>(const Uuid&, const Uuid&) = default;
+  friend bool operator==(const Uuid&, const Uuid&) = default;
+
+ private:
+  Bytes bytes_;
+};
+
+}  // namespace fleetmap
+
+template <>
+struct std::hash<fleetmap::Uuid> {
+  std::size_t operator()(const fleetmap::Uuid& id) const noexcept {
+    // Version-4 UUIDs are random, so any 8 bytes hash well; mix both halves anyway so
+    // time-based (v1) UUIDs, whose low bytes repeat, spread too.
+    std::uint64_t lo = 0, hi = 0;
+    for (int i = 0; i < 8; ++i) lo = (lo << 8) | id.bytes()[i];
+    for (int i = 8; i < 16; ++i) hi = (hi << 8) | id.bytes()[i];
+    return static_cast<std::size_t>(lo ^ (hi * 0x9E3779B97F4A7C15ULL));
+  }
+};

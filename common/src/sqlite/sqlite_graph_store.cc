@@ -1,0 +1,521 @@
+// SQLite backend of GraphStore (seed 000 §5.2: the embedded choice for real-time use).
+//
+// Every statement is prepared once at open and reused: per-call overhead over a raw
+// prepared-statement loop is what seed 000 Figs 6-7 measure, and `fleetmap bench graph`
+// holds us to a ratio against exactly that baseline.
+#include <sqlite3.h>
+
+#include <memory>
+#include <string>
+#include <unordered_set>
+
+#include "backends.h"
+#include "fleetmap/common/error.h"
+#include "migration.h"
+#include "sqlite/statement.h"
+
+namespace fleetmap::internal {
+
+namespace {
+
+constexpr const char* kNodeColumns = "id, stamp_ns, robot, outing, landmarks";
+constexpr const char* kEdgeColumns =
+    "id, from_id, to_id, kind, tx, ty, tz, qw, qx, qy, qz, path_id";
+constexpr const char* kAnnotationColumns = "id, node_id, edge_id, parent_id, type, payload";
+
+std::string Sql(std::initializer_list<std::string_view> parts) {
+  std::string sql;
+  for (std::string_view p : parts) sql += p;
+  return sql;
+}
+
+class SqliteGraphStore final : public GraphStore {
+ public:
+  SqliteGraphStore(const std::string& path, const StoreOptions& options) : path_(path) {
+    // NOMUTEX: a GraphStore is used by one thread at a time (see graph_store.h), so SQLite's
+    // own per-call mutex would be pure overhead.
+    const int flags = SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_NOMUTEX;
+    const int rc = sqlite3_open_v2(path.c_str(), &db_, flags, nullptr);
+    if (rc != SQLITE_OK) {
+      const std::string message = db_ ? sqlite3_errmsg(db_) : sqlite3_errstr(rc);
+      sqlite3_close(db_);
+      db_ = nullptr;
+      throw Error(ErrorCode::kBackend, "cannot open sqlite store " + path + ": " + message);
+    }
+    try {
+      sqlite3_extended_result_codes(db_, 1);
+      sqlite3_busy_timeout(db_, 10000);
+      // Seed 000 §6.1: both modes use the write-ahead log; synchronous flushes it on every
+      // commit, buffered leaves flushing to the OS (safe against a killed process).
+      ExecSql(db_, "PRAGMA journal_mode=WAL");
+      ExecSql(db_, options.durability == Durability::kSynchronous ? "PRAGMA synchronous=FULL"
+                                                                  : "PRAGMA synchronous=OFF");
+      ExecSql(db_, "PRAGMA foreign_keys=ON");
+      ExecSql(db_, "PRAGMA cache_size=-32768");  // 32 MiB: keeps a 10^6-node index in memory
+      Migrate();
+      Prepare();
+    } catch (...) {
+      statements_.reset();
+      sqlite3_close(db_);
+      throw;
+    }
+  }
+
+  ~SqliteGraphStore() override {
+    statements_.reset();
+    sqlite3_close(db_);
+  }
+
+  std::string uri() const override { return "sqlite:" + path_; }
+
+  int schema_version() override {
+    Statement s(db_, "SELECT coalesce(max(version), 0) FROM fleetmap_schema");
+    s.Step();
+    return static_cast<int>(s.Int64(0));
+  }
+
+ protected:
+  void DoBegin() override { ExecSql(db_, "BEGIN IMMEDIATE"); }
+  void DoCommit() override { ExecSql(db_, "COMMIT"); }
+  void DoRollback() override {
+    if (!sqlite3_get_autocommit(db_)) ExecSql(db_, "ROLLBACK");
+  }
+
+  void DoPutNode(const Node& node) override {
+    {
+      StatementUse s(statements_->insert_node);
+      s->Bind(1, node.id);
+      s->Bind(2, node.stamp_ns);
+      s->Bind(3, node.robot);
+      s->Bind(4, node.outing);
+      s->BindBlob(5, node.landmarks_blob);
+      if (s->Run() == 1) return;
+    }
+    const std::optional<Node> stored = DoFindNode(node.id);
+    if (stored && *stored == node) return;  // identical: a no-op
+    throw Error(ErrorCode::kConflict,
+                "node " + node.id.ToString() + " is already stored with different content");
+  }
+
+  void DoPutEdge(const Edge& edge) override {
+    try {
+      StatementUse s(statements_->insert_edge);
+      s->Bind(1, edge.id);
+      s->Bind(2, edge.from);
+      s->Bind(3, edge.to);
+      s->Bind(4, static_cast<std::int64_t>(edge.kind));
+      const Eigen::Quaterniond q = RotationQuaternion(edge.from_T_to);
+      const Eigen::Vector3d& t = edge.from_T_to.translation();
+      s->Bind(5, t.x());
+      s->Bind(6, t.y());
+      s->Bind(7, t.z());
+      s->Bind(8, q.w());
+      s->Bind(9, q.x());
+      s->Bind(10, q.y());
+      s->Bind(11, q.z());
+      s->BindNullableUuid(12, edge.path);
+      if (s->Run() == 1) return;
+    } catch (const Error& e) {
+      if (e.code() == ErrorCode::kIntegrity) ExplainRefusedEdge(edge);
+      throw;
+    }
+    const std::optional<Edge> stored = DoFindEdge(edge.id);
+    if (stored && SameEdgeContent(*stored, edge)) return;
+    throw Error(ErrorCode::kConflict,
+                "edge " + edge.id.ToString() + " is already stored with different content");
+  }
+
+  void DoPutPath(const Path& path) override {
+    {
+      StatementUse s(statements_->insert_path);
+      s->Bind(1, path.id);
+      s->Bind(2, path.robot);
+      s->Bind(3, path.outing);
+      s->Bind(4, path.start_ns);
+      s->Bind(5, path.end_ns);
+      if (s->Run() == 1) return;
+    }
+    const std::optional<Path> stored = DoFindPath(path.id);
+    if (stored && *stored == path) return;
+    throw Error(ErrorCode::kConflict,
+                "path " + path.id.ToString() + " is already stored with different content");
+  }
+
+  void DoPutAnnotation(const Annotation& a) override {
+    try {
+      // Bound without a copy, so these must live until Run().
+      const Uuid node_id = a.target_kind == AnnotationTarget::kNode ? a.target : Uuid();
+      const Uuid edge_id = a.target_kind == AnnotationTarget::kEdge ? a.target : Uuid();
+      StatementUse s(statements_->insert_annotation);
+      s->Bind(1, a.id);
+      s->BindNullableUuid(2, node_id);
+      s->BindNullableUuid(3, edge_id);
+      s->BindNullableUuid(4, a.parent);
+      s->BindText(5, a.type);
+      s->BindBlob(6, a.payload);
+      if (s->Run() == 1) return;
+    } catch (const Error& e) {
+      if (e.code() == ErrorCode::kIntegrity) ExplainRefusedAnnotation(a);
+      throw;
+    }
+    const std::optional<Annotation> stored = DoFindAnnotation(a.id);
+    if (stored && *stored == a) return;
+    throw Error(ErrorCode::kConflict,
+                "annotation " + a.id.ToString() + " is already stored with different content");
+  }
+
+  void DoPut(const GraphBatch& batch) override {
+    // Inside an explicit transaction a savepoint keeps the batch atomic on its own.
+    const bool nested = in_transaction();
+    ExecSql(db_, nested ? "SAVEPOINT fleetmap_batch" : "BEGIN IMMEDIATE");
+    try {
+      for (const Path& p : batch.paths) DoPutPath(p);
+      for (const Node& n : batch.nodes) DoPutNode(n);
+      for (const Edge& e : batch.edges) DoPutEdge(e);
+      for (const Annotation& a : batch.annotations) DoPutAnnotation(a);
+      ExecSql(db_, nested ? "RELEASE fleetmap_batch" : "COMMIT");
+    } catch (...) {
+      if (nested) {
+        ExecSql(db_, "ROLLBACK TO fleetmap_batch");
+        ExecSql(db_, "RELEASE fleetmap_batch");
+      } else if (!sqlite3_get_autocommit(db_)) {
+        ExecSql(db_, "ROLLBACK");
+      }
+      throw;
+    }
+  }
+
+  std::optional<Node> DoFindNode(const Uuid& id) override {
+    StatementUse s(statements_->find_node);
+    s->Bind(1, id);
+    if (!s->Step()) return std::nullopt;
+    return ReadNode(*s, true);
+  }
+
+  std::optional<Edge> DoFindEdge(const Uuid& id) override {
+    StatementUse s(statements_->find_edge);
+    s->Bind(1, id);
+    if (!s->Step()) return std::nullopt;
+    return ReadEdge(*s, 0);
+  }
+
+  std::optional<Path> DoFindPath(const Uuid& id) override {
+    StatementUse s(statements_->find_path);
+    s->Bind(1, id);
+    if (!s->Step()) return std::nullopt;
+    return ReadPath(*s);
+  }
+
+  std::optional<Annotation> DoFindAnnotation(const Uuid& id) override {
+    StatementUse s(statements_->find_annotation);
+    s->Bind(1, id);
+    if (!s->Step()) return std::nullopt;
+    return ReadAnnotation(*s);
+  }
+
+  std::vector<Node> DoGetNodes(std::span<const Uuid> ids) override {
+    // In-process lookups are as cheap as one big query here: no round trip to save.
+    std::vector<Node> nodes;
+    nodes.reserve(ids.size());
+    for (const Uuid& id : ids) {
+      if (std::optional<Node> n = DoFindNode(id)) nodes.push_back(std::move(*n));
+    }
+    return nodes;
+  }
+
+  std::vector<Edge> DoEdgesFrom(const Uuid& node) override {
+    return ReadEdges(statements_->edges_from, node);
+  }
+  std::vector<Edge> DoEdgesTo(const Uuid& node) override {
+    return ReadEdges(statements_->edges_to, node);
+  }
+
+  std::vector<Edge> DoEdgesTouching(std::span<const Uuid> nodes) override {
+    std::vector<Edge> edges;
+    std::unordered_set<Uuid> seen;
+    for (const Uuid& n : nodes) {
+      for (Statement* s : {&statements_->edges_from, &statements_->edges_to}) {
+        for (Edge& e : ReadEdges(*s, n)) {
+          if (seen.insert(e.id).second) edges.push_back(std::move(e));
+        }
+      }
+    }
+    return edges;
+  }
+
+  std::vector<Edge> DoEdgesOfPath(const Uuid& path) override {
+    return ReadEdges(statements_->edges_of_path, path);
+  }
+
+  std::vector<Annotation> DoAnnotationsOn(AnnotationTarget kind, const Uuid& target) override {
+    return ReadAnnotations(kind == AnnotationTarget::kNode ? statements_->annotations_on_node
+                                                           : statements_->annotations_on_edge,
+                           target);
+  }
+
+  std::vector<Annotation> DoChildAnnotations(const Uuid& parent) override {
+    return ReadAnnotations(statements_->annotations_of_parent, parent);
+  }
+
+  Subgraph DoReadChainUnordered(const Uuid& start) override {
+    // One recursive query: UNION (not UNION ALL) drops a node seen before, so a cycle ends.
+    // Each row is a node with one of its outgoing metric edges (NULLs at the chain's end).
+    StatementUse s(statements_->read_chain);
+    s->Bind(1, start);
+    Subgraph result;
+    std::unordered_set<Uuid> seen;
+    while (s->Step()) {
+      const Uuid id = s->UuidAt(0);
+      if (seen.insert(id).second) result.nodes.push_back(ReadNode(*s, true));
+      if (!s->IsNull(5)) result.edges.push_back(ReadEdge(*s, 5));
+    }
+    return result;
+  }
+
+  std::vector<Node> DoListNodes(const NodeFilter& filter) override {
+    std::string sql = Sql({"SELECT id, stamp_ns, robot, outing, ",
+                           filter.with_landmarks ? "landmarks" : "NULL", " FROM nodes WHERE 1"});
+    if (filter.robot) sql += " AND robot = ?1";
+    if (filter.outing) sql += " AND outing = ?2";
+    if (filter.from_ns) sql += " AND stamp_ns >= ?3";
+    if (filter.to_ns) sql += " AND stamp_ns < ?4";
+    sql += " ORDER BY stamp_ns, id";
+    Statement s(db_, sql.c_str());
+    if (filter.robot) s.Bind(1, *filter.robot);
+    if (filter.outing) s.Bind(2, *filter.outing);
+    if (filter.from_ns) s.Bind(3, *filter.from_ns);
+    if (filter.to_ns) s.Bind(4, *filter.to_ns);
+    std::vector<Node> nodes;
+    while (s.Step()) nodes.push_back(ReadNode(s, filter.with_landmarks));
+    return nodes;
+  }
+
+  std::vector<Path> DoListPaths(const PathFilter& filter) override {
+    std::string sql = "SELECT id, robot, outing, start_ns, end_ns FROM paths WHERE 1";
+    if (filter.robot) sql += " AND robot = ?1";
+    if (filter.outing) sql += " AND outing = ?2";
+    sql += " ORDER BY start_ns, id";
+    Statement s(db_, sql.c_str());
+    if (filter.robot) s.Bind(1, *filter.robot);
+    if (filter.outing) s.Bind(2, *filter.outing);
+    std::vector<Path> paths;
+    while (s.Step()) paths.push_back(ReadPath(s));
+    return paths;
+  }
+
+  StoreStats DoStats() override {
+    Statement s(db_,
+                "SELECT (SELECT count(*) FROM nodes), (SELECT count(*) FROM edges),"
+                " (SELECT count(*) FROM paths), (SELECT count(*) FROM annotations),"
+                " (SELECT coalesce(sum(length(landmarks)), 0) FROM nodes),"
+                " (SELECT coalesce(sum(length(payload)), 0) FROM annotations)");
+    s.Step();
+    return StoreStats{s.Int64(0), s.Int64(1), s.Int64(2), s.Int64(3), s.Int64(4), s.Int64(5)};
+  }
+
+ private:
+  struct Statements {
+    explicit Statements(sqlite3* db)
+        : insert_node(db,
+                      "INSERT INTO nodes (id, stamp_ns, robot, outing, landmarks)"
+                      " VALUES (?1, ?2, ?3, ?4, ?5) ON CONFLICT (id) DO NOTHING"),
+          insert_edge(db,
+                      "INSERT INTO edges (id, from_id, to_id, kind, tx, ty, tz, qw, qx, qy, qz,"
+                      " path_id) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12)"
+                      " ON CONFLICT (id) DO NOTHING"),
+          insert_path(db,
+                      "INSERT INTO paths (id, robot, outing, start_ns, end_ns)"
+                      " VALUES (?1, ?2, ?3, ?4, ?5) ON CONFLICT (id) DO NOTHING"),
+          insert_annotation(db,
+                            "INSERT INTO annotations (id, node_id, edge_id, parent_id, type,"
+                            " payload) VALUES (?1, ?2, ?3, ?4, ?5, ?6)"
+                            " ON CONFLICT (id) DO NOTHING"),
+          find_node(db, Sql({"SELECT ", kNodeColumns, " FROM nodes WHERE id = ?1"}).c_str()),
+          find_edge(db, Sql({"SELECT ", kEdgeColumns, " FROM edges WHERE id = ?1"}).c_str()),
+          find_path(db, "SELECT id, robot, outing, start_ns, end_ns FROM paths WHERE id = ?1"),
+          find_annotation(
+              db, Sql({"SELECT ", kAnnotationColumns, " FROM annotations WHERE id = ?1"}).c_str()),
+          edges_from(db, Sql({"SELECT ", kEdgeColumns,
+                              " FROM edges WHERE from_id = ?1"
+                              " ORDER BY id"})
+                             .c_str()),
+          edges_to(
+              db,
+              Sql({"SELECT ", kEdgeColumns, " FROM edges WHERE to_id = ?1 ORDER BY id"}).c_str()),
+          edges_of_path(db,
+                        "SELECT e.id, e.from_id, e.to_id, e.kind, e.tx, e.ty, e.tz, e.qw, e.qx,"
+                        " e.qy, e.qz, e.path_id FROM edges e JOIN nodes n ON n.id = e.to_id"
+                        " WHERE e.path_id = ?1 ORDER BY n.stamp_ns, e.id"),
+          annotations_on_node(db, Sql({"SELECT ", kAnnotationColumns,
+                                       " FROM annotations WHERE node_id = ?1 ORDER BY id"})
+                                      .c_str()),
+          annotations_on_edge(db, Sql({"SELECT ", kAnnotationColumns,
+                                       " FROM annotations WHERE edge_id = ?1 ORDER BY id"})
+                                      .c_str()),
+          annotations_of_parent(db, Sql({"SELECT ", kAnnotationColumns,
+                                         " FROM annotations WHERE parent_id = ?1 ORDER BY id"})
+                                        .c_str()),
+          read_chain(db,
+                     "WITH RECURSIVE chain (id) AS (SELECT ?1 UNION SELECT e.to_id FROM edges e"
+                     " JOIN chain c ON e.from_id = c.id WHERE e.kind = 1)"
+                     " SELECT n.id, n.stamp_ns, n.robot, n.outing, n.landmarks,"
+                     " e.id, e.from_id, e.to_id, e.kind, e.tx, e.ty, e.tz, e.qw, e.qx, e.qy,"
+                     " e.qz, e.path_id FROM chain JOIN nodes n ON n.id = chain.id"
+                     " LEFT JOIN edges e ON e.from_id = chain.id AND e.kind = 1") {}
+
+    Statement insert_node, insert_edge, insert_path, insert_annotation;
+    Statement find_node, find_edge, find_path, find_annotation;
+    Statement edges_from, edges_to, edges_of_path;
+    Statement annotations_on_node, annotations_on_edge, annotations_of_parent;
+    Statement read_chain;
+  };
+
+  void Migrate() {
+    ExecSql(db_, "CREATE TABLE IF NOT EXISTS fleetmap_schema (version INTEGER NOT NULL)");
+    // IMMEDIATE: two processes opening a new store at once migrate one after the other.
+    ExecSql(db_, "BEGIN IMMEDIATE");
+    try {
+      const int current = schema_version();
+      const auto& migrations = SqliteMigrations();
+      const int latest = static_cast<int>(migrations.size());
+      if (current > latest) {
+        throw Error(ErrorCode::kSchemaTooNew,
+                    "store " + path_ + " has schema version " + std::to_string(current) +
+                        ", newer than this fleetmap (knows up to " + std::to_string(latest) +
+                        "); use a newer fleetmap");
+      }
+      for (const Migration& m : migrations) {
+        if (m.version <= current) continue;
+        ExecSql(db_, m.sql);
+        ExecSql(db_, "DELETE FROM fleetmap_schema");
+        Statement insert(db_, "INSERT INTO fleetmap_schema (version) VALUES (?1)");
+        insert.Bind(1, static_cast<std::int64_t>(m.version));
+        insert.Run();
+      }
+      ExecSql(db_, "COMMIT");
+    } catch (...) {
+      ExecSql(db_, "ROLLBACK");
+      throw;
+    }
+  }
+
+  void Prepare() { statements_ = std::make_unique<Statements>(db_); }
+
+  static Node ReadNode(const Statement& s, bool with_landmarks) {
+    Node n;
+    n.id = s.UuidAt(0);
+    n.stamp_ns = s.Int64(1);
+    n.robot = s.UuidAt(2);
+    n.outing = s.UuidAt(3);
+    if (with_landmarks) n.landmarks_blob = std::string(s.Blob(4));
+    return n;
+  }
+
+  static Edge ReadEdge(const Statement& s, int first) {
+    Edge e;
+    e.id = s.UuidAt(first);
+    e.from = s.UuidAt(first + 1);
+    e.to = s.UuidAt(first + 2);
+    e.kind = static_cast<EdgeKind>(s.Int64(first + 3));
+    try {
+      e.from_T_to = Se3FromTranslationQuaternion(
+          Eigen::Vector3d(s.Double(first + 4), s.Double(first + 5), s.Double(first + 6)),
+          Eigen::Quaterniond(s.Double(first + 7), s.Double(first + 8), s.Double(first + 9),
+                             s.Double(first + 10)));
+    } catch (const Error& error) {
+      throw Error(ErrorCode::kCorrupt, "edge " + e.id.ToString() +
+                                           " has a stored pose that is not SE(3): " + error.what());
+    }
+    e.path = s.UuidAt(first + 11);
+    return e;
+  }
+
+  static Path ReadPath(const Statement& s) {
+    return Path{s.UuidAt(0), s.UuidAt(1), s.UuidAt(2), s.Int64(3), s.Int64(4)};
+  }
+
+  static Annotation ReadAnnotation(const Statement& s) {
+    Annotation a;
+    a.id = s.UuidAt(0);
+    if (!s.IsNull(1)) {
+      a.target_kind = AnnotationTarget::kNode;
+      a.target = s.UuidAt(1);
+    } else if (!s.IsNull(2)) {
+      a.target_kind = AnnotationTarget::kEdge;
+      a.target = s.UuidAt(2);
+    } else {
+      a.parent = s.UuidAt(3);
+    }
+    a.type = s.Text(4);
+    a.payload = std::string(s.Blob(5));
+    return a;
+  }
+
+  std::vector<Edge> ReadEdges(Statement& statement, const Uuid& key) {
+    StatementUse s(statement);
+    s->Bind(1, key);
+    std::vector<Edge> edges;
+    while (s->Step()) edges.push_back(ReadEdge(*s, 0));
+    return edges;
+  }
+
+  std::vector<Annotation> ReadAnnotations(Statement& statement, const Uuid& key) {
+    StatementUse s(statement);
+    s->Bind(1, key);
+    std::vector<Annotation> annotations;
+    while (s->Step()) annotations.push_back(ReadAnnotation(*s));
+    return annotations;
+  }
+
+  bool NodeExists(const Uuid& id) {
+    StatementUse s(statements_->find_node);
+    s->Bind(1, id);
+    return s->Step();
+  }
+
+  // A constraint refused an edge: say which reference is missing.
+  [[noreturn]] void ExplainRefusedEdge(const Edge& edge) {
+    if (!NodeExists(edge.from)) {
+      throw Error(ErrorCode::kIntegrity, "edge " + edge.id.ToString() + " refused: from-node " +
+                                             edge.from.ToString() + " is not stored");
+    }
+    if (!NodeExists(edge.to)) {
+      throw Error(ErrorCode::kIntegrity, "edge " + edge.id.ToString() + " refused: to-node " +
+                                             edge.to.ToString() + " is not stored");
+    }
+    if (!edge.path.IsNil() && !DoFindPath(edge.path)) {
+      throw Error(ErrorCode::kIntegrity, "edge " + edge.id.ToString() + " refused: path " +
+                                             edge.path.ToString() + " is not stored");
+    }
+    throw Error(ErrorCode::kIntegrity, "edge " + edge.id.ToString() + " refused by a constraint");
+  }
+
+  [[noreturn]] void ExplainRefusedAnnotation(const Annotation& a) {
+    const bool missing = a.target_kind == AnnotationTarget::kNode   ? !NodeExists(a.target)
+                         : a.target_kind == AnnotationTarget::kEdge ? !DoFindEdge(a.target)
+                                                                    : !DoFindAnnotation(a.parent);
+    const std::string what = a.target_kind == AnnotationTarget::kNode   ? "node "
+                             : a.target_kind == AnnotationTarget::kEdge ? "edge "
+                                                                        : "parent annotation ";
+    const Uuid& ref = a.target_kind == AnnotationTarget::kNone ? a.parent : a.target;
+    if (missing) {
+      throw Error(ErrorCode::kIntegrity, "annotation " + a.id.ToString() + " refused: " + what +
+                                             ref.ToString() + " is not stored");
+    }
+    throw Error(ErrorCode::kIntegrity,
+                "annotation " + a.id.ToString() + " refused by a constraint");
+  }
+
+  std::string path_;
+  sqlite3* db_ = nullptr;
+  std::unique_ptr<Statements> statements_;
+};
+
+}  // namespace
+
+std::unique_ptr<GraphStore> OpenSqliteGraphStore(const std::string& path,
+                                                 const StoreOptions& options) {
+  return std::make_unique<SqliteGraphStore>(path, options);
+}
+
+}  // namespace fleetmap::internal

@@ -1,0 +1,69 @@
+#include "fleetmap/common/uuid.h"
+
+#include <gtest/gtest.h>
+
+#include <set>
+#include <unordered_set>
+
+#include "fleetmap/common/error.h"
+
+namespace fleetmap {
+namespace {
+
+TEST(Uuid, GeneratedAreDistinctVersion4) {
+  std::unordered_set<Uuid> seen;
+  for (int i = 0; i < 1000; ++i) {
+    const Uuid id = Uuid::Generate();
+    EXPECT_EQ(id.bytes()[6] >> 4, 4) << id.ToString();
+    EXPECT_TRUE(seen.insert(id).second);
+  }
+}
+
+TEST(Uuid, FormatParseRoundTrip) {
+  const Uuid id = Uuid::Generate();
+  const std::string text = id.ToString();
+  EXPECT_EQ(text.size(), 36u);
+  EXPECT_EQ(Uuid::Parse(text), id);
+  EXPECT_EQ(Uuid::Parse("00112233-4455-6677-8899-aabbccddeeff").ToString(),
+            "00112233-4455-6677-8899-aabbccddeeff");
+  EXPECT_EQ(Uuid::Parse("00112233-4455-6677-8899-AABBCCDDEEFF").ToString(),
+            "00112233-4455-6677-8899-aabbccddeeff");
+}
+
+TEST(Uuid, RejectsMalformedText) {
+  for (const char* bad :
+       {"", "not-a-uuid", "00112233-4455-6677-8899-aabbccddeef",
+        "00112233-4455-6677-8899-aabbccddeeffX", "0011223344556677-8899-aabbccddeeff00",
+        "g0112233-4455-6677-8899-aabbccddeeff"}) {
+    try {
+      Uuid::Parse(bad);
+      ADD_FAILURE() << "accepted '" << bad << "'";
+    } catch (const Error& e) {
+      EXPECT_EQ(e.code(), ErrorCode::kInvalidArgument);
+    }
+  }
+}
+
+TEST(Uuid, BytesRoundTripAndSize) {
+  const Uuid id = Uuid::Generate();
+  EXPECT_EQ(id.ToBytesString().size(), 16u);
+  EXPECT_EQ(Uuid::FromBytes(id.ToBytesString()), id);
+  EXPECT_THROW(Uuid::FromBytes("short"), Error);
+  EXPECT_THROW(Uuid::FromBytes(std::string(17, 'x')), Error);
+}
+
+TEST(Uuid, NilAndOrdering) {
+  EXPECT_TRUE(Uuid().IsNil());
+  EXPECT_FALSE(Uuid::Generate().IsNil());
+  const Uuid a = Uuid::Parse("00000000-0000-0000-0000-000000000001");
+  const Uuid b = Uuid::Parse("00000000-0000-0000-0000-000000000002");
+  const Uuid c = Uuid::Parse("10000000-0000-0000-0000-000000000000");
+  EXPECT_LT(a, b);
+  EXPECT_LT(b, c);  // bytewise, most significant byte first, as the databases order them
+  std::set<Uuid> ordered{c, a, b};
+  EXPECT_EQ(*ordered.begin(), a);
+  EXPECT_NE(std::hash<Uuid>{}(a), std::hash<Uuid>{}(b));
+}
+
+}  // namespace
+}  // namespace fleetmap
