@@ -350,6 +350,35 @@ Subgraph GraphStore::Neighbourhood(const NeighbourhoodQuery& query) {
   });
 }
 
+std::optional<std::string> GraphStore::MissingReference(const Edge& edge) {
+  const std::string prefix = "edge " + edge.id.ToString() + " refused: ";
+  if (!DoFindNode(edge.from))
+    return prefix + "from-node " + edge.from.ToString() + " is not stored";
+  if (!DoFindNode(edge.to)) return prefix + "to-node " + edge.to.ToString() + " is not stored";
+  if (!edge.path.IsNil() && !DoFindPath(edge.path)) {
+    return prefix + "path " + edge.path.ToString() + " is not stored";
+  }
+  return std::nullopt;
+}
+
+std::optional<std::string> GraphStore::MissingReference(const Annotation& a) {
+  const std::string prefix = "annotation " + a.id.ToString() + " refused: ";
+  switch (a.target_kind) {
+    case AnnotationTarget::kNode:
+      if (!DoFindNode(a.target)) return prefix + "node " + a.target.ToString() + " is not stored";
+      break;
+    case AnnotationTarget::kEdge:
+      if (!DoFindEdge(a.target)) return prefix + "edge " + a.target.ToString() + " is not stored";
+      break;
+    case AnnotationTarget::kNone:
+      if (!DoFindAnnotation(a.parent)) {
+        return prefix + "parent annotation " + a.parent.ToString() + " is not stored";
+      }
+      break;
+  }
+  return std::nullopt;
+}
+
 std::vector<Node> GraphStore::ListNodes(const NodeFilter& filter) {
   return Guarded([&] { return DoListNodes(filter); });
 }

@@ -8,11 +8,10 @@
 //   load still give the GraphStore contract: identical duplicates are no-ops, conflicting
 //   ones and dangling edges are reported by UUID, and the batch is atomic.
 // - libpqxx exceptions stop here and become fleetmap::Error with the statement's context.
-#include <pqxx/pqxx>
-
 #include <cstdio>
 #include <cstdlib>
 #include <memory>
+#include <pqxx/pqxx>
 #include <string>
 #include <type_traits>
 
@@ -25,7 +24,8 @@ namespace fleetmap::internal {
 namespace {
 
 constexpr const char* kNodeColumns = "id, stamp_ns, robot, outing, landmarks";
-constexpr const char* kEdgeColumns = "id, from_id, to_id, kind, tx, ty, tz, qw, qx, qy, qz, path_id";
+constexpr const char* kEdgeColumns =
+    "id, from_id, to_id, kind, tx, ty, tz, qw, qx, qy, qz, path_id";
 constexpr const char* kAnnotationColumns = "id, node_id, edge_id, parent_id, type, payload";
 // Any constant will do; it only has to be the same in every fleetmap binary.
 constexpr long long kMigrationLockKey = 0x666c6565746d6170LL;  // "fleetmap"
@@ -44,7 +44,9 @@ std::string Text(double value) {
   return buffer;
 }
 
-std::string NullableUuidText(const Uuid& id) { return id.IsNil() ? std::string() : id.ToString(); }
+std::string NullableUuidText(const Uuid& id) {
+  return id.IsNil() ? std::string() : id.ToString();
+}
 
 // bytea in COPY text format: "\x" + hex. (stream_to escapes the backslash for COPY.)
 std::string ByteaHex(std::string_view bytes) {
@@ -75,8 +77,8 @@ Uuid UuidField(const pqxx::field& f) {
   try {
     return Uuid::Parse(std::string_view(f.c_str(), f.size()));
   } catch (const Error&) {
-    throw Error(ErrorCode::kCorrupt, std::string("stored uuid '") + f.c_str() + "' in column " +
-                                         f.name());
+    throw Error(ErrorCode::kCorrupt,
+                std::string("stored uuid '") + f.c_str() + "' in column " + f.name());
   }
 }
 
@@ -85,7 +87,9 @@ std::string BytesField(const pqxx::field& f) {
   return pqxx::binarystring(f).str();
 }
 
-double DoubleField(const pqxx::field& f) { return std::strtod(f.c_str(), nullptr); }
+double DoubleField(const pqxx::field& f) {
+  return std::strtod(f.c_str(), nullptr);
+}
 
 Node ReadNode(const pqxx::row& r, bool with_landmarks) {
   Node n;
@@ -110,8 +114,8 @@ Edge ReadEdge(const pqxx::row& r, pqxx::row::size_type first) {
         Eigen::Quaterniond(DoubleField(r[first + 7]), DoubleField(r[first + 8]),
                            DoubleField(r[first + 9]), DoubleField(r[first + 10])));
   } catch (const Error& error) {
-    throw Error(ErrorCode::kCorrupt,
-                "edge " + e.id.ToString() + " has a stored pose that is not SE(3): " + error.what());
+    throw Error(ErrorCode::kCorrupt, "edge " + e.id.ToString() +
+                                         " has a stored pose that is not SE(3): " + error.what());
   }
   e.path = UuidField(r[first + 11]);
   return e;
@@ -182,12 +186,14 @@ class PostgresGraphStore final : public GraphStore {
   }
 
   void DoPutNode(const Node& node) override {
-    const int inserted = Autocommit("put node " + node.id.ToString(), [&](pqxx::transaction_base& t) {
-      return t
-          .exec_prepared("insert_node", node.id.ToString(), node.stamp_ns, node.robot.ToString(),
-                         node.outing.ToString(), pqxx::binarystring(node.landmarks_blob))
-          .affected_rows();
-    });
+    const int inserted =
+        Autocommit("put node " + node.id.ToString(), [&](pqxx::transaction_base& t) {
+          return t
+              .exec_prepared("insert_node", node.id.ToString(), node.stamp_ns,
+                             node.robot.ToString(), node.outing.ToString(),
+                             pqxx::binarystring(node.landmarks_blob))
+              .affected_rows();
+        });
     if (inserted == 1) return;
     const std::optional<Node> stored = DoFindNode(node.id);
     if (stored && *stored == node) return;
@@ -209,7 +215,11 @@ class PostgresGraphStore final : public GraphStore {
             .affected_rows();
       });
     } catch (const Error& e) {
-      if (e.code() == ErrorCode::kIntegrity) ExplainRefusedEdge(edge, e);
+      // Outside a transaction we can ask which reference is missing; inside one the
+      // transaction is aborted and the server's message (which names the key) has to do.
+      if (e.code() == ErrorCode::kIntegrity && !txn_) {
+        if (auto missing = MissingReference(edge)) throw Error(ErrorCode::kIntegrity, *missing);
+      }
       throw;
     }
     if (inserted == 1) return;
@@ -220,12 +230,13 @@ class PostgresGraphStore final : public GraphStore {
   }
 
   void DoPutPath(const Path& path) override {
-    const int inserted = Autocommit("put path " + path.id.ToString(), [&](pqxx::transaction_base& t) {
-      return t
-          .exec_prepared("insert_path", path.id.ToString(), path.robot.ToString(),
-                         path.outing.ToString(), path.start_ns, path.end_ns)
-          .affected_rows();
-    });
+    const int inserted =
+        Autocommit("put path " + path.id.ToString(), [&](pqxx::transaction_base& t) {
+          return t
+              .exec_prepared("insert_path", path.id.ToString(), path.robot.ToString(),
+                             path.outing.ToString(), path.start_ns, path.end_ns)
+              .affected_rows();
+        });
     if (inserted == 1) return;
     const std::optional<Path> stored = DoFindPath(path.id);
     if (stored && *stored == path) return;
@@ -246,7 +257,9 @@ class PostgresGraphStore final : public GraphStore {
             .affected_rows();
       });
     } catch (const Error& e) {
-      if (e.code() == ErrorCode::kIntegrity) ExplainRefusedAnnotation(a, e);
+      if (e.code() == ErrorCode::kIntegrity && !txn_) {
+        if (auto missing = MissingReference(a)) throw Error(ErrorCode::kIntegrity, *missing);
+      }
       throw;
     }
     if (inserted == 1) return;
@@ -296,11 +309,12 @@ class PostgresGraphStore final : public GraphStore {
   }
 
   std::optional<Annotation> DoFindAnnotation(const Uuid& id) override {
-    return Autocommit("find annotation", [&](pqxx::transaction_base& t) -> std::optional<Annotation> {
-      const pqxx::result r = t.exec_prepared("find_annotation", id.ToString());
-      if (r.empty()) return std::nullopt;
-      return ReadAnnotation(r[0]);
-    });
+    return Autocommit("find annotation",
+                      [&](pqxx::transaction_base& t) -> std::optional<Annotation> {
+                        const pqxx::result r = t.exec_prepared("find_annotation", id.ToString());
+                        if (r.empty()) return std::nullopt;
+                        return ReadAnnotation(r[0]);
+                      });
   }
 
   std::vector<Node> DoGetNodes(std::span<const Uuid> ids) override {
@@ -327,9 +341,8 @@ class PostgresGraphStore final : public GraphStore {
   }
 
   std::vector<Annotation> DoAnnotationsOn(AnnotationTarget kind, const Uuid& target) override {
-    return ReadAnnotations(kind == AnnotationTarget::kNode ? "annotations_on_node"
-                                                           : "annotations_on_edge",
-                           target);
+    return ReadAnnotations(
+        kind == AnnotationTarget::kNode ? "annotations_on_node" : "annotations_on_edge", target);
   }
   std::vector<Annotation> DoChildAnnotations(const Uuid& parent) override {
     return ReadAnnotations("annotations_of_parent", parent);
@@ -397,9 +410,8 @@ class PostgresGraphStore final : public GraphStore {
           " (SELECT count(*) FROM paths), (SELECT count(*) FROM annotations),"
           " (SELECT coalesce(sum(octet_length(landmarks)), 0) FROM nodes),"
           " (SELECT coalesce(sum(octet_length(payload)), 0) FROM annotations)")[0];
-      return StoreStats{r[0].as<std::int64_t>(), r[1].as<std::int64_t>(),
-                        r[2].as<std::int64_t>(), r[3].as<std::int64_t>(),
-                        r[4].as<std::int64_t>(), r[5].as<std::int64_t>()};
+      return StoreStats{r[0].as<std::int64_t>(), r[1].as<std::int64_t>(), r[2].as<std::int64_t>(),
+                        r[3].as<std::int64_t>(), r[4].as<std::int64_t>(), r[5].as<std::int64_t>()};
     });
   }
 
@@ -466,8 +478,7 @@ class PostgresGraphStore final : public GraphStore {
         if (m.version <= current) continue;
         t.exec(m.sql, m.name);
         t.exec("DELETE FROM fleetmap_schema");
-        t.exec("INSERT INTO fleetmap_schema (version) VALUES (" + std::to_string(m.version) +
-               ")");
+        t.exec("INSERT INTO fleetmap_schema (version) VALUES (" + std::to_string(m.version) + ")");
       }
       t.commit();
     });
@@ -494,7 +505,8 @@ class PostgresGraphStore final : public GraphStore {
     c.prepare("find_path", "SELECT id, robot, outing, start_ns, end_ns FROM paths WHERE id = $1");
     c.prepare("find_annotation",
               Cat({"SELECT ", kAnnotationColumns, " FROM annotations WHERE id = $1"}));
-    c.prepare("get_nodes", Cat({"SELECT ", kNodeColumns, " FROM nodes WHERE id = ANY($1::uuid[])"}));
+    c.prepare("get_nodes",
+              Cat({"SELECT ", kNodeColumns, " FROM nodes WHERE id = ANY($1::uuid[])"}));
     c.prepare("edges_from",
               Cat({"SELECT ", kEdgeColumns, " FROM edges WHERE from_id = $1 ORDER BY id"}));
     c.prepare("edges_to",
@@ -511,9 +523,8 @@ class PostgresGraphStore final : public GraphStore {
                                           " FROM annotations WHERE node_id = $1 ORDER BY id"}));
     c.prepare("annotations_on_edge", Cat({"SELECT ", kAnnotationColumns,
                                           " FROM annotations WHERE edge_id = $1 ORDER BY id"}));
-    c.prepare("annotations_of_parent",
-              Cat({"SELECT ", kAnnotationColumns,
-                   " FROM annotations WHERE parent_id = $1 ORDER BY id"}));
+    c.prepare("annotations_of_parent", Cat({"SELECT ", kAnnotationColumns,
+                                            " FROM annotations WHERE parent_id = $1 ORDER BY id"}));
     // UNION (not UNION ALL) drops rows seen before, so a cycle ends the recursion.
     c.prepare("read_chain",
               "WITH RECURSIVE chain (id) AS (SELECT $1::uuid UNION SELECT e.to_id FROM edges e"
@@ -540,15 +551,16 @@ class PostgresGraphStore final : public GraphStore {
 
   void PutBatch(pqxx::transaction_base& t, const GraphBatch& batch) {
     // A subtransaction's staging rows survive until the outer commit: start clean.
-    t.exec("DELETE FROM stage_paths; DELETE FROM stage_nodes; DELETE FROM stage_edges;"
-           " DELETE FROM stage_annotations");
+    t.exec(
+        "DELETE FROM stage_paths; DELETE FROM stage_nodes; DELETE FROM stage_edges;"
+        " DELETE FROM stage_annotations");
     if (!batch.paths.empty()) {
       {
         pqxx::stream_to s(t, "stage_paths",
                           std::vector<std::string>{"id", "robot", "outing", "start_ns", "end_ns"});
         for (const Path& p : batch.paths) {
-          s << std::make_tuple(p.id.ToString(), p.robot.ToString(), p.outing.ToString(),
-                               p.start_ns, p.end_ns);
+          s << std::make_tuple(p.id.ToString(), p.robot.ToString(), p.outing.ToString(), p.start_ns,
+                               p.end_ns);
         }
         s.complete();
       }
@@ -563,11 +575,12 @@ class PostgresGraphStore final : public GraphStore {
     }
     if (!batch.nodes.empty()) {
       {
-        pqxx::stream_to s(t, "stage_nodes",
-                          std::vector<std::string>{"id", "stamp_ns", "robot", "outing", "landmarks"});
+        pqxx::stream_to s(
+            t, "stage_nodes",
+            std::vector<std::string>{"id", "stamp_ns", "robot", "outing", "landmarks"});
         for (const Node& n : batch.nodes) {
-          s << std::make_tuple(n.id.ToString(), n.stamp_ns, n.robot.ToString(),
-                               n.outing.ToString(), ByteaHex(n.landmarks_blob));
+          s << std::make_tuple(n.id.ToString(), n.stamp_ns, n.robot.ToString(), n.outing.ToString(),
+                               ByteaHex(n.landmarks_blob));
         }
         s.complete();
       }
@@ -624,9 +637,9 @@ class PostgresGraphStore final : public GraphStore {
     }
     if (!batch.annotations.empty()) {
       {
-        pqxx::stream_to s(t, "stage_annotations",
-                          std::vector<std::string>{"id", "node_id", "edge_id", "parent_id", "type",
-                                                   "payload"});
+        pqxx::stream_to s(
+            t, "stage_annotations",
+            std::vector<std::string>{"id", "node_id", "edge_id", "parent_id", "type", "payload"});
         for (const Annotation& a : batch.annotations) {
           const std::string target = a.target.ToString(), parent = a.parent.ToString();
           const char* node = a.target_kind == AnnotationTarget::kNode ? target.c_str() : nullptr;
@@ -658,21 +671,22 @@ class PostgresGraphStore final : public GraphStore {
                            r[1].c_str(), " is not stored"});
              });
       t.exec("INSERT INTO annotations SELECT * FROM stage_annotations ON CONFLICT (id) DO NOTHING");
-      Refuse(t, ErrorCode::kConflict,
-             "SELECT s.id FROM stage_annotations s JOIN annotations a ON a.id = s.id WHERE"
-             " (a.node_id, a.edge_id, a.parent_id, a.type, a.payload) IS DISTINCT FROM"
-             " (s.node_id, s.edge_id, s.parent_id, s.type, s.payload) LIMIT 1",
-             [](const pqxx::row& r) {
-               return Cat(
-                   {"annotation ", r[0].c_str(), " is already stored with different content"});
-             });
+      Refuse(
+          t, ErrorCode::kConflict,
+          "SELECT s.id FROM stage_annotations s JOIN annotations a ON a.id = s.id WHERE"
+          " (a.node_id, a.edge_id, a.parent_id, a.type, a.payload) IS DISTINCT FROM"
+          " (s.node_id, s.edge_id, s.parent_id, s.type, s.payload) LIMIT 1",
+          [](const pqxx::row& r) {
+            return Cat({"annotation ", r[0].c_str(), " is already stored with different content"});
+          });
     }
   }
 
   std::vector<Edge> ReadEdges(const char* statement, const std::string& key) {
     return Autocommit(statement, [&](pqxx::transaction_base& t) {
       std::vector<Edge> edges;
-      for (const pqxx::row& row : t.exec_prepared(statement, key)) edges.push_back(ReadEdge(row, 0));
+      for (const pqxx::row& row : t.exec_prepared(statement, key))
+        edges.push_back(ReadEdge(row, 0));
       return edges;
     });
   }
@@ -685,44 +699,6 @@ class PostgresGraphStore final : public GraphStore {
       }
       return annotations;
     });
-  }
-
-  // A foreign key refused an edge. Outside a transaction we can ask which reference is
-  // missing; inside one the transaction is aborted, and the server's message (which names
-  // the key) has to do.
-  [[noreturn]] void ExplainRefusedEdge(const Edge& edge, const Error& original) {
-    if (!txn_) {
-      if (!DoFindNode(edge.from)) {
-        throw Error(ErrorCode::kIntegrity, "edge " + edge.id.ToString() + " refused: from-node " +
-                                               edge.from.ToString() + " is not stored");
-      }
-      if (!DoFindNode(edge.to)) {
-        throw Error(ErrorCode::kIntegrity, "edge " + edge.id.ToString() + " refused: to-node " +
-                                               edge.to.ToString() + " is not stored");
-      }
-      if (!edge.path.IsNil() && !DoFindPath(edge.path)) {
-        throw Error(ErrorCode::kIntegrity, "edge " + edge.id.ToString() + " refused: path " +
-                                               edge.path.ToString() + " is not stored");
-      }
-    }
-    throw original;
-  }
-
-  [[noreturn]] void ExplainRefusedAnnotation(const Annotation& a, const Error& original) {
-    if (!txn_) {
-      const Uuid& ref = a.target_kind == AnnotationTarget::kNone ? a.parent : a.target;
-      const bool missing = a.target_kind == AnnotationTarget::kNode   ? !DoFindNode(ref)
-                           : a.target_kind == AnnotationTarget::kEdge ? !DoFindEdge(ref)
-                                                                      : !DoFindAnnotation(ref);
-      const char* what = a.target_kind == AnnotationTarget::kNode   ? "node "
-                         : a.target_kind == AnnotationTarget::kEdge ? "edge "
-                                                                    : "parent annotation ";
-      if (missing) {
-        throw Error(ErrorCode::kIntegrity, "annotation " + a.id.ToString() + " refused: " + what +
-                                               ref.ToString() + " is not stored");
-      }
-    }
-    throw original;
   }
 
   std::string uri_;

@@ -116,7 +116,10 @@ class SqliteGraphStore final : public GraphStore {
       s->BindNullableUuid(12, edge.path);
       if (s->Run() == 1) return;
     } catch (const Error& e) {
-      if (e.code() == ErrorCode::kIntegrity) ExplainRefusedEdge(edge);
+      // Name the missing reference rather than SQLite's bare "FOREIGN KEY constraint failed".
+      if (e.code() == ErrorCode::kIntegrity) {
+        if (auto missing = MissingReference(edge)) throw Error(ErrorCode::kIntegrity, *missing);
+      }
       throw;
     }
     const std::optional<Edge> stored = DoFindEdge(edge.id);
@@ -155,7 +158,9 @@ class SqliteGraphStore final : public GraphStore {
       s->BindBlob(6, a.payload);
       if (s->Run() == 1) return;
     } catch (const Error& e) {
-      if (e.code() == ErrorCode::kIntegrity) ExplainRefusedAnnotation(a);
+      if (e.code() == ErrorCode::kIntegrity) {
+        if (auto missing = MissingReference(a)) throw Error(ErrorCode::kIntegrity, *missing);
+      }
       throw;
     }
     const std::optional<Annotation> stored = DoFindAnnotation(a.id);
@@ -465,45 +470,6 @@ class SqliteGraphStore final : public GraphStore {
     std::vector<Annotation> annotations;
     while (s->Step()) annotations.push_back(ReadAnnotation(*s));
     return annotations;
-  }
-
-  bool NodeExists(const Uuid& id) {
-    StatementUse s(statements_->find_node);
-    s->Bind(1, id);
-    return s->Step();
-  }
-
-  // A constraint refused an edge: say which reference is missing.
-  [[noreturn]] void ExplainRefusedEdge(const Edge& edge) {
-    if (!NodeExists(edge.from)) {
-      throw Error(ErrorCode::kIntegrity, "edge " + edge.id.ToString() + " refused: from-node " +
-                                             edge.from.ToString() + " is not stored");
-    }
-    if (!NodeExists(edge.to)) {
-      throw Error(ErrorCode::kIntegrity, "edge " + edge.id.ToString() + " refused: to-node " +
-                                             edge.to.ToString() + " is not stored");
-    }
-    if (!edge.path.IsNil() && !DoFindPath(edge.path)) {
-      throw Error(ErrorCode::kIntegrity, "edge " + edge.id.ToString() + " refused: path " +
-                                             edge.path.ToString() + " is not stored");
-    }
-    throw Error(ErrorCode::kIntegrity, "edge " + edge.id.ToString() + " refused by a constraint");
-  }
-
-  [[noreturn]] void ExplainRefusedAnnotation(const Annotation& a) {
-    const bool missing = a.target_kind == AnnotationTarget::kNode   ? !NodeExists(a.target)
-                         : a.target_kind == AnnotationTarget::kEdge ? !DoFindEdge(a.target)
-                                                                    : !DoFindAnnotation(a.parent);
-    const std::string what = a.target_kind == AnnotationTarget::kNode   ? "node "
-                             : a.target_kind == AnnotationTarget::kEdge ? "edge "
-                                                                        : "parent annotation ";
-    const Uuid& ref = a.target_kind == AnnotationTarget::kNone ? a.parent : a.target;
-    if (missing) {
-      throw Error(ErrorCode::kIntegrity, "annotation " + a.id.ToString() + " refused: " + what +
-                                             ref.ToString() + " is not stored");
-    }
-    throw Error(ErrorCode::kIntegrity,
-                "annotation " + a.id.ToString() + " refused by a constraint");
   }
 
   std::string path_;

@@ -192,6 +192,12 @@ class GraphStore {
   virtual std::vector<Path> DoListPaths(const PathFilter& filter) = 0;
   virtual StoreStats DoStats() = 0;
 
+  // For a backend whose constraint refused an edge or an annotation: a message naming the
+  // reference that is not stored, or nullopt when all exist (the backend's own message then
+  // stands). REQUIRES: the connection can still run queries.
+  std::optional<std::string> MissingReference(const Edge& edge);
+  std::optional<std::string> MissingReference(const Annotation& annotation);
+
  private:
   enum class TxnState { kNone, kOpen, kFailed };
   // Runs a primitive; an Error inside an explicit transaction marks it failed.
