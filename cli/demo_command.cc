@@ -40,7 +40,8 @@ int RunDemo(const DemoOptions& options) {
   fs::path dir;
   std::string uri = options.store_uri;
   if (uri.empty()) {
-    dir = fs::temp_directory_path() / ("fleetmap-demo-" + Uuid::Generate().ToString().substr(0, 8));
+    dir = fs::temp_directory_path() /
+          ("fleetmap-demo-" + Uuid::GenerateRandom().ToString().substr(0, 8));
     fs::create_directories(dir);
     uri = "sqlite:" + (dir / "map.sqlite").string();
   }

@@ -441,6 +441,20 @@ TYPED_TEST(GraphStoreConformance, ReadChainEndsAtCycleAndIgnoresPathEdges) {
   ExpectError(ErrorCode::kNotFound, [&] { this->store_->ReadChain(Uuid::Generate()); });
 }
 
+TYPED_TEST(GraphStoreConformance, ReadChainWithBranchWalksLowestEdgeUuidFirst) {
+  GraphBatch g = Chain(3);  // 0 -> 1 -> 2
+  const Node branch = MakeNode(Uuid::Generate(), Uuid::Generate(), 5);
+  g.nodes.push_back(branch);
+  Edge to_branch = MetricEdge(g.nodes[0].id, branch.id);
+  to_branch.id = Uuid::Parse("00000000-0000-7000-8000-000000000000");  // lowest: walked first
+  g.edges.push_back(to_branch);
+  this->store_->Put(g);
+  const Subgraph chain = this->store_->ReadChain(g.nodes[0].id);
+  EXPECT_EQ(Ids(chain.nodes),
+            (std::vector<Uuid>{g.nodes[0].id, branch.id, g.nodes[1].id, g.nodes[2].id}));
+  EXPECT_EQ(chain.edges.size(), 3u);
+}
+
 TYPED_TEST(GraphStoreConformance, NeighbourhoodByHops) {
   const GraphBatch g = Chain(11);
   this->store_->Put(g);

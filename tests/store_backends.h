@@ -24,7 +24,7 @@ class SqliteBackend {
 
   SqliteBackend() {
     dir_ = std::filesystem::temp_directory_path() /
-           ("fleetmap-test-" + Uuid::Generate().ToString().substr(0, 13));
+           ("fleetmap-test-" + Uuid::GenerateRandom().ToString().substr(0, 13));
     std::filesystem::create_directories(dir_);
   }
   ~SqliteBackend() {
@@ -66,7 +66,7 @@ class PostgresBackend {
   PostgresBackend() {
     if (Unavailable()) return;
     admin_uri_ = std::getenv("FLEETMAP_TEST_PG_URI");
-    database_ = "fleetmap_test_" + Uuid::Generate().ToString().substr(0, 8);
+    database_ = "fleetmap_test_" + Uuid::GenerateRandom().ToString().substr(0, 8);
     pqxx::connection admin(admin_uri_);
     pqxx::nontransaction txn(admin);
     txn.exec("CREATE DATABASE " + database_);

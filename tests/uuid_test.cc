@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <set>
 #include <unordered_set>
 
@@ -10,13 +11,29 @@
 namespace fleetmap {
 namespace {
 
-TEST(Uuid, GeneratedAreDistinctVersion4) {
+TEST(Uuid, GeneratedAreDistinctTimeOrderedVersion7) {
   std::unordered_set<Uuid> seen;
-  for (int i = 0; i < 1000; ++i) {
+  Uuid previous;
+  for (int i = 0; i < 20000; ++i) {  // > 4096: crosses the per-millisecond counter
     const Uuid id = Uuid::Generate();
-    EXPECT_EQ(id.bytes()[6] >> 4, 4) << id.ToString();
+    EXPECT_EQ(id.bytes()[6] >> 4, 7) << id.ToString();
+    EXPECT_EQ(id.bytes()[8] >> 6, 2) << id.ToString();  // RFC 9562 variant
+    EXPECT_LT(previous, id) << "ids must increase within a process";
     EXPECT_TRUE(seen.insert(id).second);
+    previous = id;
   }
+  const auto now_ms = std::chrono::duration_cast<std::chrono::milliseconds>(
+                          std::chrono::system_clock::now().time_since_epoch())
+                          .count();
+  std::int64_t stamp_ms = 0;
+  for (int i = 0; i < 6; ++i) stamp_ms = (stamp_ms << 8) | previous.bytes()[i];
+  EXPECT_NEAR(static_cast<double>(stamp_ms), static_cast<double>(now_ms), 60'000.0);
+}
+
+TEST(Uuid, RandomAreVersion4) {
+  const Uuid a = Uuid::GenerateRandom(), b = Uuid::GenerateRandom();
+  EXPECT_EQ(a.bytes()[6] >> 4, 4);
+  EXPECT_NE(a, b);
 }
 
 TEST(Uuid, FormatParseRoundTrip) {

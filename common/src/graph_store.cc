@@ -22,6 +22,18 @@ double EdgeLength(const Edge& edge) {
   return edge.kind == EdgeKind::kMetric ? edge.from_T_to.translation().norm() : 0.0;
 }
 
+// True when the nodes already come in walk order from `start` with edges[i] joining node i to
+// node i+1 (an optional last edge may close a cycle back to a visited node): the common case
+// of a plain chain, for which the general reordering below is pure overhead.
+bool IsLinearWalk(const Subgraph& g, const Uuid& start) {
+  const std::size_t n = g.nodes.size();
+  if (g.nodes[0].id != start || (g.edges.size() != n - 1 && g.edges.size() != n)) return false;
+  for (std::size_t i = 0; i + 1 < n; ++i) {
+    if (g.edges[i].from != g.nodes[i].id || g.edges[i].to != g.nodes[i + 1].id) return false;
+  }
+  return g.edges.size() == n - 1 || g.edges.back().from == g.nodes.back().id;
+}
+
 }  // namespace
 
 std::unique_ptr<GraphStore> GraphStore::Open(std::string_view uri, const StoreOptions& options) {
@@ -235,6 +247,7 @@ Subgraph GraphStore::ReadChain(const Uuid& start) {
   return Guarded([&] {
     Subgraph unordered = DoReadChainUnordered(start);
     if (unordered.nodes.empty()) throw Error(ErrorCode::kNotFound, "no node " + start.ToString());
+    if (IsLinearWalk(unordered, start)) return unordered;
     // Order the walk client-side: the query returns a set; a preorder depth-first walk over
     // outgoing edges sorted by edge UUID gives the documented chain order.
     std::unordered_map<Uuid, std::size_t> node_index;

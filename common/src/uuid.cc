@@ -3,15 +3,52 @@
 #include <uuid/uuid.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cstring>
+#include <mutex>
 
 #include "fleetmap/common/error.h"
 
 namespace fleetmap {
 
-Uuid Uuid::Generate() {
+Uuid Uuid::GenerateRandom() {
   Bytes bytes;
   uuid_generate_random(bytes.data());
+  return Uuid(bytes);
+}
+
+Uuid Uuid::Generate() {
+  // RFC 9562 §6.2 method 1: a 12-bit counter in rand_a keeps ids monotonic within one
+  // millisecond; when it overflows, the timestamp moves on by one millisecond (allowed by
+  // §6.2; it only happens above 4 million ids a second). This state is process-wide on
+  // purpose: monotonicity is a property of the whole process, like libuuid's own clock state.
+  static std::mutex mutex;
+  static std::uint64_t last_ms = 0;
+  static std::uint32_t counter = 0;
+  std::uint64_t ms;
+  std::uint32_t sequence;
+  {
+    const std::uint64_t now_ms =
+        static_cast<std::uint64_t>(std::chrono::duration_cast<std::chrono::milliseconds>(
+                                       std::chrono::system_clock::now().time_since_epoch())
+                                       .count());
+    std::lock_guard<std::mutex> lock(mutex);
+    if (now_ms > last_ms) {
+      last_ms = now_ms;
+      counter = 0;
+    } else if (++counter > 0xfff) {
+      ++last_ms;
+      counter = 0;
+    }
+    ms = last_ms;
+    sequence = counter;
+  }
+  Bytes bytes;
+  uuid_generate_random(bytes.data());
+  for (int i = 0; i < 6; ++i) bytes[i] = static_cast<std::uint8_t>(ms >> (40 - 8 * i));
+  bytes[6] = static_cast<std::uint8_t>(0x70 | ((sequence >> 8) & 0x0f));  // version 7
+  bytes[7] = static_cast<std::uint8_t>(sequence & 0xff);
+  bytes[8] = static_cast<std::uint8_t>(0x80 | (bytes[8] & 0x3f));  // RFC variant
   return Uuid(bytes);
 }
 

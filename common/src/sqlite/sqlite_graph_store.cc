@@ -267,11 +267,13 @@ class SqliteGraphStore final : public GraphStore {
     // Each row is a node with one of its outgoing metric edges (NULLs at the chain's end).
     StatementUse s(statements_->read_chain);
     s->Bind(1, start);
+    // The CTE yields each node once and the join keeps a node's rows together, so a node is
+    // new exactly when its id differs from the previous row's.
     Subgraph result;
-    std::unordered_set<Uuid> seen;
     while (s->Step()) {
-      const Uuid id = s->UuidAt(0);
-      if (seen.insert(id).second) result.nodes.push_back(ReadNode(*s, true));
+      if (result.nodes.empty() || s->UuidAt(0) != result.nodes.back().id) {
+        result.nodes.push_back(ReadNode(*s, true));
+      }
       if (!s->IsNull(5)) result.edges.push_back(ReadEdge(*s, 5));
     }
     return result;
