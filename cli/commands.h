@@ -6,5 +6,6 @@
 namespace fleetmap::cli {
 
 void AddDemoCommand(CLI::App& app);
+void AddBenchCommand(CLI::App& app);
 
 }  // namespace fleetmap::cli

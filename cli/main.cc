@@ -11,6 +11,7 @@ int main(int argc, char** argv) {
       "Stores are named by URI: sqlite:PATH (embedded default) or postgresql://USER@HOST/DB."};
   app.require_subcommand(1);
   fleetmap::cli::AddDemoCommand(app);
+  fleetmap::cli::AddBenchCommand(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

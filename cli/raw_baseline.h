@@ -21,11 +21,13 @@ std::unique_ptr<ChainWorkload> OpenRawSqliteChain(const std::string& path, Durab
 
 // Connects to a PostgreSQL database by URI; buffered durability sets synchronous_commit = off
 // on the session. REQUIRES: the database already holds the schema. Batch writes use COPY.
-std::unique_ptr<ChainWorkload> OpenRawPostgresChain(const std::string& uri,
-                                                    Durability durability);
+std::unique_ptr<ChainWorkload> OpenRawPostgresChain(const std::string& uri, Durability durability);
 
 // Empties every graph table of the database at uri (the schema stays).
 void TruncatePostgresGraphTables(const std::string& uri);
+
+// Collects planner statistics for the graph tables (what autovacuum would do later).
+void AnalyzePostgresGraphTables(const std::string& uri);
 
 // CREATE DATABASE / DROP DATABASE ... WITH (FORCE) through a connection to admin_uri.
 // REQUIRES: name is a plain identifier ([a-z0-9_]).

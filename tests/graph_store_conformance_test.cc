@@ -377,15 +377,22 @@ TYPED_TEST(GraphStoreConformance, BatchTwiceAddsNothing) {
   this->store_->Put(g);
   EXPECT_EQ(this->store_->Stats().nodes, 50);
   EXPECT_EQ(this->store_->Stats().edges, 49);
+  // Half old, half new: the old half is a no-op, the new half lands.
+  GraphBatch overlapping = Chain(40);
+  overlapping.nodes.insert(overlapping.nodes.end(), g.nodes.begin(), g.nodes.begin() + 40);
+  overlapping.edges.insert(overlapping.edges.end(), g.edges.begin(), g.edges.begin() + 39);
+  this->store_->Put(overlapping);
+  EXPECT_EQ(this->store_->Stats().nodes, 90);
+  EXPECT_EQ(this->store_->Stats().edges, 49 + 39);
 }
 
 TYPED_TEST(GraphStoreConformance, BatchWithConflictStoresNothing) {
   const Node stored = MakeNode(Uuid::Generate(), Uuid::Generate(), 1);
   this->store_->PutNode(stored);
-  GraphBatch g = Chain(30);
+  GraphBatch g = Chain(70);  // long enough for multi-row statements; the clash sits inside one
   Node clash = stored;
   clash.stamp_ns = 2;
-  g.nodes.push_back(clash);
+  g.nodes.insert(g.nodes.begin() + 5, clash);
   ExpectError(
       ErrorCode::kConflict, [&] { this->store_->Put(g); }, stored.id.ToString());
   EXPECT_EQ(this->store_->Stats().nodes, 1);
@@ -393,9 +400,9 @@ TYPED_TEST(GraphStoreConformance, BatchWithConflictStoresNothing) {
 }
 
 TYPED_TEST(GraphStoreConformance, BatchWithDanglingEdgeStoresNothing) {
-  GraphBatch g = Chain(30);
+  GraphBatch g = Chain(70);
   const Uuid missing = Uuid::Generate();
-  g.edges.push_back(MetricEdge(g.nodes[5].id, missing));
+  g.edges.insert(g.edges.begin() + 10, MetricEdge(g.nodes[5].id, missing));
   ExpectError(
       ErrorCode::kIntegrity, [&] { this->store_->Put(g); }, missing.ToString());
   EXPECT_EQ(this->store_->Stats().nodes, 0);

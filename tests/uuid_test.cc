@@ -1,8 +1,11 @@
 #include "fleetmap/common/uuid.h"
 
 #include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <chrono>
+#include <cstring>
 #include <set>
 #include <unordered_set>
 
@@ -28,6 +31,27 @@ TEST(Uuid, GeneratedAreDistinctTimeOrderedVersion7) {
   std::int64_t stamp_ms = 0;
   for (int i = 0; i < 6; ++i) stamp_ms = (stamp_ms << 8) | previous.bytes()[i];
   EXPECT_NEAR(static_cast<double>(stamp_ms), static_cast<double>(now_ms), 60'000.0);
+}
+
+TEST(Uuid, ForkedChildMintsDifferentIds) {
+  (void)Uuid::Generate();  // seed this thread's generator before forking
+  int fds[2];
+  ASSERT_EQ(pipe(fds), 0);
+  const pid_t child = fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    const Uuid id = Uuid::Generate();
+    (void)!write(fds[1], id.data(), Uuid::kSize);
+    _exit(0);
+  }
+  const Uuid mine = Uuid::Generate();
+  Uuid::Bytes theirs{};
+  ASSERT_EQ(read(fds[0], theirs.data(), theirs.size()), 16);
+  waitpid(child, nullptr, 0);
+  close(fds[0]);
+  close(fds[1]);
+  // Same timestamp and counter are likely; the random bits must still differ.
+  EXPECT_NE(std::memcmp(mine.data() + 8, theirs.data() + 8, 8), 0);
 }
 
 TEST(Uuid, RandomAreVersion4) {

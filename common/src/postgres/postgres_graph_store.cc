@@ -280,6 +280,7 @@ class PostgresGraphStore final : public GraphStore {
         pqxx::work work(*conn_);
         PutBatch(work, batch);
         work.commit();
+        RefreshStatisticsAfter(batch);
       }
     });
   }
@@ -680,6 +681,27 @@ class PostgresGraphStore final : public GraphStore {
             return Cat({"annotation ", r[0].c_str(), " is already stored with different content"});
           });
     }
+  }
+
+  // A bulk load leaves the planner without statistics until autovacuum gets round to it;
+  // meanwhile the recursive ReadChain query plans a sequential scan of edges per step and goes
+  // quadratic (6.6 s instead of 31 ms for a 10^4 chain). So a batch that grew a table by more
+  // than a tenth of its analysed size (and by at least 1000 rows) analyses what it touched.
+  void RefreshStatisticsAfter(const GraphBatch& batch) {
+    constexpr double kMinRows = 1000, kGrowth = 0.1;
+    pqxx::nontransaction t(*conn_);
+    std::string tables;
+    for (const auto& [table, rows] :
+         {std::pair{"nodes", batch.nodes.size()}, std::pair{"edges", batch.edges.size()}}) {
+      if (static_cast<double>(rows) < kMinRows) continue;
+      const double analysed =
+          t.exec_params1("SELECT reltuples FROM pg_class WHERE oid = $1::regclass", table)[0]
+              .as<double>();
+      if (analysed < 0 || static_cast<double>(rows) > kGrowth * analysed) {
+        tables += tables.empty() ? table : std::string(", ") + table;
+      }
+    }
+    if (!tables.empty()) t.exec("ANALYZE " + tables);
   }
 
   std::vector<Edge> ReadEdges(const char* statement, const std::string& key) {

@@ -197,6 +197,10 @@ class GraphStore {
   // stands). REQUIRES: the connection can still run queries.
   std::optional<std::string> MissingReference(const Edge& edge);
   std::optional<std::string> MissingReference(const Annotation& annotation);
+  // The first reference of a batch (edge endpoints and paths, annotation targets and parents)
+  // that is neither in the batch itself nor stored, as a message; nullopt when all resolve.
+  // For backends that check a bulk load set-wise instead of row by row.
+  std::optional<std::string> MissingReferenceInBatch(const GraphBatch& batch);
 
  private:
   enum class TxnState { kNone, kOpen, kFailed };

@@ -23,10 +23,10 @@ class Uuid {
   explicit constexpr Uuid(const Bytes& bytes) : bytes_(bytes) {}
 
   // A new time-ordered UUID (RFC 9562 version 7): 48 bits of Unix milliseconds, then a
-  // counter, then random bits from libuuid. Ids made later in a process compare greater, so
-  // the B-tree indexes of both databases append instead of splitting pages at random (seed
-  // 000 §6: B-tree indexes); with random v4 keys a 10^6-node chain loads ~3x slower.
-  // Thread-safe.
+  // counter, then 62 random bits (a per-thread generator seeded from libuuid). Ids made later in a
+  // process compare greater, so the B-tree indexes of both databases append instead of splitting
+  // pages at random (seed 000 §6: B-tree indexes); with random v4 keys a 10^6-node chain loads ~3x
+  // slower. Thread-safe.
   static Uuid Generate();
   // A new random (version 4) UUID, for ids that must not reveal when they were made.
   static Uuid GenerateRandom();
