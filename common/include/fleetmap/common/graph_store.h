@@ -43,7 +43,10 @@ struct StoreOptions {
 };
 
 // Which nodes ListNodes returns. Unset fields do not filter; the time window is
-// [from_ns, to_ns). Results are ordered by stamp_ns, then id.
+// [from_ns, to_ns). Results are ordered by stamp_ns, then id. Robot and outing are indexed
+// together with the stamp; a window alone scans the nodes (no index on the stamp by itself:
+// it would slow every load, and time-of-day selection works modulo 24 h, which no index on
+// the stamp serves).
 struct NodeFilter {
   std::optional<Uuid> robot{};
   std::optional<Uuid> outing{};

@@ -10,7 +10,6 @@ CREATE TABLE nodes (
 );
 CREATE INDEX nodes_by_robot ON nodes (robot, stamp_ns);
 CREATE INDEX nodes_by_outing ON nodes (outing, stamp_ns);
-CREATE INDEX nodes_by_stamp ON nodes (stamp_ns);
 
 CREATE TABLE paths (
   id uuid PRIMARY KEY,
