@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
+#include <optional>
 #include <random>
 
 #include "commands.h"
@@ -35,15 +36,33 @@ Node MakeExperience(std::mt19937& rng, const Uuid& robot, const Uuid& outing,
   return Node{Uuid::Generate(), stamp_ns, robot, outing, EncodeLandmarks(landmarks)};
 }
 
+// The demo's temporary directory: removed when the demo ends, also on an error, unless kept.
+class DemoDirectory {
+ public:
+  explicit DemoDirectory(bool keep)
+      : path_(std::filesystem::temp_directory_path() /
+              ("fleetmap-demo-" + Uuid::GenerateRandom().ToString().substr(0, 8))),
+        keep_(keep) {
+    std::filesystem::create_directories(path_);
+    if (keep_) std::cout << "  the store stays in " << path_.string() << "\n";
+  }
+  ~DemoDirectory() {
+    std::error_code ignored;
+    if (!keep_) std::filesystem::remove_all(path_, ignored);
+  }
+  const std::filesystem::path& path() const { return path_; }
+
+ private:
+  std::filesystem::path path_;
+  bool keep_;
+};
+
 int RunDemo(const DemoOptions& options) {
-  namespace fs = std::filesystem;
-  fs::path dir;
+  std::optional<DemoDirectory> dir;
   std::string uri = options.store_uri;
   if (uri.empty()) {
-    dir = fs::temp_directory_path() /
-          ("fleetmap-demo-" + Uuid::GenerateRandom().ToString().substr(0, 8));
-    fs::create_directories(dir);
-    uri = "sqlite:" + (dir / "map.sqlite").string();
+    dir.emplace(options.keep);
+    uri = "sqlite:" + (dir->path() / "map.sqlite").string();
   }
   std::cout << "fleetmap demo: experience graph on " << uri << "\n";
   auto store = GraphStore::Open(uri);
@@ -112,13 +131,6 @@ int RunDemo(const DemoOptions& options) {
     std::printf("  a dangling edge is refused: %s\n", e.what());
   }
   store.reset();
-  if (!dir.empty()) {
-    if (options.keep) {
-      std::cout << "  kept " << dir.string() << "\n";
-    } else {
-      fs::remove_all(dir);
-    }
-  }
   std::cout << "demo done. (The fleet demo with fleetmapd and agents arrives with later issues.)\n";
   return 0;
 }

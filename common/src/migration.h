@@ -2,6 +2,7 @@
 // (common/src/<backend>/migrations/NNNN_name.sql), embedded at build time.
 #pragma once
 
+#include <string>
 #include <vector>
 
 namespace fleetmap::internal {
@@ -11,6 +12,10 @@ struct Migration {
   const char* name;  // the file name, for error messages
   const char* sql;
 };
+
+// Throws Error(kSchemaTooNew) when a store's recorded version is newer than the latest
+// migration this binary carries: an old binary must never write a newer schema.
+void RefuseNewerSchema(const std::string& store, int current, int latest);
 
 const std::vector<Migration>& SqliteMigrations();
 const std::vector<Migration>& PostgresMigrations();

@@ -469,12 +469,7 @@ class PostgresGraphStore final : public GraphStore {
           t.exec("SELECT coalesce(max(version), 0) FROM fleetmap_schema")[0][0].as<int>();
       const auto& migrations = PostgresMigrations();
       const int latest = static_cast<int>(migrations.size());
-      if (current > latest) {
-        throw Error(ErrorCode::kSchemaTooNew,
-                    "store " + uri_ + " has schema version " + std::to_string(current) +
-                        ", newer than this fleetmap (knows up to " + std::to_string(latest) +
-                        "); use a newer fleetmap");
-      }
+      RefuseNewerSchema(uri_, current, latest);
       for (const Migration& m : migrations) {
         if (m.version <= current) continue;
         t.exec(m.sql, m.name);

@@ -504,12 +504,7 @@ class SqliteGraphStore final : public GraphStore {
       const int current = schema_version();
       const auto& migrations = SqliteMigrations();
       const int latest = static_cast<int>(migrations.size());
-      if (current > latest) {
-        throw Error(ErrorCode::kSchemaTooNew,
-                    "store " + path_ + " has schema version " + std::to_string(current) +
-                        ", newer than this fleetmap (knows up to " + std::to_string(latest) +
-                        "); use a newer fleetmap");
-      }
+      RefuseNewerSchema(path_, current, latest);
       for (const Migration& m : migrations) {
         if (m.version <= current) continue;
         ExecSql(db_, m.sql);
