@@ -1,0 +1,58 @@
+// Localisation of a live frame against one experience (node): DESIGN.md "EBN core", the
+// stereo match between frame Fq and node nk of seed 002 §III-C.
+//
+// Conventions (see se3.h):
+// - Both landmark sets are 3-D points in metres, each in its own camera frame: the frame's
+//   points in the live camera frame, the node's in the camera frame the node was saved in.
+// - The result node_T_frame maps frame points into the node: p_node = node_T_frame * p_frame.
+// - Descriptors are compared by Hamming distance (descriptor_matcher.h).
+//
+// Method: mutual-best descriptor matches with a ratio test, then RANSAC over minimal samples
+// of three matched point pairs, each fitted rigidly (Eigen::umeyama, no scale); a match is an
+// inlier when its residual |node_T_frame * p_frame - p_node| is below the threshold. The best
+// hypothesis is refitted on its inliers and recounted until the inlier set stops growing.
+#pragma once
+
+#include <cstdint>
+
+#include "fleetmap/common/graph.h"
+#include "fleetmap/common/se3.h"
+
+namespace fleetmap {
+
+struct LocaliserOptions {
+  double ratio = 0.8;                // Lowe ratio of descriptor matching, (0, 1]; 1 disables
+  int max_distance = 80;             // largest descriptor distance accepted, bits [0, 256]
+  int ransac_iterations = 200;       // minimal samples drawn, >= 1 (degenerate ones count)
+  double inlier_threshold_m = 0.15;  // residual below which a match is an inlier, > 0
+  int min_inliers = 12;              // success needs at least this many inliers, >= 3
+  std::uint32_t seed = 1;            // RANSAC sampling; same seed and inputs, same result
+};
+
+struct LocalisationResult {
+  bool success = false;
+  Se3 node_T_frame = Se3::Identity();  // meaningful when success
+  int inliers = 0;                     // inliers of the best hypothesis (0 if none was tried)
+  int matches = 0;                     // descriptor matches RANSAC worked on
+};
+
+class Localiser {
+ public:
+  // Throws Error(kInvalidArgument) for options outside the ranges above.
+  explicit Localiser(const LocaliserOptions& options = {});
+
+  // Localises `frame` against `node`. Too few matches (fewer than three, or fewer than
+  // min_inliers), empty sets or a failed RANSAC give success == false, never an exception.
+  // REQUIRES: points_camera.size() == descriptors.size() in both, else throws
+  // Error(kInvalidArgument).
+  // Deterministic: the sampler is seeded from the options on every call, so a call does not
+  // depend on earlier calls, and concurrent calls on one Localiser are safe.
+  LocalisationResult Localise(const Landmarks& frame, const Landmarks& node) const;
+
+  const LocaliserOptions& options() const { return options_; }
+
+ private:
+  LocaliserOptions options_;
+};
+
+}  // namespace fleetmap
