@@ -2,7 +2,7 @@
 // random descriptor sets (150 planted near-duplicates) and produce the same cross-checked
 // matches: ours, a plain nested loop, and OpenCV's brute-force matcher with crossCheck.
 //
-// Project acceptance (issue 3): ours <= 1.5x the plain loop's time and >= 4x faster than
+// What we hold it to: ours <= 1.5x the plain loop's time and >= 4x faster than
 // OpenCV crossCheck.
 #include <benchmark/benchmark.h>
 

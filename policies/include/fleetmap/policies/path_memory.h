@@ -1,0 +1,46 @@
+// Path memory (seed 002 §IV): which recorded paths pass through which node, kept
+// incrementally as path edges are added, so Γ(path) never recounts paths per call.
+//
+// A path "links" two nodes when both lie on it (seed 002 §V-A: in Fig. 5, n3 and n9 are
+// linked by P1 without being adjacent). So the counts the policy needs are sizes of
+// intersections of two nodes' path sets:
+//   Z_ij = |paths(i) ∩ paths(j)|  (Eq. 5),   N_ik = |paths(i) ∩ paths(k)|  (Eq. 8).
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <unordered_map>
+#include <vector>
+
+#include "fleetmap/common/graph_store.h"
+#include "fleetmap/common/uuid.h"
+
+namespace fleetmap {
+
+class PathMemory {
+ public:
+  using PathIndex = std::uint32_t;
+
+  // Every path of the store and the nodes its path edges touch.
+  static PathMemory Load(GraphStore& store);
+
+  // Records a path edge: both endpoints now lie on `path`. Idempotent. Returns the path's
+  // dense index.
+  PathIndex AddPathEdge(const Uuid& path, const Uuid& from, const Uuid& to);
+
+  // The paths through a node as ascending dense indexes (empty for an unknown node). The
+  // span is valid until the next AddPathEdge.
+  std::span<const PathIndex> PathsThrough(const Uuid& node) const;
+
+  // |paths(a) ∩ paths(b)|.
+  int SharedPaths(const Uuid& a, const Uuid& b) const;
+
+  std::size_t path_count() const { return path_index_.size(); }
+  std::size_t node_count() const { return paths_of_node_.size(); }
+
+ private:
+  std::unordered_map<Uuid, PathIndex> path_index_;
+  std::unordered_map<Uuid, std::vector<PathIndex>> paths_of_node_;  // each sorted, unique
+};
+
+}  // namespace fleetmap

@@ -1,0 +1,148 @@
+// Γ(distance) and Γ(path) (seed 002 §III-C, §V), checked against the worked example of seed
+// 002 Fig. 5 by hand.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <vector>
+
+#include "fleetmap/common/error.h"
+#include "fleetmap/policies/distance_ranking.h"
+#include "fleetmap/policies/path_memory.h"
+#include "fleetmap/policies/path_ranking.h"
+
+namespace fleetmap {
+namespace {
+
+Uuid Id(int n) {
+  Uuid::Bytes bytes{};
+  bytes[15] = static_cast<std::uint8_t>(n);
+  bytes[0] = 1;  // never nil
+  return Uuid(bytes);
+}
+
+// Seed 002 Fig. 5: P1 = n1 n2 n3 n4 n9 and P2 = n6 n7 n8 n4 n5; the robot is at n_k = n4 with
+// candidates Y = {n5, n9} and has just tried W = {n1, n2, n3, n4, n8}, Z = [1, 1, 1, 1, 0].
+PathMemory Figure5Memory() {
+  PathMemory memory;
+  const Uuid p1 = Id(101), p2 = Id(102);
+  for (const auto& [a, b] : std::vector<std::pair<int, int>>{{1, 2}, {2, 3}, {3, 4}, {4, 9}}) {
+    memory.AddPathEdge(p1, Id(a), Id(b));
+  }
+  for (const auto& [a, b] : std::vector<std::pair<int, int>>{{6, 7}, {7, 8}, {8, 4}, {4, 5}}) {
+    memory.AddPathEdge(p2, Id(a), Id(b));
+  }
+  return memory;
+}
+
+void ObserveFigure5(PathRanking& ranking) {
+  for (const auto& [node, success] :
+       std::vector<std::pair<int, bool>>{{1, true}, {2, true}, {3, true}, {8, false}, {4, true}}) {
+    const LocalisationAttempt attempt{Id(node), success};
+    ranking.ObserveIteration({&attempt, 1});
+  }
+}
+
+TEST(PathMemory, CountsPathsSharedByTwoNodes) {
+  const PathMemory memory = Figure5Memory();
+  EXPECT_EQ(memory.path_count(), 2u);
+  EXPECT_EQ(memory.SharedPaths(Id(4), Id(9)), 1);  // P1
+  EXPECT_EQ(memory.SharedPaths(Id(4), Id(5)), 1);  // P2
+  EXPECT_EQ(memory.SharedPaths(Id(3), Id(9)), 1);  // linked by P1 though not adjacent
+  EXPECT_EQ(memory.SharedPaths(Id(1), Id(5)), 0);
+  EXPECT_EQ(memory.SharedPaths(Id(4), Id(4)), 2);
+  EXPECT_TRUE(memory.PathsThrough(Id(77)).empty());
+}
+
+TEST(PathRanking, Figure5PosteriorsMatchHandComputation) {
+  PathRanking ranking(Figure5Memory(), {.window_iterations = 10});
+  ObserveFigure5(ranking);
+  ASSERT_EQ(ranking.observation_count(), 5u);
+
+  // n9: Z_9 = [1, 1, 1, 1, 0] (P1 through n1..n4), D = 4 + 5 = 9, so θ = 2/9 on the four
+  // successes and 1/9 on n8's failure: p(Z | n9) = (2/9)^4 (8/9). Prior N_9k = 1 (P1).
+  // n5: Z_5 = [0, 0, 0, 1, 1] (P2 through n8 and n4), D = 2 + 5 = 7:
+  // p(Z | n5) = (1/7)^3 (2/7) (5/7). Prior N_5k = 1 (P2).
+  const double expected_n9 = std::log(2.0) + std::log(std::pow(2.0 / 9, 4) * (8.0 / 9));
+  const double expected_n5 = std::log(2.0) + std::log(std::pow(1.0 / 7, 3) * (2.0 / 7) * (5.0 / 7));
+  EXPECT_NEAR(ranking.LogPosterior(Id(4), Id(9)), expected_n9, 1e-12);
+  EXPECT_NEAR(ranking.LogPosterior(Id(4), Id(5)), expected_n5, 1e-12);
+
+  // The figure's conclusion: n9 is the better bet, although n5 is nearer.
+  std::vector<Candidate> candidates{{Id(5), 1.0}, {Id(9), 2.0}};
+  ranking.Rank(Id(4), candidates);
+  EXPECT_EQ(candidates[0].node, Id(9));
+  EXPECT_EQ(candidates[1].node, Id(5));
+}
+
+TEST(PathRanking, PriorAloneFavoursNodesWithMorePathsFromReference) {
+  PathMemory memory = Figure5Memory();
+  memory.AddPathEdge(Id(103), Id(4), Id(5));                         // a second path from n4 to n5
+  PathRanking ranking(std::move(memory), {.window_iterations = 0});  // T = 0: prior only
+  ObserveFigure5(ranking);
+  EXPECT_EQ(ranking.observation_count(), 0u);
+  // π ∝ N_ik + 1: n5 has 2 + 1, n9 has 1 + 1.
+  EXPECT_NEAR(ranking.LogPosterior(Id(4), Id(5)) - ranking.LogPosterior(Id(4), Id(9)),
+              std::log(3.0 / 2.0), 1e-12);
+  std::vector<Candidate> candidates{{Id(9), 1.0}, {Id(5), 2.0}};
+  ranking.Rank(Id(4), candidates);
+  EXPECT_EQ(candidates[0].node, Id(5));
+}
+
+TEST(PathRanking, WindowForgetsIterationsOlderThanT) {
+  PathRanking ranking(Figure5Memory(), {.window_iterations = 2});
+  ObserveFigure5(ranking);  // only n8 (failed) and n4 (succeeded) stay
+  EXPECT_EQ(ranking.observation_count(), 2u);
+  // n9: Z_9 = [0 for n8, 1 for n4], D = 1 + 2 = 3: θ(n8) = 1/3 failed, θ(n4) = 2/3 succeeded.
+  EXPECT_NEAR(ranking.LogPosterior(Id(4), Id(9)), std::log(2.0) + std::log((2.0 / 3) * (2.0 / 3)),
+              1e-12);
+  // n5: Z_5 = [1, 1], D = 2 + 2 = 4: θ = 2/4 for both.
+  EXPECT_NEAR(ranking.LogPosterior(Id(4), Id(5)),
+              std::log(2.0) + std::log((1 - 2.0 / 4) * (2.0 / 4)), 1e-12);
+}
+
+TEST(PathRanking, LatestOutcomeOfARepeatedNodeCounts) {
+  PathRanking ranking(Figure5Memory(), {.window_iterations = 10});
+  const LocalisationAttempt failed{Id(1), false}, succeeded{Id(1), true};
+  ranking.ObserveIteration({&failed, 1});
+  ranking.ObserveIteration({&succeeded, 1});
+  EXPECT_EQ(ranking.observation_count(), 1u);
+  // W = {n1}, z = 1; n9 shares P1 with it: D = 1 + 1, θ = 2/2.
+  EXPECT_NEAR(ranking.LogPosterior(Id(4), Id(9)), std::log(2.0) + std::log(1.0), 1e-12);
+}
+
+TEST(PathRanking, PathEdgesAddedDuringTheOutingCountAtOnce) {
+  PathRanking ranking(PathMemory{}, {.window_iterations = 10});
+  const LocalisationAttempt attempts[] = {{Id(1), true}, {Id(3), false}};
+  ranking.ObserveIteration(attempts);
+  // No paths yet: D = 2, θ = 1/2 for both observations.
+  EXPECT_NEAR(ranking.LogPosterior(Uuid(), Id(2)), 2 * std::log(0.5), 1e-12);
+  ranking.ObservePathEdge(Id(200), Id(1), Id(2));  // n1, already in W, joins a path with n2
+  // Z = [1, 0], D = 3: θ(n1) = 2/3 succeeded, θ(n3) = 1/3 failed.
+  EXPECT_NEAR(ranking.LogPosterior(Uuid(), Id(2)), 2 * std::log(2.0 / 3), 1e-12);
+  EXPECT_EQ(ranking.memory().SharedPaths(Id(1), Id(2)), 1);
+}
+
+TEST(PathRanking, StartOutingClearsObservationsButKeepsMemory) {
+  PathRanking ranking(Figure5Memory(), {.window_iterations = 10});
+  ObserveFigure5(ranking);
+  ranking.StartOuting();
+  EXPECT_EQ(ranking.observation_count(), 0u);
+  EXPECT_EQ(ranking.memory().path_count(), 2u);
+  EXPECT_NEAR(ranking.LogPosterior(Id(4), Id(9)), std::log(2.0), 1e-12);
+}
+
+TEST(PathRanking, RejectsNegativeWindow) {
+  EXPECT_THROW(PathRanking(PathMemory{}, {.window_iterations = -1}), Error);
+}
+
+TEST(DistanceRanking, NearestFirstTiesByUuid) {
+  DistanceRanking ranking;
+  std::vector<Candidate> candidates{{Id(3), 2.0}, {Id(2), 1.0}, {Id(1), 2.0}};
+  ranking.Rank(Uuid(), candidates);
+  EXPECT_EQ(candidates[0].node, Id(2));
+  EXPECT_EQ(candidates[1].node, Id(1));
+  EXPECT_EQ(candidates[2].node, Id(3));
+}
+
+}  // namespace
+}  // namespace fleetmap
