@@ -229,6 +229,20 @@ TEST(Localiser, SameSeedSameResult) {
   EXPECT_EQ(a.node_T_frame.matrix(), b.node_T_frame.matrix());  // bit for bit
 }
 
+TEST(Localiser, AdaptiveStopKeepsTheExhaustiveAnswer) {
+  // Stopping once an all-inlier sample is 99.9 % certain must find the same consensus as
+  // drawing every one of the 200 samples.
+  const auto scene = MakeLandmarkScene(KnownNodeTFrame(), HalfOutliers());
+  const LocalisationResult adaptive = Localiser().Localise(scene.frame, scene.node);
+  const LocalisationResult exhaustive =
+      Localiser({.ransac_confidence = 0.0}).Localise(scene.frame, scene.node);
+  ASSERT_TRUE(adaptive.success);
+  ASSERT_TRUE(exhaustive.success);
+  EXPECT_EQ(adaptive.inliers, exhaustive.inliers);
+  EXPECT_TRUE(Se3ApproxEqual(adaptive.node_T_frame, exhaustive.node_T_frame, 1e-3, 1e-4));
+  EXPECT_THROW(Localiser({.ransac_confidence = 1.0}), Error);
+}
+
 TEST(Localiser, UnrelatedNodeFails) {
   const auto scene = MakeLandmarkScene(KnownNodeTFrame(), HalfOutliers());
   std::mt19937 rng(99);

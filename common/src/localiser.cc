@@ -2,6 +2,8 @@
 
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <cmath>
+#include <limits>
 #include <random>
 #include <string>
 #include <vector>
@@ -75,6 +77,18 @@ Se3 FitInliers(const Correspondences& c, const std::vector<int>& inliers) {
   return FitRigid(src, dst);
 }
 
+// Standard adaptive RANSAC bound for three-point samples; the caller keeps the cap.
+int SamplesNeeded(std::size_t inliers, std::uint32_t matches, double confidence) {
+  if (confidence <= 0.0) return std::numeric_limits<int>::max();
+  const double w = static_cast<double>(inliers) / matches;
+  const double all_inliers = w * w * w;
+  if (all_inliers >= 1.0) return 1;
+  if (all_inliers <= 0.0) return std::numeric_limits<int>::max();
+  const double needed = std::ceil(std::log(1.0 - confidence) / std::log(1.0 - all_inliers));
+  return needed >= std::numeric_limits<int>::max() ? std::numeric_limits<int>::max()
+                                                   : static_cast<int>(needed);
+}
+
 void CheckConsistent(const Landmarks& landmarks, const char* what) {
   if (landmarks.points_camera.size() != landmarks.descriptors.size()) {
     throw Error(ErrorCode::kInvalidArgument,
@@ -95,6 +109,9 @@ Localiser::Localiser(const LocaliserOptions& options) : options_(options) {
     fail("max_distance must be in [0, 256]");
   }
   if (options.ransac_iterations < 1) fail("ransac_iterations must be >= 1");
+  if (!(options.ransac_confidence >= 0.0 && options.ransac_confidence < 1.0)) {
+    fail("ransac_confidence must be in [0, 1)");
+  }
   if (!(options.inlier_threshold_m > 0.0)) fail("inlier_threshold_m must be > 0");
   if (options.min_inliers < 3) fail("min_inliers must be >= 3");
 }
@@ -122,7 +139,8 @@ LocalisationResult Localiser::Localise(const Landmarks& frame, const Landmarks& 
   const auto n = static_cast<std::uint32_t>(c.size());
   Se3 best = Se3::Identity();
   std::vector<int> best_inliers;
-  for (int iteration = 0; iteration < options_.ransac_iterations; ++iteration) {
+  int iterations_needed = options_.ransac_iterations;
+  for (int iteration = 0; iteration < iterations_needed; ++iteration) {
     const std::uint32_t a = DrawBelow(rng, n);
     std::uint32_t b = DrawBelow(rng, n - 1);
     if (b >= a) ++b;
@@ -148,6 +166,8 @@ LocalisationResult Localiser::Localise(const Landmarks& frame, const Landmarks& 
     if (inliers.size() > best_inliers.size()) {
       best = hypothesis;
       best_inliers = std::move(inliers);
+      iterations_needed = std::min(
+          iterations_needed, SamplesNeeded(best_inliers.size(), n, options_.ransac_confidence));
     }
   }
 

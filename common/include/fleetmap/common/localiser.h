@@ -8,9 +8,10 @@
 // - Descriptors are compared by Hamming distance (descriptor_matcher.h).
 //
 // Method: mutual-best descriptor matches with a ratio test, then RANSAC over minimal samples
-// of three matched point pairs, each fitted rigidly (Eigen::umeyama, no scale); a match is an
-// inlier when its residual |node_T_frame * p_frame - p_node| is below the threshold. The best
-// hypothesis is refitted on its inliers and recounted until the inlier set stops growing.
+// of three matched point pairs (stopping adaptively), each fitted rigidly (Eigen::umeyama, no
+// scale); a match is an inlier when its residual |node_T_frame * p_frame - p_node| is below the
+// threshold. The best hypothesis is refitted on its inliers and recounted until the inlier set
+// stops growing.
 #pragma once
 
 #include <cstdint>
@@ -21,9 +22,13 @@
 namespace fleetmap {
 
 struct LocaliserOptions {
-  double ratio = 0.8;                // Lowe ratio of descriptor matching, (0, 1]; 1 disables
-  int max_distance = 80;             // largest descriptor distance accepted, bits [0, 256]
-  int ransac_iterations = 200;       // minimal samples drawn, >= 1 (degenerate ones count)
+  double ratio = 0.8;           // Lowe ratio of descriptor matching, (0, 1]; 1 disables
+  int max_distance = 80;        // largest descriptor distance accepted, bits [0, 256]
+  int ransac_iterations = 200;  // most minimal samples drawn, >= 1 (degenerate ones count)
+  // RANSAC stops early once a hypothesis with inlier ratio w makes further samples pointless:
+  // after log(1 - confidence) / log(1 - w^3) samples, an all-inlier sample would have been
+  // drawn with this probability. [0, 1); 0 always draws ransac_iterations samples.
+  double ransac_confidence = 0.999;
   double inlier_threshold_m = 0.15;  // residual below which a match is an inlier, > 0
   int min_inliers = 12;              // success needs at least this many inliers, >= 3
   std::uint32_t seed = 1;            // RANSAC sampling; same seed and inputs, same result
