@@ -1,0 +1,219 @@
+// The single-agent EBN builder (seed 002 §III–§IV) on a small corridor scene with two
+// appearance conditions, writing through a real SQLite store.
+#include "fleetmap/common/experience_builder.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <random>
+
+#include "fleetmap/common/error.h"
+#include "fleetmap/policies/distance_ranking.h"
+#include "fleetmap/policies/path_memory.h"
+#include "fleetmap/policies/path_ranking.h"
+
+namespace fleetmap {
+namespace {
+
+// A straight 120 m corridor along the camera's z axis; every landmark has one descriptor per
+// condition (0: day, 1: night), so the two conditions share nothing.
+class Corridor {
+ public:
+  static constexpr int kLandmarks = 1500;
+  static constexpr double kLength_m = 120.0;
+
+  Corridor() {
+    std::mt19937 rng(5);
+    std::uniform_real_distribution<double> side(2.0, 10.0), height(-3.0, 1.0),
+        along(0.0, kLength_m + 25);
+    std::bernoulli_distribution left(0.5);
+    for (int i = 0; i < kLandmarks; ++i) {
+      points_.emplace_back(left(rng) ? -side(rng) : side(rng), height(rng), along(rng));
+      for (auto& set : descriptors_) {
+        Descriptor256 d;
+        for (auto& byte : d) byte = static_cast<std::uint8_t>(rng());
+        set.push_back(d);
+      }
+    }
+  }
+
+  // Frames a metre apart from z = 0 to the end, in condition `condition`, with odometry that
+  // is exact (the builder's logic, not drift, is under test here).
+  std::vector<Frame> Outing(int condition, double start_m = 0.0) const {
+    std::vector<Frame> frames;
+    for (double z = start_m; z <= kLength_m; z += 1.0) {
+      Frame frame;
+      frame.stamp_ns = static_cast<std::int64_t>((z + 1) * 1e9);
+      for (std::size_t i = 0; i < points_.size(); ++i) {
+        const double depth = points_[i].z() - z;
+        if (depth < 1.0 || depth > 25.0) continue;
+        frame.landmarks.points_camera.emplace_back(static_cast<float>(points_[i].x()),
+                                                   static_cast<float>(points_[i].y()),
+                                                   static_cast<float>(depth));
+        frame.landmarks.descriptors.push_back(descriptors_[condition][i]);
+      }
+      if (!frames.empty()) frame.prev_T_this = Se3(Eigen::Translation3d(0, 0, 1.0));
+      frame.world_T_camera_truth = Se3(Eigen::Translation3d(0, 0, z));
+      frames.push_back(std::move(frame));
+    }
+    return frames;
+  }
+
+ private:
+  std::vector<Eigen::Vector3d> points_;
+  std::array<std::vector<Descriptor256>, 2> descriptors_;
+};
+
+std::shared_ptr<const AppearanceVocabulary> Vocabulary(const Corridor& corridor) {
+  std::vector<Descriptor256> sample;
+  for (int condition : {0, 1}) {
+    for (const Frame& frame : corridor.Outing(condition)) {
+      sample.insert(sample.end(), frame.landmarks.descriptors.begin(),
+                    frame.landmarks.descriptors.end());
+    }
+  }
+  return std::make_shared<const AppearanceVocabulary>(AppearanceVocabulary::Train(sample));
+}
+
+struct OutingSummary {
+  int frames = 0, localised = 0, created = 0, attempts = 0;
+  double worst_gap_m = 0.0;
+};
+
+OutingSummary Drive(ExperienceBuilder& builder, const std::vector<Frame>& frames) {
+  builder.StartOuting({Uuid::Generate(), Uuid::Generate(), Uuid()});
+  OutingSummary summary;
+  for (const Frame& frame : frames) {
+    const FrameReport report = builder.Process(frame);
+    ++summary.frames;
+    summary.localised += report.successes > 0 ? 1 : 0;
+    summary.created += report.created_experience ? 1 : 0;
+    summary.attempts += report.attempts;
+    summary.worst_gap_m = std::max(summary.worst_gap_m, report.distance_since_success_m);
+    EXPECT_LE(report.attempts, builder.options().cores * builder.options().rounds +
+                                   builder.options().relocalisation_candidates);
+  }
+  builder.FinishOuting();
+  return summary;
+}
+
+class ExperienceBuilderTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = std::filesystem::temp_directory_path() /
+           ("fleetmap-builder-" + Uuid::GenerateRandom().ToString());
+    std::filesystem::create_directories(dir_);
+    store_ = GraphStore::Open("sqlite:" + (dir_ / "map.db").string());
+  }
+  void TearDown() override {
+    store_.reset();
+    std::filesystem::remove_all(dir_);
+  }
+
+  static const Corridor& corridor() {
+    static const Corridor corridor;
+    return corridor;
+  }
+  static std::shared_ptr<const AppearanceVocabulary> vocabulary() {
+    static const auto vocabulary = Vocabulary(corridor());
+    return vocabulary;
+  }
+
+  std::filesystem::path dir_;
+  std::unique_ptr<GraphStore> store_;
+};
+
+TEST_F(ExperienceBuilderTest, FirstOutingSavesExperiencesOnlyWhereNothingLocalises) {
+  ExperienceMap map(vocabulary());
+  DistanceRanking policy;
+  ExperienceBuilder builder(store_.get(), map, policy, {});
+  const std::vector<Frame> frames = corridor().Outing(0);
+  const OutingSummary summary = Drive(builder, frames);
+  // Each frame is compared with experiences a metre or more away, which share most landmarks
+  // with it; only where none exists yet is a node saved. The first frame has nothing.
+  EXPECT_GE(summary.created, 1);
+  EXPECT_LT(summary.created, summary.frames / 2) << "localises against its own fresh nodes";
+  const StoreStats stats = store_->Stats();
+  EXPECT_EQ(stats.nodes, summary.created);
+  EXPECT_EQ(static_cast<std::size_t>(stats.nodes), map.size());
+  EXPECT_EQ(stats.paths, 1);
+}
+
+TEST_F(ExperienceBuilderTest, SameConditionLocalisesNewConditionBranchesAndRejoins) {
+  ExperienceMap map(vocabulary());
+  DistanceRanking policy;
+  ExperienceBuilder builder(store_.get(), map, policy, {});
+  const OutingSummary day1 = Drive(builder, corridor().Outing(0));
+  const OutingSummary day2 = Drive(builder, corridor().Outing(0));
+  EXPECT_EQ(day2.created, 0) << "the day map localises the second day";
+  EXPECT_EQ(day2.localised, day2.frames);
+  EXPECT_EQ(day2.worst_gap_m, 0.0);
+
+  const OutingSummary night = Drive(builder, corridor().Outing(1));
+  EXPECT_GT(night.created, 0) << "night shares no landmark with day";
+  EXPECT_LT(night.localised, night.frames);
+  const std::size_t nodes_after_night = map.size();
+  const OutingSummary night2 = Drive(builder, corridor().Outing(1));
+  EXPECT_EQ(night2.created, 0) << "the night experiences serve the next night";
+  EXPECT_EQ(map.size(), nodes_after_night);
+
+  // The store holds exactly the working map, and reloading it gives the same graph.
+  const ExperienceMap reloaded = ExperienceMap::Load(*store_, vocabulary());
+  EXPECT_EQ(reloaded.size(), map.size());
+  EXPECT_EQ(reloaded.metric_edge_count(), map.metric_edge_count());
+  EXPECT_EQ(store_->Stats().paths, 4);
+  EXPECT_EQ(day1.created + night.created, static_cast<int>(map.size()));
+}
+
+TEST_F(ExperienceBuilderTest, LocaliseOnlyNeverWritesAndRelocalisesWhenLost) {
+  ExperienceMap map(vocabulary());
+  DistanceRanking build_policy;
+  ExperienceBuilder builder(store_.get(), map, build_policy, {});
+  Drive(builder, corridor().Outing(0));
+  const StoreStats before = store_->Stats();
+  const std::size_t nodes_before = map.size();
+
+  DistanceRanking policy;
+  ExperienceBuilder localiser(nullptr, map, policy, {.localise_only = true});
+  // Starting 40 m down the corridor, lost: only the appearance index can find the place.
+  const OutingSummary day = Drive(localiser, corridor().Outing(0, 40.0));
+  EXPECT_EQ(day.localised, day.frames);
+  EXPECT_EQ(day.created, 0);
+
+  const OutingSummary night = Drive(localiser, corridor().Outing(1));
+  EXPECT_EQ(night.localised, 0);
+  EXPECT_EQ(night.created, 0);
+  EXPECT_NEAR(night.worst_gap_m, Corridor::kLength_m, 1e-9) << "ground truth, not frames";
+
+  EXPECT_EQ(map.size(), nodes_before);
+  const StoreStats after = store_->Stats();
+  EXPECT_EQ(after.nodes, before.nodes);
+  EXPECT_EQ(after.edges, before.edges);
+}
+
+TEST_F(ExperienceBuilderTest, PathRankingLearnsPathsFromTheBuild) {
+  ExperienceMap map(vocabulary());
+  PathRanking policy(PathMemory{}, {});
+  ExperienceBuilder builder(store_.get(), map, policy, {.cores = 2});
+  Drive(builder, corridor().Outing(0));
+  Drive(builder, corridor().Outing(1));
+  // Every path edge the builder wrote reached the policy's memory, and the store's copy loads
+  // into the same memory.
+  EXPECT_EQ(policy.memory().path_count(), 2u);
+  const PathMemory loaded = PathMemory::Load(*store_);
+  EXPECT_EQ(loaded.path_count(), 2u);
+  EXPECT_EQ(loaded.node_count(), policy.memory().node_count());
+}
+
+TEST_F(ExperienceBuilderTest, RejectsBadOptionsAndMissingStore) {
+  ExperienceMap map(vocabulary());
+  DistanceRanking policy;
+  EXPECT_THROW(ExperienceBuilder(store_.get(), map, policy, {.cores = 0}), Error);
+  EXPECT_THROW(ExperienceBuilder(store_.get(), map, policy, {.rounds = 0}), Error);
+  EXPECT_THROW(ExperienceBuilder(nullptr, map, policy, {}), Error);
+  ExperienceBuilder builder(store_.get(), map, policy, {});
+  EXPECT_THROW(builder.Process(Frame{}), Error);
+}
+
+}  // namespace
+}  // namespace fleetmap
