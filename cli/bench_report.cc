@@ -9,6 +9,7 @@
 #include <tuple>
 
 #include "fleetmap/common/error.h"
+#include "fleetmap/experiments/gnuplot.h"
 
 namespace fleetmap::cli {
 
@@ -44,13 +45,6 @@ std::string BackendLabel(const std::string& backend) {
 std::string ShellQuote(const std::string& s) {
   std::string quoted = "'";
   for (char c : s) quoted += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return quoted + "'";
-}
-
-// Single quotes for gnuplot ('' inside stands for one quote).
-std::string GnuplotQuote(const std::string& s) {
-  std::string quoted = "'";
-  for (char c : s) quoted += c == '\'' ? std::string("''") : std::string(1, c);
   return quoted + "'";
 }
 

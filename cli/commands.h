@@ -7,5 +7,6 @@ namespace fleetmap::cli {
 
 void AddDemoCommand(CLI::App& app);
 void AddBenchCommand(CLI::App& app);
+void AddExperimentCommand(CLI::App& app);
 
 }  // namespace fleetmap::cli

@@ -12,6 +12,7 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   fleetmap::cli::AddDemoCommand(app);
   fleetmap::cli::AddBenchCommand(app);
+  fleetmap::cli::AddExperimentCommand(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
