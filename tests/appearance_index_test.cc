@@ -19,6 +19,7 @@ namespace {
 
 using testing::RandomDescriptor;
 using testing::RandomDescriptors;
+using testing::RevisitPlace;
 
 constexpr std::size_t kPlaces = 300;
 constexpr std::size_t kDescriptorsPerPlace = 150;
@@ -38,22 +39,6 @@ std::vector<std::vector<Descriptor256>> MakePlaces(std::size_t count, std::uint3
     places.push_back(RandomDescriptors(kDescriptorsPerPlace, rng));
   }
   return places;
-}
-
-// The place seen again: each bit flipped with probability 0.05, then 30% of the descriptors
-// replaced by unrelated ones (other things in view).
-std::vector<Descriptor256> Revisit(std::vector<Descriptor256> place, std::mt19937& rng) {
-  constexpr std::uint32_t kFlipBelow = 214748365;  // 0.05 * 2^32
-  for (Descriptor256& d : place) {
-    for (std::size_t bit = 0; bit < 256; ++bit) {
-      if (rng() < kFlipBelow) d[bit / 8] ^= static_cast<std::uint8_t>(1u << (bit % 8));
-    }
-  }
-  std::vector<std::size_t> order(place.size());
-  std::iota(order.begin(), order.end(), 0);
-  std::shuffle(order.begin(), order.end(), rng);
-  for (std::size_t k = 0; k < place.size() * 3 / 10; ++k) place[order[k]] = RandomDescriptor(rng);
-  return place;
 }
 
 // Every third place: the vocabulary is trained on part of the map, as a fleet's would be.
@@ -213,7 +198,8 @@ TEST(AppearanceIndex, RecognisesRevisitedPlaces) {
   std::mt19937 rng(2024);
   std::size_t top1 = 0, top5 = 0;
   for (std::size_t place = 0; place < kPlaces; ++place) {
-    const std::vector<AppearanceMatch> matches = p.index.Query(Revisit(p.places[place], rng), 5);
+    const std::vector<AppearanceMatch> matches =
+        p.index.Query(RevisitPlace(p.places[place], rng), 5);
     ASSERT_EQ(matches.size(), 5u);
     top1 += matches[0].node == PlaceId(place) ? 1 : 0;
     top5 += std::any_of(matches.begin(), matches.end(),
@@ -238,7 +224,8 @@ TEST(AppearanceIndex, UnseenPlacesScoreBelowTrueMatches) {
   std::mt19937 rng(77);
   std::vector<double> true_scores;
   for (std::size_t place = 0; place < kPlaces; ++place) {
-    const auto matches = p.index.Query(Revisit(p.places[place], rng), static_cast<int>(kPlaces));
+    const auto matches =
+        p.index.Query(RevisitPlace(p.places[place], rng), static_cast<int>(kPlaces));
     const auto it = std::find_if(matches.begin(), matches.end(), [&](const AppearanceMatch& m) {
       return m.node == PlaceId(place);
     });
@@ -279,7 +266,7 @@ TEST(AppearanceIndex, ScoresEqualTheDefinitionAfterEveryAdd) {
   AppearanceIndex index(p.vocabulary);
   std::map<Uuid, std::vector<Descriptor256>> nodes;
   std::mt19937 rng(5);
-  const std::vector<Descriptor256> query = Revisit(p.places[3], rng);
+  const std::vector<Descriptor256> query = RevisitPlace(p.places[3], rng);
   for (std::size_t place = 0; place < 12; ++place) {
     // Add in a scrambled id order; place 7 brings no descriptors.
     const Uuid id = PlaceId((place * 5) % 12);
@@ -303,7 +290,7 @@ TEST(AppearanceIndex, ScoresEqualTheDefinitionOnTheFullIndex) {
   for (std::size_t place = 0; place < kPlaces; ++place) nodes[PlaceId(place)] = p.places[place];
   std::mt19937 rng(6);
   for (const std::vector<Descriptor256>& query :
-       {Revisit(p.places[250], rng), RandomDescriptors(kDescriptorsPerPlace, rng)}) {
+       {RevisitPlace(p.places[250], rng), RandomDescriptors(kDescriptorsPerPlace, rng)}) {
     const std::map<Uuid, double> expected = ReferenceScores(*p.vocabulary, nodes, query);
     const std::vector<AppearanceMatch> matches = p.index.Query(query, static_cast<int>(kPlaces));
     ASSERT_EQ(matches.size(), kPlaces);

@@ -26,6 +26,24 @@ inline std::vector<Descriptor256> RandomDescriptors(std::size_t n, std::mt19937&
 }
 
 // `d` with `bits` distinct bits flipped.
+// A place seen again, for appearance-index tests and benchmarks: each bit flipped with
+// probability 0.05, then 30% of the descriptors replaced by unrelated ones (other things in
+// view).
+inline std::vector<Descriptor256> RevisitPlace(std::vector<Descriptor256> place,
+                                               std::mt19937& rng) {
+  constexpr std::uint32_t kFlipBelow = 214748365;  // 0.05 * 2^32
+  for (Descriptor256& d : place) {
+    for (std::size_t bit = 0; bit < 256; ++bit) {
+      if (rng() < kFlipBelow) d[bit / 8] ^= static_cast<std::uint8_t>(1u << (bit % 8));
+    }
+  }
+  std::vector<std::size_t> order(place.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::shuffle(order.begin(), order.end(), rng);
+  for (std::size_t k = 0; k < place.size() * 3 / 10; ++k) place[order[k]] = RandomDescriptor(rng);
+  return place;
+}
+
 inline Descriptor256 FlipBits(Descriptor256 d, int bits, std::mt19937& rng) {
   std::vector<int> positions(256);
   std::iota(positions.begin(), positions.end(), 0);

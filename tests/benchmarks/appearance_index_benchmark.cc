@@ -27,22 +27,6 @@ Uuid PlaceId(std::size_t place) {
   return Uuid(bytes);
 }
 
-std::vector<Descriptor256> Revisit(std::vector<Descriptor256> place, std::mt19937& rng) {
-  constexpr std::uint32_t kFlipBelow = 214748365;  // 0.05 * 2^32
-  for (Descriptor256& d : place) {
-    for (std::size_t bit = 0; bit < 256; ++bit) {
-      if (rng() < kFlipBelow) d[bit / 8] ^= static_cast<std::uint8_t>(1u << (bit % 8));
-    }
-  }
-  std::vector<std::size_t> order(place.size());
-  std::iota(order.begin(), order.end(), 0);
-  std::shuffle(order.begin(), order.end(), rng);
-  for (std::size_t k = 0; k < place.size() * 3 / 10; ++k) {
-    place[order[k]] = testing::RandomDescriptor(rng);
-  }
-  return place;
-}
-
 struct Map {
   std::vector<std::vector<Descriptor256>> places;
   std::vector<Descriptor256> training_sample;
@@ -87,7 +71,7 @@ void BM_AppearanceQuery(benchmark::State& state) {
   std::vector<std::vector<Descriptor256>> queries;
   for (int q = 0; q < 64; ++q) {
     truth.push_back(rng() % kPlaces);
-    queries.push_back(Revisit(map.places[truth.back()], rng));
+    queries.push_back(testing::RevisitPlace(map.places[truth.back()], rng));
   }
   std::size_t next = 0, queried = 0, top1 = 0;
   for (auto _ : state) {
