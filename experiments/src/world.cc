@@ -276,7 +276,8 @@ double Of(const PerWeather& v, Weather w) {
 }
 
 // Which of a landmark's looks shows in a condition; distinct per landmark class's looks.
-int LookIndex(LandmarkClass kind, Lighting lighting, Weather weather) {
+// `sun_phase` counts shadow phases since the landmark's day start (0 outside sunny daylight).
+int LookIndex(LandmarkClass kind, Lighting lighting, Weather weather, int sun_phase) {
   const int l = static_cast<int>(lighting);
   const int w = static_cast<int>(weather);
   switch (kind) {
@@ -289,7 +290,7 @@ int LookIndex(LandmarkClass kind, Lighting lighting, Weather weather) {
     case LandmarkClass::kLightingWeather:
     case LandmarkClass::kStructural:
     case LandmarkClass::kParkedCar:
-      return 8 + 3 * l + w;
+      return sun_phase > 0 ? 20 + sun_phase : 8 + 3 * l + w;
   }
   return 0;
 }
@@ -570,9 +571,16 @@ void World::Impl::Render(const Se3& world_T_camera, double arc_length_m, const C
 
       const auto replacements = static_cast<std::int64_t>(
           std::floor(condition.days * m.replacement_rate_per_day + m.replacement_phase));
-      Descriptor256 d =
-          LookDescriptor(Hash(config.seed, Stream::kLook, i, replacements,
-                              LookIndex(m.kind, lighting, condition.weather), incarnation));
+      int sun_phase = 0;
+      if (ap.sun_shadow_phase_h > 0.0 && lighting == Lighting::kDay &&
+          condition.weather == Weather::kSun) {
+        double since_day_h = condition.time_of_day_h - m.dawn_start_h - m.after_dawn_h[0];
+        since_day_h -= 24.0 * std::floor(since_day_h / 24.0);
+        sun_phase = 1 + static_cast<int>(since_day_h / ap.sun_shadow_phase_h);
+      }
+      Descriptor256 d = LookDescriptor(
+          Hash(config.seed, Stream::kLook, i, replacements,
+               LookIndex(m.kind, lighting, condition.weather, sun_phase), incarnation));
       if (ob.viewpoint_bits_per_level > 0) {
         // Steps of scale from a 10 m view, and of bearing from straight across the road.
         const Eigen::Vector3d camera_world = world_T_camera.translation();

@@ -129,6 +129,7 @@ void Fields(V& v, T& c) {
   v.Number("dusk_start_h", c.dusk_start_h, RightOpen(0, 24));
   v.Number("night_start_h", c.night_start_h, RightOpen(0, 24));
   v.Number("boundary_jitter_h", c.boundary_jitter_h, RightOpen(0, 12));
+  v.Number("sun_shadow_phase_h", c.sun_shadow_phase_h, RightOpen(0, 24));
   v.Number("structural_period_min_days", c.structural_period_min_days, LeftOpen(0, 1e5));
   v.Number("structural_period_max_days", c.structural_period_max_days, LeftOpen(0, 1e5));
   v.Number("structural_presence", c.structural_presence, Closed(0, 1));
