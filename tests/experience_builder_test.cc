@@ -4,8 +4,12 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <array>
 #include <filesystem>
 #include <random>
+#include <tuple>
+#include <unordered_map>
 
 #include "fleetmap/common/error.h"
 #include "fleetmap/policies/distance_ranking.h"
@@ -81,7 +85,10 @@ struct OutingSummary {
 };
 
 OutingSummary Drive(ExperienceBuilder& builder, const std::vector<Frame>& frames) {
-  builder.StartOuting({Uuid::Generate(), Uuid::Generate(), Uuid()});
+  OutingStart start;
+  start.robot = Uuid::Generate();
+  start.outing = Uuid::Generate();
+  builder.StartOuting(start);
   OutingSummary summary;
   for (const Frame& frame : frames) {
     const FrameReport report = builder.Process(frame);
@@ -203,6 +210,112 @@ TEST_F(ExperienceBuilderTest, PathRankingLearnsPathsFromTheBuild) {
   const PathMemory loaded = PathMemory::Load(*store_);
   EXPECT_EQ(loaded.path_count(), 2u);
   EXPECT_EQ(loaded.node_count(), policy.memory().node_count());
+}
+
+TEST_F(ExperienceBuilderTest, AddsANodeOnFailureAndAPathEdgeWhenTheMatchedNodeChanges) {
+  ExperienceMap map(vocabulary());
+  DistanceRanking policy;
+  ExperienceBuilder builder(store_.get(), map, policy, {});
+  Drive(builder, corridor().Outing(0));
+  const Uuid dock = map.at(0).node.id;
+  const StoreStats before = store_->Stats();
+
+  // Day again from the dock: every frame localises, nothing is added, and each change of the
+  // node the robot is localised in is one edge of this outing's path.
+  const Uuid day_path = Uuid::Generate();
+  builder.StartOuting({Uuid::Generate(), Uuid::Generate(), day_path, dock});
+  Uuid previous = dock;
+  int changes = 0;
+  for (const Frame& frame : corridor().Outing(0)) {
+    const FrameReport report = builder.Process(frame);
+    ASSERT_GT(report.successes, 0);
+    ASSERT_FALSE(report.created_experience);
+    if (report.reference != previous) ++changes;
+    previous = report.reference;
+  }
+  builder.FinishOuting();
+  EXPECT_EQ(store_->Stats().nodes, before.nodes);
+  ASSERT_GT(changes, 0);
+  const std::vector<Edge> path_edges = store_->EdgesOfPath(day_path);
+  EXPECT_EQ(static_cast<int>(path_edges.size()), changes);
+  for (const Edge& edge : path_edges) {
+    EXPECT_EQ(edge.kind, EdgeKind::kPath);
+    EXPECT_EQ(edge.path, day_path);
+    EXPECT_TRUE(store_->FindNode(edge.from).has_value());
+    EXPECT_TRUE(store_->FindNode(edge.to).has_value());
+  }
+
+  // Night from the dock: the first frame fails against every day node, so it becomes a new
+  // node, hung off the dock by a metric edge, and the night path steps onto it.
+  const Uuid night_path = Uuid::Generate();
+  builder.StartOuting({Uuid::Generate(), Uuid::Generate(), night_path, dock});
+  const FrameReport first = builder.Process(corridor().Outing(1).front());
+  EXPECT_EQ(first.successes, 0);
+  EXPECT_TRUE(first.created_experience);
+  builder.FinishOuting();
+  EXPECT_EQ(store_->Stats().nodes, before.nodes + 1);
+  ASSERT_TRUE(store_->FindNode(first.reference).has_value());
+  int metric_from_dock = 0, path_from_dock = 0;
+  for (const Edge& edge : store_->EdgesTo(first.reference)) {
+    EXPECT_EQ(edge.from, dock);
+    metric_from_dock += edge.kind == EdgeKind::kMetric ? 1 : 0;
+    path_from_dock += edge.kind == EdgeKind::kPath && edge.path == night_path ? 1 : 0;
+  }
+  EXPECT_EQ(metric_from_dock, 1);
+  EXPECT_EQ(path_from_dock, 1);
+}
+
+// The map as its structure: nodes keyed by (outing, stamp), edges by their ends' keys. UUIDs
+// of new nodes and edges are random, so two builds are compared through these.
+struct MapShape {
+  std::vector<std::tuple<Uuid, std::int64_t, std::string>> nodes;
+  std::vector<std::tuple<std::int64_t, std::int64_t, int, bool>> edges;  // stamps, kind, path
+  bool operator==(const MapShape&) const = default;
+};
+
+MapShape ShapeOf(GraphStore& store) {
+  MapShape shape;
+  std::unordered_map<Uuid, std::int64_t> stamp_of;
+  std::vector<Uuid> ids;
+  for (const Node& node : store.ListNodes({})) {
+    shape.nodes.emplace_back(node.outing, node.stamp_ns, node.landmarks_blob);
+    stamp_of[node.id] = node.stamp_ns;
+    ids.push_back(node.id);
+  }
+  for (const Edge& edge : store.EdgesTouching(ids)) {
+    shape.edges.emplace_back(stamp_of.at(edge.from), stamp_of.at(edge.to),
+                             static_cast<int>(edge.kind), !edge.path.IsNil());
+  }
+  std::sort(shape.nodes.begin(), shape.nodes.end());
+  std::sort(shape.edges.begin(), shape.edges.end());
+  return shape;
+}
+
+TEST_F(ExperienceBuilderTest, SameFramesSameMap) {
+  const Uuid robot = Uuid::Generate();
+  const std::array<Uuid, 3> outings = {Uuid::Generate(), Uuid::Generate(), Uuid::Generate()};
+  const auto build = [&](GraphStore& store) {
+    ExperienceMap map(vocabulary());
+    DistanceRanking policy;
+    ExperienceBuilder builder(&store, map, policy, {.cores = 2});
+    for (std::size_t i = 0; i < outings.size(); ++i) {
+      OutingStart start;
+      start.robot = robot;
+      start.outing = outings[i];
+      builder.StartOuting(start);
+      for (const Frame& frame : corridor().Outing(static_cast<int>(i % 2))) builder.Process(frame);
+      builder.FinishOuting();
+    }
+    return ShapeOf(store);
+  };
+  const MapShape first = build(*store_);
+  const std::unique_ptr<GraphStore> other =
+      GraphStore::Open("sqlite:" + (dir_ / "other.db").string());
+  const MapShape second = build(*other);
+  ASSERT_FALSE(first.nodes.empty());
+  EXPECT_EQ(first.nodes.size(), second.nodes.size());
+  EXPECT_EQ(first.edges.size(), second.edges.size());
+  EXPECT_TRUE(first == second) << "same frames, same seed: the same experiences and edges";
 }
 
 TEST_F(ExperienceBuilderTest, RejectsBadOptionsAndMissingStore) {

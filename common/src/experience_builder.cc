@@ -35,11 +35,13 @@ void ExperienceBuilder::StartOuting(const OutingStart& start) {
   k_T_q_ = Se3::Identity();
   reference_is_new_ = false;
   anchor_.reset();
+  path_tail_ = Uuid();
   anchor_T_q_ = Se3::Identity();
   anchor_travel_m_ = 0.0;
   if (!start.start_node.IsNil()) {
     if (const auto start_node = map_.Find(start.start_node)) {
       reference_ = anchor_ = *start_node;
+      path_tail_ = start.start_node;
       k_T_q_ = anchor_T_q_ = start.start_node_T_camera;
     }
   }
@@ -126,9 +128,13 @@ std::optional<ExperienceBuilder::Attempt> ExperienceBuilder::Relocalise(
 void ExperienceBuilder::RecordPathStep(const Uuid& to) {
   // Path memory (seed 002 §IV): a non-metric edge each time the node the robot is localised
   // in changes. Localise-only runs leave the map, path memory included, untouched.
-  if (options_.localise_only || !reference_) return;
-  const Uuid& from = map_.at(*reference_).node.id;
-  if (from == to) return;
+  // The edge starts from the path's last node, not from n_k: dead reckoning may have
+  // recentred n_k onto the very node that then localises, and that node must still join
+  // the path.
+  if (options_.localise_only) return;
+  const Uuid from = path_tail_;
+  path_tail_ = to;
+  if (from.IsNil() || from == to) return;
   Edge edge;
   edge.id = Uuid::Generate();
   edge.from = from;

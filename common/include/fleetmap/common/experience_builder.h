@@ -118,6 +118,7 @@ class ExperienceBuilder {
   bool reference_is_new_ = false;
   std::optional<ExperienceMap::NodeIndex> anchor_;  // the last node localised in
   Se3 anchor_T_q_ = Se3::Identity();
+  Uuid path_tail_;  // the last node on this outing's path (nil before the first)
   double anchor_travel_m_ = 0.0;
   double vo_since_success_m_ = 0.0;
   double truth_since_success_m_ = 0.0;
