@@ -2,7 +2,9 @@
 // 002 Fig. 5 by hand.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <random>
 #include <vector>
 
 #include "fleetmap/common/error.h"
@@ -130,6 +132,81 @@ TEST(PathRanking, StartOutingClearsObservationsButKeepsMemory) {
   EXPECT_EQ(ranking.memory().path_count(), 2u);
   EXPECT_NEAR(ranking.LogPosterior(Id(4), Id(9)), std::log(2.0), 1e-12);
 }
+
+// Eqs. 5–9 evaluated term by term from their definitions, for checking the fast path.
+double DirectLogPosterior(const PathMemory& memory, const Uuid& reference, const Uuid& candidate,
+                          const std::vector<std::pair<Uuid, bool>>& observed) {
+  double score = std::log(memory.SharedPaths(candidate, reference) + 1.0);
+  double denominator = 0.0;
+  for (const auto& [node, success] : observed)
+    denominator += memory.SharedPaths(candidate, node) + 1.0;
+  for (const auto& [node, success] : observed) {
+    const double theta = (memory.SharedPaths(candidate, node) + 1.0) / denominator;
+    score += std::log(success ? theta : 1.0 - theta);
+  }
+  return score;
+}
+
+Uuid NodeId(int n) {
+  Uuid::Bytes bytes{};
+  bytes[0] = 2;
+  bytes[14] = static_cast<std::uint8_t>(n >> 8);
+  bytes[15] = static_cast<std::uint8_t>(n);
+  return Uuid(bytes);
+}
+
+// Few paths (bitsets over every path, one word and several) and many (bitsets over the paths
+// touching W only) must all give the definition's numbers.
+class PathRankingMatchesDefinition : public ::testing::TestWithParam<int> {};
+
+TEST_P(PathRankingMatchesDefinition, OnARandomMap) {
+  const int paths = GetParam();
+  constexpr int kNodes = 600;
+  std::mt19937 rng(static_cast<unsigned>(paths));
+  std::uniform_int_distribution<int> pick_node(0, kNodes - 1), pick_path(0, paths - 1),
+      per_node(0, 6);
+  PathMemory memory;
+  for (int i = 0; i < kNodes; ++i) {
+    for (int k = per_node(rng); k > 0; --k) {
+      memory.AddPathEdge(NodeId(10'000 + pick_path(rng)), NodeId(i), NodeId(pick_node(rng)));
+    }
+  }
+  PathRanking ranking(memory, {.window_iterations = 30});
+  std::vector<std::pair<Uuid, bool>> window;  // W with each member's latest outcome
+  std::bernoulli_distribution success(0.4);
+  for (int t = 0; t < 30; ++t) {
+    std::vector<LocalisationAttempt> attempts;
+    for (int a = 0; a < 4; ++a) {
+      // Some attempts on nodes on no path, which count in |W| but link to nothing.
+      const Uuid node = t % 7 == 0 && a == 0 ? NodeId(5000 + t) : NodeId(pick_node(rng));
+      attempts.push_back({node, success(rng)});
+    }
+    ranking.ObserveIteration(attempts);
+    for (const LocalisationAttempt& attempt : attempts) {
+      const auto it = std::find_if(window.begin(), window.end(),
+                                   [&](const auto& entry) { return entry.first == attempt.node; });
+      if (it == window.end()) {
+        window.emplace_back(attempt.node, attempt.success);
+      } else {
+        it->second = attempt.success;
+      }
+    }
+  }
+  ASSERT_EQ(ranking.observation_count(), window.size());
+  const Uuid reference = NodeId(pick_node(rng));
+  for (int c = 0; c < 40; ++c) {
+    const Uuid candidate = NodeId(c == 0 ? 5000 : pick_node(rng));  // one candidate on no path
+    const double expected = DirectLogPosterior(memory, reference, candidate, window);
+    const double actual = ranking.LogPosterior(reference, candidate);
+    if (std::isinf(expected)) {
+      EXPECT_EQ(actual, expected) << "candidate " << c;
+    } else {
+      EXPECT_NEAR(actual, expected, 1e-9 * std::abs(expected)) << "candidate " << c;
+    }
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(PathCounts, PathRankingMatchesDefinition, ::testing::Values(40, 200, 400));
 
 TEST(PathRanking, RejectsNegativeWindow) {
   EXPECT_THROW(PathRanking(PathMemory{}, {.window_iterations = -1}), Error);

@@ -29,21 +29,39 @@ PathMemory PathMemory::Load(GraphStore& store) {
   return memory;
 }
 
-PathMemory::PathIndex PathMemory::AddPathEdge(const Uuid& path, const Uuid& from, const Uuid& to) {
-  const PathIndex index =
-      path_index_.try_emplace(path, static_cast<PathIndex>(path_index_.size())).first->second;
-  InsertSorted(paths_of_node_[from], index);
-  InsertSorted(paths_of_node_[to], index);
-  return index;
-}
-
-std::span<const PathMemory::PathIndex> PathMemory::PathsThrough(const Uuid& node) const {
-  const auto it = paths_of_node_.find(node);
-  if (it == paths_of_node_.end()) return {};
+PathMemory::NodeIndex PathMemory::Intern(const Uuid& node) {
+  const auto [it, inserted] =
+      node_index_.try_emplace(node, static_cast<NodeIndex>(paths_of_node_.size()));
+  if (inserted) paths_of_node_.emplace_back();
   return it->second;
 }
 
+PathMemory::PathIndex PathMemory::AddPathEdge(const Uuid& path, const Uuid& from, const Uuid& to) {
+  const PathIndex index =
+      path_index_.try_emplace(path, static_cast<PathIndex>(path_index_.size())).first->second;
+  InsertSorted(paths_of_node_[Intern(from)], index);
+  InsertSorted(paths_of_node_[Intern(to)], index);
+  return index;
+}
+
+std::optional<PathMemory::NodeIndex> PathMemory::Find(const Uuid& node) const {
+  const auto it = node_index_.find(node);
+  if (it == node_index_.end()) return std::nullopt;
+  return it->second;
+}
+
+std::span<const PathMemory::PathIndex> PathMemory::PathsThrough(const Uuid& node) const {
+  const std::optional<NodeIndex> index = Find(node);
+  if (!index) return {};
+  return paths_of_node_[*index];
+}
+
 int PathMemory::SharedPaths(const Uuid& a, const Uuid& b) const {
+  const std::optional<NodeIndex> ia = Find(a), ib = Find(b);
+  return ia && ib ? SharedPaths(*ia, *ib) : 0;
+}
+
+int PathMemory::SharedPaths(NodeIndex a, NodeIndex b) const {
   const std::span<const PathIndex> pa = PathsThrough(a), pb = PathsThrough(b);
   int shared = 0;
   auto i = pa.begin();

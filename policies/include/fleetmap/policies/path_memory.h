@@ -8,6 +8,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <span>
 #include <unordered_map>
 #include <vector>
@@ -20,6 +21,7 @@ namespace fleetmap {
 class PathMemory {
  public:
   using PathIndex = std::uint32_t;
+  using NodeIndex = std::uint32_t;  // dense, in order of first appearance; never reused
 
   // Every path of the store and the nodes its path edges touch.
   static PathMemory Load(GraphStore& store);
@@ -28,19 +30,28 @@ class PathMemory {
   // dense index.
   PathIndex AddPathEdge(const Uuid& path, const Uuid& from, const Uuid& to);
 
+  // The node's dense index, if it lies on any path. Stable for the memory's lifetime, so hot
+  // loops can hold it instead of hashing the UUID again.
+  std::optional<NodeIndex> Find(const Uuid& node) const;
+
   // The paths through a node as ascending dense indexes (empty for an unknown node). The
   // span is valid until the next AddPathEdge.
   std::span<const PathIndex> PathsThrough(const Uuid& node) const;
+  std::span<const PathIndex> PathsThrough(NodeIndex node) const { return paths_of_node_[node]; }
 
-  // |paths(a) ∩ paths(b)|.
+  // |paths(a) ∩ paths(b)|; 0 when either lies on no path.
   int SharedPaths(const Uuid& a, const Uuid& b) const;
+  int SharedPaths(NodeIndex a, NodeIndex b) const;
 
   std::size_t path_count() const { return path_index_.size(); }
   std::size_t node_count() const { return paths_of_node_.size(); }
 
  private:
+  NodeIndex Intern(const Uuid& node);
+
   std::unordered_map<Uuid, PathIndex> path_index_;
-  std::unordered_map<Uuid, std::vector<PathIndex>> paths_of_node_;  // each sorted, unique
+  std::unordered_map<Uuid, NodeIndex> node_index_;
+  std::vector<std::vector<PathIndex>> paths_of_node_;  // by NodeIndex; each sorted, unique
 };
 
 }  // namespace fleetmap

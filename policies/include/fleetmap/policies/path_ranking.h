@@ -9,13 +9,21 @@
 // W is every node attempted in the last T localiser iterations with its latest outcome z_j
 // (§V-A). Everything is in log space: with |W| in the hundreds the products underflow.
 //
-// Cost: the observation window is kept incrementally, as lists of the W members on each path,
-// updated when an iteration enters or leaves the window or a path edge is added. Ranking then
-// touches, per candidate, only the W members that share a path with it:
-// O(Σ_i Σ_{p ∋ i} |W ∩ p|), independent of how many paths avoid the window.
+// With D = Σ_x (Z_ix + 1) = |W| + Σ_x Z_ix, the log posterior reduces to
+//   log(N_ik + 1) − |W| log D + Σ_{z_j=1} log(Z_ij + 1) + Σ_{z_j=0} log(D − 1 − Z_ij)
+// (up to a constant shared by all candidates), which depends on the candidate only through
+// the histogram of Z_ij over W's successes and failures.
+//
+// Cost: path memory keeps each node's paths incrementally (PathMemory), W is kept
+// incrementally as iterations enter and leave the window, and once per Rank call the path
+// sets of W are compacted to bitsets over only the paths that touch W. Each candidate then
+// costs one AND + popcount per W member and word: O(|Y| |W| ⌈K / 64⌉), K = paths touching W.
 #pragma once
 
+#include <cstdint>
 #include <deque>
+#include <optional>
+#include <span>
 #include <unordered_map>
 #include <vector>
 
@@ -48,28 +56,44 @@ class PathRanking final : public RankingPolicy {
   std::size_t observation_count() const { return observed_.size(); }
 
  private:
+  // A member of W. Kept in a dense vector so ranking walks W without hashing.
   struct Observation {
-    int slot = 0;          // dense index into z_ and counts_
-    int occurrences = 0;   // attempts on this node still inside the window
-    bool success = false;  // the latest outcome z_j
+    Uuid id;
+    std::optional<PathMemory::NodeIndex> node;  // in path memory; none while on no path
+    bool success = false;                       // the latest outcome z_j
+    int occurrences = 0;                        // attempts on this node still inside the window
   };
 
   void Observe(const LocalisationAttempt& attempt);
   void Forget(const Uuid& node);
-  void JoinPath(PathMemory::PathIndex path, int slot);
+  // Compacts W's path sets to bitsets over the paths that touch W (see the cost note).
+  void Prepare(std::optional<PathMemory::NodeIndex> reference);
+  double Score(std::optional<PathMemory::NodeIndex> reference, const Uuid& candidate);
   double Log(int n);
 
   PathMemory memory_;
   PathRankingOptions options_;
 
   std::deque<std::vector<LocalisationAttempt>> window_;  // last T iterations, oldest first
-  std::unordered_map<Uuid, Observation> observed_;       // W
-  int successes_ = 0;                                    // |{j : z_j = 1}|
-  std::vector<std::vector<int>> members_of_path_;        // path index -> slots of W on it
-  std::vector<int> free_slots_;
-  std::vector<char> z_;       // slot -> outcome
-  std::vector<int> counts_;   // slot -> Z_ij scratch for the candidate being scored
-  std::vector<int> touched_;  // slots with counts_ != 0
+  std::vector<Observation> observed_;                    // W
+  std::unordered_map<Uuid, std::size_t> slot_of_;        // W member -> index in observed_
+
+  // Scratch of Prepare / Score, kept to avoid allocation per call.
+  std::vector<int> local_of_path_;               // path index -> bit in the compact sets, or -1
+  std::vector<PathMemory::PathIndex> touching_;  // paths with local_of_path_ set
+  std::vector<PathMemory::NodeIndex> observed_nodes_;  // W's members on paths, successes first
+  int observed_count_ = 0;                             // |W|, members on no path included
+  int successes_ = 0;                                  // leading successes in observed_nodes_
+  int off_path_failures_ = 0;  // failed members of W on no path (Z_ij = 0 for every i)
+  std::size_t words_ = 1;      // 64-bit words per compact set
+  std::vector<std::uint64_t> observed_bits_;  // |W| × words_, W's compact path sets
+  std::vector<PathMemory::NodeIndex> failed_nodes_;
+  // Up to this many paths in memory, path sets are bitsets over every path; beyond, over the
+  // paths touching W only.
+  static constexpr std::size_t kDirectBitsetPaths = 256;
+  std::vector<int> members_on_path_;  // by bit: |W ∩ p|
+  std::vector<std::uint64_t> candidate_bits_;
+  std::vector<std::uint64_t> reference_bits_;  // n_k's paths, with bitsets over every path
   std::vector<double> log_table_;
 };
 
