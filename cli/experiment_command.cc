@@ -30,7 +30,7 @@ void ApplyScale(const std::string& scale, RankingExperimentOptions& options) {
     options.world.schedule.outings = 15;
     options.world.schedule.days = std::min(options.world.schedule.days, 10);
     options.cores = {1, 2, 4, 8};
-    options.windows = {0, 5, 10, 50};
+    options.windows = {0, 5, 20, 50};
     options.map_size_steps = 2;
   } else if (scale == "large") {
     options.world.schedule.outings *= 2;

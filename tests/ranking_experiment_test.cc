@@ -24,7 +24,7 @@ RankingExperimentOptions SmallOptions(const std::filesystem::path& dir) {
   options.world.schedule.days = 4;
   options.folds = 3;
   options.cores = {1, 2, 4};
-  options.windows = {0, 10};
+  options.windows = {0, options.default_window};
   options.map_size_steps = 2;
   options.threads = 2;
   options.work_dir = dir;

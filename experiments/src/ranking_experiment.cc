@@ -38,6 +38,7 @@ void Validate(const RankingExperimentOptions& o) {
   if (o.default_window < 0) fail("default_window must be >= 0");
   if (o.map_size_steps < 1) fail("map_size_steps must be >= 1");
   if (o.build_cores < 1) fail("build_cores must be >= 1");
+  if (o.build_rounds < 1) fail("build_rounds must be >= 1");
   if (o.threads < 1) fail("threads must be >= 1");
   if (o.work_dir.empty()) fail("work_dir must be set");
 }
@@ -229,6 +230,7 @@ class Experiment {
     DistanceRanking policy;
     BuilderOptions builder_options = options_.builder;
     builder_options.cores = options_.build_cores;
+    builder_options.rounds = options_.build_rounds;
     builder_options.localise_only = false;
     ExperienceBuilder builder(store.get(), *fold.map, policy, builder_options);
 
@@ -276,6 +278,7 @@ class Experiment {
     }
     BuilderOptions builder_options = options_.builder;
     builder_options.cores = spec.cores;
+    builder_options.rounds = 1;
     builder_options.localise_only = true;
     ExperienceBuilder localiser(nullptr, *fold.map, *policy, builder_options);
 

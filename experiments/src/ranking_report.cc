@@ -1,11 +1,13 @@
 #include "fleetmap/experiments/ranking_report.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <limits>
 #include <map>
 #include <sstream>
+#include <utility>
 
 #include "fleetmap/common/error.h"
 #include "fleetmap/experiments/gnuplot.h"
@@ -64,6 +66,25 @@ Totals Sum(const std::vector<const LocalisationRun*>& runs) {
 double Ratio(std::int64_t a, std::int64_t b) {
   return b == 0 ? std::numeric_limits<double>::quiet_NaN()
                 : static_cast<double>(a) / static_cast<double>(b);
+}
+
+// Mean experiences added per training outing over the first and the last quarter of each
+// fold's outings (the first outing, which starts the map, counts as adding all it holds).
+std::pair<double, double> GrowthPerOuting(const RankingExperimentResult& result) {
+  double early = 0.0, late = 0.0;
+  std::size_t early_n = 0, late_n = 0;
+  for (const FoldBuild& b : result.builds) {
+    const std::size_t n = b.nodes_after_outing.size();
+    const std::size_t quarter = std::max<std::size_t>(1, n / 4);
+    for (std::size_t k = 0; k < n; ++k) {
+      const double added = static_cast<double>(b.nodes_after_outing[k]) -
+                           (k == 0 ? 0.0 : static_cast<double>(b.nodes_after_outing[k - 1]));
+      if (k < quarter) early += added, ++early_n;
+      if (k >= n - quarter) late += added, ++late_n;
+    }
+  }
+  return {early_n ? early / static_cast<double>(early_n) : 0.0,
+          late_n ? late / static_cast<double>(late_n) : 0.0};
 }
 
 }  // namespace
@@ -210,7 +231,10 @@ std::string WriteRankingReport(const RankingExperimentResult& result,
      << "-fold cross-validation: " << result.frames_rendered << " frames rendered, "
      << Fixed(result.seconds, 1) << " s wall time on " << options.threads << " threads.\n"
      << "Maps built by single-agent EBN with Γ(distance), Np = " << options.build_cores
-     << "; Γ(path) uses T = " << options.default_window << " unless stated.\n"
+     << ", Nr = " << options.build_rounds << "; candidates within "
+     << Fixed(options.builder.candidate_radius_m, 1)
+     << " m of the position estimate; Γ(path) uses T = " << options.default_window
+     << " unless stated.\n"
      << "X is the ground-truth distance travelled since the last successful localisation, "
         "sampled at every frame of the held-out outings.\n\n";
   md << "## Maps\n\n| fold | training outings | nodes | metric edges | paths | build s |\n"
@@ -219,6 +243,10 @@ std::string WriteRankingReport(const RankingExperimentResult& result,
     md << "| " << b.fold << " | " << b.training_outings << " | " << b.nodes << " | "
        << b.metric_edges << " | " << b.paths << " | " << Fixed(b.seconds, 1) << " |\n";
   }
+  // Seed 002 §II: the experience count grows fast while conditions are new, then flattens.
+  const auto [early, late] = GrowthPerOuting(result);
+  md << "\nNew experiences per training outing, mean over folds: " << Fixed(early, 1)
+     << " in the first quarter of the outings, " << Fixed(late, 1) << " in the last quarter.\n";
   md << "\n## P(X > 10 m) vs cores (Fig. 11)\n\n| Np | Γ(distance) | Γ(path) | ratio |\n"
      << "|---|---|---|---|\n";
   for (const auto& [np, p] : by_cores) {
