@@ -37,8 +37,10 @@ PathMemory::NodeIndex PathMemory::Intern(const Uuid& node) {
 }
 
 PathMemory::PathIndex PathMemory::AddPathEdge(const Uuid& path, const Uuid& from, const Uuid& to) {
-  const PathIndex index =
-      path_index_.try_emplace(path, static_cast<PathIndex>(path_index_.size())).first->second;
+  const auto [it, inserted] =
+      path_index_.try_emplace(path, static_cast<PathIndex>(path_ids_.size()));
+  if (inserted) path_ids_.push_back(path);
+  const PathIndex index = it->second;
   InsertSorted(paths_of_node_[Intern(from)], index);
   InsertSorted(paths_of_node_[Intern(to)], index);
   return index;

@@ -43,13 +43,17 @@ class PathMemory {
   int SharedPaths(const Uuid& a, const Uuid& b) const;
   int SharedPaths(NodeIndex a, NodeIndex b) const;
 
-  std::size_t path_count() const { return path_index_.size(); }
+  // The path a dense index stands for. REQUIRES: path < path_count().
+  const Uuid& path_id(PathIndex path) const { return path_ids_[path]; }
+
+  std::size_t path_count() const { return path_ids_.size(); }
   std::size_t node_count() const { return paths_of_node_.size(); }
 
  private:
   NodeIndex Intern(const Uuid& node);
 
   std::unordered_map<Uuid, PathIndex> path_index_;
+  std::vector<Uuid> path_ids_;  // by PathIndex
   std::unordered_map<Uuid, NodeIndex> node_index_;
   std::vector<std::vector<PathIndex>> paths_of_node_;  // by NodeIndex; each sorted, unique
 };

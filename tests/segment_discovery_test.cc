@@ -1,0 +1,87 @@
+// MERGE's segment discovery (seed 004 Algorithm 1): every branch, and chains fed in any order.
+#include "fleetmap/policies/segment_discovery.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <random>
+#include <vector>
+
+namespace fleetmap {
+namespace {
+
+Uuid Id(int n) {
+  Uuid::Bytes bytes{};
+  bytes[0] = 3;
+  bytes[14] = static_cast<std::uint8_t>(n >> 8);
+  bytes[15] = static_cast<std::uint8_t>(n);
+  return Uuid(bytes);
+}
+
+std::vector<Uuid> Ids(std::initializer_list<int> ns) {
+  std::vector<Uuid> ids;
+  for (int n : ns) ids.push_back(Id(n));
+  return ids;
+}
+
+TEST(SegmentDiscovery, EveryBranchOfAlgorithm1) {
+  SegmentDiscovery discovery;
+  EXPECT_EQ(discovery.Add(Id(1), Id(2)), SegmentStep::kNew);      // neither end known
+  EXPECT_EQ(discovery.Add(Id(2), Id(3)), SegmentStep::kPrepend);  // source known: target joins
+  EXPECT_EQ(discovery.Add(Id(0), Id(1)), SegmentStep::kAppend);   // target known: source joins
+  ASSERT_EQ(discovery.segment_count(), 1u);
+  EXPECT_EQ(discovery.Segments()[0], Ids({0, 1, 2, 3}));
+
+  EXPECT_EQ(discovery.Add(Id(5), Id(6)), SegmentStep::kNew);
+  EXPECT_EQ(discovery.segment_count(), 2u);
+  EXPECT_EQ(discovery.SegmentOf(Id(6)), 1u);
+  EXPECT_EQ(discovery.Add(Id(3), Id(5)), SegmentStep::kFuse);  // both known: one segment
+  ASSERT_EQ(discovery.segment_count(), 1u);
+  EXPECT_EQ(discovery.Segments()[0], Ids({0, 1, 2, 3, 5, 6}));
+  EXPECT_EQ(discovery.SegmentOf(Id(6)), 0u);
+  EXPECT_FALSE(discovery.SegmentOf(Id(4)).has_value());
+}
+
+TEST(SegmentDiscovery, FuseKeepsTheSourceSegmentFirst) {
+  SegmentDiscovery discovery;
+  discovery.Add(Id(10), Id(11));  // created first
+  discovery.Add(Id(20), Id(21));
+  EXPECT_EQ(discovery.Add(Id(21), Id(10)), SegmentStep::kFuse);  // later segment runs into it
+  ASSERT_EQ(discovery.segment_count(), 1u);
+  EXPECT_EQ(discovery.Segments()[0], Ids({20, 21, 10, 11}));
+}
+
+TEST(SegmentDiscovery, LoopInsideOneSegmentChangesNothing) {
+  SegmentDiscovery discovery;
+  discovery.Add(Id(1), Id(2));
+  discovery.Add(Id(2), Id(3));
+  EXPECT_EQ(discovery.Add(Id(3), Id(1)), SegmentStep::kFuse);
+  EXPECT_EQ(discovery.Add(Id(2), Id(2)), SegmentStep::kFuse);
+  ASSERT_EQ(discovery.segment_count(), 1u);
+  EXPECT_EQ(discovery.Segments()[0], Ids({1, 2, 3}));
+}
+
+TEST(SegmentDiscovery, ChainsInAnyEdgeOrderComeOutInChainOrder) {
+  // Two disjoint chains, 0..39 and 100..129, their edges shuffled together.
+  std::vector<std::pair<int, int>> edges;
+  for (int i = 0; i < 39; ++i) edges.emplace_back(i, i + 1);
+  for (int i = 100; i < 129; ++i) edges.emplace_back(i, i + 1);
+  std::mt19937 rng(11);
+  for (int trial = 0; trial < 20; ++trial) {
+    std::shuffle(edges.begin(), edges.end(), rng);
+    SegmentDiscovery discovery;
+    for (const auto& [from, to] : edges) discovery.Add(Id(from), Id(to));
+    ASSERT_EQ(discovery.segment_count(), 2u);
+    std::vector<std::vector<Uuid>> segments = discovery.Segments();
+    std::sort(segments.begin(), segments.end(),
+              [](const auto& a, const auto& b) { return a.front() < b.front(); });
+    std::vector<Uuid> first, second;
+    for (int i = 0; i <= 39; ++i) first.push_back(Id(i));
+    for (int i = 100; i <= 129; ++i) second.push_back(Id(i));
+    EXPECT_EQ(segments[0], first);
+    EXPECT_EQ(segments[1], second);
+  }
+}
+
+}  // namespace
+}  // namespace fleetmap
