@@ -7,6 +7,7 @@
 #include "fleetmap/common/error.h"
 #include "fleetmap/policies/path_weights.h"
 #include "fleetmap/policies/time_of_day.h"
+#include "numbered_uuid.h"
 
 namespace fleetmap {
 namespace {
@@ -46,10 +47,7 @@ TEST(TimeOfDay, RejectsBadMissionTimeAndWindow) {
 }
 
 Uuid Id(int n) {
-  Uuid::Bytes bytes{};
-  bytes[0] = 4;
-  bytes[15] = static_cast<std::uint8_t>(n);
-  return Uuid(bytes);
+  return NumberedUuid(n);
 }
 
 Node NodeAt(int n, std::int64_t stamp_ns) {

@@ -11,15 +11,13 @@
 #include "fleetmap/policies/distance_ranking.h"
 #include "fleetmap/policies/path_memory.h"
 #include "fleetmap/policies/path_ranking.h"
+#include "numbered_uuid.h"
 
 namespace fleetmap {
 namespace {
 
 Uuid Id(int n) {
-  Uuid::Bytes bytes{};
-  bytes[15] = static_cast<std::uint8_t>(n);
-  bytes[0] = 1;  // never nil
-  return Uuid(bytes);
+  return NumberedUuid(n);
 }
 
 // Seed 002 Fig. 5: P1 = n1 n2 n3 n4 n9 and P2 = n6 n7 n8 n4 n5; the robot is at n_k = n4 with
@@ -147,14 +145,6 @@ double DirectLogPosterior(const PathMemory& memory, const Uuid& reference, const
   return score;
 }
 
-Uuid NodeId(int n) {
-  Uuid::Bytes bytes{};
-  bytes[0] = 2;
-  bytes[14] = static_cast<std::uint8_t>(n >> 8);
-  bytes[15] = static_cast<std::uint8_t>(n);
-  return Uuid(bytes);
-}
-
 // Few paths (bitsets over every path, one word and several) and many (bitsets over the paths
 // touching W only) must all give the definition's numbers.
 class PathRankingMatchesDefinition : public ::testing::TestWithParam<int> {};
@@ -168,7 +158,7 @@ TEST_P(PathRankingMatchesDefinition, OnARandomMap) {
   PathMemory memory;
   for (int i = 0; i < kNodes; ++i) {
     for (int k = per_node(rng); k > 0; --k) {
-      memory.AddPathEdge(NodeId(10'000 + pick_path(rng)), NodeId(i), NodeId(pick_node(rng)));
+      memory.AddPathEdge(Id(10'000 + pick_path(rng)), Id(i), Id(pick_node(rng)));
     }
   }
   PathRanking ranking(memory, {.window_iterations = 30});
@@ -178,7 +168,7 @@ TEST_P(PathRankingMatchesDefinition, OnARandomMap) {
     std::vector<LocalisationAttempt> attempts;
     for (int a = 0; a < 4; ++a) {
       // Some attempts on nodes on no path, which count in |W| but link to nothing.
-      const Uuid node = t % 7 == 0 && a == 0 ? NodeId(5000 + t) : NodeId(pick_node(rng));
+      const Uuid node = t % 7 == 0 && a == 0 ? Id(5000 + t) : Id(pick_node(rng));
       attempts.push_back({node, success(rng)});
     }
     ranking.ObserveIteration(attempts);
@@ -193,9 +183,9 @@ TEST_P(PathRankingMatchesDefinition, OnARandomMap) {
     }
   }
   ASSERT_EQ(ranking.observation_count(), window.size());
-  const Uuid reference = NodeId(pick_node(rng));
+  const Uuid reference = Id(pick_node(rng));
   for (int c = 0; c < 40; ++c) {
-    const Uuid candidate = NodeId(c == 0 ? 5000 : pick_node(rng));  // one candidate on no path
+    const Uuid candidate = Id(c == 0 ? 5000 : pick_node(rng));  // one candidate on no path
     const double expected = DirectLogPosterior(memory, reference, candidate, window);
     const double actual = ranking.LogPosterior(reference, candidate);
     if (std::isinf(expected)) {

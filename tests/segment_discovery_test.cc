@@ -7,15 +7,13 @@
 #include <random>
 #include <vector>
 
+#include "numbered_uuid.h"
+
 namespace fleetmap {
 namespace {
 
 Uuid Id(int n) {
-  Uuid::Bytes bytes{};
-  bytes[0] = 3;
-  bytes[14] = static_cast<std::uint8_t>(n >> 8);
-  bytes[15] = static_cast<std::uint8_t>(n);
-  return Uuid(bytes);
+  return NumberedUuid(n);
 }
 
 std::vector<Uuid> Ids(std::initializer_list<int> ns) {
