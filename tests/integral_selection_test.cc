@@ -18,9 +18,7 @@ Uuid Id(int n) {
 }
 
 std::vector<Uuid> Ids(std::initializer_list<int> ns) {
-  std::vector<Uuid> ids;
-  for (int n : ns) ids.push_back(Id(n));
-  return ids;
+  return NumberedUuids(ns);
 }
 
 Edge Metric(int id, int from, int to) {

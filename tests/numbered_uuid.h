@@ -3,6 +3,8 @@
 #pragma once
 
 #include <cstdint>
+#include <initializer_list>
+#include <vector>
 
 #include "fleetmap/common/uuid.h"
 
@@ -14,6 +16,12 @@ inline Uuid NumberedUuid(int n) {
   bytes[14] = static_cast<std::uint8_t>(n >> 8);
   bytes[15] = static_cast<std::uint8_t>(n);
   return Uuid(bytes);
+}
+
+inline std::vector<Uuid> NumberedUuids(std::initializer_list<int> numbers) {
+  std::vector<Uuid> ids;
+  for (const int n : numbers) ids.push_back(NumberedUuid(n));
+  return ids;
 }
 
 }  // namespace fleetmap

@@ -17,9 +17,7 @@ Uuid Id(int n) {
 }
 
 std::vector<Uuid> Ids(std::initializer_list<int> ns) {
-  std::vector<Uuid> ids;
-  for (int n : ns) ids.push_back(Id(n));
-  return ids;
+  return NumberedUuids(ns);
 }
 
 TEST(SegmentDiscovery, EveryBranchOfAlgorithm1) {
