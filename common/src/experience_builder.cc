@@ -254,6 +254,7 @@ FrameReport ExperienceBuilder::Process(const Frame& frame) {
     report.created_experience = true;
   }
   report.reference = reference_ ? map_.at(*reference_).node.id : Uuid();
+  report.reference_T_camera = k_T_q_;
   report.distance_since_success_m =
       frame.world_T_camera_truth ? truth_since_success_m_ : vo_since_success_m_;
   return report;

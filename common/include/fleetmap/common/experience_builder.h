@@ -52,6 +52,9 @@ struct FrameReport {
   bool relocalisation_tried = false;
   bool created_experience = false;
   Uuid reference;  // n_k after this frame (nil while lost without a map)
+  // The camera's pose in n_k after this frame: the localised pose when the frame localised
+  // (MERGE links a replayed node to the server node by it), else the dead-reckoned estimate.
+  Se3 reference_T_camera = Se3::Identity();
   // Ground-truth metres travelled since the last successful localisation (0 on success);
   // visual-odometry metres when the frame carries no ground truth.
   double distance_since_success_m = 0.0;
