@@ -1,0 +1,79 @@
+// MERGE (seed 004 §V-A): folds a robot's submitted map into the server map without copying
+// what the server can already localise.
+//
+// 1. Nodes the server already holds (same UUID) are never added again (§III-D).
+// 2. The remaining nodes are grouped into linear segments by their metric edges
+//    (Algorithm 1, SegmentDiscovery); a node with no such edge is a segment of its own.
+// 3. Each segment is replayed as a stream of frames (its nodes' landmarks, the motion between
+//    them from its edges) through the EBN localiser against the server map, localise-only:
+//    lost at first, so the appearance index seeds it (§III-B), then breadth-first
+//    neighbourhoods (§III-A).
+// 4. A segment that localises well enough is omitted: the server already covers it. Any other
+//    is added whole, with the robot's metric edges into it, and linked to the server map by a
+//    metric edge at its first and last frames that localised.
+// 5. The robot's path memory is carried over: path edges whose ends are on the server (held,
+//    added, or omitted but localised, where the server node it localised in stands in) keep
+//    their path UUID.
+//
+// Segments are merged one after another, each seeing the ones added before it, so one
+// submission that drives a new place twice adds it once. Deterministic for equal inputs: new
+// link and remapped path edges get UUIDs derived from what they join.
+#pragma once
+
+#include <chrono>
+#include <cstddef>
+#include <functional>
+
+#include "fleetmap/common/experience_builder.h"
+#include "fleetmap/common/experience_map.h"
+#include "fleetmap/common/graph.h"
+
+namespace fleetmap {
+
+struct MergeOptions {
+  // A segment is omitted when at least this share of its frames localise, in (0, 1].
+  double omit_localised_fraction = 0.8;
+  // The replaying localiser (localise_only is forced on).
+  BuilderOptions localiser = {};
+};
+
+struct MergeReport {
+  std::size_t submitted_nodes = 0;
+  std::size_t duplicate_nodes = 0;  // already on the server
+  std::size_t segments = 0;
+  std::size_t segments_added = 0;
+  std::size_t segments_omitted = 0;
+  std::size_t nodes_added = 0;
+  std::size_t metric_edges_added = 0;  // the robot's, plus links to the server map
+  std::size_t links_added = 0;         // of those, the links
+  std::size_t path_edges_added = 0;
+  std::size_t path_edges_dropped = 0;  // an end neither on the server nor localised
+  std::size_t paths_added = 0;
+  double seconds = 0.0;
+};
+
+struct MergeResult {
+  GraphBatch additions;  // what the server store must write, in one transaction
+  MergeReport report;
+};
+
+// What the server already holds beyond its nodes: the merge asks instead of loading them.
+struct ServerCatalogue {
+  std::function<bool(const Uuid& edge)> has_edge;
+  std::function<bool(const Uuid& path)> has_path;
+};
+
+// Called after each segment with (segments done, segments in all).
+using MergeProgress = std::function<void(std::size_t, std::size_t)>;
+
+// Merges `submission` into `server` (the in-memory mirror of the server store, which gains the
+// added nodes and metric edges) and returns what to write. If writing fails the caller must
+// reload the mirror. The whole submission is checked before the mirror changes: throws
+// Error(kInvalidArgument) for bad options or a catalogue that cannot answer, Error(kCorrupt)
+// naming a node whose landmarks do not decode, Error(kIntegrity) naming an edge with an end in
+// neither the submission nor the server.
+MergeResult Merge(ExperienceMap& server, const GraphBatch& submission,
+                  const ServerCatalogue& catalogue, const MergeOptions& options = {},
+                  const MergeProgress& progress = {});
+
+}  // namespace fleetmap

@@ -1,0 +1,216 @@
+// MERGE (seed 004 §V-A) on the two-condition corridor, with real SQLite stores on both sides.
+#include "fleetmap/policies/merge.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <unordered_set>
+
+#include "corridor_scene.h"
+#include "fleetmap/common/error.h"
+#include "fleetmap/common/graph_store.h"
+#include "fleetmap/policies/distance_ranking.h"
+
+namespace fleetmap {
+namespace {
+
+// Everything a store holds, as a robot would push it.
+GraphBatch ReadAll(GraphStore& store) {
+  GraphBatch batch;
+  batch.nodes = store.ListNodes({});
+  std::vector<Uuid> ids;
+  for (const Node& node : batch.nodes) ids.push_back(node.id);
+  batch.edges = store.EdgesTouching(ids);
+  batch.paths = store.ListPaths({});
+  return batch;
+}
+
+// The second half of the corridor by day after the first half by night, as one outing.
+std::vector<Frame> NightThenDay(const Corridor& corridor) {
+  std::vector<Frame> frames = corridor.Outing(1);
+  const std::vector<Frame> day = corridor.Outing(0);
+  for (std::size_t i = frames.size() / 2; i < frames.size(); ++i) {
+    frames[i].landmarks = day[i].landmarks;
+  }
+  return frames;
+}
+
+// A server catalogue over what earlier merges wrote.
+struct Written {
+  std::unordered_set<Uuid> edges, paths;
+  ServerCatalogue Catalogue() const {
+    return {[this](const Uuid& id) { return edges.contains(id); },
+            [this](const Uuid& id) { return paths.contains(id); }};
+  }
+  void Record(const GraphBatch& batch) {
+    for (const Edge& edge : batch.edges) edges.insert(edge.id);
+    for (const Path& path : batch.paths) paths.insert(path.id);
+  }
+};
+
+class MergeTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = std::filesystem::temp_directory_path() /
+           ("fleetmap-merge-" + Uuid::GenerateRandom().ToString());
+    std::filesystem::create_directories(dir_);
+  }
+  void TearDown() override { std::filesystem::remove_all(dir_); }
+
+  static const Corridor& corridor() { return SharedCorridor(); }
+  static std::shared_ptr<const AppearanceVocabulary> vocabulary() {
+    return SharedCorridorVocabulary();
+  }
+
+  // Builds a map from outings into a new store; returns the store.
+  std::unique_ptr<GraphStore> Build(const std::string& name,
+                                    const std::vector<std::vector<Frame>>& outings) {
+    auto store = GraphStore::Open("sqlite:" + (dir_ / (name + ".db")).string());
+    ExperienceMap map(vocabulary());
+    DistanceRanking policy;
+    ExperienceBuilder builder(store.get(), map, policy, {});
+    const Uuid robot = Uuid::Generate();
+    for (const std::vector<Frame>& frames : outings) {
+      OutingStart start;
+      start.robot = robot;
+      start.outing = Uuid::Generate();
+      builder.StartOuting(start);
+      for (const Frame& frame : frames) builder.Process(frame);
+      builder.FinishOuting();
+    }
+    return store;
+  }
+
+  std::filesystem::path dir_;
+};
+
+TEST_F(MergeTest, WhatTheServerLocalisesIsOmittedAndItsPathMemoryCarriedOver) {
+  const auto server_store = Build("server", {corridor().Outing(0)});
+  ExperienceMap server = ExperienceMap::Load(*server_store, vocabulary());
+  const std::size_t server_nodes = server.size();
+  const GraphBatch submission = ReadAll(*Build("robot", {corridor().Outing(0)}));
+
+  Written written;
+  std::size_t progress_calls = 0;
+  const MergeResult result =
+      Merge(server, submission, written.Catalogue(), {}, [&](std::size_t done, std::size_t all) {
+        ++progress_calls;
+        EXPECT_LE(done, all);
+      });
+  EXPECT_EQ(result.report.submitted_nodes, submission.nodes.size());
+  EXPECT_GE(result.report.segments, 1u);
+  EXPECT_EQ(progress_calls, result.report.segments);
+  EXPECT_EQ(result.report.segments_omitted, result.report.segments);
+  EXPECT_EQ(result.report.nodes_added, 0u);
+  EXPECT_TRUE(result.additions.nodes.empty());
+  EXPECT_EQ(server.size(), server_nodes);
+  // The robot's path, moved onto the server nodes its omitted nodes localised in.
+  EXPECT_GT(result.report.path_edges_added, 0u);
+  EXPECT_EQ(result.report.paths_added, 1u);
+  for (const Edge& edge : result.additions.edges) {
+    EXPECT_EQ(edge.kind, EdgeKind::kPath);
+    EXPECT_TRUE(server.Find(edge.from).has_value());
+    EXPECT_TRUE(server.Find(edge.to).has_value());
+  }
+}
+
+TEST_F(MergeTest, ANewConditionIsAddedAndWhatAlsoLocalisesIsLinked) {
+  const auto server_store = Build("server", {corridor().Outing(0)});
+  ExperienceMap server = ExperienceMap::Load(*server_store, vocabulary());
+  const std::size_t server_nodes = server.size();
+  // One robot outing: night for the first half, day for the second.
+  const GraphBatch submission = ReadAll(*Build("robot", {NightThenDay(corridor())}));
+
+  Written written;
+  const MergeResult result = Merge(server, submission, written.Catalogue());
+  ASSERT_EQ(result.report.segments, 1u);
+  EXPECT_EQ(result.report.segments_added, 1u);
+  EXPECT_EQ(result.report.nodes_added, submission.nodes.size());
+  EXPECT_EQ(server.size(), server_nodes + submission.nodes.size());
+  // Linked at the first and last frames of the day half, which localise in the server map.
+  EXPECT_EQ(result.report.links_added, 2u);
+  std::size_t links = 0;
+  for (const Edge& edge : result.additions.edges) {
+    if (edge.kind == EdgeKind::kMetric && server_store->FindNode(edge.from).has_value()) ++links;
+  }
+  EXPECT_EQ(links, 2u);
+
+  // Written to the server store, the result is a consistent graph.
+  server_store->Put(result.additions);
+  const ExperienceMap reloaded = ExperienceMap::Load(*server_store, vocabulary());
+  EXPECT_EQ(reloaded.size(), server.size());
+  EXPECT_EQ(reloaded.metric_edge_count(), server.metric_edge_count());
+}
+
+TEST_F(MergeTest, MergingTheSameSubmissionTwiceAddsNothing) {
+  const auto server_store = Build("server", {corridor().Outing(0)});
+  ExperienceMap server = ExperienceMap::Load(*server_store, vocabulary());
+  const GraphBatch submission =
+      ReadAll(*Build("robot", {corridor().Outing(1), corridor().Outing(0)}));
+
+  Written written;
+  const MergeResult first = Merge(server, submission, written.Catalogue());
+  EXPECT_GT(first.report.nodes_added, 0u);
+  written.Record(first.additions);
+  const std::size_t nodes = server.size(), edges = server.metric_edge_count();
+
+  const MergeResult second = Merge(server, submission, written.Catalogue());
+  EXPECT_EQ(second.report.duplicate_nodes, first.report.nodes_added);
+  EXPECT_EQ(second.report.nodes_added, 0u);
+  EXPECT_TRUE(second.additions.nodes.empty());
+  EXPECT_TRUE(second.additions.edges.empty());
+  EXPECT_TRUE(second.additions.paths.empty());
+  EXPECT_EQ(server.size(), nodes);
+  EXPECT_EQ(server.metric_edge_count(), edges);
+}
+
+TEST_F(MergeTest, SameInputsSameAdditions) {
+  const auto server_store = Build("server", {corridor().Outing(0)});
+  const GraphBatch submission = ReadAll(*Build("robot", {NightThenDay(corridor())}));
+  const auto additions = [&] {
+    ExperienceMap server = ExperienceMap::Load(*server_store, vocabulary());
+    Written written;
+    return Merge(server, submission, written.Catalogue()).additions;
+  };
+  const GraphBatch a = additions(), b = additions();
+  ASSERT_FALSE(a.edges.empty());
+  EXPECT_EQ(a.nodes, b.nodes);
+  ASSERT_EQ(a.edges.size(), b.edges.size());
+  for (std::size_t i = 0; i < a.edges.size(); ++i) {
+    EXPECT_TRUE(SameEdgeContent(a.edges[i], b.edges[i])) << i;
+  }
+  EXPECT_EQ(a.paths, b.paths);
+}
+
+TEST_F(MergeTest, BadSubmissionsAreRefusedBeforeTheMapChanges) {
+  const auto server_store = Build("server", {corridor().Outing(0)});
+  ExperienceMap server = ExperienceMap::Load(*server_store, vocabulary());
+  const std::size_t nodes = server.size();
+  const GraphBatch good = ReadAll(*Build("robot", {corridor().Outing(1)}));
+  Written written;
+
+  GraphBatch corrupt = good;
+  corrupt.nodes.back().landmarks_blob = "not a protobuf";
+  try {
+    Merge(server, corrupt, written.Catalogue());
+    FAIL() << "a corrupt node merged";
+  } catch (const Error& error) {
+    EXPECT_EQ(error.code(), ErrorCode::kCorrupt);
+    EXPECT_NE(std::string(error.what()).find(corrupt.nodes.back().id.ToString()),
+              std::string::npos);
+  }
+  GraphBatch dangling = good;
+  dangling.edges.front().to = Uuid::Generate();
+  try {
+    Merge(server, dangling, written.Catalogue());
+    FAIL() << "an edge to nowhere merged";
+  } catch (const Error& error) {
+    EXPECT_EQ(error.code(), ErrorCode::kIntegrity);
+  }
+  EXPECT_THROW(Merge(server, good, written.Catalogue(), {.omit_localised_fraction = 0.0}), Error);
+  EXPECT_THROW(Merge(server, good, ServerCatalogue{}), Error);
+  EXPECT_EQ(server.size(), nodes);
+}
+
+}  // namespace
+}  // namespace fleetmap
