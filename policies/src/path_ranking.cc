@@ -117,7 +117,8 @@ void PathRanking::Prepare(std::optional<PathMemory::NodeIndex> reference) {
   const std::size_t paths = memory_.path_count();
   if (local_of_path_.size() < paths) local_of_path_.resize(paths, -1);
   members_on_path_.clear();
-  if (paths <= kDirectBitsetPaths) {
+  direct_ = paths <= kDirectBitsetPaths;
+  if (direct_) {
     words_ = std::max<std::size_t>(1, (paths + 63) / 64);
     members_on_path_.assign(paths, 0);
     observed_bits_.assign(observed_nodes_.size() * words_, 0);
@@ -152,30 +153,23 @@ void PathRanking::Prepare(std::optional<PathMemory::NodeIndex> reference) {
   candidate_bits_.assign(words_, 0);
   // With bitsets over every path, N_ik is a popcount too.
   reference_bits_.assign(words_, 0);
-  if (paths <= kDirectBitsetPaths && reference) {
-    for (const PathMemory::PathIndex path : memory_.PathsThrough(*reference)) {
-      reference_bits_[path / 64] |= std::uint64_t{1} << (path % 64);
-    }
+  if (direct_ && reference) {
+    SetBits(memory_.PathsThrough(*reference), reference_bits_.data(), words_);
   }
 }
 
 double PathRanking::Score(std::optional<PathMemory::NodeIndex> reference, const Uuid& candidate) {
+  // Memory cannot change between Prepare and Score (path edges arrive between iterations),
+  // so every path of the candidate has its bit.
   const std::optional<PathMemory::NodeIndex> node = memory_.Find(candidate);
-  const bool direct = memory_.path_count() <= kDirectBitsetPaths;
 
   // The candidate's path set as a bitset (see Prepare) and S_i.
   std::fill(candidate_bits_.begin(), candidate_bits_.end(), 0);
   int s_i = 0;
-  if (node && direct) {
+  if (node && direct_) {
     const std::span<const PathMemory::PathIndex> paths = memory_.PathsThrough(*node);
-    for (const PathMemory::PathIndex path : paths) {
-      // Paths added since Prepare (none during one Rank) have no bit and no member of W.
-      if (path < members_on_path_.size()) s_i += members_on_path_[path];
-    }
-    SetBits(paths.subspan(0, static_cast<std::size_t>(std::lower_bound(paths.begin(), paths.end(),
-                                                                       members_on_path_.size()) -
-                                                      paths.begin())),
-            candidate_bits_.data(), words_);
+    for (const PathMemory::PathIndex path : paths) s_i += members_on_path_[path];
+    SetBits(paths, candidate_bits_.data(), words_);
   } else if (node) {
     for (const PathMemory::PathIndex path : memory_.PathsThrough(*node)) {
       if (path >= local_of_path_.size() || local_of_path_[path] < 0) continue;
@@ -188,7 +182,7 @@ double PathRanking::Score(std::optional<PathMemory::NodeIndex> reference, const 
   // Prior (Eq. 8), dropping the normaliser Σ_x (N_xk + γ) which all candidates share.
   int n_ik = 0;
   if (reference && node) {
-    if (direct) {
+    if (direct_) {
       for (std::size_t k = 0; k < words_; ++k) {
         n_ik += std::popcount(candidate_bits_[k] & reference_bits_[k]);
       }

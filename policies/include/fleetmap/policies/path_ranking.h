@@ -14,10 +14,11 @@
 // (up to a constant shared by all candidates), which depends on the candidate only through
 // the histogram of Z_ij over W's successes and failures.
 //
-// Cost: path memory keeps each node's paths incrementally (PathMemory), W is kept
-// incrementally as iterations enter and leave the window, and once per Rank call the path
-// sets of W are compacted to bitsets over only the paths that touch W. Each candidate then
-// costs one AND + popcount per W member and word: O(|Y| |W| ⌈K / 64⌉), K = paths touching W.
+// Cost: path memory keeps each node's paths incrementally (PathMemory) and W is kept
+// incrementally as iterations enter and leave the window. Once per Rank call W's path sets
+// become bitsets: over every path while memory holds at most 256, else over only the paths
+// that touch W (no other path can link a candidate to a member of W). Each candidate then
+// costs one AND + popcount per member of W and word: O(|Y| |W| ⌈K / 64⌉).
 #pragma once
 
 #include <cstdint>
@@ -66,7 +67,7 @@ class PathRanking final : public RankingPolicy {
 
   void Observe(const LocalisationAttempt& attempt);
   void Forget(const Uuid& node);
-  // Compacts W's path sets to bitsets over the paths that touch W (see the cost note).
+  // W's path sets as bitsets, S_i's per-path counts and n_k's bits (see the cost note).
   void Prepare(std::optional<PathMemory::NodeIndex> reference);
   double Score(std::optional<PathMemory::NodeIndex> reference, const Uuid& candidate);
   double Log(int n);
@@ -85,6 +86,7 @@ class PathRanking final : public RankingPolicy {
   int observed_count_ = 0;                             // |W|, members on no path included
   int successes_ = 0;                                  // leading successes in observed_nodes_
   int off_path_failures_ = 0;  // failed members of W on no path (Z_ij = 0 for every i)
+  bool direct_ = true;         // bits stand for every path, not only those touching W
   std::size_t words_ = 1;      // 64-bit words per compact set
   std::vector<std::uint64_t> observed_bits_;  // |W| × words_, W's compact path sets
   std::vector<PathMemory::NodeIndex> failed_nodes_;
