@@ -107,17 +107,22 @@ IntegralSelection MakeIntegral(std::span<const Uuid> map_nodes, std::span<const 
   std::deque<std::size_t> queue;
   for (std::size_t seed = 0; seed < map.ids.size(); ++seed) {
     if (!chosen[seed] || grown[seed]) continue;
-    // Everything chosen and already connected to the seed is the starting set.
-    std::vector<std::size_t> set{seed};
-    grown[seed] = 1;
-    for (std::size_t k = 0; k < set.size(); ++k) {
-      for (const std::size_t next : map.neighbours[set[k]]) {
-        if (chosen[next] && !grown[next]) {
-          grown[next] = 1;
-          set.push_back(next);
+    std::vector<std::size_t> set;
+    // Adds `node` and every chosen node connected to it through chosen nodes to the set.
+    const auto absorb_fragment = [&](std::size_t node) {
+      std::size_t k = set.size();
+      set.push_back(node);
+      grown[node] = 1;
+      for (; k < set.size(); ++k) {
+        for (const std::size_t next : map.neighbours[set[k]]) {
+          if (chosen[next] && !grown[next]) {
+            grown[next] = 1;
+            set.push_back(next);
+          }
         }
       }
-    }
+    };
+    absorb_fragment(seed);
     for (;;) {
       std::fill(parent.begin(), parent.end(), kNone);
       queue.assign(set.begin(), set.end());
@@ -143,18 +148,7 @@ IntegralSelection MakeIntegral(std::span<const Uuid> map_nodes, std::span<const 
         set.push_back(at);
         ++result.report.bridging_nodes;
       }
-      // The reached fragment joins the set whole.
-      const std::size_t first_new = set.size();
-      set.push_back(reached);
-      grown[reached] = 1;
-      for (std::size_t k = first_new; k < set.size(); ++k) {
-        for (const std::size_t next : map.neighbours[set[k]]) {
-          if (chosen[next] && !grown[next]) {
-            grown[next] = 1;
-            set.push_back(next);
-          }
-        }
-      }
+      absorb_fragment(reached);  // the reached fragment joins the set whole
     }
   }
 

@@ -152,7 +152,10 @@ class Merger {
   void MergeSegment(ExperienceBuilder& localiser, const std::vector<Uuid>& segment) {
     const std::unordered_set<Uuid> members(segment.begin(), segment.end());
     const Node& first = *fresh_.at(segment.front());
-    localiser.StartOuting({first.robot, first.outing, Uuid()});
+    OutingStart start;  // lost: the appearance index finds where the segment begins
+    start.robot = first.robot;
+    start.outing = first.outing;
+    localiser.StartOuting(start);
     struct Localised {
       Uuid node, server_node;
       Se3 server_T_node;

@@ -20,7 +20,6 @@
 // link and remapped path edges get UUIDs derived from what they join.
 #pragma once
 
-#include <chrono>
 #include <cstddef>
 #include <functional>
 
