@@ -16,6 +16,7 @@
 #include "fleetmap/policies/distance_ranking.h"
 #include "fleetmap/policies/path_memory.h"
 #include "fleetmap/policies/path_ranking.h"
+#include "scratch_dir.h"
 
 namespace fleetmap {
 namespace {
@@ -47,24 +48,15 @@ OutingSummary Drive(ExperienceBuilder& builder, const std::vector<Frame>& frames
 
 class ExperienceBuilderTest : public ::testing::Test {
  protected:
-  void SetUp() override {
-    dir_ = std::filesystem::temp_directory_path() /
-           ("fleetmap-builder-" + Uuid::GenerateRandom().ToString());
-    std::filesystem::create_directories(dir_);
-    store_ = GraphStore::Open("sqlite:" + (dir_ / "map.db").string());
-  }
-  void TearDown() override {
-    store_.reset();
-    std::filesystem::remove_all(dir_);
-  }
+  void SetUp() override { store_ = GraphStore::Open("sqlite:" + (dir_ / "map.db").string()); }
 
   static const Corridor& corridor() { return SharedCorridor(); }
   static std::shared_ptr<const AppearanceVocabulary> vocabulary() {
     return SharedCorridorVocabulary();
   }
 
-  std::filesystem::path dir_;
-  std::unique_ptr<GraphStore> store_;
+  ScratchDir dir_{"fleetmap-builder"};
+  std::unique_ptr<GraphStore> store_;  // closed before dir_ goes
 };
 
 TEST_F(ExperienceBuilderTest, FirstOutingSavesExperiencesOnlyWhereNothingLocalises) {

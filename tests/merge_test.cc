@@ -3,13 +3,13 @@
 
 #include <gtest/gtest.h>
 
-#include <filesystem>
 #include <unordered_set>
 
 #include "corridor_scene.h"
 #include "fleetmap/common/error.h"
 #include "fleetmap/common/graph_store.h"
 #include "fleetmap/policies/distance_ranking.h"
+#include "scratch_dir.h"
 
 namespace fleetmap {
 namespace {
@@ -50,13 +50,6 @@ struct Written {
 
 class MergeTest : public ::testing::Test {
  protected:
-  void SetUp() override {
-    dir_ = std::filesystem::temp_directory_path() /
-           ("fleetmap-merge-" + Uuid::GenerateRandom().ToString());
-    std::filesystem::create_directories(dir_);
-  }
-  void TearDown() override { std::filesystem::remove_all(dir_); }
-
   static const Corridor& corridor() { return SharedCorridor(); }
   static std::shared_ptr<const AppearanceVocabulary> vocabulary() {
     return SharedCorridorVocabulary();
@@ -81,12 +74,23 @@ class MergeTest : public ::testing::Test {
     return store;
   }
 
-  std::filesystem::path dir_;
+  // The server: one day outing.
+  struct Server {
+    std::unique_ptr<GraphStore> store;
+    ExperienceMap map;
+  };
+  Server DayServer() {
+    std::unique_ptr<GraphStore> store = Build("server", {corridor().Outing(0)});
+    ExperienceMap map = ExperienceMap::Load(*store, vocabulary());
+    return {std::move(store), std::move(map)};
+  }
+
+  ScratchDir dir_{"fleetmap-merge"};
 };
 
 TEST_F(MergeTest, WhatTheServerLocalisesIsOmittedAndItsPathMemoryCarriedOver) {
-  const auto server_store = Build("server", {corridor().Outing(0)});
-  ExperienceMap server = ExperienceMap::Load(*server_store, vocabulary());
+  Server day = DayServer();
+  ExperienceMap& server = day.map;
   const std::size_t server_nodes = server.size();
   const GraphBatch submission = ReadAll(*Build("robot", {corridor().Outing(0)}));
 
@@ -115,8 +119,9 @@ TEST_F(MergeTest, WhatTheServerLocalisesIsOmittedAndItsPathMemoryCarriedOver) {
 }
 
 TEST_F(MergeTest, ANewConditionIsAddedAndWhatAlsoLocalisesIsLinked) {
-  const auto server_store = Build("server", {corridor().Outing(0)});
-  ExperienceMap server = ExperienceMap::Load(*server_store, vocabulary());
+  Server day = DayServer();
+  ExperienceMap& server = day.map;
+  GraphStore& server_store = *day.store;
   const std::size_t server_nodes = server.size();
   // One robot outing: night for the first half, day for the second.
   const GraphBatch submission = ReadAll(*Build("robot", {NightThenDay(corridor())}));
@@ -131,20 +136,20 @@ TEST_F(MergeTest, ANewConditionIsAddedAndWhatAlsoLocalisesIsLinked) {
   EXPECT_EQ(result.report.links_added, 2u);
   std::size_t links = 0;
   for (const Edge& edge : result.additions.edges) {
-    if (edge.kind == EdgeKind::kMetric && server_store->FindNode(edge.from).has_value()) ++links;
+    if (edge.kind == EdgeKind::kMetric && server_store.FindNode(edge.from).has_value()) ++links;
   }
   EXPECT_EQ(links, 2u);
 
   // Written to the server store, the result is a consistent graph.
-  server_store->Put(result.additions);
-  const ExperienceMap reloaded = ExperienceMap::Load(*server_store, vocabulary());
+  server_store.Put(result.additions);
+  const ExperienceMap reloaded = ExperienceMap::Load(server_store, vocabulary());
   EXPECT_EQ(reloaded.size(), server.size());
   EXPECT_EQ(reloaded.metric_edge_count(), server.metric_edge_count());
 }
 
 TEST_F(MergeTest, MergingTheSameSubmissionTwiceAddsNothing) {
-  const auto server_store = Build("server", {corridor().Outing(0)});
-  ExperienceMap server = ExperienceMap::Load(*server_store, vocabulary());
+  Server day = DayServer();
+  ExperienceMap& server = day.map;
   const GraphBatch submission =
       ReadAll(*Build("robot", {corridor().Outing(1), corridor().Outing(0)}));
 
@@ -165,7 +170,7 @@ TEST_F(MergeTest, MergingTheSameSubmissionTwiceAddsNothing) {
 }
 
 TEST_F(MergeTest, SameInputsSameAdditions) {
-  const auto server_store = Build("server", {corridor().Outing(0)});
+  const std::unique_ptr<GraphStore> server_store = DayServer().store;
   const GraphBatch submission = ReadAll(*Build("robot", {NightThenDay(corridor())}));
   const auto additions = [&] {
     ExperienceMap server = ExperienceMap::Load(*server_store, vocabulary());
@@ -183,8 +188,8 @@ TEST_F(MergeTest, SameInputsSameAdditions) {
 }
 
 TEST_F(MergeTest, BadSubmissionsAreRefusedBeforeTheMapChanges) {
-  const auto server_store = Build("server", {corridor().Outing(0)});
-  ExperienceMap server = ExperienceMap::Load(*server_store, vocabulary());
+  Server day = DayServer();
+  ExperienceMap& server = day.map;
   const std::size_t nodes = server.size();
   const GraphBatch good = ReadAll(*Build("robot", {corridor().Outing(1)}));
   Written written;

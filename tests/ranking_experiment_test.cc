@@ -11,6 +11,7 @@
 #include "fleetmap/common/error.h"
 #include "fleetmap/common/uuid.h"
 #include "fleetmap/experiments/ranking_report.h"
+#include "scratch_dir.h"
 
 namespace fleetmap {
 namespace {
@@ -33,12 +34,7 @@ RankingExperimentOptions SmallOptions(const std::filesystem::path& dir) {
 
 class RankingExperimentTest : public ::testing::Test {
  protected:
-  void SetUp() override {
-    dir_ = std::filesystem::temp_directory_path() /
-           ("fleetmap-ranking-test-" + Uuid::GenerateRandom().ToString());
-  }
-  void TearDown() override { std::filesystem::remove_all(dir_); }
-  std::filesystem::path dir_;
+  ScratchDir dir_{"fleetmap-ranking-test"};
 };
 
 TEST_F(RankingExperimentTest, EveryFoldBuildsAndEveryRunLocalisesTheHeldOutFrames) {
@@ -106,13 +102,13 @@ TEST_F(RankingExperimentTest, SameWorldSameNumbers) {
 }
 
 TEST_F(RankingExperimentTest, RejectsBadOptions) {
-  RankingExperimentOptions options = SmallOptions(dir_);
+  RankingExperimentOptions options = SmallOptions(dir_.path());
   options.folds = 1;
   EXPECT_THROW(RunRankingExperiment(options), Error);
-  options = SmallOptions(dir_);
+  options = SmallOptions(dir_.path());
   options.cores = {0};
   EXPECT_THROW(RunRankingExperiment(options), Error);
-  options = SmallOptions(dir_);
+  options = SmallOptions(dir_.path());
   options.world.schedule.outings = 2;  // fewer outings than folds
   EXPECT_THROW(RunRankingExperiment(options), Error);
 }

@@ -12,13 +12,9 @@
 namespace fleetmap {
 namespace {
 
-Uuid Id(int n) {
-  return NumberedUuid(n);
-}
-
-std::vector<Uuid> Ids(std::initializer_list<int> ns) {
-  return NumberedUuids(ns);
-}
+// Short names for the readable test UUIDs.
+constexpr auto& Id = NumberedUuid;
+constexpr auto& Ids = NumberedUuids;
 
 TEST(SegmentDiscovery, EveryBranchOfAlgorithm1) {
   SegmentDiscovery discovery;
