@@ -25,6 +25,8 @@ endfunction()
 function(fleetmap_embed_sql out_var func_name dir)
   file(GLOB files CONFIGURE_DEPENDS ${dir}/[0-9][0-9][0-9][0-9]_*.sql)
   list(SORT files)
+  # The SQL is read here, at configure time: an edited migration must re-run the configure.
+  set_property(DIRECTORY APPEND PROPERTY CMAKE_CONFIGURE_DEPENDS ${files})
   set(body "")
   foreach(f ${files})
     get_filename_component(fname ${f} NAME)

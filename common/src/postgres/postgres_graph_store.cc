@@ -7,7 +7,10 @@
 //   rows with one INSERT ... SELECT per table. The staging step is what lets a COPY-speed
 //   load still give the GraphStore contract: identical duplicates are no-ops, conflicting
 //   ones and dangling edges are reported by UUID, and the batch is atomic.
-// - libpqxx exceptions stop here and become fleetmap::Error with the statement's context.
+// - libpqxx exceptions stop here (PgSession::Translate) and become fleetmap::Error with the
+//   statement's context.
+// - The connection lives in a PgSession shared with this store's VersionStore
+//   (postgres_version_store.cc), so both see the same explicit Transaction.
 #include <cstdio>
 #include <cstdlib>
 #include <memory>
@@ -17,24 +20,18 @@
 
 #include "backends.h"
 #include "fleetmap/common/error.h"
+#include "fleetmap/common/version_store.h"
 #include "migration.h"
+#include "postgres/element_rows.h"
+#include "postgres/pg_session.h"
+#include "postgres/postgres_version_store.h"
 
 namespace fleetmap::internal {
 
 namespace {
 
-constexpr const char* kNodeColumns = "id, stamp_ns, robot, outing, landmarks";
-constexpr const char* kEdgeColumns =
-    "id, from_id, to_id, kind, tx, ty, tz, qw, qx, qy, qz, path_id";
-constexpr const char* kAnnotationColumns = "id, node_id, edge_id, parent_id, type, payload";
 // Any constant will do; it only has to be the same in every fleetmap binary.
 constexpr long long kMigrationLockKey = 0x666c6565746d6170LL;  // "fleetmap"
-
-std::string Cat(std::initializer_list<std::string_view> parts) {
-  std::string s;
-  for (std::string_view p : parts) s += p;
-  return s;
-}
 
 // Doubles travel as text with 17 significant digits: exact round trip, whatever the
 // library's own formatting does.
@@ -61,95 +58,11 @@ std::string ByteaHex(std::string_view bytes) {
   return out;
 }
 
-// A PostgreSQL uuid[] literal for "= ANY($1::uuid[])".
-std::string UuidArray(std::span<const Uuid> ids) {
-  std::string out = "{";
-  for (std::size_t i = 0; i < ids.size(); ++i) {
-    if (i) out += ',';
-    out += ids[i].ToString();
-  }
-  out += '}';
-  return out;
-}
-
-Uuid UuidField(const pqxx::field& f) {
-  if (f.is_null()) return Uuid();
-  try {
-    return Uuid::Parse(std::string_view(f.c_str(), f.size()));
-  } catch (const Error&) {
-    throw Error(ErrorCode::kCorrupt,
-                std::string("stored uuid '") + f.c_str() + "' in column " + f.name());
-  }
-}
-
-std::string BytesField(const pqxx::field& f) {
-  if (f.is_null()) return std::string();
-  return pqxx::binarystring(f).str();
-}
-
-double DoubleField(const pqxx::field& f) {
-  return std::strtod(f.c_str(), nullptr);
-}
-
-Node ReadNode(const pqxx::row& r, bool with_landmarks) {
-  Node n;
-  n.id = UuidField(r[0]);
-  n.stamp_ns = r[1].as<std::int64_t>();
-  n.robot = UuidField(r[2]);
-  n.outing = UuidField(r[3]);
-  if (with_landmarks) n.landmarks_blob = BytesField(r[4]);
-  return n;
-}
-
-Edge ReadEdge(const pqxx::row& r, pqxx::row::size_type first) {
-  Edge e;
-  e.id = UuidField(r[first]);
-  e.from = UuidField(r[first + 1]);
-  e.to = UuidField(r[first + 2]);
-  e.kind = static_cast<EdgeKind>(r[first + 3].as<int>());
-  try {
-    e.from_T_to = Se3FromTranslationQuaternion(
-        Eigen::Vector3d(DoubleField(r[first + 4]), DoubleField(r[first + 5]),
-                        DoubleField(r[first + 6])),
-        Eigen::Quaterniond(DoubleField(r[first + 7]), DoubleField(r[first + 8]),
-                           DoubleField(r[first + 9]), DoubleField(r[first + 10])));
-  } catch (const Error& error) {
-    throw Error(ErrorCode::kCorrupt, "edge " + e.id.ToString() +
-                                         " has a stored pose that is not SE(3): " + error.what());
-  }
-  e.path = UuidField(r[first + 11]);
-  return e;
-}
-
-Path ReadPath(const pqxx::row& r) {
-  return Path{UuidField(r[0]), UuidField(r[1]), UuidField(r[2]), r[3].as<std::int64_t>(),
-              r[4].as<std::int64_t>()};
-}
-
-Annotation ReadAnnotation(const pqxx::row& r) {
-  Annotation a;
-  a.id = UuidField(r[0]);
-  if (!r[1].is_null()) {
-    a.target_kind = AnnotationTarget::kNode;
-    a.target = UuidField(r[1]);
-  } else if (!r[2].is_null()) {
-    a.target_kind = AnnotationTarget::kEdge;
-    a.target = UuidField(r[2]);
-  } else {
-    a.parent = UuidField(r[3]);
-  }
-  a.type = r[4].c_str();
-  a.payload = BytesField(r[5]);
-  return a;
-}
-
 class PostgresGraphStore final : public GraphStore {
  public:
-  PostgresGraphStore(const std::string& uri, const StoreOptions& options)
-      : uri_(RedactPassword(uri)) {
-    Translate("connect", [&] {
-      conn_ = std::make_unique<pqxx::connection>(uri);
-      pqxx::nontransaction t(*conn_);
+  PostgresGraphStore(const std::string& uri, const StoreOptions& options) : session_(uri) {
+    session_.Translate("connect", [&] {
+      pqxx::nontransaction t(session_.connection());
       // Seed 000 §6.1: synchronous waits for the WAL flush at every commit; buffered lets
       // commits return before it (a server crash may lose the last ones, never corrupts).
       t.exec(options.durability == Durability::kSynchronous ? "SET synchronous_commit = on"
@@ -157,37 +70,28 @@ class PostgresGraphStore final : public GraphStore {
       t.exec("SET client_min_messages = warning");
     });
     Migrate();
-    Translate("prepare", [&] { Prepare(); });
+    session_.Translate("prepare", [&] { Prepare(); });
+    versions_ = NewPostgresVersionStore(session_);
   }
 
-  ~PostgresGraphStore() override {
-    txn_.reset();  // aborts an open transaction
-  }
+  std::string uri() const override { return session_.uri(); }
 
-  std::string uri() const override { return uri_; }
+  VersionStore& versions() override { return *versions_; }
 
   int schema_version() override {
-    return Autocommit("schema version", [&](pqxx::transaction_base& t) {
+    return session_.Autocommit("schema version", [&](pqxx::transaction_base& t) {
       return t.exec("SELECT coalesce(max(version), 0) FROM fleetmap_schema")[0][0].as<int>();
     });
   }
 
  protected:
-  void DoBegin() override {
-    Translate("BEGIN", [&] { txn_ = std::make_unique<pqxx::work>(*conn_); });
-  }
-  void DoCommit() override {
-    std::unique_ptr<pqxx::work> txn = std::move(txn_);
-    Translate("COMMIT", [&] { txn->commit(); });
-  }
-  void DoRollback() override {
-    std::unique_ptr<pqxx::work> txn = std::move(txn_);
-    if (txn) Translate("ROLLBACK", [&] { txn->abort(); });
-  }
+  void DoBegin() override { session_.Begin(); }
+  void DoCommit() override { session_.Commit(); }
+  void DoRollback() override { session_.Rollback(); }
 
   void DoPutNode(const Node& node) override {
     const int inserted =
-        Autocommit("put node " + node.id.ToString(), [&](pqxx::transaction_base& t) {
+        session_.Autocommit("put node " + node.id.ToString(), [&](pqxx::transaction_base& t) {
           return t
               .exec_prepared("insert_node", node.id.ToString(), node.stamp_ns,
                              node.robot.ToString(), node.outing.ToString(),
@@ -206,18 +110,19 @@ class PostgresGraphStore final : public GraphStore {
     const Eigen::Vector3d& t = edge.from_T_to.translation();
     int inserted = 0;
     try {
-      inserted = Autocommit("put edge " + edge.id.ToString(), [&](pqxx::transaction_base& txn) {
-        return txn
-            .exec_prepared("insert_edge", edge.id.ToString(), edge.from.ToString(),
-                           edge.to.ToString(), static_cast<int>(edge.kind), Text(t.x()),
-                           Text(t.y()), Text(t.z()), Text(q.w()), Text(q.x()), Text(q.y()),
-                           Text(q.z()), NullableUuidText(edge.path))
-            .affected_rows();
-      });
+      inserted =
+          session_.Autocommit("put edge " + edge.id.ToString(), [&](pqxx::transaction_base& txn) {
+            return txn
+                .exec_prepared("insert_edge", edge.id.ToString(), edge.from.ToString(),
+                               edge.to.ToString(), static_cast<int>(edge.kind), Text(t.x()),
+                               Text(t.y()), Text(t.z()), Text(q.w()), Text(q.x()), Text(q.y()),
+                               Text(q.z()), NullableUuidText(edge.path))
+                .affected_rows();
+          });
     } catch (const Error& e) {
       // Outside a transaction we can ask which reference is missing; inside one the
       // transaction is aborted and the server's message (which names the key) has to do.
-      if (e.code() == ErrorCode::kIntegrity && !txn_) {
+      if (e.code() == ErrorCode::kIntegrity && !session_.transaction()) {
         if (auto missing = MissingReference(edge)) throw Error(ErrorCode::kIntegrity, *missing);
       }
       throw;
@@ -231,7 +136,7 @@ class PostgresGraphStore final : public GraphStore {
 
   void DoPutPath(const Path& path) override {
     const int inserted =
-        Autocommit("put path " + path.id.ToString(), [&](pqxx::transaction_base& t) {
+        session_.Autocommit("put path " + path.id.ToString(), [&](pqxx::transaction_base& t) {
           return t
               .exec_prepared("insert_path", path.id.ToString(), path.robot.ToString(),
                              path.outing.ToString(), path.start_ns, path.end_ns)
@@ -247,17 +152,18 @@ class PostgresGraphStore final : public GraphStore {
   void DoPutAnnotation(const Annotation& a) override {
     int inserted = 0;
     try {
-      inserted = Autocommit("put annotation " + a.id.ToString(), [&](pqxx::transaction_base& t) {
-        return t
-            .exec_prepared(
-                "insert_annotation", a.id.ToString(),
-                NullableUuidText(a.target_kind == AnnotationTarget::kNode ? a.target : Uuid()),
-                NullableUuidText(a.target_kind == AnnotationTarget::kEdge ? a.target : Uuid()),
-                NullableUuidText(a.parent), a.type, pqxx::binarystring(a.payload))
-            .affected_rows();
-      });
+      inserted =
+          session_.Autocommit("put annotation " + a.id.ToString(), [&](pqxx::transaction_base& t) {
+            return t
+                .exec_prepared(
+                    "insert_annotation", a.id.ToString(),
+                    NullableUuidText(a.target_kind == AnnotationTarget::kNode ? a.target : Uuid()),
+                    NullableUuidText(a.target_kind == AnnotationTarget::kEdge ? a.target : Uuid()),
+                    NullableUuidText(a.parent), a.type, pqxx::binarystring(a.payload))
+                .affected_rows();
+          });
     } catch (const Error& e) {
-      if (e.code() == ErrorCode::kIntegrity && !txn_) {
+      if (e.code() == ErrorCode::kIntegrity && !session_.transaction()) {
         if (auto missing = MissingReference(a)) throw Error(ErrorCode::kIntegrity, *missing);
       }
       throw;
@@ -270,14 +176,14 @@ class PostgresGraphStore final : public GraphStore {
   }
 
   void DoPut(const GraphBatch& batch) override {
-    Translate("batch put", [&] {
-      if (txn_) {
+    session_.Translate("batch put", [&] {
+      if (pqxx::work* txn = session_.transaction()) {
         // Inside an explicit transaction a savepoint keeps the batch atomic on its own.
-        pqxx::subtransaction sub(*txn_, "fleetmap_batch");
+        pqxx::subtransaction sub(*txn, "fleetmap_batch");
         PutBatch(sub, batch);
         sub.commit();
       } else {
-        pqxx::work work(*conn_);
+        pqxx::work work(session_.connection());
         PutBatch(work, batch);
         work.commit();
         RefreshStatisticsAfter(batch);
@@ -286,7 +192,7 @@ class PostgresGraphStore final : public GraphStore {
   }
 
   std::optional<Node> DoFindNode(const Uuid& id) override {
-    return Autocommit("find node", [&](pqxx::transaction_base& t) -> std::optional<Node> {
+    return session_.Autocommit("find node", [&](pqxx::transaction_base& t) -> std::optional<Node> {
       const pqxx::result r = t.exec_prepared("find_node", id.ToString());
       if (r.empty()) return std::nullopt;
       return ReadNode(r[0], true);
@@ -294,7 +200,7 @@ class PostgresGraphStore final : public GraphStore {
   }
 
   std::optional<Edge> DoFindEdge(const Uuid& id) override {
-    return Autocommit("find edge", [&](pqxx::transaction_base& t) -> std::optional<Edge> {
+    return session_.Autocommit("find edge", [&](pqxx::transaction_base& t) -> std::optional<Edge> {
       const pqxx::result r = t.exec_prepared("find_edge", id.ToString());
       if (r.empty()) return std::nullopt;
       return ReadEdge(r[0], 0);
@@ -302,7 +208,7 @@ class PostgresGraphStore final : public GraphStore {
   }
 
   std::optional<Path> DoFindPath(const Uuid& id) override {
-    return Autocommit("find path", [&](pqxx::transaction_base& t) -> std::optional<Path> {
+    return session_.Autocommit("find path", [&](pqxx::transaction_base& t) -> std::optional<Path> {
       const pqxx::result r = t.exec_prepared("find_path", id.ToString());
       if (r.empty()) return std::nullopt;
       return ReadPath(r[0]);
@@ -310,16 +216,16 @@ class PostgresGraphStore final : public GraphStore {
   }
 
   std::optional<Annotation> DoFindAnnotation(const Uuid& id) override {
-    return Autocommit("find annotation",
-                      [&](pqxx::transaction_base& t) -> std::optional<Annotation> {
-                        const pqxx::result r = t.exec_prepared("find_annotation", id.ToString());
-                        if (r.empty()) return std::nullopt;
-                        return ReadAnnotation(r[0]);
-                      });
+    return session_.Autocommit(
+        "find annotation", [&](pqxx::transaction_base& t) -> std::optional<Annotation> {
+          const pqxx::result r = t.exec_prepared("find_annotation", id.ToString());
+          if (r.empty()) return std::nullopt;
+          return ReadAnnotation(r[0]);
+        });
   }
 
   std::vector<Node> DoGetNodes(std::span<const Uuid> ids) override {
-    return Autocommit("get nodes", [&](pqxx::transaction_base& t) {
+    return session_.Autocommit("get nodes", [&](pqxx::transaction_base& t) {
       std::vector<Node> nodes;
       for (const pqxx::row& row : t.exec_prepared("get_nodes", UuidArray(ids))) {
         nodes.push_back(ReadNode(row, true));
@@ -350,7 +256,7 @@ class PostgresGraphStore final : public GraphStore {
   }
 
   Subgraph DoReadChainUnordered(const Uuid& start) override {
-    return Autocommit("read chain", [&](pqxx::transaction_base& t) {
+    return session_.Autocommit("read chain", [&](pqxx::transaction_base& t) {
       Subgraph result;
       const pqxx::result rows = t.exec_prepared("read_chain", start.ToString());
       result.nodes.reserve(rows.size());
@@ -379,7 +285,7 @@ class PostgresGraphStore final : public GraphStore {
     const std::string outing = f.outing ? f.outing->ToString() : "";
     const std::string from = f.from_ns ? std::to_string(*f.from_ns) : "";
     const std::string to = f.to_ns ? std::to_string(*f.to_ns) : "";
-    return Autocommit("list nodes", [&](pqxx::transaction_base& t) {
+    return session_.Autocommit("list nodes", [&](pqxx::transaction_base& t) {
       std::vector<Node> nodes;
       const pqxx::result rows =
           t.exec_params(sql, f.robot ? robot.c_str() : nullptr, f.outing ? outing.c_str() : nullptr,
@@ -392,7 +298,7 @@ class PostgresGraphStore final : public GraphStore {
   std::vector<Path> DoListPaths(const PathFilter& f) override {
     const std::string robot = f.robot ? f.robot->ToString() : "";
     const std::string outing = f.outing ? f.outing->ToString() : "";
-    return Autocommit("list paths", [&](pqxx::transaction_base& t) {
+    return session_.Autocommit("list paths", [&](pqxx::transaction_base& t) {
       std::vector<Path> paths;
       const pqxx::result rows = t.exec_params(
           "SELECT id, robot, outing, start_ns, end_ns FROM paths"
@@ -405,7 +311,7 @@ class PostgresGraphStore final : public GraphStore {
   }
 
   StoreStats DoStats() override {
-    return Autocommit("stats", [&](pqxx::transaction_base& t) {
+    return session_.Autocommit("stats", [&](pqxx::transaction_base& t) {
       const pqxx::row r = t.exec(
           "SELECT (SELECT count(*) FROM nodes), (SELECT count(*) FROM edges),"
           " (SELECT count(*) FROM paths), (SELECT count(*) FROM annotations),"
@@ -417,51 +323,9 @@ class PostgresGraphStore final : public GraphStore {
   }
 
  private:
-  // Runs fn and turns every libpqxx / standard exception into fleetmap::Error.
-  template <typename Fn>
-  auto Translate(const std::string& what, Fn&& fn) -> decltype(fn()) {
-    try {
-      return fn();
-    } catch (const Error&) {
-      throw;
-    } catch (const pqxx::foreign_key_violation& e) {
-      throw Error(ErrorCode::kIntegrity, what + ": " + FirstLines(e.what()));
-    } catch (const pqxx::check_violation& e) {
-      throw Error(ErrorCode::kIntegrity, what + ": " + FirstLines(e.what()));
-    } catch (const pqxx::broken_connection& e) {
-      throw Error(ErrorCode::kBackend,
-                  what + ": lost connection to " + uri_ + ": " + FirstLines(e.what()));
-    } catch (const pqxx::sql_error& e) {
-      throw Error(ErrorCode::kBackend,
-                  what + " on " + uri_ + ": " + FirstLines(e.what()) + " (in: " + e.query() + ")");
-    } catch (const std::exception& e) {
-      throw Error(ErrorCode::kBackend, what + " on " + uri_ + ": " + FirstLines(e.what()));
-    }
-  }
-
-  // Runs fn in the open explicit transaction, or else in autocommit.
-  template <typename Fn>
-  auto Autocommit(const std::string& what, Fn&& fn)
-      -> std::invoke_result_t<Fn, pqxx::transaction_base&> {
-    return Translate(what, [&] {
-      if (txn_) return fn(static_cast<pqxx::transaction_base&>(*txn_));
-      pqxx::nontransaction t(*conn_);
-      return fn(static_cast<pqxx::transaction_base&>(t));
-    });
-  }
-
-  static std::string FirstLines(const std::string& message) {
-    std::string s = message;
-    while (!s.empty() && (s.back() == '\n' || s.back() == ' ')) s.pop_back();
-    for (char& c : s) {
-      if (c == '\n') c = ' ';
-    }
-    return s;
-  }
-
   void Migrate() {
-    Translate("migrate " + uri_, [&] {
-      pqxx::work t(*conn_);
+    session_.Translate("migrate " + session_.uri(), [&] {
+      pqxx::work t(session_.connection());
       // Two servers opening a fresh database at once migrate one after the other.
       t.exec("SELECT pg_advisory_xact_lock(" + std::to_string(kMigrationLockKey) + ")");
       t.exec("CREATE TABLE IF NOT EXISTS fleetmap_schema (version integer NOT NULL)");
@@ -469,7 +333,7 @@ class PostgresGraphStore final : public GraphStore {
           t.exec("SELECT coalesce(max(version), 0) FROM fleetmap_schema")[0][0].as<int>();
       const auto& migrations = PostgresMigrations();
       const int latest = static_cast<int>(migrations.size());
-      RefuseNewerSchema(uri_, current, latest);
+      RefuseNewerSchema(session_.uri(), current, latest);
       for (const Migration& m : migrations) {
         if (m.version <= current) continue;
         t.exec(m.sql, m.name);
@@ -481,7 +345,7 @@ class PostgresGraphStore final : public GraphStore {
   }
 
   void Prepare() {
-    pqxx::connection& c = *conn_;
+    pqxx::connection& c = session_.connection();
     c.prepare("insert_node",
               "INSERT INTO nodes (id, stamp_ns, robot, outing, landmarks)"
               " VALUES ($1, $2, $3, $4, $5) ON CONFLICT (id) DO NOTHING");
@@ -684,7 +548,7 @@ class PostgresGraphStore final : public GraphStore {
   // than a tenth of its analysed size (and by at least 1000 rows) analyses what it touched.
   void RefreshStatisticsAfter(const GraphBatch& batch) {
     constexpr double kMinRows = 1000, kGrowth = 0.1;
-    pqxx::nontransaction t(*conn_);
+    pqxx::nontransaction t(session_.connection());
     std::string tables;
     for (const auto& [table, rows] :
          {std::pair{"nodes", batch.nodes.size()}, std::pair{"edges", batch.edges.size()}}) {
@@ -700,7 +564,7 @@ class PostgresGraphStore final : public GraphStore {
   }
 
   std::vector<Edge> ReadEdges(const char* statement, const std::string& key) {
-    return Autocommit(statement, [&](pqxx::transaction_base& t) {
+    return session_.Autocommit(statement, [&](pqxx::transaction_base& t) {
       std::vector<Edge> edges;
       for (const pqxx::row& row : t.exec_prepared(statement, key))
         edges.push_back(ReadEdge(row, 0));
@@ -709,7 +573,7 @@ class PostgresGraphStore final : public GraphStore {
   }
 
   std::vector<Annotation> ReadAnnotations(const char* statement, const Uuid& key) {
-    return Autocommit(statement, [&](pqxx::transaction_base& t) {
+    return session_.Autocommit(statement, [&](pqxx::transaction_base& t) {
       std::vector<Annotation> annotations;
       for (const pqxx::row& row : t.exec_prepared(statement, key.ToString())) {
         annotations.push_back(ReadAnnotation(row));
@@ -718,9 +582,8 @@ class PostgresGraphStore final : public GraphStore {
     });
   }
 
-  std::string uri_;
-  std::unique_ptr<pqxx::connection> conn_;
-  std::unique_ptr<pqxx::work> txn_;  // the open explicit Transaction, if any
+  PgSession session_;
+  std::unique_ptr<VersionStore> versions_;  // shares session_, so declared after it
 };
 
 }  // namespace

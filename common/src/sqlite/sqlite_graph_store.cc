@@ -14,7 +14,10 @@
 
 #include "backends.h"
 #include "fleetmap/common/error.h"
+#include "fleetmap/common/version_store.h"
 #include "migration.h"
+#include "sqlite/element_rows.h"
+#include "sqlite/sqlite_version_store.h"
 #include "sqlite/statement.h"
 
 namespace fleetmap::internal {
@@ -98,7 +101,9 @@ class SqliteGraphStore final : public GraphStore {
                                                  // each B-tree, so this is plenty
       Migrate();
       Prepare();
+      versions_ = NewSqliteVersionStore(db_);
     } catch (...) {
+      versions_.reset();
       statements_.reset();
       sqlite3_close(db_);
       throw;
@@ -106,11 +111,15 @@ class SqliteGraphStore final : public GraphStore {
   }
 
   ~SqliteGraphStore() override {
+    // Prepared statements first: sqlite3_close refuses a connection that still has some.
+    versions_.reset();
     statements_.reset();
     sqlite3_close(db_);
   }
 
   std::string uri() const override { return "sqlite:" + path_; }
+
+  VersionStore& versions() override { return *versions_; }
 
   int schema_version() override {
     Statement s(db_, "SELECT coalesce(max(version), 0) FROM fleetmap_schema");
@@ -522,56 +531,6 @@ class SqliteGraphStore final : public GraphStore {
 
   void Prepare() { statements_ = std::make_unique<Statements>(db_); }
 
-  static Node ReadNode(const Statement& s, bool with_landmarks) {
-    Node n;
-    n.id = s.UuidAt(0);
-    n.stamp_ns = s.Int64(1);
-    n.robot = s.UuidAt(2);
-    n.outing = s.UuidAt(3);
-    if (with_landmarks) n.landmarks_blob = std::string(s.Blob(4));
-    return n;
-  }
-
-  static Edge ReadEdge(const Statement& s, int first) {
-    Edge e;
-    e.id = s.UuidAt(first);
-    e.from = s.UuidAt(first + 1);
-    e.to = s.UuidAt(first + 2);
-    e.kind = static_cast<EdgeKind>(s.Int64(first + 3));
-    try {
-      e.from_T_to = Se3FromTranslationQuaternion(
-          Eigen::Vector3d(s.Double(first + 4), s.Double(first + 5), s.Double(first + 6)),
-          Eigen::Quaterniond(s.Double(first + 7), s.Double(first + 8), s.Double(first + 9),
-                             s.Double(first + 10)));
-    } catch (const Error& error) {
-      throw Error(ErrorCode::kCorrupt, "edge " + e.id.ToString() +
-                                           " has a stored pose that is not SE(3): " + error.what());
-    }
-    e.path = s.UuidAt(first + 11);
-    return e;
-  }
-
-  static Path ReadPath(const Statement& s) {
-    return Path{s.UuidAt(0), s.UuidAt(1), s.UuidAt(2), s.Int64(3), s.Int64(4)};
-  }
-
-  static Annotation ReadAnnotation(const Statement& s) {
-    Annotation a;
-    a.id = s.UuidAt(0);
-    if (!s.IsNull(1)) {
-      a.target_kind = AnnotationTarget::kNode;
-      a.target = s.UuidAt(1);
-    } else if (!s.IsNull(2)) {
-      a.target_kind = AnnotationTarget::kEdge;
-      a.target = s.UuidAt(2);
-    } else {
-      a.parent = s.UuidAt(3);
-    }
-    a.type = s.Text(4);
-    a.payload = std::string(s.Blob(5));
-    return a;
-  }
-
   std::vector<Edge> ReadEdges(Statement& statement, const Uuid& key) {
     StatementUse s(statement);
     s->Bind(1, key);
@@ -591,6 +550,7 @@ class SqliteGraphStore final : public GraphStore {
   std::string path_;
   sqlite3* db_ = nullptr;
   std::unique_ptr<Statements> statements_;
+  std::unique_ptr<VersionStore> versions_;  // on db_, sharing its transactions
 };
 
 }  // namespace

@@ -32,6 +32,8 @@
 
 namespace fleetmap {
 
+class VersionStore;
+
 // Seed 000 §6.1: synchronous flushes every commit to stable storage (SQLite WAL with
 // synchronous=FULL; PostgreSQL synchronous_commit=on). Buffered leaves writes to the OS
 // (SQLite synchronous=OFF; PostgreSQL synchronous_commit=off): a killed process loses
@@ -162,6 +164,10 @@ class GraphStore {
   std::vector<Node> ListNodes(const NodeFilter& filter);
   std::vector<Path> ListPaths(const PathFilter& filter);
   StoreStats Stats();
+
+  // The versioning tables of this store (version_store.h): submissions, revisions, and which
+  // revision added and hid each element. Same connection, so it shares Transactions.
+  virtual VersionStore& versions() = 0;
 
  protected:
   GraphStore() = default;
