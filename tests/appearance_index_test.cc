@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "fleetmap/common/error.h"
+#include "fleetmap/vocabulary.pb.h"
 #include "landmark_scene.h"
 
 namespace fleetmap {
@@ -122,6 +123,49 @@ TEST(AppearanceVocabulary, TrainingIsDeterministic) {
   }
   // The seed matters (else the test above would pass for a vocabulary ignoring it).
   EXPECT_GT(differs_from_other, sample.size() / 2);
+}
+
+TEST(AppearanceVocabulary, EncodedVocabularyDecodesToTheSameWords) {
+  const std::vector<Descriptor256> sample = TrainingSample(MakePlaces(60, 5));
+  const AppearanceVocabulary trained = AppearanceVocabulary::Train(sample, {.seed = 3});
+  const std::string bytes = trained.Encode();
+  const AppearanceVocabulary decoded = AppearanceVocabulary::Decode(bytes);
+  EXPECT_EQ(decoded.word_count(), trained.word_count());
+  EXPECT_EQ(decoded.options().seed, 3u);
+  std::mt19937 rng(9);
+  for (const Descriptor256& d : RandomDescriptors(500, rng)) {
+    ASSERT_EQ(decoded.WordOf(d), trained.WordOf(d));
+  }
+  EXPECT_EQ(decoded.Encode(), bytes);
+}
+
+TEST(AppearanceVocabulary, DamagedBytesAreRefusedAsCorrupt) {
+  const std::string bytes = AppearanceVocabulary::Train(TrainingSample(MakePlaces(20, 5))).Encode();
+  const auto corrupt = [](const std::string& damaged) {
+    try {
+      AppearanceVocabulary::Decode(damaged);
+      ADD_FAILURE() << "damaged vocabulary decoded";
+    } catch (const Error& error) {
+      EXPECT_EQ(error.code(), ErrorCode::kCorrupt) << error.what();
+    }
+  };
+  corrupt("");                                 // no tree
+  corrupt("not a vocabulary at all");          // does not parse
+  corrupt(bytes.substr(0, bytes.size() / 2));  // cut short
+  // A tree whose root points past its end.
+  v1::AppearanceVocabulary proto;
+  ASSERT_TRUE(proto.ParseFromString(bytes));
+  proto.mutable_nodes(0)->set_first_child(proto.nodes_size() + 5);
+  corrupt(proto.SerializeAsString());
+  // A leaf whose word is out of range.
+  ASSERT_TRUE(proto.ParseFromString(bytes));
+  for (int i = 0; i < proto.nodes_size(); ++i) {
+    if (proto.nodes(i).child_count() == 0) {
+      proto.mutable_nodes(i)->set_word(proto.word_count());
+      break;
+    }
+  }
+  corrupt(proto.SerializeAsString());
 }
 
 TEST(AppearanceVocabulary, BatchedDescentGivesTheSameWords) {

@@ -23,6 +23,8 @@ std::string_view ErrorCodeName(ErrorCode code) {
 }
 
 Error::Error(ErrorCode code, const std::string& message)
-    : std::runtime_error(std::string(ErrorCodeName(code)) + ": " + message), code_(code) {}
+    : std::runtime_error(std::string(ErrorCodeName(code)) + ": " + message),
+      code_(code),
+      message_(message) {}
 
 }  // namespace fleetmap

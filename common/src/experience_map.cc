@@ -11,25 +11,30 @@ ExperienceMap::ExperienceMap(std::shared_ptr<const AppearanceVocabulary> vocabul
 
 ExperienceMap ExperienceMap::Load(GraphStore& store,
                                   std::shared_ptr<const AppearanceVocabulary> vocabulary) {
-  ExperienceMap map(std::move(vocabulary));
-  std::vector<Node> nodes = store.ListNodes({});
+  const std::vector<Node> nodes = store.ListNodes({});
   std::vector<Uuid> ids;
   ids.reserve(nodes.size());
-  for (Node& node : nodes) {
-    ids.push_back(node.id);
-    Landmarks landmarks = DecodeLandmarks(node.landmarks_blob);
-    node.landmarks_blob.clear();
-    map.AddNode(node, std::move(landmarks));
-  }
-  for (const Edge& edge : store.EdgesTouching(ids)) {
+  for (const Node& node : nodes) ids.push_back(node.id);
+  // EdgesTouching reports each edge once however many of its ends were queried.
+  return FromGraph(nodes, store.EdgesTouching(ids), std::move(vocabulary));
+}
+
+ExperienceMap ExperienceMap::FromGraph(std::span<const Node> nodes, std::span<const Edge> edges,
+                                       std::shared_ptr<const AppearanceVocabulary> vocabulary) {
+  ExperienceMap map(std::move(vocabulary));
+  for (const Node& node : nodes) map.AddNode(node, DecodeLandmarks(node.landmarks_blob));
+  for (const Edge& edge : edges) {
     if (edge.kind != EdgeKind::kMetric) continue;
-    // EdgesTouching reports an edge once per touching node queried; keep it once.
-    const NodeIndex from = *map.Find(edge.from);
-    bool known = false;
-    for (const MetricLink& link : map.experiences_[from].links) {
-      known = known || map.experiences_[link.to].node.id == edge.to;
+    const std::optional<NodeIndex> from = map.Find(edge.from), to = map.Find(edge.to);
+    if (!from || !to) {
+      throw Error(ErrorCode::kIntegrity, "experience map: metric edge " + edge.id.ToString() +
+                                             " has an end outside the map");
     }
-    if (!known) map.AddMetricEdge(edge.from, edge.to, edge.from_T_to);
+    // One relative pose per pair of nodes: a second edge between them (either way round)
+    // would only give the search a second, disagreeing estimate.
+    bool linked = false;
+    for (const MetricLink& link : map.experiences_[*from].links) linked |= link.to == *to;
+    if (!linked) map.AddMetricEdge(edge.from, edge.to, edge.from_T_to);
   }
   return map;
 }

@@ -41,7 +41,7 @@ Se3 FromProto(const v1::Se3& proto) {
         Eigen::Vector3d(proto.tx(), proto.ty(), proto.tz()),
         Eigen::Quaterniond(proto.qw(), proto.qx(), proto.qy(), proto.qz()));
   } catch (const Error& e) {
-    throw Error(ErrorCode::kCorrupt, std::string("Se3 message: ") + e.what());
+    throw Error(ErrorCode::kCorrupt, "Se3 message: " + e.message());
   }
 }
 

@@ -65,7 +65,7 @@ Edge ReadEdge(const pqxx::row& r, pqxx::row::size_type first) {
                            DoubleField(r[first + 9]), DoubleField(r[first + 10])));
   } catch (const Error& error) {
     throw Error(ErrorCode::kCorrupt, "edge " + e.id.ToString() +
-                                         " has a stored pose that is not SE(3): " + error.what());
+                                         " has a stored pose that is not SE(3): " + error.message());
   }
   e.path = UuidField(r[first + 11]);
   return e;

@@ -27,7 +27,7 @@ Edge ReadEdge(const Statement& s, int first) {
                            s.Double(first + 10)));
   } catch (const Error& error) {
     throw Error(ErrorCode::kCorrupt, "edge " + e.id.ToString() +
-                                         " has a stored pose that is not SE(3): " + error.what());
+                                         " has a stored pose that is not SE(3): " + error.message());
   }
   e.path = s.UuidAt(first + 11);
   return e;

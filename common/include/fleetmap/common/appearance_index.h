@@ -22,6 +22,8 @@
 #include <map>
 #include <memory>
 #include <span>
+#include <string>
+#include <string_view>
 #include <vector>
 
 #include "fleetmap/common/graph.h"
@@ -49,6 +51,14 @@ class AppearanceVocabulary {
   // or options outside the ranges above.
   static AppearanceVocabulary Train(std::span<const Descriptor256> sample,
                                     const VocabularyOptions& options = {});
+
+  // The vocabulary as bytes (fleetmap.v1.AppearanceVocabulary), so a repository keeps the
+  // words its map was indexed with; Decode gives back an equal vocabulary (same words for
+  // every descriptor). Decode throws Error(kCorrupt) for bytes that do not parse or do not
+  // form a well-formed tree (children out of range or out of order, words missing or out of
+  // range, centres of the wrong size).
+  std::string Encode() const;
+  static AppearanceVocabulary Decode(std::string_view bytes);
 
   int word_count() const { return word_count_; }
   const VocabularyOptions& options() const { return options_; }

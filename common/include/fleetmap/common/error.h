@@ -28,9 +28,13 @@ class Error : public std::runtime_error {
   Error(ErrorCode code, const std::string& message);
 
   ErrorCode code() const { return code_; }
+  // The message without the code's name in front (what() has "code-name: message"), for
+  // adding context: Error(e.code(), "context: " + e.message()).
+  const std::string& message() const { return message_; }
 
  private:
   ErrorCode code_;
+  std::string message_;
 };
 
 }  // namespace fleetmap

@@ -8,6 +8,7 @@
 #pragma once
 
 #include <memory>
+#include <span>
 #include <unordered_map>
 #include <vector>
 
@@ -37,6 +38,12 @@ class ExperienceMap {
   // Every node and metric edge of the store (path edges belong to path memory, not here).
   static ExperienceMap Load(GraphStore& store,
                             std::shared_ptr<const AppearanceVocabulary> vocabulary);
+  // The nodes (landmarks decoded from their blobs) and the metric edges among `edges`, e.g. a
+  // map checked out at a revision; of several edges between one pair of nodes, the first. Throws
+  // Error(kCorrupt) for landmarks that do not decode and Error(kIntegrity) for a metric edge with
+  // an end outside `nodes`.
+  static ExperienceMap FromGraph(std::span<const Node> nodes, std::span<const Edge> edges,
+                                 std::shared_ptr<const AppearanceVocabulary> vocabulary);
 
   // Adds a node (landmarks decoded from node.landmarks_blob unless given) and indexes its
   // appearance. Re-adding a known id throws Error(kConflict).

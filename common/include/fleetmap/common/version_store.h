@@ -75,6 +75,10 @@ struct Submission {
   friend bool operator==(const Submission&, const Submission&) = default;
 };
 
+// "merge", "revert"; "receiving", "queued", "merged", "failed".
+std::string_view RevisionKindName(RevisionKind kind);
+std::string_view SubmissionStateName(SubmissionState state);
+
 // What differs between the maps at two revisions, by UUID (ascending in each list).
 struct RevisionChanges {
   RevisionNumber from = 0, to = 0;
