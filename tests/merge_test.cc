@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 
+#include <limits>
 #include <unordered_set>
 
 #include "corridor_scene.h"
@@ -40,7 +41,8 @@ struct Written {
   std::unordered_set<Uuid> edges, paths;
   ServerCatalogue Catalogue() const {
     return {[this](const Uuid& id) { return edges.contains(id); },
-            [this](const Uuid& id) { return paths.contains(id); }};
+            [this](const Uuid& id) { return paths.contains(id); },
+            {}};
   }
   void Record(const GraphBatch& batch) {
     for (const Edge& edge : batch.edges) edges.insert(edge.id);
@@ -104,7 +106,7 @@ TEST_F(MergeTest, WhatTheServerLocalisesIsOmittedAndItsPathMemoryCarriedOver) {
   EXPECT_EQ(result.report.submitted_nodes, submission.nodes.size());
   EXPECT_GE(result.report.segments, 1u);
   EXPECT_EQ(progress_calls, result.report.segments);
-  EXPECT_EQ(result.report.segments_omitted, result.report.segments);
+  EXPECT_EQ(result.report.stretches_omitted, result.report.stretches);
   EXPECT_EQ(result.report.nodes_added, 0u);
   EXPECT_TRUE(result.additions.nodes.empty());
   EXPECT_EQ(server.size(), server_nodes);
@@ -118,7 +120,31 @@ TEST_F(MergeTest, WhatTheServerLocalisesIsOmittedAndItsPathMemoryCarriedOver) {
   }
 }
 
-TEST_F(MergeTest, ANewConditionIsAddedAndWhatAlsoLocalisesIsLinked) {
+// Metric components of a mirror, by breadth-first search over its links.
+std::size_t Components(const ExperienceMap& map) {
+  std::vector<bool> seen(map.size(), false);
+  std::size_t components = 0;
+  for (std::size_t start = 0; start < map.size(); ++start) {
+    if (seen[start]) continue;
+    ++components;
+    std::vector<std::size_t> stack{start};
+    seen[start] = true;
+    while (!stack.empty()) {
+      const std::size_t at = stack.back();
+      stack.pop_back();
+      for (const ExperienceMap::MetricLink& link :
+           map.at(static_cast<ExperienceMap::NodeIndex>(at)).links) {
+        if (!seen[link.to]) {
+          seen[link.to] = true;
+          stack.push_back(link.to);
+        }
+      }
+    }
+  }
+  return components;
+}
+
+TEST_F(MergeTest, WholeSegmentsAreAddedWholeAndLinkedWhereTheyLocalise) {
   Server day = DayServer();
   ExperienceMap& server = day.map;
   GraphStore& server_store = *day.store;
@@ -127,9 +153,12 @@ TEST_F(MergeTest, ANewConditionIsAddedAndWhatAlsoLocalisesIsLinked) {
   const GraphBatch submission = ReadAll(*Build("robot", {NightThenDay(corridor())}));
 
   Written written;
-  const MergeResult result = Merge(server, submission, written.Catalogue());
+  MergeOptions whole;
+  whole.decision_length_m = std::numeric_limits<double>::infinity();
+  const MergeResult result = Merge(server, submission, written.Catalogue(), whole);
   ASSERT_EQ(result.report.segments, 1u);
-  EXPECT_EQ(result.report.segments_added, 1u);
+  EXPECT_EQ(result.report.stretches, 1u);
+  EXPECT_EQ(result.report.stretches_added, 1u);
   EXPECT_EQ(result.report.nodes_added, submission.nodes.size());
   EXPECT_EQ(server.size(), server_nodes + submission.nodes.size());
   // Linked at the first and last frames of the day half, which localise in the server map.
@@ -139,12 +168,82 @@ TEST_F(MergeTest, ANewConditionIsAddedAndWhatAlsoLocalisesIsLinked) {
     if (edge.kind == EdgeKind::kMetric && server_store.FindNode(edge.from).has_value()) ++links;
   }
   EXPECT_EQ(links, 2u);
+  EXPECT_EQ(Components(server), 1u);
 
   // Written to the server store, the result is a consistent graph.
   server_store.Put(result.additions);
   const ExperienceMap reloaded = ExperienceMap::Load(server_store, vocabulary());
   EXPECT_EQ(reloaded.size(), server.size());
   EXPECT_EQ(reloaded.metric_edge_count(), server.metric_edge_count());
+}
+
+TEST_F(MergeTest, StretchesAreDecidedApartSoOnlyTheNewConditionIsAdded) {
+  Server day = DayServer();
+  ExperienceMap& server = day.map;
+  const std::size_t server_nodes = server.size();
+  const GraphBatch submission = ReadAll(*Build("robot", {NightThenDay(corridor())}));
+  // The night half ends where the day half's frames begin.
+  const std::int64_t day_from_ns = corridor().Outing(0)[corridor().Outing(0).size() / 2].stamp_ns;
+  std::size_t night = 0;
+  for (const Node& node : submission.nodes) night += node.stamp_ns < day_from_ns ? 1 : 0;
+  ASSERT_GT(night, 0u);
+  ASSERT_GT(submission.nodes.size() - night, 0u);
+
+  Written written;
+  const MergeResult result = Merge(server, submission, written.Catalogue());  // 10 m stretches
+  ASSERT_EQ(result.report.segments, 1u);
+  EXPECT_GT(result.report.stretches, 2u);
+  EXPECT_GT(result.report.stretches_added, 0u);
+  EXPECT_GT(result.report.stretches_omitted, 0u);
+  EXPECT_EQ(result.report.stretches_added + result.report.stretches_omitted,
+            result.report.stretches);
+  // Every night node is new to the server; most of the day half is not. (A stretch across the
+  // change of condition may take a few day nodes with it.)
+  std::size_t night_added = 0, day_added = 0;
+  for (const Node& node : result.additions.nodes) {
+    (node.stamp_ns < day_from_ns ? night_added : day_added) += 1;
+  }
+  EXPECT_EQ(night_added, night);
+  EXPECT_LT(day_added, (submission.nodes.size() - night) / 2);
+  EXPECT_EQ(server.size(), server_nodes + result.report.nodes_added);
+  // The night chain is joined to the server map through the day node it ran into, which
+  // stands in by the server node it localised in: still one map.
+  EXPECT_EQ(Components(server), 1u);
+}
+
+// Algorithm 1 follows egomotion only: a robot's chain of one outing that branches off another
+// outing's chain stays a segment of its own.
+TEST_F(MergeTest, AnEdgeBetweenOutingsDoesNotFuseTheirSegments) {
+  const std::vector<Frame> frames = corridor().Outing(1);
+  const Uuid robot = Uuid::Generate();
+  GraphBatch submission;
+  const auto chain = [&](const Uuid& outing, std::size_t first_frame) {
+    std::vector<Uuid> ids;
+    for (std::size_t i = 0; i < 5; ++i) {
+      const Frame& frame = frames[first_frame + 4 * i];
+      submission.nodes.push_back(
+          {Uuid::Generate(), frame.stamp_ns, robot, outing, EncodeLandmarks(frame.landmarks)});
+      ids.push_back(submission.nodes.back().id);
+      if (i > 0) {
+        submission.edges.push_back({Uuid::Generate(), ids[i - 1], ids[i], EdgeKind::kMetric,
+                                    Se3(Eigen::Translation3d(0, 0, 4.0)), Uuid()});
+      }
+    }
+    return ids;
+  };
+  const std::vector<Uuid> a = chain(Uuid::Generate(), 0);
+  const std::vector<Uuid> b = chain(Uuid::Generate(), 60);
+  // Outing b set off from a's third node (it localised there, then drove on).
+  submission.edges.push_back({Uuid::Generate(), a[2], b[0], EdgeKind::kMetric,
+                              Se3(Eigen::Translation3d(0, 0, 52.0)), Uuid()});
+
+  ExperienceMap server(vocabulary());
+  Written written;
+  const MergeResult result = Merge(server, submission, written.Catalogue());
+  EXPECT_EQ(result.report.segments, 2u);
+  EXPECT_EQ(result.report.nodes_added, 10u);  // an empty server localises nothing
+  EXPECT_EQ(result.report.metric_edges_added, submission.edges.size());
+  EXPECT_EQ(Components(server), 1u);
 }
 
 TEST_F(MergeTest, MergingTheSameSubmissionTwiceAddsNothing) {

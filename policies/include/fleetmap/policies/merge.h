@@ -30,7 +30,10 @@
 namespace fleetmap {
 
 struct MergeOptions {
-  // A segment is omitted when at least this share of its frames localise, in (0, 1].
+  // Inclusion is decided per stretch of a segment at most this long (odometry metres, > 0;
+  // infinity decides whole segments).
+  double decision_length_m = 10.0;
+  // A stretch is omitted when at least this share of its frames localise, in (0, 1].
   double omit_localised_fraction = 0.8;
   // The replaying localiser (localise_only is forced on).
   BuilderOptions localiser = {};
@@ -38,10 +41,11 @@ struct MergeOptions {
 
 struct MergeReport {
   std::size_t submitted_nodes = 0;
-  std::size_t duplicate_nodes = 0;  // already on the server
-  std::size_t segments = 0;
-  std::size_t segments_added = 0;
-  std::size_t segments_omitted = 0;
+  std::size_t duplicate_nodes = 0;  // already on the server (hidden ones included)
+  std::size_t segments = 0;         // found by Algorithm 1
+  std::size_t stretches = 0;        // the parts of segments inclusion was decided on
+  std::size_t stretches_added = 0;
+  std::size_t stretches_omitted = 0;
   std::size_t nodes_added = 0;
   std::size_t metric_edges_added = 0;  // the robot's, plus links to the server map
   std::size_t links_added = 0;         // of those, the links
@@ -56,10 +60,13 @@ struct MergeResult {
   MergeReport report;
 };
 
-// What the server already holds beyond its nodes: the merge asks instead of loading them.
+// What the server already holds beyond the mirror: the merge asks instead of loading it.
 struct ServerCatalogue {
   std::function<bool(const Uuid& edge)> has_edge;
   std::function<bool(const Uuid& path)> has_path;
+  // Optional: nodes stored but not in the mirror (hidden by a revert). Such a node is a
+  // duplicate, never added again (UUID dedup, seed 004 §III-D), and edges to it are dropped.
+  std::function<bool(const Uuid& node)> has_hidden_node;
 };
 
 // Called after each segment with (segments done, segments in all).
