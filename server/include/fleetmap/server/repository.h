@@ -1,0 +1,130 @@
+// The central repository of a fleet's experience map (seed 004 §IV–§V; DESIGN.md "Versions"),
+// on one GraphStore (SQLite or PostgreSQL) and its VersionStore:
+// - Push stores what a robot sends whole and immutable, as a submission (nothing is lost);
+// - Merge runs MERGE (policies/merge.h) of one submission against the map at the head and
+//   commits what it adds as the next revision of a linear history, atomically with the
+//   submission's new state, so a crash leaves either the old head or the new one;
+// - Checkout, Diff and Download read any revision; Revert hides what a revision added.
+//
+// The map at the head is mirrored in memory for MERGE (an ExperienceMap), loaded on first use
+// and reloaded when another writer moved the head.
+//
+// Threading: one thread at a time (like its GraphStore). Several processes may share one
+// PostgreSQL store: revision numbers are claimed in the database, and a merge that lost the
+// race fails with Error(kConflict) and changes nothing.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "fleetmap/common/appearance_index.h"
+#include "fleetmap/common/experience_map.h"
+#include "fleetmap/common/graph_store.h"
+#include "fleetmap/common/version_store.h"
+#include "fleetmap/policies/download_policy.h"
+#include "fleetmap/policies/merge.h"
+
+namespace fleetmap {
+
+struct RepositoryOptions {
+  MergeOptions merge{};
+  // The appearance vocabulary MERGE indexes the map with. Null: the one stored with the
+  // repository; a repository without one trains it from the first submission it merges
+  // (deterministically) and stores it, so every later merge uses the same words.
+  std::shared_ptr<const AppearanceVocabulary> vocabulary;
+  // UTC nanoseconds for revision and submission stamps; null: the system clock.
+  std::function<std::int64_t()> now_ns;
+};
+
+struct MergeOutcome {
+  Revision revision;            // the revision the submission became
+  MergeReport report;           // what MERGE did (empty when already merged)
+  bool already_merged = false;  // merged before: nothing was done
+  double seconds = 0.0;         // the whole call: mirror, MERGE and the commit
+};
+
+struct Download {
+  RevisionNumber revision = 0;
+  GraphBatch map;  // nodes with landmarks, edges and paths of the selection
+  DownloadReport report;
+};
+
+class Repository {
+ public:
+  // Opens (creating and migrating) the store at `uri`. Throws as GraphStore::Open.
+  static std::unique_ptr<Repository> Open(std::string_view uri, RepositoryOptions options = {});
+  explicit Repository(std::unique_ptr<GraphStore> store, RepositoryOptions options = {});
+  ~Repository();
+
+  // ---- Push ----
+
+  // Stores `map` as submission `id` from `robot` whole, in one transaction (as MapChunks,
+  // map_chunks.h), queued for MERGE. Pushing the same id again with the same content changes
+  // nothing and returns the stored submission; with other content throws Error(kConflict).
+  // Refuses, storing nothing: Error(kInvalidArgument) for an element that breaks the model
+  // rules (graph.h Validate) or a nil id or robot, Error(kCorrupt) for landmarks that do not
+  // decode, Error(kIntegrity) for an edge whose end is neither in the map nor stored.
+  Submission Push(const Uuid& id, const Uuid& robot, const std::string& author,
+                  const GraphBatch& map);
+  // The map of a stored submission. Throws Error(kNotFound), or Error(kCorrupt) when its
+  // chunks do not decode or match the recorded digest.
+  GraphBatch ReadSubmission(const Uuid& id);
+  std::vector<Submission> Submissions();
+
+  // ---- MERGE ----
+
+  // Merges a stored submission into the next revision (seed 004 §V-A), authored by whoever
+  // pushed it. A submission merged before is not merged again: returns its revision with
+  // already_merged. When MERGE refuses the submission's content (Error(kCorrupt) or
+  // Error(kIntegrity)) the submission is marked failed with the reason and the error
+  // rethrown; the map does not change. Throws Error(kNotFound) for an unknown submission and
+  // Error(kInvalidArgument) for one still being received.
+  MergeOutcome Merge(const Uuid& submission, const MergeProgress& progress = {});
+
+  // ---- History ----
+
+  RevisionNumber Head();
+  std::vector<Revision> History();  // ascending
+  // A new revision hiding what revision `r` added (VersionStore::AppendRevert).
+  Revision Revert(RevisionNumber r, const std::string& author);
+
+  // ---- Reading revisions ----
+
+  // The whole map at revision `r` (default: the head): nodes with landmarks, edges, paths.
+  // Throws Error(kNotFound) for a revision not in the history.
+  GraphBatch Checkout(std::optional<RevisionNumber> r = std::nullopt);
+  RevisionChanges Diff(RevisionNumber from, RevisionNumber to);
+  // A mission's subset of revision `r` (default: the head) chosen by `policy` (seed 004
+  // §V-B), integral (download_policy.h).
+  Download SelectForDownload(const DownloadPolicy& policy,
+                             std::optional<RevisionNumber> r = std::nullopt);
+
+  // The vocabulary MERGE indexes this repository's map with: the one given in the options,
+  // else the one stored with the repository; null before the first merge has trained one.
+  std::shared_ptr<const AppearanceVocabulary> StoredVocabulary();
+  const MergeOptions& merge_options() const { return options_.merge; }
+
+  GraphStore& store() { return *store_; }
+  VersionStore& versions() { return store_->versions(); }
+
+ private:
+  struct Mirror;
+
+  std::int64_t Now() const;
+  // The head's mirror, reloaded if another writer moved the head.
+  Mirror& HeadMirror(const GraphBatch* first_submission);
+  std::shared_ptr<const AppearanceVocabulary> Vocabulary(const GraphBatch* first_submission);
+  RevisionNumber Resolve(std::optional<RevisionNumber> r);
+
+  std::unique_ptr<GraphStore> store_;
+  RepositoryOptions options_;
+  std::shared_ptr<const AppearanceVocabulary> vocabulary_;
+  std::unique_ptr<Mirror> mirror_;
+};
+
+}  // namespace fleetmap

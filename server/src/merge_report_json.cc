@@ -1,0 +1,25 @@
+#include "merge_report_json.h"
+
+#include <nlohmann/json.hpp>
+
+namespace fleetmap {
+
+std::string MergeReportJson(const MergeReport& r) {
+  nlohmann::ordered_json json;
+  json["submitted_nodes"] = r.submitted_nodes;
+  json["duplicate_nodes"] = r.duplicate_nodes;
+  json["segments"] = r.segments;
+  json["stretches"] = r.stretches;
+  json["stretches_added"] = r.stretches_added;
+  json["stretches_omitted"] = r.stretches_omitted;
+  json["nodes_added"] = r.nodes_added;
+  json["metric_edges_added"] = r.metric_edges_added;
+  json["links_added"] = r.links_added;
+  json["path_edges_added"] = r.path_edges_added;
+  json["path_edges_dropped"] = r.path_edges_dropped;
+  json["paths_added"] = r.paths_added;
+  json["seconds"] = r.seconds;
+  return json.dump();
+}
+
+}  // namespace fleetmap
