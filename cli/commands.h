@@ -8,5 +8,13 @@ namespace fleetmap::cli {
 void AddDemoCommand(CLI::App& app);
 void AddBenchCommand(CLI::App& app);
 void AddExperimentCommand(CLI::App& app);
+// The repository (seed 004 §IV–§VI), registered in the order a user meets them: init
+// (repository_commands.cc); push, submissions, merge (submission_commands.cc); log, checkout,
+// diff, revert (repository_commands.cc); download; dream.
+void AddInitCommand(CLI::App& app);
+void AddSubmissionCommands(CLI::App& app);
+void AddHistoryCommands(CLI::App& app);
+void AddDownloadCommand(CLI::App& app);
+void AddDreamCommand(CLI::App& app);
 
 }  // namespace fleetmap::cli

@@ -6,6 +6,8 @@
 #include "commands.h"
 #include "fleetmap/common/error.h"
 #include "fleetmap/common/uuid.h"
+#include "fleetmap/experiments/fleet_experiment.h"
+#include "fleetmap/experiments/fleet_report.h"
 #include "fleetmap/experiments/ranking_experiment.h"
 #include "fleetmap/experiments/ranking_report.h"
 #include "fleetmap/experiments/world_config.h"
@@ -80,6 +82,60 @@ void RunRanking(const RankingArgs& args) {
   }
 }
 
+struct FleetArgs {
+  std::string world_file;
+  std::string scale = "default";
+  std::string out_dir = "experiment-fleet";
+  std::string policy = "path";
+  int threads = 2;
+  int dream_folds = 1;
+  int seed = -1;
+  double omit_fraction = MergeOptions{}.omit_localised_fraction;
+  double stretch_m = MergeOptions{}.decision_length_m;
+};
+
+void RunFleet(const FleetArgs& args) {
+  FleetExperimentOptions options;
+  if (!args.world_file.empty()) options.world = LoadWorldConfig(args.world_file);
+  if (args.seed >= 0) options.world.seed = static_cast<std::uint64_t>(args.seed);
+  if (args.scale == "small") {
+    // A quick look: fewer outings over fewer days.
+    options.world.schedule.outings = 20;
+    options.world.schedule.days = std::min(options.world.schedule.days, 15);
+  } else if (args.scale == "large") {
+    options.world.schedule.outings *= 2;
+    options.world.schedule.days *= 2;
+  } else if (args.scale != "default") {
+    throw Error(ErrorCode::kInvalidArgument,
+                "--scale must be small, default or large, not '" + args.scale + "'");
+  }
+  options.test_policy = args.policy;
+  options.threads = args.threads;
+  options.dream_folds = args.dream_folds;
+  options.merge.omit_localised_fraction = args.omit_fraction;
+  options.merge.decision_length_m = args.stretch_m;
+  const std::filesystem::path out = args.out_dir;
+  options.work_dir = std::filesystem::temp_directory_path() /
+                     ("fleetmap-fleet-" + Uuid::GenerateRandom().ToString());
+  struct RemoveOnExit {
+    std::filesystem::path dir;
+    ~RemoveOnExit() {
+      std::error_code ignored;
+      std::filesystem::remove_all(dir, ignored);
+    }
+  } cleanup{options.work_dir};
+
+  std::cerr << "fleet experiment: " << options.world.schedule.outings << " outings, "
+            << options.folds << " folds, " << options.folds - 1 << " groups each, dreaming on "
+            << options.dream_folds << " fold(s), Γ(" << options.test_policy << ") localiser, "
+            << options.threads << " threads; results in " << out.string() << "\n";
+  ProgressBar bar("fleet", std::cerr);
+  const FleetExperimentResult result = RunFleetExperiment(
+      options, [&bar](std::int64_t done, std::int64_t total) { bar.Update(done, total); });
+  bar.Finish();
+  std::cout << WriteFleetReport(result, options, out, std::cerr);
+}
+
 }  // namespace
 
 void AddExperimentCommand(CLI::App& app) {
@@ -115,6 +171,46 @@ void AddExperimentCommand(CLI::App& app) {
   ranking->add_option("--seed", args->seed, "Override the world file's seed")
       ->check(CLI::NonNegativeNumber);
   ranking->callback([args] { RunRanking(*args); });
+
+  auto fleet_args = std::make_shared<FleetArgs>();
+  CLI::App* fleet = experiment->add_subcommand(
+      "fleet",
+      "MERGE, DOWNLOAD and dreaming by 5-fold cross-validation over outings (seed 004 §VI): "
+      "merged vs single-agent maps (Fig. 7), two robots sharing vs alone (Fig. 8), copy / tod / "
+      "tod+paths downloads (Fig. 9), the groups merged in every order (Fig. 10). Writes CSVs, "
+      "fleet.png and summary.md to --out and prints the summary.");
+  fleet->add_option("--world", fleet_args->world_file,
+                    "World file (JSON; see experiments/worlds/default.json)");
+  fleet->add_option("--scale", fleet_args->scale, "small (20 outings), default, large")
+      ->capture_default_str();
+  fleet->add_option("--out", fleet_args->out_dir, "Directory for CSVs, plots and summary.md")
+      ->capture_default_str();
+  fleet
+      ->add_option("--policy", fleet_args->policy,
+                   "Ranking policy of the held-out localiser: path (Γ(path)) or distance")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"path", "distance"}));
+  fleet
+      ->add_option("--dream-folds", fleet_args->dream_folds,
+                   "Folds whose groups are merged in every order (Fig. 10); 0 skips it")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 5));
+  fleet
+      ->add_option("--merge-omit", fleet_args->omit_fraction,
+                   "MERGE omits a stretch when at least this share of its frames localise")
+      ->capture_default_str()
+      ->check(CLI::Range(0.01, 1.0));
+  fleet
+      ->add_option("--merge-stretch-m", fleet_args->stretch_m,
+                   "MERGE decides inclusion per stretch of a segment this long (metres)")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  fleet->add_option("--threads", fleet_args->threads, "Worker threads")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 256));
+  fleet->add_option("--seed", fleet_args->seed, "Override the world file's seed")
+      ->check(CLI::NonNegativeNumber);
+  fleet->callback([fleet_args] { RunFleet(*fleet_args); });
 }
 
 }  // namespace fleetmap::cli

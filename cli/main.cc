@@ -13,6 +13,11 @@ int main(int argc, char** argv) {
   fleetmap::cli::AddDemoCommand(app);
   fleetmap::cli::AddBenchCommand(app);
   fleetmap::cli::AddExperimentCommand(app);
+  fleetmap::cli::AddInitCommand(app);
+  fleetmap::cli::AddSubmissionCommands(app);
+  fleetmap::cli::AddHistoryCommands(app);
+  fleetmap::cli::AddDownloadCommand(app);
+  fleetmap::cli::AddDreamCommand(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -9,6 +9,7 @@
 #include "fleetmap/common/graph_store.h"
 #include "fleetmap/experiments/task_queue.h"
 #include "fleetmap/experiments/world.h"
+#include "fleetmap/experiments/world_runs.h"
 #include "fleetmap/policies/distance_ranking.h"
 #include "fleetmap/policies/path_memory.h"
 #include "fleetmap/policies/path_ranking.h"
@@ -41,45 +42,6 @@ void Validate(const RankingExperimentOptions& o) {
   if (o.build_rounds < 1) fail("build_rounds must be >= 1");
   if (o.threads < 1) fail("threads must be >= 1");
   if (o.work_dir.empty()) fail("work_dir must be set");
-}
-
-// Outings that train the appearance vocabulary: four drives in different light and weather,
-// rendered apart from the scheduled outings so no held-out frame shapes the vocabulary.
-std::vector<Outing> VocabularyOutings(const WorldConfig& config) {
-  std::vector<Outing> outings;
-  const double times[] = {3.0, 9.0, 15.0, 19.0};
-  const Weather weathers[] = {Weather::kSun, Weather::kOvercast, Weather::kRain, Weather::kSun};
-  for (int i = 0; i < 4; ++i) {
-    Uuid::Bytes bytes{};
-    for (int b = 0; b < 8; ++b)
-      bytes[static_cast<std::size_t>(b)] = static_cast<std::uint8_t>(config.seed >> (8 * b));
-    bytes[8] = 0xB0;
-    bytes[15] = static_cast<std::uint8_t>(i + 1);
-    Outing outing;
-    outing.id = Uuid(bytes);
-    outing.robot = outing.id;
-    outing.day = i * 3;
-    outing.start_time_h = times[i];
-    outing.weather = weathers[i];
-    outing.length_m = std::min(200.0, config.route.length_m);
-    outings.push_back(outing);
-  }
-  return outings;
-}
-
-std::shared_ptr<const AppearanceVocabulary> TrainVocabulary(const World& world) {
-  std::vector<Descriptor256> sample;
-  for (const Outing& outing : VocabularyOutings(world.config())) {
-    const std::vector<Frame> frames = world.Frames(outing);
-    for (std::size_t i = 0; i < frames.size(); i += 4) {
-      const auto& d = frames[i].landmarks.descriptors;
-      sample.insert(sample.end(), d.begin(), d.end());
-    }
-  }
-  if (sample.empty()) {
-    throw Error(ErrorCode::kInvalidArgument, "ranking experiment: the world shows no landmarks");
-  }
-  return std::make_shared<const AppearanceVocabulary>(AppearanceVocabulary::Train(sample));
 }
 
 // Everything one fold needs after its map is built, shared read-only by its runs.
@@ -136,7 +98,7 @@ class Experiment {
 
   void Prepare() {
     outings_ = ScheduleOutings(options_.world);
-    vocabulary_ = TrainVocabulary(world_);
+    vocabulary_ = TrainWorldVocabulary(world_);
     frames_.resize(outings_.size());
     TaskQueue render;
     for (std::size_t i = 0; i < outings_.size(); ++i) {
@@ -199,16 +161,8 @@ class Experiment {
     return specs;
   }
 
-  // Outings start docked at the depot: the map's first experience, saved at the loop's start
-  // (arc length 0), where every scheduled outing begins. A position, not a localisation.
   OutingStart Start(std::size_t outing, const FoldState& fold) const {
-    OutingStart start;
-    start.robot = outings_[outing].robot;
-    start.outing = outings_[outing].id;
-    if (fold.map->size() > 0 && outings_[outing].start_arc_length_m == 0.0) {
-      start.start_node = fold.map->at(0).node.id;
-    }
-    return start;
+    return DepotStart(outings_[outing], *fold.map);
   }
 
   void Advance(std::int64_t frames) {

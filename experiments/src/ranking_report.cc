@@ -11,6 +11,7 @@
 
 #include "fleetmap/common/error.h"
 #include "fleetmap/experiments/gnuplot.h"
+#include "report_text.h"
 
 namespace fleetmap {
 namespace {
@@ -33,20 +34,6 @@ std::vector<const LocalisationRun*> FullMap(const RankingExperimentResult& resul
     return r.map_step == options.map_size_steps && r.policy == policy && r.cores == cores &&
            (policy != "path" || r.window == window);
   });
-}
-
-std::string Fixed(double value, int decimals) {
-  if (std::isnan(value)) return "-";
-  char buffer[64];
-  std::snprintf(buffer, sizeof buffer, "%.*f", decimals, value);
-  return buffer;
-}
-
-void Save(const std::filesystem::path& file, const std::string& text) {
-  std::ofstream out(file);
-  out << text;
-  out.close();
-  if (!out) throw Error(ErrorCode::kBackend, "cannot write " + file.string());
 }
 
 struct Totals {

@@ -1,0 +1,107 @@
+#include "repository_arguments.h"
+
+#include <charconv>
+#include <cstdlib>
+#include <ctime>
+#include <filesystem>
+
+#include "fleetmap/common/error.h"
+
+namespace fleetmap::cli {
+
+void AddStoreOption(CLI::App& command, std::string& uri) {
+  uri = kDefaultStore;
+  command
+      .add_option("--store", uri,
+                  "The repository: sqlite:PATH or postgresql://USER[:PASSWORD]@HOST:PORT/DB")
+      ->capture_default_str();
+}
+
+std::string SqlitePath(std::string_view uri) {
+  constexpr std::string_view kScheme = "sqlite:";
+  if (!uri.starts_with(kScheme)) return "";
+  std::string_view path = uri.substr(kScheme.size());
+  if (path.starts_with("//")) path.remove_prefix(2);  // as GraphStore::Open reads it
+  return std::string(path);
+}
+
+std::unique_ptr<Repository> OpenRepository(const std::string& uri, bool create) {
+  const std::string path = SqlitePath(uri);
+  if (!create && !path.empty() && !std::filesystem::exists(path)) {
+    throw Error(ErrorCode::kNotFound, "no repository at " + uri + " (" + path +
+                                          " does not exist); create one with `fleetmap init "
+                                          "--store " +
+                                          uri + "`");
+  }
+  return Repository::Open(uri);
+}
+
+Uuid ParseUuidArgument(std::string_view text, std::string_view what) {
+  try {
+    return Uuid::Parse(text);
+  } catch (const Error&) {
+    throw Error(ErrorCode::kInvalidArgument,
+                std::string(what) + " '" + std::string(text) +
+                    "' is not a UUID (expected xxxxxxxx-xxxx-xxxx-xxxx-xxxxxxxxxxxx)");
+  }
+}
+
+double ParseClockTime(std::string_view text, std::string_view option) {
+  const auto fail = [&] {
+    throw Error(ErrorCode::kInvalidArgument,
+                std::string(option) + " '" + std::string(text) +
+                    "' is not a time of day: expected HH:MM on the 24-hour clock, 00:00 to 23:59 "
+                    "(UTC)");
+  };
+  const auto two_digits = [&](std::string_view digits, int max) {
+    int value = -1;
+    if (digits.size() != 2) fail();
+    const auto [end, error] = std::from_chars(digits.data(), digits.data() + 2, value);
+    if (error != std::errc() || end != digits.data() + 2 || value < 0 || value > max) fail();
+    return value;
+  };
+  if (text.size() != 5 || text[2] != ':') fail();
+  const int hours = two_digits(text.substr(0, 2), 23);
+  const int minutes = two_digits(text.substr(3, 2), 59);
+  return 60.0 * hours + minutes;
+}
+
+void RequireRevision(Repository& repository, RevisionNumber r) {
+  const RevisionNumber head = repository.Head();
+  if (r < 0 || r > head) {
+    throw Error(ErrorCode::kNotFound, "no revision " + std::to_string(r) + " in " +
+                                          repository.store().uri() +
+                                          ": its revisions run from 0 (the empty map) to " +
+                                          std::to_string(head) + " (the head)");
+  }
+}
+
+std::string FormatUtc(std::int64_t ns) {
+  // Floor division, so times before 1970 still print the right second.
+  std::int64_t seconds = ns / 1'000'000'000;
+  if (ns % 1'000'000'000 < 0) --seconds;
+  const std::time_t t = static_cast<std::time_t>(seconds);
+  std::tm utc{};
+  gmtime_r(&t, &utc);
+  char text[32];
+  std::strftime(text, sizeof text, "%Y-%m-%dT%H:%M:%SZ", &utc);
+  return text;
+}
+
+Error InContext(const Error& error, const std::string& context) {
+  return Error(error.code(), context + ": " + error.message());
+}
+
+std::string Count(std::int64_t n, std::string_view one, std::string_view many) {
+  std::string text = std::to_string(n) + " ";
+  if (n == 1) return text.append(one);
+  if (many.empty()) return text.append(one).append("s");
+  return text.append(many);
+}
+
+std::string DefaultAuthor() {
+  const char* user = std::getenv("USER");
+  return user != nullptr && *user != '\0' ? user : "fleetmap";
+}
+
+}  // namespace fleetmap::cli

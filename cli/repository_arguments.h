@@ -1,0 +1,57 @@
+// What the repository commands (init, push, merge, log, checkout, download, dream, ...) share:
+// the --store option, opening the repository it names, and reading and printing the things
+// people type and read: UUIDs, revision numbers, HH:MM mission times, UTC timestamps.
+// Every parse failure throws fleetmap::Error naming the option and the text given.
+#pragma once
+
+#include <CLI/CLI.hpp>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <string_view>
+
+#include "fleetmap/common/error.h"
+#include "fleetmap/common/uuid.h"
+#include "fleetmap/common/version_store.h"
+#include "fleetmap/server/repository.h"
+
+namespace fleetmap::cli {
+
+inline constexpr const char* kDefaultStore = "sqlite:fleetmap.db";
+
+// Adds --store URI (default kDefaultStore) to `command`.
+void AddStoreOption(CLI::App& command, std::string& uri);
+
+// Opens the repository at `uri`. Unless `create`, an SQLite file that does not exist is
+// refused with Error(kNotFound) pointing at `fleetmap init`, so a mistyped path does not
+// quietly become an empty repository. (A PostgreSQL database has to exist to be connected to.)
+std::unique_ptr<Repository> OpenRepository(const std::string& uri, bool create = false);
+
+// The path of an `sqlite:PATH` (or sqlite://PATH) URI; empty for any other scheme.
+std::string SqlitePath(std::string_view uri);
+
+// Canonical UUID text; else Error(kInvalidArgument) "<what> 'text' is not a UUID ...".
+Uuid ParseUuidArgument(std::string_view text, std::string_view what);
+
+// "HH:MM" on the 24-hour clock, 00:00 to 23:59, as minutes since midnight; else
+// Error(kInvalidArgument) naming `option` and the text.
+double ParseClockTime(std::string_view text, std::string_view option);
+
+// Throws Error(kNotFound) unless 0 <= r <= the head, naming the revision, the store and the
+// range of revisions there are.
+void RequireRevision(Repository& repository, RevisionNumber r);
+
+// UTC nanoseconds as ISO 8601 to the second: 2024-05-01T08:30:00Z.
+std::string FormatUtc(std::int64_t ns);
+
+// `error` with `context` in front of its message ("context: message"), same code. (Error's
+// what() starts with the code's name; that is not repeated inside.)
+Error InContext(const Error& error, const std::string& context);
+
+// "1 path", "3 paths": n and the noun, plural unless n is 1 (`many` defaults to one + "s").
+std::string Count(std::int64_t n, std::string_view one, std::string_view many = {});
+
+// The author of a command run by a person: $USER, else "fleetmap".
+std::string DefaultAuthor();
+
+}  // namespace fleetmap::cli

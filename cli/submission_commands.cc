@@ -1,0 +1,257 @@
+// `fleetmap push`, `fleetmap submissions` and `fleetmap merge`: a robot's map into the
+// repository whole (seed 004 §IV: robots hand their EBN maps to the server), and MERGE of what
+// was pushed into the linear history (seed 004 §V-A).
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <nlohmann/json.hpp>
+
+#include "commands.h"
+#include "fleetmap/common/error.h"
+#include "fleetmap/common/graph_store.h"
+#include "progress_bar.h"
+#include "repository_arguments.h"
+
+namespace fleetmap::cli {
+namespace {
+
+// ---- push ----
+
+struct PushArgs {
+  std::string store;
+  std::string map;
+  std::string robot;
+  std::string author;
+  std::string id;
+};
+
+// Everything in a robot's map store: nodes with landmarks, every edge touching them, paths.
+GraphBatch ReadRobotMap(const std::string& uri) {
+  const std::string path = SqlitePath(uri);
+  if (!path.empty() && !std::filesystem::exists(path)) {
+    throw Error(ErrorCode::kNotFound, "--map " + uri + ": no such file " + path);
+  }
+  GraphBatch map;
+  try {
+    const std::unique_ptr<GraphStore> store = GraphStore::Open(uri);
+    map.nodes = store->ListNodes({});
+    std::vector<Uuid> ids;
+    ids.reserve(map.nodes.size());
+    for (const Node& node : map.nodes) ids.push_back(node.id);
+    map.edges = store->EdgesTouching(ids);
+    map.paths = store->ListPaths({});
+  } catch (const Error& error) {
+    throw InContext(error, "--map " + uri + " is not a map store fleetmap can read");
+  }
+  if (map.nodes.empty()) {
+    throw Error(ErrorCode::kInvalidArgument, "--map " + uri + " holds no nodes: nothing to push");
+  }
+  return map;
+}
+
+void RunPush(const PushArgs& args) {
+  const Uuid robot = ParseUuidArgument(args.robot, "--robot");
+  const Uuid id = args.id.empty() ? Uuid::GenerateRandom() : ParseUuidArgument(args.id, "--id");
+  const GraphBatch map = ReadRobotMap(args.map);
+  const std::unique_ptr<Repository> repository = OpenRepository(args.store);
+  const bool stored_before = repository->versions().FindSubmission(id).has_value();
+  const std::string author = args.author.empty() ? robot.ToString() : args.author;
+  Submission submission;
+  try {
+    submission = repository->Push(id, robot, author, map);
+  } catch (const Error& error) {
+    throw InContext(error, "push of " + args.map + " as submission " + id.ToString() +
+                               " refused, nothing stored");
+  }
+  std::size_t metric = 0;
+  for (const Edge& edge : map.edges) metric += edge.kind == EdgeKind::kMetric ? 1 : 0;
+  std::printf(
+      "submission %s %s\n", submission.id.ToString().c_str(),
+      stored_before ? "was already stored with this content: nothing changed" : "stored whole");
+  std::printf("  robot     %s\n  author    %s\n", submission.robot.ToString().c_str(),
+              submission.author.c_str());
+  std::printf("  map       %s: %s, %s (%zu metric, %zu path), %s\n", args.map.c_str(),
+              Count(static_cast<std::int64_t>(map.nodes.size()), "node").c_str(),
+              Count(static_cast<std::int64_t>(map.edges.size()), "edge").c_str(), metric,
+              map.edges.size() - metric,
+              Count(static_cast<std::int64_t>(map.paths.size()), "path").c_str());
+  std::printf("  bytes     %lld in %s\n", static_cast<long long>(submission.bytes),
+              Count(submission.chunk_count, "chunk").c_str());
+  std::printf("  state     %s", std::string(SubmissionStateName(submission.state)).c_str());
+  if (submission.state == SubmissionState::kMerged) {
+    std::printf(" (revision %lld)", static_cast<long long>(submission.revision));
+  } else if (submission.state == SubmissionState::kQueued) {
+    std::printf(" for `fleetmap merge`");
+  }
+  std::printf("\n");
+}
+
+// ---- submissions ----
+
+struct SubmissionsArgs {
+  std::string store;
+  bool json = false;
+};
+
+void RunSubmissions(const SubmissionsArgs& args) {
+  const std::unique_ptr<Repository> repository = OpenRepository(args.store);
+  const std::vector<Submission> submissions = repository->Submissions();
+  if (args.json) {
+    nlohmann::ordered_json list = nlohmann::ordered_json::array();
+    for (const Submission& s : submissions) {
+      nlohmann::ordered_json entry;
+      entry["id"] = s.id.ToString();
+      entry["robot"] = s.robot.ToString();
+      entry["author"] = s.author;
+      entry["received"] = FormatUtc(s.received_ns);
+      entry["received_ns"] = s.received_ns;
+      entry["bytes"] = s.bytes;
+      entry["chunks"] = s.chunk_count;
+      entry["state"] = SubmissionStateName(s.state);
+      if (s.state == SubmissionState::kMerged) entry["revision"] = s.revision;
+      if (s.state == SubmissionState::kFailed) entry["error"] = s.error;
+      list.push_back(std::move(entry));
+    }
+    std::cout << list.dump(2) << "\n";
+    return;
+  }
+  if (submissions.empty()) {
+    std::printf("no submissions in %s (robots add theirs with `fleetmap push`)\n",
+                repository->store().uri().c_str());
+    return;
+  }
+  int author_width = 6;
+  for (const Submission& s : submissions) {
+    author_width = std::max(author_width, static_cast<int>(s.author.size()));
+  }
+  std::printf("%-36s  %-36s  %-*s  %-20s  %10s  %-9s  %s\n", "SUBMISSION", "ROBOT", author_width,
+              "AUTHOR", "RECEIVED (UTC)", "BYTES", "STATE", "REVISION / ERROR");
+  for (const Submission& s : submissions) {
+    std::string outcome;
+    if (s.state == SubmissionState::kMerged) outcome = std::to_string(s.revision);
+    if (s.state == SubmissionState::kFailed) outcome = s.error;
+    std::printf("%-36s  %-36s  %-*s  %-20s  %10lld  %-9s  %s\n", s.id.ToString().c_str(),
+                s.robot.ToString().c_str(), author_width, s.author.c_str(),
+                FormatUtc(s.received_ns).c_str(), static_cast<long long>(s.bytes),
+                std::string(SubmissionStateName(s.state)).c_str(), outcome.c_str());
+  }
+}
+
+// ---- merge ----
+
+struct MergeArgs {
+  std::string store;
+  std::vector<std::string> submissions;
+  bool all = false;
+};
+
+void PrintMerge(const Uuid& id, const MergeOutcome& outcome) {
+  if (outcome.already_merged) {
+    std::printf("submission %s: already merged as revision %lld; nothing to do\n",
+                id.ToString().c_str(), static_cast<long long>(outcome.revision.number));
+    return;
+  }
+  const MergeReport& r = outcome.report;
+  std::printf("submission %s -> revision %lld (author %s)\n", id.ToString().c_str(),
+              static_cast<long long>(outcome.revision.number), outcome.revision.author.c_str());
+  std::printf("  segments   %zu, decided in %zu stretches: %zu added, %zu omitted (localised)\n",
+              r.segments, r.stretches, r.stretches_added, r.stretches_omitted);
+  std::printf("  nodes      %zu submitted, %zu duplicates, %zu added\n", r.submitted_nodes,
+              r.duplicate_nodes, r.nodes_added);
+  std::printf(
+      "  edges      %zu metric added (%zu links to the map), %zu path added, %zu path "
+      "dropped\n",
+      r.metric_edges_added, r.links_added, r.path_edges_added, r.path_edges_dropped);
+  std::printf("  paths      %zu added\n", r.paths_added);
+  std::printf("  time       %.2f s (MERGE %.2f s)\n", outcome.seconds, r.seconds);
+}
+
+void RunMerge(const MergeArgs& args) {
+  if (args.all == !args.submissions.empty()) {
+    throw Error(ErrorCode::kInvalidArgument,
+                args.all ? "merge: give submission ids or --all, not both"
+                         : "merge: name the submissions to merge, or --all for every queued one");
+  }
+  // Every id is checked before anything is merged: a typo merges nothing.
+  std::vector<Uuid> ids;
+  for (const std::string& text : args.submissions) {
+    ids.push_back(ParseUuidArgument(text, "submission"));
+  }
+  const std::unique_ptr<Repository> repository = OpenRepository(args.store);
+  for (const Uuid& id : ids) {
+    if (!repository->versions().FindSubmission(id)) {
+      throw Error(ErrorCode::kNotFound, "no submission " + id.ToString() + " in " +
+                                            repository->store().uri() +
+                                            " (see `fleetmap submissions`); nothing merged");
+    }
+  }
+  if (args.all) {
+    for (const Submission& s : repository->Submissions()) {  // in the order received
+      if (s.state == SubmissionState::kQueued) ids.push_back(s.id);
+    }
+    if (ids.empty()) {
+      std::printf("nothing to merge: no queued submissions in %s\n",
+                  repository->store().uri().c_str());
+      return;
+    }
+  }
+  for (const Uuid& id : ids) {
+    ProgressBar bar("merge " + id.ToString().substr(0, 8), std::cerr);
+    MergeOutcome outcome;
+    try {
+      outcome = repository->Merge(id, [&bar](std::size_t done, std::size_t all) {
+        bar.Update(static_cast<std::int64_t>(done), static_cast<std::int64_t>(all));
+      });
+    } catch (const Error& error) {
+      throw InContext(error,
+                      "merge of submission " + id.ToString() + " failed and changed nothing");
+    }
+    if (!outcome.already_merged) bar.Finish();
+    PrintMerge(id, outcome);
+  }
+}
+
+}  // namespace
+
+void AddSubmissionCommands(CLI::App& app) {
+  auto push_args = std::make_shared<PushArgs>();
+  CLI::App* push = app.add_subcommand("push", "Store a robot's map as a submission");
+  push->footer(
+      "Stores a robot's whole local map (every node with its landmarks, every edge touching "
+      "them, every path) in the repository as one immutable submission, queued for MERGE (seed "
+      "004 §IV: robots hand their independently built EBN maps to the server; nothing they send "
+      "is lost). Pushing the same --id with the same content again changes nothing; other "
+      "content under a stored id is refused.");
+  AddStoreOption(*push, push_args->store);
+  push->add_option("--map", push_args->map, "The robot's map store (sqlite:PATH or postgresql://)")
+      ->required();
+  push->add_option("--robot", push_args->robot, "The robot's UUID")->required();
+  push->add_option("--author", push_args->author, "Who pushed (default: the robot's UUID)");
+  push->add_option("--id", push_args->id, "The submission's UUID (default: a fresh random one)");
+  push->callback([push_args] { RunPush(*push_args); });
+
+  auto list_args = std::make_shared<SubmissionsArgs>();
+  CLI::App* submissions = app.add_subcommand("submissions", "List the pushed submissions");
+  submissions->footer(
+      "Every submission robots pushed, in the order received: id, robot, author, when (UTC), "
+      "bytes, state (queued, merged, failed) and the revision it became or why MERGE refused it.");
+  AddStoreOption(*submissions, list_args->store);
+  submissions->add_flag("--json", list_args->json, "Print JSON instead of a table");
+  submissions->callback([list_args] { RunSubmissions(*list_args); });
+
+  auto merge_args = std::make_shared<MergeArgs>();
+  CLI::App* merge = app.add_subcommand("merge", "MERGE submissions into new revisions");
+  merge->footer(
+      "MERGE (seed 004 §V-A, Algorithm 1) of each submission into the map at the head, as the "
+      "next revision: its linear segments are replayed through the localiser against the map, "
+      "the stretches that localise are omitted (the map already covers them), the rest are "
+      "added and linked to the map. A submission merged before is not merged again; --all skips "
+      "failed ones (name one to retry it). Every named id is checked before anything merges.");
+  AddStoreOption(*merge, merge_args->store);
+  merge->add_option("submissions", merge_args->submissions, "Submission ids to merge, in order");
+  merge->add_flag("--all", merge_args->all, "Merge every queued submission in the order received");
+  merge->callback([merge_args] { RunMerge(*merge_args); });
+}
+
+}  // namespace fleetmap::cli
