@@ -16,6 +16,21 @@
 namespace fleetmap::cli {
 namespace {
 
+// An experiment's scratch stores: a fresh directory under the system's temp dir, removed with
+// everything in it when the experiment ends, also on an error.
+struct ScratchWorkDir {
+  explicit ScratchWorkDir(const std::string& prefix)
+      : path(std::filesystem::temp_directory_path() /
+             (prefix + Uuid::GenerateRandom().ToString())) {}
+  ~ScratchWorkDir() {
+    std::error_code ignored;
+    std::filesystem::remove_all(path, ignored);
+  }
+  ScratchWorkDir(const ScratchWorkDir&) = delete;
+  ScratchWorkDir& operator=(const ScratchWorkDir&) = delete;
+  std::filesystem::path path;
+};
+
 struct RankingArgs {
   std::string world_file;
   std::string scale = "default";
@@ -50,16 +65,9 @@ void RunRanking(const RankingArgs& args) {
   ApplyScale(args.scale, options);
   options.threads = args.threads;
   const std::filesystem::path out = args.out_dir;
-  options.work_dir = std::filesystem::temp_directory_path() /
-                     ("fleetmap-ranking-" + Uuid::GenerateRandom().ToString());
-  // The fold stores are scratch: remove them however the run ends.
-  struct RemoveOnExit {
-    std::filesystem::path dir;
-    ~RemoveOnExit() {
-      std::error_code ignored;
-      std::filesystem::remove_all(dir, ignored);
-    }
-  } cleanup{options.work_dir};
+  // The fold stores are scratch: removed however the run ends.
+  const ScratchWorkDir work("fleetmap-ranking-");
+  options.work_dir = work.path;
 
   std::cerr << "ranking experiment: " << options.world.schedule.outings << " outings, "
             << options.folds << " folds, Np in {";
@@ -115,15 +123,8 @@ void RunFleet(const FleetArgs& args) {
   options.merge.omit_localised_fraction = args.omit_fraction;
   options.merge.decision_length_m = args.stretch_m;
   const std::filesystem::path out = args.out_dir;
-  options.work_dir = std::filesystem::temp_directory_path() /
-                     ("fleetmap-fleet-" + Uuid::GenerateRandom().ToString());
-  struct RemoveOnExit {
-    std::filesystem::path dir;
-    ~RemoveOnExit() {
-      std::error_code ignored;
-      std::filesystem::remove_all(dir, ignored);
-    }
-  } cleanup{options.work_dir};
+  const ScratchWorkDir work("fleetmap-fleet-");
+  options.work_dir = work.path;
 
   std::cerr << "fleet experiment: " << options.world.schedule.outings << " outings, "
             << options.folds << " folds, " << options.folds - 1 << " groups each, dreaming on "

@@ -34,13 +34,7 @@ GraphBatch ReadRobotMap(const std::string& uri) {
   }
   GraphBatch map;
   try {
-    const std::unique_ptr<GraphStore> store = GraphStore::Open(uri);
-    map.nodes = store->ListNodes({});
-    std::vector<Uuid> ids;
-    ids.reserve(map.nodes.size());
-    for (const Node& node : map.nodes) ids.push_back(node.id);
-    map.edges = store->EdgesTouching(ids);
-    map.paths = store->ListPaths({});
+    map = GraphStore::Open(uri)->ReadMap();
   } catch (const Error& error) {
     throw InContext(error, "--map " + uri + " is not a map store fleetmap can read");
   }

@@ -13,7 +13,7 @@
 #include <regex>
 #include <sstream>
 
-#include "corridor_scene.h"
+#include "corridor_robot_map.h"
 #include "fleetmap/common/graph_store.h"
 #include "fleetmap/policies/distance_ranking.h"
 #include "fleetmap/policies/held_out_replay.h"
@@ -80,22 +80,12 @@ bool Contains(const std::string& text, const std::string& part) {
   return text.find(part) != std::string::npos;
 }
 
-// A robot's map of the given corridor outings (0: day, 1: night), built by the EBN builder into
-// a new SQLite store at `file`, as the robot would keep it.
+// A robot's map of the given corridor outings (0: day, 1: night), built into a new SQLite
+// store at `file`, as the robot would keep it.
 void BuildRobotMap(const std::filesystem::path& file, const std::vector<int>& conditions) {
-  auto store = GraphStore::Open("sqlite:" + file.string());
-  ExperienceMap map(SharedCorridorVocabulary());
-  DistanceRanking policy;
-  ExperienceBuilder builder(store.get(), map, policy, {});
-  const Uuid robot = Uuid::Generate();
-  for (int condition : conditions) {
-    OutingStart start;
-    start.robot = robot;
-    start.outing = Uuid::Generate();
-    builder.StartOuting(start);
-    for (const Frame& frame : SharedCorridor().Outing(condition)) builder.Process(frame);
-    builder.FinishOuting();
-  }
+  std::vector<CorridorOuting> outings;
+  for (const int condition : conditions) outings.push_back({condition});
+  BuildCorridorRobotMap(*GraphStore::Open("sqlite:" + file.string()), outings);
 }
 
 // The robot maps every test pushes, built once per process.
@@ -388,15 +378,7 @@ TEST_F(CliRepositoryTest, PushMergeLogOnPostgres) {
 // The scorer `fleetmap dream` ranks candidate maps by (policies/held_out_replay.h): a robot map
 // of a day and a night outing, replayed against a day-only map, localises by day only.
 TEST(HeldOutReplayTest, ScoresAMapByHowFarHeldOutOutingsTravelUnlocalised) {
-  const auto read = [](const std::string& uri) {
-    auto store = GraphStore::Open(uri);
-    GraphBatch map;
-    map.nodes = store->ListNodes({});
-    std::vector<Uuid> ids;
-    for (const Node& node : map.nodes) ids.push_back(node.id);
-    map.edges = store->EdgesTouching(ids);
-    return map;
-  };
+  const auto read = [](const std::string& uri) { return GraphStore::Open(uri)->ReadMap(); };
   const GraphBatch day = read(Maps().day), both = read(Maps().both);
   const std::vector<HeldOutOuting> outings = HeldOutOutings(both);
   ASSERT_EQ(outings.size(), 2u);

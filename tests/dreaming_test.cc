@@ -7,35 +7,15 @@
 #include <algorithm>
 #include <set>
 
-#include "corridor_scene.h"
+#include "corridor_robot_map.h"
 #include "fleetmap/common/error.h"
-#include "fleetmap/common/graph_store.h"
-#include "fleetmap/policies/distance_ranking.h"
-#include "scratch_dir.h"
 
 namespace fleetmap {
 namespace {
 
-// A robot's map of one corridor outing (0: day, 1: night), built from scratch.
+// A robot's map of one corridor outing (0: day, 1: night), from `start_m` metres.
 GraphBatch GroupMap(int condition, double start_m = 0.0) {
-  ScratchDir dir("fleetmap-dreaming");
-  auto store = GraphStore::Open("sqlite:" + (dir / "group.db").string());
-  ExperienceMap map(SharedCorridorVocabulary());
-  DistanceRanking policy;
-  ExperienceBuilder builder(store.get(), map, policy, {});
-  OutingStart start;
-  start.robot = Uuid::Generate();
-  start.outing = Uuid::Generate();
-  builder.StartOuting(start);
-  for (const Frame& frame : SharedCorridor().Outing(condition, start_m)) builder.Process(frame);
-  builder.FinishOuting();
-  GraphBatch batch;
-  batch.nodes = store->ListNodes({});
-  std::vector<Uuid> ids;
-  for (const Node& node : batch.nodes) ids.push_back(node.id);
-  batch.edges = store->EdgesTouching(ids);
-  batch.paths = store->ListPaths({});
-  return batch;
+  return CorridorRobotMap({{condition, start_m}});
 }
 
 TEST(Dreaming, EveryOrderRunsOnSharedPrefixesAndTheBestIsKept) {

@@ -15,17 +15,6 @@
 namespace fleetmap {
 namespace {
 
-// Everything a store holds, as a robot would push it.
-GraphBatch ReadAll(GraphStore& store) {
-  GraphBatch batch;
-  batch.nodes = store.ListNodes({});
-  std::vector<Uuid> ids;
-  for (const Node& node : batch.nodes) ids.push_back(node.id);
-  batch.edges = store.EdgesTouching(ids);
-  batch.paths = store.ListPaths({});
-  return batch;
-}
-
 // The second half of the corridor by day after the first half by night, as one outing.
 std::vector<Frame> NightThenDay(const Corridor& corridor) {
   std::vector<Frame> frames = corridor.Outing(1);
@@ -94,7 +83,7 @@ TEST_F(MergeTest, WhatTheServerLocalisesIsOmittedAndItsPathMemoryCarriedOver) {
   Server day = DayServer();
   ExperienceMap& server = day.map;
   const std::size_t server_nodes = server.size();
-  const GraphBatch submission = ReadAll(*Build("robot", {corridor().Outing(0)}));
+  const GraphBatch submission = Build("robot", {corridor().Outing(0)})->ReadMap();
 
   Written written;
   std::size_t progress_calls = 0;
@@ -150,7 +139,7 @@ TEST_F(MergeTest, WholeSegmentsAreAddedWholeAndLinkedWhereTheyLocalise) {
   GraphStore& server_store = *day.store;
   const std::size_t server_nodes = server.size();
   // One robot outing: night for the first half, day for the second.
-  const GraphBatch submission = ReadAll(*Build("robot", {NightThenDay(corridor())}));
+  const GraphBatch submission = Build("robot", {NightThenDay(corridor())})->ReadMap();
 
   Written written;
   MergeOptions whole;
@@ -181,7 +170,7 @@ TEST_F(MergeTest, StretchesAreDecidedApartSoOnlyTheNewConditionIsAdded) {
   Server day = DayServer();
   ExperienceMap& server = day.map;
   const std::size_t server_nodes = server.size();
-  const GraphBatch submission = ReadAll(*Build("robot", {NightThenDay(corridor())}));
+  const GraphBatch submission = Build("robot", {NightThenDay(corridor())})->ReadMap();
   // The night half ends where the day half's frames begin.
   const std::int64_t day_from_ns = corridor().Outing(0)[corridor().Outing(0).size() / 2].stamp_ns;
   std::size_t night = 0;
@@ -250,7 +239,7 @@ TEST_F(MergeTest, MergingTheSameSubmissionTwiceAddsNothing) {
   Server day = DayServer();
   ExperienceMap& server = day.map;
   const GraphBatch submission =
-      ReadAll(*Build("robot", {corridor().Outing(1), corridor().Outing(0)}));
+      Build("robot", {corridor().Outing(1), corridor().Outing(0)})->ReadMap();
 
   Written written;
   const MergeResult first = Merge(server, submission, written.Catalogue());
@@ -270,7 +259,7 @@ TEST_F(MergeTest, MergingTheSameSubmissionTwiceAddsNothing) {
 
 TEST_F(MergeTest, SameInputsSameAdditions) {
   const std::unique_ptr<GraphStore> server_store = DayServer().store;
-  const GraphBatch submission = ReadAll(*Build("robot", {NightThenDay(corridor())}));
+  const GraphBatch submission = Build("robot", {NightThenDay(corridor())})->ReadMap();
   const auto additions = [&] {
     ExperienceMap server = ExperienceMap::Load(*server_store, vocabulary());
     Written written;
@@ -290,7 +279,7 @@ TEST_F(MergeTest, BadSubmissionsAreRefusedBeforeTheMapChanges) {
   Server day = DayServer();
   ExperienceMap& server = day.map;
   const std::size_t nodes = server.size();
-  const GraphBatch good = ReadAll(*Build("robot", {corridor().Outing(1)}));
+  const GraphBatch good = Build("robot", {corridor().Outing(1)})->ReadMap();
   Written written;
 
   GraphBatch corrupt = good;

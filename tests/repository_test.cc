@@ -8,41 +8,23 @@
 #include <algorithm>
 #include <set>
 
-#include "corridor_scene.h"
+#include "corridor_robot_map.h"
 #include "fleetmap/common/error.h"
-#include "fleetmap/policies/distance_ranking.h"
-#include "scratch_dir.h"
 #include "store_backends.h"
 
 namespace fleetmap {
 namespace {
 
+using testing::BackendNames;
 using testing::PostgresBackend;
 using testing::SqliteBackend;
+using testing::StoreBackends;
 
-// A robot's map of the given outings of the corridor (0: day, 1: night), built by the EBN
-// builder from scratch, as the robot would push it.
-GraphBatch RobotMap(const std::vector<int>& conditions, const Uuid& robot = Uuid::Generate()) {
-  ScratchDir dir("fleetmap-repository-robot");
-  auto store = GraphStore::Open("sqlite:" + (dir / "robot.db").string());
-  ExperienceMap map(SharedCorridorVocabulary());
-  DistanceRanking policy;
-  ExperienceBuilder builder(store.get(), map, policy, {});
-  for (int condition : conditions) {
-    OutingStart start;
-    start.robot = robot;
-    start.outing = Uuid::Generate();
-    builder.StartOuting(start);
-    for (const Frame& frame : SharedCorridor().Outing(condition)) builder.Process(frame);
-    builder.FinishOuting();
-  }
-  GraphBatch batch;
-  batch.nodes = store->ListNodes({});
-  std::vector<Uuid> ids;
-  for (const Node& node : batch.nodes) ids.push_back(node.id);
-  batch.edges = store->EdgesTouching(ids);
-  batch.paths = store->ListPaths({});
-  return batch;
+// A robot's map of the given corridor outings (0: day, 1: night).
+GraphBatch RobotMap(const std::vector<int>& conditions) {
+  std::vector<CorridorOuting> outings;
+  for (const int condition : conditions) outings.push_back({condition});
+  return CorridorRobotMap(outings);
 }
 
 std::set<Uuid> NodeIds(const GraphBatch& map) {
@@ -77,14 +59,7 @@ class RepositoryTest : public ::testing::Test {
   const Uuid robot_ = Uuid::Generate();
 };
 
-using Backends = ::testing::Types<SqliteBackend, PostgresBackend>;
-struct BackendName {
-  template <typename T>
-  static std::string GetName(int) {
-    return T::kName;
-  }
-};
-TYPED_TEST_SUITE(RepositoryTest, Backends, BackendName);
+TYPED_TEST_SUITE(RepositoryTest, StoreBackends, BackendNames);
 
 TYPED_TEST(RepositoryTest, APushIsStoredWholeAndIdempotent) {
   const GraphBatch map = RobotMap({0});

@@ -6,6 +6,7 @@
 // and scripts/test fails the run when any PostgreSQL test skipped.
 #pragma once
 
+#include <gtest/gtest.h>
 #include <sqlite3.h>
 
 #include <cstdlib>
@@ -102,6 +103,16 @@ class PostgresBackend {
  private:
   std::string admin_uri_;
   std::string database_;
+};
+
+// Every backend, for TYPED_TEST_SUITE(Suite, StoreBackends, BackendNames): test names end in
+// /Sqlite or /Postgres (scripts/test counts the Postgres ones and refuses any skipped).
+using StoreBackends = ::testing::Types<SqliteBackend, PostgresBackend>;
+struct BackendNames {
+  template <typename T>
+  static std::string GetName(int) {
+    return T::kName;
+  }
 };
 
 }  // namespace fleetmap::testing

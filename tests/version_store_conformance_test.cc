@@ -19,8 +19,10 @@
 namespace fleetmap {
 namespace {
 
+using testing::BackendNames;
 using testing::PostgresBackend;
 using testing::SqliteBackend;
+using testing::StoreBackends;
 
 Node MakeNode(const Uuid& robot, const Uuid& outing, std::int64_t stamp_ns,
               std::string blob = "landmarks") {
@@ -192,15 +194,7 @@ class VersionStoreConformance : public ::testing::Test {
   std::unique_ptr<GraphStore> store_;
 };
 
-struct BackendNames {
-  template <typename T>
-  static std::string GetName(int) {
-    return T::kName;
-  }
-};
-
-using Backends = ::testing::Types<SqliteBackend, PostgresBackend>;
-TYPED_TEST_SUITE(VersionStoreConformance, Backends, BackendNames);
+TYPED_TEST_SUITE(VersionStoreConformance, StoreBackends, BackendNames);
 
 // --- Schema -------------------------------------------------------------------------------
 

@@ -11,12 +11,8 @@ ExperienceMap::ExperienceMap(std::shared_ptr<const AppearanceVocabulary> vocabul
 
 ExperienceMap ExperienceMap::Load(GraphStore& store,
                                   std::shared_ptr<const AppearanceVocabulary> vocabulary) {
-  const std::vector<Node> nodes = store.ListNodes({});
-  std::vector<Uuid> ids;
-  ids.reserve(nodes.size());
-  for (const Node& node : nodes) ids.push_back(node.id);
-  // EdgesTouching reports each edge once however many of its ends were queried.
-  return FromGraph(nodes, store.EdgesTouching(ids), std::move(vocabulary));
+  const GraphBatch map = store.ReadMap();
+  return FromGraph(map.nodes, map.edges, std::move(vocabulary));
 }
 
 ExperienceMap ExperienceMap::FromGraph(std::span<const Node> nodes, std::span<const Edge> edges,

@@ -459,6 +459,17 @@ std::vector<Node> GraphStore::ListNodes(const NodeFilter& filter) {
   return Guarded([&] { return DoListNodes(filter); });
 }
 
+GraphBatch GraphStore::ReadMap() {
+  GraphBatch map;
+  map.nodes = ListNodes({});
+  std::vector<Uuid> ids;
+  ids.reserve(map.nodes.size());
+  for (const Node& node : map.nodes) ids.push_back(node.id);
+  map.edges = EdgesTouching(ids);
+  map.paths = ListPaths({});
+  return map;
+}
+
 std::vector<Path> GraphStore::ListPaths(const PathFilter& filter) {
   return Guarded([&] { return DoListPaths(filter); });
 }

@@ -65,17 +65,6 @@ PathMemory MemoryOf(const GraphBatch& map) {
   return memory;
 }
 
-GraphBatch ReadAll(GraphStore& store) {
-  GraphBatch map;
-  map.nodes = store.ListNodes({});
-  std::vector<Uuid> ids;
-  ids.reserve(map.nodes.size());
-  for (const Node& node : map.nodes) ids.push_back(node.id);
-  map.edges = store.EdgesTouching(ids);
-  map.paths = store.ListPaths({});
-  return map;
-}
-
 // A map an EBN instance built, and what it cost.
 struct BuiltMap {
   GraphBatch content;
@@ -228,7 +217,7 @@ class FleetRun {
       Advance(static_cast<std::int64_t>(frames_[index].size()));
     }
     BuiltMap built;
-    built.content = ReadAll(*store);
+    built.content = store->ReadMap();
     built.nodes = map->size();
     built.cpu_seconds = ThreadCpuSeconds() - cpu;
     built.wall_seconds = SecondsSince(wall);

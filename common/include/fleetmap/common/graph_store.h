@@ -162,6 +162,9 @@ class GraphStore {
   Subgraph Neighbourhood(const NeighbourhoodQuery& query);
 
   std::vector<Node> ListNodes(const NodeFilter& filter);
+  // The whole map the store holds: every node (with landmarks, ordered as ListNodes), every
+  // edge touching them and every path; not the annotations. What a robot pushes.
+  GraphBatch ReadMap();
   std::vector<Path> ListPaths(const PathFilter& filter);
   StoreStats Stats();
 
