@@ -55,6 +55,10 @@ TEST_F(FleetExperimentTest, EveryFigureIsBuiltAndLocalisedOnTheHeldOutFrames) {
   for (const auto& [fold, maps] : builds) {
     ASSERT_TRUE(maps.contains("single")) << fold;
     EXPECT_GT(maps.at("single").nodes, 0u);
+    // MERGE keeps some but never more of a single-agent map merged into an empty one.
+    ASSERT_TRUE(maps.contains("single self-merge")) << fold;
+    EXPECT_GT(maps.at("single self-merge").nodes, 0u);
+    EXPECT_LE(maps.at("single self-merge").nodes, maps.at("single").nodes);
     std::size_t previous = 0;
     for (int g = 0; g < 3; ++g) {
       ASSERT_TRUE(maps.contains("group " + std::to_string(g)));

@@ -278,6 +278,16 @@ class FleetRun {
     BuiltMap single = Build(StorePath(fold, "single"), fold.training);
     RecordBuild({"single", fold.number, single.nodes, single.cpu_seconds, single.wall_seconds});
     RecordRun(LocaliseContent("single", fold.number, single.content, fold.test));
+    // How much of it MERGE finds redundant: merged into an empty map, what does it keep? This
+    // bounds how far below single-agent EBN's size a merged map can go on this world.
+    const Clock::time_point wall = Clock::now();
+    const double cpu = ThreadCpuSeconds();
+    ExperienceMap empty(vocabulary_);
+    const MergeResult self = Merge(
+        empty, single.content,
+        {[](const Uuid&) { return false; }, [](const Uuid&) { return false; }, {}}, Merging());
+    RecordBuild({"single self-merge", fold.number, self.report.nodes_added,
+                 ThreadCpuSeconds() - cpu, SecondsSince(wall)});
   }
 
   // Fig. 7, the merging strategy's EBN instances: one per group, independent.

@@ -70,7 +70,9 @@ struct HeldOutRun {
 
 // One map built for Fig. 7, with its cost.
 struct FleetBuild {
-  std::string map;  // "single", "group 0", ..., "merge 0", ...
+  // "single", "group 0", ..., "merge 0", ..., and "single self-merge": the single-agent map
+  // merged into an empty one (nodes: what MERGE keeps of it).
+  std::string map;
   int fold = 0;
   std::size_t nodes = 0;  // of the map after this step
   double cpu_seconds = 0.0;
