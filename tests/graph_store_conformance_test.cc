@@ -12,6 +12,7 @@
 
 #include "fleetmap/common/error.h"
 #include "fleetmap/common/graph_store.h"
+#include "expect_error.h"
 #include "store_backends.h"
 
 namespace fleetmap {
@@ -54,19 +55,6 @@ std::vector<Uuid> Ids(const std::vector<T>& items) {
   std::vector<Uuid> ids;
   for (const T& item : items) ids.push_back(item.id);
   return ids;
-}
-
-void ExpectError(ErrorCode code, const std::function<void()>& fn, const std::string& mention = "") {
-  try {
-    fn();
-    ADD_FAILURE() << "expected error " << ErrorCodeName(code);
-  } catch (const Error& e) {
-    EXPECT_EQ(e.code(), code) << e.what();
-    if (!mention.empty()) {
-      EXPECT_NE(std::string(e.what()).find(mention), std::string::npos)
-          << "'" << e.what() << "' should mention " << mention;
-    }
-  }
 }
 
 template <typename Backend>

@@ -14,6 +14,7 @@
 #include "fleetmap/common/error.h"
 #include "fleetmap/common/graph_store.h"
 #include "fleetmap/common/version_store.h"
+#include "expect_error.h"
 #include "store_backends.h"
 
 namespace fleetmap {
@@ -73,19 +74,6 @@ std::vector<Uuid> SortedIds(const std::vector<T>& items) {
 std::vector<Uuid> Sorted(std::vector<Uuid> ids) {
   std::sort(ids.begin(), ids.end());
   return ids;
-}
-
-void ExpectError(ErrorCode code, const std::function<void()>& fn, const std::string& mention = "") {
-  try {
-    fn();
-    ADD_FAILURE() << "expected error " << ErrorCodeName(code);
-  } catch (const Error& e) {
-    EXPECT_EQ(e.code(), code) << e.what();
-    if (!mention.empty()) {
-      EXPECT_NE(std::string(e.what()).find(mention), std::string::npos)
-          << "'" << e.what() << "' should mention " << mention;
-    }
-  }
 }
 
 // StoreStats has no operator==; compare its fields.
