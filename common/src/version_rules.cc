@@ -96,6 +96,15 @@ void RequireInHistory(RevisionNumber r, RevisionNumber head) {
                                         std::to_string(head) + ")");
 }
 
+Revision RevertAsRecorded(const Revision& revision) {
+  Revision recorded = revision;
+  recorded.kind = RevisionKind::kRevert;
+  recorded.submission = Uuid();
+  recorded.nodes_added = recorded.edges_added = recorded.paths_added = 0;
+  recorded.nodes_hidden = recorded.edges_hidden = recorded.paths_hidden = 0;
+  return recorded;
+}
+
 void RequireRevertable(RevisionNumber reverted, const std::optional<Revision>& target,
                        std::optional<RevisionNumber> reverted_by) {
   const std::string name = "revision " + std::to_string(reverted);

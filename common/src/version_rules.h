@@ -43,6 +43,10 @@ void RequireNextRevision(RevisionNumber number, RevisionNumber head);
 // Reads at a revision: 0 <= r <= head.
 void RequireInHistory(RevisionNumber r, RevisionNumber head);
 
+// AppendRevert's revision before its hidden counts are known: a kRevert with no submission
+// and nothing counted yet, whatever the caller filled in.
+Revision RevertAsRecorded(const Revision& revision);
+
 // AppendRevert's checks of the revision to revert: `target` as stored (nullopt when unknown)
 // and `reverted_by`, the revert that already reverted it, if any.
 void RequireRevertable(RevisionNumber reverted, const std::optional<Revision>& target,

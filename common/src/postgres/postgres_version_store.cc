@@ -236,11 +236,7 @@ class PostgresVersionStore final : public VersionStore {
 
   Revision AppendRevert(const Revision& revision) override {
     const RevisionNumber number = revision.number;
-    Revision recorded = revision;
-    recorded.kind = RevisionKind::kRevert;
-    recorded.submission = Uuid();
-    recorded.nodes_added = recorded.edges_added = recorded.paths_added = 0;
-    recorded.nodes_hidden = recorded.edges_hidden = recorded.paths_hidden = 0;
+    Revision recorded = RevertAsRecorded(revision);
     session_.Atomically(
         "append " + RevisionName(number) + " reverting " + RevisionName(revision.reverted),
         [&](pqxx::transaction_base& t) {

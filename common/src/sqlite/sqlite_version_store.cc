@@ -281,11 +281,7 @@ class SqliteVersionStore final : public VersionStore {
 
   Revision AppendRevert(const Revision& revision) override {
     const RevisionNumber number = revision.number;
-    Revision recorded = revision;
-    recorded.kind = RevisionKind::kRevert;
-    recorded.submission = Uuid();
-    recorded.nodes_added = recorded.edges_added = recorded.paths_added = 0;
-    recorded.nodes_hidden = recorded.edges_hidden = recorded.paths_hidden = 0;
+    Revision recorded = RevertAsRecorded(revision);
     Atomically([&] {
       RequireNextRevision(number, Head());
       std::optional<RevisionNumber> reverted_by;
