@@ -1,0 +1,63 @@
+// The sync protocol's framing (proto/fleetmap/sync.proto; DESIGN.md "Sync protocol"): each
+// frame is a 4-byte big-endian length, then that many bytes of one serialised
+// fleetmap.v1.SyncFrame. The length is checked against a hard cap before a byte of the body
+// is read or buffered, so a peer cannot make the other side allocate more than the cap.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <string_view>
+
+#include "fleetmap/sync.pb.h"
+
+namespace fleetmap {
+
+// Hello.protocol_version this build speaks. A server refuses any other (UNSUPPORTED_VERSION).
+inline constexpr std::uint32_t kSyncProtocolVersion = 1;
+// 64 MiB: far above a 1 MiB map chunk plus its envelope, far below what would hurt a server
+// holding one frame per session in memory.
+inline constexpr std::uint32_t kMaxSyncFrameBytes = std::uint32_t{64} << 20;
+inline constexpr std::size_t kSyncFrameLengthBytes = 4;
+
+// Which body a frame carries, for messages: "hello", "push_chunk", ...; "empty" for none.
+std::string_view SyncFrameName(const v1::SyncFrame& frame);
+
+// The frame with its length prefix. Throws Error(kInvalidArgument) for a frame without a body
+// or one whose encoding passes `max_bytes`.
+std::string EncodeSyncFrame(const v1::SyncFrame& frame,
+                            std::uint32_t max_bytes = kMaxSyncFrameBytes);
+
+// The body length a 4-byte prefix announces. Throws Error(kInvalidArgument) naming the length
+// when it passes `max_bytes` (the caller refuses the frame as too large) or is 0 (a frame
+// always has a body).
+std::uint32_t DecodeSyncFrameLength(std::string_view prefix,
+                                    std::uint32_t max_bytes = kMaxSyncFrameBytes);
+
+// The frame in `body` (the bytes after the prefix). Throws Error(kCorrupt) when they do not
+// parse as a SyncFrame or carry no body (e.g. a field number this build does not know).
+v1::SyncFrame DecodeSyncFrameBody(std::string_view body);
+
+// Frames out of a byte stream that arrives in pieces of any size: what a session does with a
+// socket, without the socket (tests and the fuzzer drive it with arbitrary bytes).
+class SyncFrameDecoder {
+ public:
+  explicit SyncFrameDecoder(std::uint32_t max_bytes = kMaxSyncFrameBytes) : max_bytes_(max_bytes) {}
+
+  void Append(std::string_view bytes) { buffer_.append(bytes); }
+  // The next whole frame, or nullopt while it is still incomplete. Throws as
+  // DecodeSyncFrameLength and DecodeSyncFrameBody; after a throw the stream is unusable (a
+  // session closes), and further calls throw again.
+  std::optional<v1::SyncFrame> Next();
+  // Bytes received and not yet returned as a frame: a truncated frame at the end of a stream.
+  std::size_t pending_bytes() const { return buffer_.size() - consumed_; }
+
+ private:
+  std::uint32_t max_bytes_;
+  std::string buffer_;
+  std::size_t consumed_ = 0;
+  bool failed_ = false;
+};
+
+}  // namespace fleetmap
