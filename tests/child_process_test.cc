@@ -15,7 +15,7 @@ using std::chrono::milliseconds;
 
 TEST(ChildProcess, ReadsLinesAndTheExitCode) {
   ChildProcess child({"/bin/sh", "-c", "echo one; echo two $GREETING; exit 3"},
-                     {.environment = {{"GREETING", "hello"}}});
+                     {.stderr_file = {}, .environment = {{"GREETING", "hello"}}});
   EXPECT_EQ(child.ReadLine(milliseconds(5000)), "one");
   EXPECT_EQ(child.ReadLineContaining("two", milliseconds(5000)), "two hello");
   EXPECT_EQ(child.ReadLine(milliseconds(5000)), std::nullopt);  // end of output
