@@ -16,5 +16,7 @@ void AddSubmissionCommands(CLI::App& app);
 void AddHistoryCommands(CLI::App& app);
 void AddDownloadCommand(CLI::App& app);
 void AddDreamCommand(CLI::App& app);
+// `fleetmap robot add|list`: the robots fleetmapd lets sync (robot_command.cc).
+void AddRobotCommands(CLI::App& app);
 
 }  // namespace fleetmap::cli

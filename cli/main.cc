@@ -18,6 +18,7 @@ int main(int argc, char** argv) {
   fleetmap::cli::AddHistoryCommands(app);
   fleetmap::cli::AddDownloadCommand(app);
   fleetmap::cli::AddDreamCommand(app);
+  fleetmap::cli::AddRobotCommands(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

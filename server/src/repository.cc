@@ -66,29 +66,7 @@ Submission Repository::Push(const Uuid& id, const Uuid& robot, const std::string
     throw Error(ErrorCode::kInvalidArgument, "push: the submission and robot ids must be set");
   }
   // Everything wrong with the content is found before anything is stored.
-  std::unordered_set<Uuid> nodes;
-  for (const Node& node : map.nodes) {
-    Validate(node);
-    try {
-      DecodeLandmarks(node.landmarks_blob);
-    } catch (const Error& error) {
-      throw Error(ErrorCode::kCorrupt, "push " + id.ToString() + ": node " + node.id.ToString() +
-                                           ": " + error.message());
-    }
-    nodes.insert(node.id);
-  }
-  for (const Path& path : map.paths) Validate(path);
-  for (const Edge& edge : map.edges) {
-    Validate(edge);
-    for (const Uuid& end : {edge.from, edge.to}) {
-      if (!nodes.contains(end) && !versions().VersionOf(end)) {
-        throw Error(ErrorCode::kIntegrity, "push " + id.ToString() + ": edge " +
-                                               edge.id.ToString() + " ends at node " +
-                                               end.ToString() + ", neither pushed nor stored");
-      }
-    }
-  }
-  for (const Annotation& annotation : map.annotations) Validate(annotation);
+  ValidatePushContent(id, map);
 
   const std::vector<std::string> chunks = EncodeMapChunks(map);
   const std::uint64_t digest = DigestOfChunks(chunks);
@@ -114,6 +92,101 @@ Submission Repository::Push(const Uuid& id, const Uuid& robot, const std::string
   }
   versions().CompleteSubmission(id, digest);
   transaction.Commit();
+  return *versions().FindSubmission(id);
+}
+
+void Repository::ValidatePushContent(const Uuid& id, const GraphBatch& map) {
+  std::unordered_set<Uuid> nodes;
+  for (const Node& node : map.nodes) {
+    Validate(node);
+    try {
+      DecodeLandmarks(node.landmarks_blob);
+    } catch (const Error& error) {
+      throw Error(ErrorCode::kCorrupt, "push " + id.ToString() + ": node " + node.id.ToString() +
+                                           ": " + error.message());
+    }
+    nodes.insert(node.id);
+  }
+  for (const Path& path : map.paths) Validate(path);
+  for (const Edge& edge : map.edges) {
+    Validate(edge);
+    for (const Uuid& end : {edge.from, edge.to}) {
+      if (!nodes.contains(end) && !versions().VersionOf(end)) {
+        throw Error(ErrorCode::kIntegrity, "push " + id.ToString() + ": edge " +
+                                               edge.id.ToString() + " ends at node " +
+                                               end.ToString() + ", neither pushed nor stored");
+      }
+    }
+  }
+  for (const Annotation& annotation : map.annotations) Validate(annotation);
+}
+
+Submission Repository::BeginChunkedPush(const Uuid& id, const Uuid& robot,
+                                        const std::string& author) {
+  if (id.IsNil() || robot.IsNil()) {
+    throw Error(ErrorCode::kInvalidArgument, "push: the submission and robot ids must be set");
+  }
+  Submission header;
+  header.id = id;
+  header.robot = robot;
+  header.author = author;
+  header.received_ns = Now();
+  return versions().BeginSubmission(header);
+}
+
+void Repository::PutPushChunk(const Uuid& id, std::int64_t seq, std::string_view data) {
+  // The chunk and the submission's count land together: an acknowledged chunk is durable, and
+  // chunk_count never counts one that is not stored.
+  GraphStore::Transaction transaction = store_->Begin();
+  versions().PutSubmissionChunk(id, seq, data);
+  transaction.Commit();
+}
+
+Submission Repository::CompleteChunkedPush(const Uuid& id, std::uint64_t digest) {
+  const std::optional<Submission> stored = versions().FindSubmission(id);
+  if (!stored) throw Error(ErrorCode::kNotFound, "push: no submission " + id.ToString());
+  if (stored->state != SubmissionState::kReceiving) {
+    if (stored->digest != digest) {
+      throw Error(ErrorCode::kConflict,
+                  "push " + id.ToString() + ": a different submission is stored under this id");
+    }
+    return *stored;  // completed before: the same push again
+  }
+  std::vector<std::string> chunks;
+  chunks.reserve(static_cast<std::size_t>(stored->chunk_count));
+  for (std::int64_t seq = 0; seq < stored->chunk_count; ++seq) {
+    chunks.push_back(versions().SubmissionChunk(id, seq));
+  }
+  const std::uint64_t stored_digest = DigestOfChunks(chunks);
+  // Whatever fails, the chunks stay: the submission is completed with the digest of what is
+  // stored and marked failed with the reason, atomically.
+  const auto fail = [&](const Error& error) {
+    GraphStore::Transaction transaction = store_->Begin();
+    versions().CompleteSubmission(id, stored_digest);
+    versions().SetSubmissionState(id, SubmissionState::kFailed, 0, error.what());
+    transaction.Commit();
+    throw error;
+  };
+  if (stored_digest != digest) {
+    fail(Error(ErrorCode::kCorrupt,
+               "push " + id.ToString() + ": the " + std::to_string(chunks.size()) +
+                   " chunks received do not match the digest the robot sent (chunks missing or "
+                   "damaged)"));
+  }
+  GraphBatch map;
+  try {
+    map = DecodeMapChunks(chunks);
+  } catch (const Error& error) {
+    fail(Error(ErrorCode::kCorrupt, "push " + id.ToString() + ": " + error.message()));
+  }
+  chunks = {};  // a large push: do not hold it twice while checking
+  try {
+    ValidatePushContent(id, map);
+  } catch (const Error& error) {
+    if (error.code() == ErrorCode::kBackend) throw;  // the store failed, not the content
+    fail(error);
+  }
+  versions().CompleteSubmission(id, digest);
   return *versions().FindSubmission(id);
 }
 
@@ -237,6 +310,7 @@ MergeOutcome Repository::Merge(const Uuid& id, const MergeProgress& progress) {
     outcome.revision = versions.AppendRevision(revision, result.additions);
     store_->Put(result.additions);
     versions.SetSubmissionState(id, SubmissionState::kMerged, revision.number, "");
+    if (options_.before_merge_commit) options_.before_merge_commit(id);
     transaction.Commit();
   } catch (...) {
     mirror_.reset();  // holds additions that did not land

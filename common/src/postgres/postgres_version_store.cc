@@ -370,6 +370,19 @@ class PostgresVersionStore final : public VersionStore {
     });
   }
 
+  std::vector<std::pair<std::string, std::string>> ListSettings(std::string_view prefix) override {
+    const std::string p(prefix);
+    return session_.Autocommit(
+        "list settings " + p,
+        [&](pqxx::transaction_base& t) -> std::vector<std::pair<std::string, std::string>> {
+          std::vector<std::pair<std::string, std::string>> settings;
+          for (const auto& row : t.exec_prepared("version_list_settings", p)) {
+            settings.emplace_back(row[0].as<std::string>(), BytesField(row[1]));
+          }
+          return settings;
+        });
+  }
+
  private:
   static RevisionNumber Head(pqxx::transaction_base& t) {
     return t.exec_prepared1("version_head")[0].as<std::int64_t>();
@@ -517,6 +530,11 @@ class PostgresVersionStore final : public VersionStore {
     c.prepare("version_put_setting",
               "INSERT INTO settings (key, value) VALUES ($1, $2)"
               " ON CONFLICT (key) DO UPDATE SET value = excluded.value");
+    // left() rather than LIKE: a prefix may hold '%' or '_'. COLLATE "C" orders bytewise, as
+    // SQLite does.
+    c.prepare("version_list_settings",
+              "SELECT key, value FROM settings WHERE left(key, length($1)) = $1"
+              " ORDER BY key COLLATE \"C\"");
   }
 
   PgSession& session_;

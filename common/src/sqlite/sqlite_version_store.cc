@@ -416,6 +416,14 @@ class SqliteVersionStore final : public VersionStore {
     s->Run();
   }
 
+  std::vector<std::pair<std::string, std::string>> ListSettings(std::string_view prefix) override {
+    StatementUse s(s_.list_settings);
+    s->BindBlob(1, prefix);
+    std::vector<std::pair<std::string, std::string>> settings;
+    while (s->Step()) settings.emplace_back(s->Text(0), std::string(s->Blob(1)));
+    return settings;
+  }
+
  private:
   struct Statements {
     explicit Statements(sqlite3* db)
@@ -515,7 +523,12 @@ class SqliteVersionStore final : public VersionStore {
           find_setting(db, "SELECT value FROM settings WHERE key = ?1"),
           put_setting(db,
                       "INSERT INTO settings (key, value) VALUES (?1, ?2)"
-                      " ON CONFLICT (key) DO UPDATE SET value = excluded.value") {}
+                      " ON CONFLICT (key) DO UPDATE SET value = excluded.value"),
+          // Compared as bytes (not LIKE, whose '%' and '_' a prefix may hold) and ordered as
+          // bytes, like PostgreSQL's COLLATE "C" below.
+          list_settings(db,
+                        "SELECT key, value FROM settings WHERE substr(CAST(key AS BLOB), 1,"
+                        " length(?1)) = ?1 ORDER BY CAST(key AS BLOB)") {}
 
     Statement begin_submission, find_submission, list_submissions;
     Statement chunk_equals, insert_chunk, count_chunk, chunk;
@@ -526,7 +539,7 @@ class SqliteVersionStore final : public VersionStore {
     Statement hide_added, hide_touching_versioned, hide_touching_unversioned, hidden_counts;
     Statement nodes_at, nodes_at_bare, edges_at, paths_at, stats_at, changed_between;
     Statement version_of;
-    Statement find_setting, put_setting;
+    Statement find_setting, put_setting, list_settings;
   };
 
   // Runs fn as one atomic unit: under a savepoint inside an open transaction (so a failure

@@ -21,6 +21,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include "fleetmap/common/graph.h"
@@ -173,6 +174,10 @@ class VersionStore {
   virtual std::optional<std::string> FindSetting(std::string_view key) = 0;
   // Sets or replaces a setting.
   virtual void PutSetting(std::string_view key, std::string_view value) = 0;
+  // Every setting whose key starts with `prefix` (all of them for ""), as (key, value), by key
+  // (bytewise).
+  virtual std::vector<std::pair<std::string, std::string>> ListSettings(
+      std::string_view prefix) = 0;
 };
 
 }  // namespace fleetmap

@@ -39,6 +39,10 @@ struct RepositoryOptions {
   std::shared_ptr<const AppearanceVocabulary> vocabulary;
   // UTC nanoseconds for revision and submission stamps; null: the system clock.
   std::function<std::int64_t()> now_ns;
+  // Called inside each merge's transaction just before it commits (null: nothing). A throw
+  // rolls the merge back: the map does not change and the submission stays queued. fleetmapd
+  // uses it to abandon a merge when it drains, and as a test knob to hold a merge open.
+  std::function<void(const Uuid& submission)> before_merge_commit;
 };
 
 struct MergeOutcome {
@@ -71,6 +75,26 @@ class Repository {
   // decode, Error(kIntegrity) for an edge whose end is neither in the map nor stored.
   Submission Push(const Uuid& id, const Uuid& robot, const std::string& author,
                   const GraphBatch& map);
+  // A push arriving in chunks over the network (fleetmapd): the same content rules as Push,
+  // checked when the last chunk is in, since nothing can be checked before.
+  //
+  // Starts (or resumes) receiving submission `id` from `robot` and returns it as stored: its
+  // chunk_count is where the sender resumes; a state other than kReceiving means it is
+  // complete already. Throws Error(kConflict) when another robot stored it, and
+  // Error(kInvalidArgument) for a nil id or robot.
+  Submission BeginChunkedPush(const Uuid& id, const Uuid& robot, const std::string& author);
+  // Stores chunk `seq` (a serialised MapChunk) durably, in a transaction of its own. Throws as
+  // VersionStore::PutSubmissionChunk.
+  void PutPushChunk(const Uuid& id, std::int64_t seq, std::string_view data);
+  // Completes a chunked push: checks `digest` (MapContentDigest, sent by the robot) against
+  // the stored chunks, decodes them and checks them as Push does, then queues it for MERGE
+  // (kQueued) and returns it as stored. Content that fails (Error(kCorrupt) for a wrong digest
+  // or chunks that do not decode, as Push for the rest) stays stored: the submission is marked
+  // kFailed with the reason and the error thrown. Completing a complete submission again with
+  // the same digest changes nothing and returns it; with another, Error(kConflict). Throws
+  // Error(kNotFound) for an unknown id.
+  Submission CompleteChunkedPush(const Uuid& id, std::uint64_t digest);
+
   // The map of a stored submission. Throws Error(kNotFound), or Error(kCorrupt) when its
   // chunks do not decode or match the recorded digest.
   GraphBatch ReadSubmission(const Uuid& id);
@@ -116,6 +140,9 @@ class Repository {
   struct Mirror;
 
   std::int64_t Now() const;
+  // Push's content rules (see Push), for `map` pushed as submission `id`; throws the first
+  // broken one.
+  void ValidatePushContent(const Uuid& id, const GraphBatch& map);
   // The head's mirror, reloaded if another writer moved the head.
   Mirror& HeadMirror(const GraphBatch* first_submission);
   std::shared_ptr<const AppearanceVocabulary> Vocabulary(const GraphBatch* first_submission);

@@ -1,0 +1,118 @@
+// `fleetmap robot add NAME` and `fleetmap robot list`: the robots allowed to sync with the
+// repository through fleetmapd (robot_registry.h). `add` prints the robot's UUID and its token
+// once; only a salted hash of the token is stored, so it cannot be shown again.
+#include <chrono>
+#include <cstdio>
+#include <iostream>
+#include <nlohmann/json.hpp>
+
+#include "commands.h"
+#include "fleetmap/server/robot_registry.h"
+#include "repository_arguments.h"
+
+namespace fleetmap::cli {
+namespace {
+
+struct RobotAddArgs {
+  std::string store;
+  std::string name;
+  bool json = false;
+};
+
+struct RobotListArgs {
+  std::string store;
+  bool json = false;
+};
+
+std::int64_t NowNs() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(
+             std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+void RunRobotAdd(const RobotAddArgs& args) {
+  // A new repository may start with its robots, before anything is pushed.
+  const std::unique_ptr<Repository> repository = OpenRepository(args.store, /*create=*/true);
+  NewRobot added;
+  try {
+    added = RobotRegistry(repository->versions()).Add(args.name, NowNs());
+  } catch (const Error& error) {
+    throw InContext(error, "robot add " + args.name);
+  }
+  if (args.json) {
+    nlohmann::ordered_json json;
+    json["name"] = added.robot.name;
+    json["robot"] = added.robot.id.ToString();
+    json["token"] = added.token;
+    std::cout << json.dump(2) << "\n";
+    return;
+  }
+  std::printf("robot %s registered in %s\n", added.robot.name.c_str(),
+              repository->store().uri().c_str());
+  std::printf("  robot id  %s\n", added.robot.id.ToString().c_str());
+  std::printf("  token     %s\n", added.token.c_str());
+  std::printf(
+      "The token is shown this once and cannot be shown again (only its hash is stored):\n"
+      "give it to the robot's fleetmap-agent now.\n");
+}
+
+void RunRobotList(const RobotListArgs& args) {
+  const std::unique_ptr<Repository> repository = OpenRepository(args.store);
+  const std::vector<RegisteredRobot> robots = RobotRegistry(repository->versions()).List();
+  if (args.json) {
+    nlohmann::ordered_json list = nlohmann::ordered_json::array();
+    for (const RegisteredRobot& robot : robots) {
+      nlohmann::ordered_json entry;
+      entry["name"] = robot.name;
+      entry["robot"] = robot.id.ToString();
+      entry["added"] = FormatUtc(robot.added_ns);
+      entry["last_sync"] = robot.last_sync_ns == 0
+                               ? nlohmann::ordered_json(nullptr)
+                               : nlohmann::ordered_json(FormatUtc(robot.last_sync_ns));
+      list.push_back(std::move(entry));
+    }
+    std::cout << list.dump(2) << "\n";
+    return;
+  }
+  if (robots.empty()) {
+    std::printf("no robots registered in %s (`fleetmap robot add NAME` registers one)\n",
+                repository->store().uri().c_str());
+    return;
+  }
+  int name_width = 4;
+  for (const RegisteredRobot& robot : robots) {
+    name_width = std::max(name_width, static_cast<int>(robot.name.size()));
+  }
+  std::printf("%-*s  %-36s  %-20s  %s\n", name_width, "NAME", "ROBOT ID", "ADDED", "LAST SYNC");
+  for (const RegisteredRobot& robot : robots) {
+    const std::string last = robot.last_sync_ns == 0 ? "never" : FormatUtc(robot.last_sync_ns);
+    std::printf("%-*s  %-36s  %-20s  %s\n", name_width, robot.name.c_str(),
+                robot.id.ToString().c_str(), FormatUtc(robot.added_ns).c_str(), last.c_str());
+  }
+}
+
+}  // namespace
+
+void AddRobotCommands(CLI::App& app) {
+  CLI::App* robot = app.add_subcommand("robot", "Register the robots allowed to sync");
+  robot->require_subcommand(1);
+  robot->footer(
+      "Robots sync with the repository through fleetmapd with their UUID and token "
+      "(DESIGN.md \"Sync protocol\"); fleetmapd refuses unknown robots and wrong tokens.");
+
+  auto add_args = std::make_shared<RobotAddArgs>();
+  CLI::App* add = robot->add_subcommand("add", "Register a robot; prints its UUID and token once");
+  AddStoreOption(*add, add_args->store);
+  add->add_option("name", add_args->name, "The robot's name (unique in the repository)")
+      ->required();
+  add->add_flag("--json", add_args->json, "Print JSON: name, robot, token");
+  add->callback([add_args] { RunRobotAdd(*add_args); });
+
+  auto list_args = std::make_shared<RobotListArgs>();
+  CLI::App* list = robot->add_subcommand("list", "List the registered robots");
+  AddStoreOption(*list, list_args->store);
+  list->add_flag("--json", list_args->json, "Print JSON");
+  list->callback([list_args] { RunRobotList(*list_args); });
+}
+
+}  // namespace fleetmap::cli

@@ -1,0 +1,75 @@
+// The robots allowed to sync with a fleet's repository (DESIGN.md "Sync protocol": the server
+// rejects unknown robots and wrong tokens), kept in the repository's own store so that every
+// fleetmapd on it, and `fleetmap robot`, see the same list.
+//
+// A robot is registered once (`fleetmap robot add NAME`): it gets a new UUID and a secret
+// token, 32 random bytes (OpenSSL RAND_bytes) as 64 hex digits, shown to the registrar once.
+// The store keeps only a salted SHA-256 of the token, so reading the store does not reveal
+// it. Each robot is one setting "robot/<uuid>" (JSON: name, salt, hash, added_ns); the time of
+// its last sync is a setting of its own, "robot-sync/<uuid>", so recording it never rewrites
+// the credentials.
+//
+// Threading: as the VersionStore it works on (one thread at a time); it holds no state of its
+// own, so several registries over several connections to one store agree.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "fleetmap/common/uuid.h"
+#include "fleetmap/common/version_store.h"
+
+namespace fleetmap {
+
+struct RegisteredRobot {
+  Uuid id;
+  std::string name;
+  std::int64_t added_ns = 0;      // UTC
+  std::int64_t last_sync_ns = 0;  // UTC; 0: never synced
+};
+
+// Add's result: the robot and its token, which is not stored and cannot be shown again.
+struct NewRobot {
+  RegisteredRobot robot;
+  std::string token;  // 64 lower-case hex digits
+};
+
+enum class RobotAuthentication {
+  kAccepted,
+  kUnknownRobot,  // no robot registered under that UUID
+  kBadToken,      // the robot is registered; the token is not its token
+};
+
+struct RobotAuthenticationResult {
+  RobotAuthentication outcome = RobotAuthentication::kUnknownRobot;
+  std::optional<RegisteredRobot> robot;  // set when accepted
+};
+
+class RobotRegistry {
+ public:
+  // `versions` must outlive the registry.
+  explicit RobotRegistry(VersionStore& versions) : versions_(versions) {}
+
+  // Registers a robot named `name` (1 to 64 printable characters, no leading or trailing
+  // space) at `now_ns`. Throws Error(kInvalidArgument) for a bad name, Error(kConflict) when a
+  // robot of that name is registered, Error(kBackend) when OpenSSL has no randomness.
+  NewRobot Add(std::string_view name, std::int64_t now_ns);
+
+  // Checks a robot's token in constant time (CRYPTO_memcmp over the salted hashes).
+  RobotAuthenticationResult Authenticate(const Uuid& robot, std::string_view token);
+
+  // Every registered robot, by name.
+  std::vector<RegisteredRobot> List();
+  std::optional<RegisteredRobot> Find(const Uuid& robot);
+
+  // Records that `robot` synced at `now_ns` (kept across restarts).
+  void RecordSync(const Uuid& robot, std::int64_t now_ns);
+
+ private:
+  VersionStore& versions_;
+};
+
+}  // namespace fleetmap
