@@ -1,0 +1,68 @@
+// What fleetmapd reports about itself (for the status page and metrics): a plain snapshot,
+// copied out of the running server by SyncServer::Status() (thread-safe), so a reader holds
+// no lock and sees one consistent moment.
+//
+// Units are in the names: _ns are UTC nanoseconds since the Unix epoch (0: never), _bytes
+// are bytes.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace fleetmap {
+
+struct RobotStatus {
+  std::string name;
+  std::string uuid;  // canonical text
+  std::int64_t last_sync_ns =
+      0;                        // the last session that said Hello successfully; survives restarts
+  std::int64_t added_ns = 0;    // registration time
+  std::uint64_t pushes = 0;     // pushes accepted since the server started
+  std::uint64_t downloads = 0;  // downloads streamed since the server started
+};
+
+// The submission the merge thread works on now.
+struct MergingSubmission {
+  std::string submission;  // canonical UUID text
+  std::string robot;       // the robot's name (its UUID text when unknown)
+  std::int64_t started_ns = 0;
+};
+
+struct FleetStatus {
+  std::int64_t now_ns = 0;      // when the snapshot was taken
+  std::int64_t started_ns = 0;  // when the server started
+  std::string listen;           // "HOST:PORT" as bound
+  bool tls = false;
+  bool draining = false;  // Stop() was called
+
+  // The map at the head revision.
+  std::int64_t head_revision = 0;
+  std::uint64_t map_nodes = 0;
+  std::uint64_t map_edges = 0;
+  std::uint64_t map_paths = 0;
+  std::int64_t map_landmark_bytes = 0;
+
+  // Registered robots, by name.
+  std::vector<RobotStatus> robots;
+
+  // The merge queue: submissions waiting (not counting the running one) and the running one.
+  std::uint64_t queue_length = 0;
+  std::optional<MergingSubmission> merging;
+
+  // Totals since the server started.
+  std::uint64_t pushes = 0;     // pushes accepted (PushAccepted sent)
+  std::uint64_t downloads = 0;  // downloads streamed whole
+  std::uint64_t merges = 0;     // merges committed
+  std::uint64_t merges_failed = 0;
+  std::uint64_t sessions_total = 0;  // sessions accepted
+  std::uint64_t sessions_open = 0;
+  std::uint64_t bytes_received = 0;
+  std::uint64_t bytes_sent = 0;
+  // ErrorFrames sent, by code name as in sync.proto ("BAD_TOKEN", "FRAME_TOO_LARGE", ...).
+  std::map<std::string, std::uint64_t> errors_by_code;
+};
+
+}  // namespace fleetmap

@@ -1,0 +1,101 @@
+#include "fleet_metrics.h"
+
+#include <cctype>
+#include <cstdint>
+#include <string>
+
+#include "prometheus_text.h"
+
+namespace fleetmap {
+namespace {
+
+constexpr auto kGauge = PrometheusMetricType::kGauge;
+constexpr auto kCounter = PrometheusMetricType::kCounter;
+
+// Prometheus wants seconds; FleetStatus keeps nanoseconds. Divided as whole seconds plus the
+// rest so a 2024 timestamp keeps its milliseconds in a double.
+double UnixSeconds(std::int64_t ns) {
+  return static_cast<double>(ns / 1'000'000'000) + static_cast<double>(ns % 1'000'000'000) / 1e9;
+}
+
+std::string Lowercase(const std::string& text) {
+  std::string out = text;
+  for (char& c : out) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return out;
+}
+
+void Gauge(PrometheusTextWriter& out, const char* name, const char* help, std::uint64_t value) {
+  out.Family(name, kGauge, help);
+  out.Sample(name, value);
+}
+
+void Counter(PrometheusTextWriter& out, const char* name, const char* help, std::uint64_t value) {
+  out.Family(name, kCounter, help);
+  out.Sample(name, value);
+}
+
+}  // namespace
+
+std::string FleetMetricsText(const FleetStatus& status) {
+  PrometheusTextWriter out;
+
+  out.Family("fleetmap_revision", kGauge, "Head revision of the fleet map.");
+  out.Sample("fleetmap_revision", status.head_revision);
+  Gauge(out, "fleetmap_map_nodes", "Nodes in the map at the head revision.", status.map_nodes);
+  Gauge(out, "fleetmap_map_edges", "Edges in the map at the head revision.", status.map_edges);
+  Gauge(out, "fleetmap_map_paths", "Paths in the map at the head revision.", status.map_paths);
+  out.Family("fleetmap_map_landmark_bytes", kGauge,
+             "Bytes of landmarks in the map at the head revision.");
+  out.Sample("fleetmap_map_landmark_bytes", status.map_landmark_bytes);
+
+  Gauge(out, "fleetmap_robots", "Registered robots.", status.robots.size());
+  out.Family("fleetmap_robot_last_sync_timestamp_seconds", kGauge,
+             "Unix time of the robot's last successful hello (0: never).");
+  for (const RobotStatus& robot : status.robots) {
+    out.Sample("fleetmap_robot_last_sync_timestamp_seconds", UnixSeconds(robot.last_sync_ns),
+               {{"robot", robot.name}, {"robot_id", robot.uuid}});
+  }
+  out.Family("fleetmap_robot_pushes_total", kCounter,
+             "Pushes accepted from the robot since the server started.");
+  for (const RobotStatus& robot : status.robots) {
+    out.Sample("fleetmap_robot_pushes_total", robot.pushes,
+               {{"robot", robot.name}, {"robot_id", robot.uuid}});
+  }
+  out.Family("fleetmap_robot_downloads_total", kCounter,
+             "Downloads streamed to the robot since the server started.");
+  for (const RobotStatus& robot : status.robots) {
+    out.Sample("fleetmap_robot_downloads_total", robot.downloads,
+               {{"robot", robot.name}, {"robot_id", robot.uuid}});
+  }
+
+  Gauge(out, "fleetmap_merge_queue_length", "Submissions waiting for MERGE (not the running one).",
+        status.queue_length);
+  Gauge(out, "fleetmap_merge_running", "1 while a MERGE runs, else 0.",
+        status.merging.has_value() ? 1 : 0);
+
+  Counter(out, "fleetmap_pushes_total", "Pushes accepted since the server started.", status.pushes);
+  Counter(out, "fleetmap_downloads_total", "Downloads streamed whole since the server started.",
+          status.downloads);
+  Counter(out, "fleetmap_merges_total", "Merges committed since the server started.",
+          status.merges);
+  Counter(out, "fleetmap_merges_failed_total", "Merges that failed since the server started.",
+          status.merges_failed);
+  out.Family("fleetmap_errors_total", kCounter,
+             "Error frames sent to robots since the server started, by code.");
+  for (const auto& [code, count] : status.errors_by_code) {
+    const std::string label = Lowercase(code);
+    out.Sample("fleetmap_errors_total", count, {{"code", label}});
+  }
+
+  Gauge(out, "fleetmap_sessions_open", "Sync sessions open now.", status.sessions_open);
+  Counter(out, "fleetmap_sessions_total", "Sync sessions accepted since the server started.",
+          status.sessions_total);
+  Counter(out, "fleetmap_bytes_received_total", "Bytes received on sync sessions.",
+          status.bytes_received);
+  Counter(out, "fleetmap_bytes_sent_total", "Bytes sent on sync sessions.", status.bytes_sent);
+  out.Family("fleetmap_start_time_seconds", kGauge, "Unix time the server started.");
+  out.Sample("fleetmap_start_time_seconds", UnixSeconds(status.started_ns));
+  return out.text();
+}
+
+}  // namespace fleetmap

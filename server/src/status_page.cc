@@ -1,0 +1,220 @@
+#include "status_page.h"
+
+#include <cstdio>
+#include <ctime>
+#include <string>
+
+namespace fleetmap {
+namespace {
+
+constexpr std::int64_t kNsPerSecond = 1'000'000'000;
+
+// Kept short and plain: the page must read well in a terminal browser and on a phone too.
+constexpr const char* kStyle = R"css(
+:root { color-scheme: light; }
+body { font: 15px/1.45 system-ui, -apple-system, "Segoe UI", Roboto, "DejaVu Sans", sans-serif;
+  margin: 0; background: #f4f6f8; color: #1d2733; }
+header { background: #1f3a5f; color: #fff; padding: 18px 32px; }
+header h1 { margin: 0; font-size: 24px; font-weight: 600; }
+header p { margin: 4px 0 0; color: #c9d6e6; font-size: 13px; }
+main { padding: 20px 32px 32px; max-width: 1200px; }
+h2 { font-size: 17px; margin: 26px 0 10px; }
+.banner { background: #fff4d6; border: 1px solid #e8c66a; padding: 8px 12px; border-radius: 6px; }
+.cards { display: flex; flex-wrap: wrap; gap: 12px; }
+.card { background: #fff; border: 1px solid #dde3ea; border-radius: 8px; padding: 10px 16px;
+  min-width: 150px; }
+.card .label { font-size: 12px; color: #5b6b7c; text-transform: uppercase; letter-spacing: .04em; }
+.card .value { font-size: 24px; font-weight: 600; font-variant-numeric: tabular-nums; }
+.card .note { font-size: 12px; color: #5b6b7c; }
+table { border-collapse: collapse; background: #fff; border: 1px solid #dde3ea; width: 100%; }
+th, td { text-align: left; padding: 7px 12px; border-bottom: 1px solid #e7ebf0; }
+th { background: #eef2f6; font-size: 13px; color: #3a4a5c; }
+td.num, th.num { text-align: right; font-variant-numeric: tabular-nums; }
+td.uuid { font-family: ui-monospace, "DejaVu Sans Mono", monospace; font-size: 13px; }
+.ago { color: #5b6b7c; margin-left: 6px; }
+.never { color: #9a6b00; }
+dl.totals { display: grid; grid-template-columns: max-content auto; gap: 4px 24px; margin: 0;
+  background: #fff; border: 1px solid #dde3ea; border-radius: 8px; padding: 12px 16px; }
+dl.totals dt { color: #5b6b7c; }
+dl.totals dd { margin: 0; font-variant-numeric: tabular-nums; }
+.empty { color: #5b6b7c; font-style: italic; }
+)css";
+
+std::string Bytes(std::int64_t bytes) {
+  const char* units[] = {"B", "KiB", "MiB", "GiB", "TiB"};
+  double value = static_cast<double>(bytes);
+  int unit = 0;
+  while (value >= 1024.0 && unit < 4) {
+    value /= 1024.0;
+    ++unit;
+  }
+  char text[64];
+  if (unit == 0) {
+    std::snprintf(text, sizeof text, "%lld B", static_cast<long long>(bytes));
+  } else {
+    std::snprintf(text, sizeof text, "%.1f %s", value, units[unit]);
+  }
+  return text;
+}
+
+void Card(std::string& html, std::string_view label, std::string_view value,
+          std::string_view note = {}) {
+  html += "<div class=\"card\"><div class=\"label\">";
+  html += EscapeHtml(label);
+  html += "</div><div class=\"value\">";
+  html += EscapeHtml(value);
+  html += "</div>";
+  if (!note.empty()) {
+    html += "<div class=\"note\">";
+    html += EscapeHtml(note);
+    html += "</div>";
+  }
+  html += "</div>\n";
+}
+
+void Total(std::string& html, std::string_view label, std::string_view value) {
+  html += "<dt>";
+  html += EscapeHtml(label);
+  html += "</dt><dd>";
+  html += EscapeHtml(value);
+  html += "</dd>\n";
+}
+
+void LastSyncCell(std::string& html, std::int64_t last_sync_ns, std::int64_t now_ns) {
+  if (last_sync_ns == 0) {
+    html += "<td class=\"never\">never</td>";
+    return;
+  }
+  const std::string iso = UtcIsoTime(last_sync_ns);
+  html += "<td><time datetime=\"" + iso + "\">" + iso + "</time><span class=\"ago\">" +
+          TimeAgo(last_sync_ns, now_ns) + "</span></td>";
+}
+
+void RobotsTable(std::string& html, const FleetStatus& status) {
+  html += "<h2>Robots (" + std::to_string(status.robots.size()) + ")</h2>\n";
+  html +=
+      "<table id=\"robots\">\n<thead><tr><th>Name</th><th>UUID</th><th>Last sync (UTC)</th>"
+      "<th class=\"num\">Pushes</th><th class=\"num\">Downloads</th></tr></thead>\n<tbody>\n";
+  for (const RobotStatus& robot : status.robots) {
+    html += "<tr><td>" + EscapeHtml(robot.name) + "</td><td class=\"uuid\">" +
+            EscapeHtml(robot.uuid) + "</td>";
+    LastSyncCell(html, robot.last_sync_ns, status.now_ns);
+    html += "<td class=\"num\">" + std::to_string(robot.pushes) + "</td><td class=\"num\">" +
+            std::to_string(robot.downloads) + "</td></tr>\n";
+  }
+  html += "</tbody>\n</table>\n";
+  if (status.robots.empty()) {
+    html += "<p class=\"empty\">No robots registered.</p>\n";
+  }
+}
+
+}  // namespace
+
+std::string EscapeHtml(std::string_view text) {
+  std::string out;
+  out.reserve(text.size());
+  for (char c : text) {
+    switch (c) {
+      case '&':
+        out += "&amp;";
+        break;
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      case '\'':
+        out += "&#39;";
+        break;
+      default:
+        out += c;
+    }
+  }
+  return out;
+}
+
+std::string UtcIsoTime(std::int64_t utc_ns) {
+  // Floor division, so a moment before 1970 still names the second it falls in.
+  std::int64_t seconds = utc_ns / kNsPerSecond;
+  if (utc_ns % kNsPerSecond < 0) --seconds;
+  const std::time_t time = static_cast<std::time_t>(seconds);
+  std::tm utc{};
+  gmtime_r(&time, &utc);
+  char text[32];
+  std::strftime(text, sizeof text, "%Y-%m-%dT%H:%M:%SZ", &utc);
+  return text;
+}
+
+std::string TimeAgo(std::int64_t then_ns, std::int64_t now_ns) {
+  const std::int64_t minutes = then_ns >= now_ns ? 0 : (now_ns - then_ns) / (60 * kNsPerSecond);
+  if (minutes < 120) return std::to_string(minutes) + " min ago";
+  if (minutes < 48 * 60) return std::to_string(minutes / 60) + " h ago";
+  return std::to_string(minutes / (24 * 60)) + " d ago";
+}
+
+std::string FleetStatusPage(const FleetStatus& status) {
+  std::string html;
+  html.reserve(8192 + status.robots.size() * 256);
+  html +=
+      "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n"
+      "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n"
+      // A status page is left open on a screen: reload now and then, without any script.
+      "<meta http-equiv=\"refresh\" content=\"30\">\n";
+  html += "<title>fleetmapd — revision " + std::to_string(status.head_revision) + "</title>\n";
+  html += "<style>";
+  html += kStyle;
+  html += "</style>\n</head>\n<body>\n<header><h1>fleetmapd</h1><p>";
+  if (!status.listen.empty()) {
+    html += "sync on " + EscapeHtml(status.listen) + (status.tls ? " (TLS)" : " (plain TCP)");
+    html += " · ";
+  }
+  if (status.started_ns != 0) {
+    html += "up since " + UtcIsoTime(status.started_ns) + " · ";
+  }
+  html += "snapshot " + UtcIsoTime(status.now_ns) + "</p></header>\n<main>\n";
+  if (status.draining) {
+    html += "<p class=\"banner\">Draining: the server is stopping and takes no new sessions.</p>\n";
+  }
+
+  html += "<section class=\"cards\" id=\"summary\">\n";
+  Card(html, "Head revision", std::to_string(status.head_revision));
+  Card(html, "Map nodes", std::to_string(status.map_nodes));
+  Card(html, "Map edges", std::to_string(status.map_edges),
+       std::to_string(status.map_paths) + " paths");
+  Card(html, "Landmark bytes", Bytes(status.map_landmark_bytes),
+       std::to_string(status.map_landmark_bytes) + " bytes");
+  Card(html, "Merge queue", std::to_string(status.queue_length),
+       status.merging ? "merging " + status.merging->submission + " from " + status.merging->robot
+                      : std::string("idle"));
+  Card(html, "Sessions open", std::to_string(status.sessions_open),
+       std::to_string(status.sessions_total) + " since start");
+  html += "</section>\n";
+
+  RobotsTable(html, status);
+
+  html += "<h2>Totals since start</h2>\n<dl class=\"totals\" id=\"totals\">\n";
+  Total(html, "Pushes accepted", std::to_string(status.pushes));
+  Total(html, "Downloads streamed", std::to_string(status.downloads));
+  Total(html, "Merges committed", std::to_string(status.merges));
+  Total(html, "Merges failed", std::to_string(status.merges_failed));
+  Total(html, "Bytes received", Bytes(static_cast<std::int64_t>(status.bytes_received)));
+  Total(html, "Bytes sent", Bytes(static_cast<std::int64_t>(status.bytes_sent)));
+  if (status.errors_by_code.empty()) {
+    Total(html, "Errors sent", "none");
+  } else {
+    std::string errors;
+    for (const auto& [code, count] : status.errors_by_code) {
+      if (!errors.empty()) errors += ", ";
+      errors += code + " × " + std::to_string(count);
+    }
+    Total(html, "Errors sent", errors);
+  }
+  html += "</dl>\n</main>\n</body>\n</html>\n";
+  return html;
+}
+
+}  // namespace fleetmap

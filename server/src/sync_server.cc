@@ -1,0 +1,308 @@
+#include "fleetmap/server/sync_server.h"
+
+#include <spdlog/spdlog.h>
+
+#include <atomic>
+#include <boost/asio/io_context.hpp>
+#include <boost/asio/ip/tcp.hpp>
+#include <boost/asio/post.hpp>
+#include <boost/asio/ssl/context.hpp>
+#include <boost/asio/strand.hpp>
+#include <optional>
+#include <thread>
+#include <vector>
+
+#include "download_cache.h"
+#include "fleetmap/common/error.h"
+#include "fleetmap/server/robot_registry.h"
+#include "merge_queue.h"
+#include "server_activity.h"
+#include "session_tracker.h"
+#include "store_workers.h"
+#include "sync_session.h"
+
+namespace fleetmap {
+namespace {
+
+namespace asio = boost::asio;
+using tcp = asio::ip::tcp;
+
+std::int64_t NowNs() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(
+             std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+// "HOST:PORT" or "[HOST]:PORT" as an endpoint; Error(kInvalidArgument) naming it otherwise.
+tcp::endpoint ParseListen(const std::string& listen) {
+  const auto bad = [&](const std::string& why) {
+    return Error(ErrorCode::kInvalidArgument,
+                 "listen address '" + listen + "': " + why + " (expected HOST:PORT)");
+  };
+  const std::size_t colon = listen.rfind(':');
+  if (colon == std::string::npos || colon == 0) throw bad("no port");
+  std::string host = listen.substr(0, colon);
+  const std::string port_text = listen.substr(colon + 1);
+  if (host.size() > 2 && host.front() == '[' && host.back() == ']') {
+    host = host.substr(1, host.size() - 2);
+  }
+  if (host == "localhost") host = "127.0.0.1";
+  unsigned long port = 0;
+  try {
+    std::size_t used = 0;
+    port = std::stoul(port_text, &used);
+    if (used != port_text.size() || port > 65535) throw bad("port out of range");
+  } catch (const std::logic_error&) {
+    throw bad("port '" + port_text + "' is not a number");
+  }
+  boost::system::error_code ec;
+  const asio::ip::address address = asio::ip::make_address(host, ec);
+  if (ec) throw bad("host '" + host + "' is not an IP address");
+  return tcp::endpoint(address, static_cast<unsigned short>(port));
+}
+
+std::string EndpointText(const tcp::endpoint& endpoint) {
+  const std::string host = endpoint.address().to_string();
+  const std::string port = std::to_string(endpoint.port());
+  return endpoint.address().is_v6() ? "[" + host + "]:" + port : host + ":" + port;
+}
+
+}  // namespace
+
+class SyncServer::Impl {
+ public:
+  explicit Impl(SyncServerOptions options)
+      : options_(std::move(options)),
+        cache_(options_.download_cache_bytes),
+        acceptor_(asio::make_strand(ioc_)) {
+    if (options_.io_threads < 1 || options_.store_threads < 1) {
+      throw Error(ErrorCode::kInvalidArgument, "fleetmapd: --threads must be at least 1");
+    }
+    const tcp::endpoint endpoint = ParseListen(options_.listen);
+    if (options_.tls_cert_path.empty() != options_.tls_key_path.empty()) {
+      throw Error(ErrorCode::kInvalidArgument,
+                  "TLS needs both a certificate and a key (--tls-cert and --tls-key)");
+    }
+    if (!options_.tls_cert_path.empty()) LoadTls();
+    store_ = std::make_unique<server::StoreWorkers>(options_.store_uri, options_.store_threads);
+    server::MergeQueueOptions merge_options;
+    merge_options.debug_delay = options_.debug_merge_delay;
+    merges_ = std::make_unique<server::MergeQueue>(
+        options_.store_uri, merge_options,
+        [this](const server::MergeDone& done) { OnMergeDone(done); });
+    try {
+      acceptor_.open(endpoint.protocol());
+      acceptor_.set_option(asio::socket_base::reuse_address(true));
+      acceptor_.bind(endpoint);
+      acceptor_.listen(asio::socket_base::max_listen_connections);
+    } catch (const boost::system::system_error& error) {
+      throw Error(ErrorCode::kBackend,
+                  "cannot listen on " + options_.listen + ": " + error.code().message());
+    }
+    bound_ = acceptor_.local_endpoint();
+    context_.emplace(server::SessionContext{options_, *store_, *merges_, cache_, activity_,
+                                            tracker_, draining_});
+  }
+
+  ~Impl() { Stop(); }
+
+  void Start() {
+    started_ns_ = NowNs();
+    const std::size_t queued = merges_->Start();
+    if (queued > 0) spdlog::info("merge queue: {} submissions queued before a restart", queued);
+    RefreshFromStore();
+    do_accept();
+    for (int i = 0; i < options_.io_threads; ++i) {
+      threads_.emplace_back([this] { ioc_.run(); });
+    }
+  }
+
+  void Stop() {
+    if (stopped_.exchange(true)) return;
+    draining_ = true;
+    if (threads_.empty()) {  // never started
+      merges_->Stop();
+      store_->Stop();
+      return;
+    }
+    spdlog::info("draining: no new sessions; waiting up to {} ms for {} open",
+                 options_.drain_deadline.count(), activity_.sessions_open());
+    // On the acceptor's strand, where its handlers run: never concurrently with an accept.
+    asio::post(acceptor_.get_executor(), [this] {
+      accepting_ = false;
+      boost::system::error_code ignored;
+      acceptor_.close(ignored);
+    });
+    tracker_.ShutdownAll();
+    merges_->Stop();  // abandons a running merge; it stays queued in the store
+    if (!tracker_.WaitAllClosed(options_.drain_deadline)) {
+      spdlog::warn("draining: {} sessions still open after {} ms; closing them",
+                   activity_.sessions_open(), options_.drain_deadline.count());
+    }
+    ioc_.stop();
+    for (std::thread& thread : threads_) thread.join();
+    store_->Stop();
+    spdlog::info("stopped");
+  }
+
+  // Not const: it may start a refresh of the robots from the store.
+  FleetStatus Status() {
+    FleetStatus status = activity_.Snapshot();
+    status.now_ns = NowNs();
+    status.started_ns = started_ns_;
+    status.listen = EndpointText(bound_);
+    status.tls = tls_.has_value();
+    status.draining = draining_.load();
+    status.queue_length = merges_->Length();
+    if (const auto running = merges_->Merging()) {
+      status.merging = MergingSubmission{running->submission.ToString(),
+                                         activity_.RobotName(running->robot), running->started_ns};
+    }
+    // Robots registered meanwhile (by `fleetmap robot add`) show up a moment later.
+    const std::int64_t last = last_refresh_ns_.load();
+    if (status.now_ns - last > 2'000'000'000 && !draining_.load()) {
+      RefreshFromStore();
+    }
+    return status;
+  }
+
+  const tcp::endpoint& bound() const { return bound_; }
+  bool tls() const { return tls_.has_value(); }
+
+ private:
+  void LoadTls() {
+    tls_.emplace(asio::ssl::context::tls_server);
+    // TLS 1.2 or later only.
+    tls_->set_options(asio::ssl::context::default_workarounds | asio::ssl::context::no_sslv2 |
+                      asio::ssl::context::no_sslv3 | asio::ssl::context::no_tlsv1 |
+                      asio::ssl::context::no_tlsv1_1 | asio::ssl::context::single_dh_use);
+    try {
+      tls_->use_certificate_chain_file(options_.tls_cert_path);
+    } catch (const boost::system::system_error& error) {
+      throw Error(ErrorCode::kInvalidArgument,
+                  "TLS certificate " + options_.tls_cert_path + ": " + error.code().message());
+    }
+    try {
+      tls_->use_private_key_file(options_.tls_key_path, asio::ssl::context::pem);
+    } catch (const boost::system::system_error& error) {
+      throw Error(ErrorCode::kInvalidArgument,
+                  "TLS key " + options_.tls_key_path + ": " + error.code().message());
+    }
+  }
+
+  // Robots and the head's facts, read on a store thread into activity_.
+  void RefreshFromStore() {
+    last_refresh_ns_ = NowNs();
+    store_->Post([this](Repository& repository) {
+      try {
+        activity_.SetRobots(RobotRegistry(repository.versions()).List());
+        const RevisionNumber head = repository.Head();
+        activity_.SetHead(head, repository.versions().StatsAt(head));
+      } catch (const std::exception& error) {
+        spdlog::error("reading robots and the head for the status: {}", error.what());
+      }
+    });
+  }
+
+  void OnMergeDone(const server::MergeDone& done) {
+    if (done.merged) {
+      activity_.MergeFinished(true);
+      activity_.SetHead(done.revision, done.head_stats);
+      spdlog::info("merge {}: revision {}, {} nodes added, {:.3f} s", done.submission.ToString(),
+                   done.revision, done.nodes_added, done.seconds);
+    } else if (done.abandoned) {
+      spdlog::warn("merge {}: {} ({:.3f} s)", done.submission.ToString(), done.error, done.seconds);
+    } else {
+      activity_.MergeFinished(false);
+      spdlog::error("merge {} failed after {:.3f} s: {}", done.submission.ToString(), done.seconds,
+                    done.error);
+    }
+  }
+
+  void do_accept() {
+    acceptor_.async_accept(asio::make_strand(ioc_),
+                           [this](boost::system::error_code ec, tcp::socket socket) {
+                             on_accept(ec, std::move(socket));
+                           });
+  }
+
+  void on_accept(const boost::system::error_code& ec, tcp::socket socket) {
+    if (!accepting_) return;  // draining: the socket closes as it goes
+    if (ec) {
+      if (ec == asio::error::operation_aborted || ec == asio::error::bad_descriptor) return;
+      spdlog::warn("accept failed: {}", ec.message());
+      return do_accept();
+    }
+    boost::system::error_code peer_ec;
+    const tcp::endpoint remote = socket.remote_endpoint(peer_ec);
+    const std::string peer = peer_ec ? "unknown peer" : EndpointText(remote);
+    std::string refuse;
+    if (activity_.sessions_open() >= options_.max_sessions) {
+      refuse = "the server holds its maximum of " + std::to_string(options_.max_sessions) +
+               " sessions; retry later";
+    }
+    if (tls_) {
+      Launch(std::make_shared<server::TlsSyncSession>(
+          asio::ssl::stream<tcp::socket>(std::move(socket), *tls_), *context_, peer, refuse));
+    } else {
+      Launch(
+          std::make_shared<server::PlainSyncSession>(std::move(socket), *context_, peer, refuse));
+    }
+    do_accept();
+  }
+
+  template <typename Session>
+  void Launch(std::shared_ptr<Session> session) {
+    tracker_.Opened(session);
+    session->Start();
+  }
+
+  SyncServerOptions options_;
+  server::ServerActivity activity_;
+  server::SessionTracker tracker_;
+  server::DownloadCache cache_;
+  std::unique_ptr<server::MergeQueue> merges_;
+  std::unique_ptr<server::StoreWorkers> store_;
+  std::atomic<bool> draining_{false};
+  std::atomic<bool> stopped_{false};
+  std::atomic<std::int64_t> last_refresh_ns_{0};
+  std::int64_t started_ns_ = 0;
+  std::optional<asio::ssl::context> tls_;
+  asio::io_context ioc_;
+  tcp::acceptor acceptor_;  // on a strand of its own, as is accepting_
+  bool accepting_ = true;
+  tcp::endpoint bound_;
+  std::vector<std::thread> threads_;
+  std::optional<server::SessionContext> context_;  // set once store_ and merges_ are
+};
+
+SyncServer::SyncServer(SyncServerOptions options)
+    : impl_(std::make_unique<Impl>(std::move(options))) {}
+
+SyncServer::~SyncServer() = default;
+
+void SyncServer::Start() {
+  impl_->Start();
+}
+
+void SyncServer::Stop() {
+  impl_->Stop();
+}
+
+std::string SyncServer::bound_address() const {
+  return EndpointText(impl_->bound());
+}
+
+std::uint16_t SyncServer::bound_port() const {
+  return impl_->bound().port();
+}
+
+bool SyncServer::tls() const {
+  return impl_->tls();
+}
+
+FleetStatus SyncServer::Status() const {
+  return impl_->Status();
+}
+
+}  // namespace fleetmap

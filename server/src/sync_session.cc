@@ -1,0 +1,728 @@
+#include "sync_session.h"
+
+#include <spdlog/fmt/fmt.h>
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <boost/asio/post.hpp>
+#include <boost/asio/read.hpp>
+#include <boost/asio/write.hpp>
+#include <thread>
+#include <type_traits>
+
+#include "fleetmap/common/error.h"
+#include "fleetmap/common/sync_frame.h"
+#include "fleetmap/server/robot_registry.h"
+
+namespace fleetmap::server {
+namespace {
+
+namespace asio = boost::asio;
+using tcp = asio::ip::tcp;
+
+// After an ErrorFrame or a Bye, what the robot still sends is read and dropped for a moment
+// before the socket closes: closing with unread bytes would reset the connection and could
+// destroy the ErrorFrame before the robot reads it.
+constexpr std::chrono::milliseconds kLingerDeadline{2000};
+constexpr std::size_t kLingerBytes = std::size_t{1} << 20;
+// An ErrorFrame is small; a robot that does not read it for this long gets no more patience.
+constexpr std::chrono::milliseconds kErrorWriteDeadline{5000};
+
+std::int64_t NowNs() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(
+             std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+std::string Seconds(std::chrono::milliseconds d) {
+  return fmt::format("{:g} s", static_cast<double>(d.count()) / 1000.0);
+}
+
+}  // namespace
+
+template <typename Stream>
+SyncSession<Stream>::SyncSession(Stream stream, SessionContext& context, std::string peer,
+                                 std::string refuse)
+    : stream_(std::move(stream)),
+      executor_(Socket().get_executor()),
+      context_(context),
+      peer_(std::move(peer)),
+      refuse_(std::move(refuse)),
+      deadline_(executor_),
+      merge_wait_(executor_) {
+  context_.activity.SessionOpened();
+}
+
+template <typename Stream>
+SyncSession<Stream>::~SyncSession() {
+  spdlog::info("session {} closed: {}; {} frames", Who(), close_reason_, frames_);
+  context_.activity.SessionClosed();
+  context_.tracker.Closed();
+}
+
+template <typename Stream>
+tcp::socket& SyncSession<Stream>::Socket() {
+  if constexpr (std::is_same_v<Stream, tcp::socket>) {
+    return stream_;
+  } else {
+    return stream_.next_layer();
+  }
+}
+
+template <typename Stream>
+std::string SyncSession<Stream>::Who() const {
+  if (robot_name_.empty()) return peer_;
+  return peer_ + " (robot " + robot_name_ + ")";
+}
+
+template <typename Stream>
+void SyncSession<Stream>::Start() {
+  asio::post(executor_, [self = this->shared_from_this()] {
+    if constexpr (std::is_same_v<Stream, tcp::socket>) {
+      if (!self->refuse_.empty()) return self->Fail(v1::ErrorFrame::INTERNAL, self->refuse_);
+      self->do_read_prefix();
+    } else {
+      self->do_handshake();
+    }
+  });
+}
+
+template <typename Stream>
+void SyncSession<Stream>::Shutdown() {
+  asio::post(executor_, [self = this->shared_from_this()] {
+    if (self->shutting_down_) return;
+    self->shutting_down_ = true;
+    boost::system::error_code ignored;
+    if (self->idle_) self->Socket().cancel(ignored);  // on_read_prefix says SHUTTING_DOWN
+    self->merge_wait_.cancel();                       // answers the status now; then SHUTTING_DOWN
+  });
+}
+
+// ---- Deadlines ----
+
+template <typename Stream>
+void SyncSession<Stream>::Arm(std::chrono::milliseconds deadline) {
+  timed_out_ = false;
+  const std::uint64_t generation = ++deadline_generation_;
+  deadline_.expires_after(deadline);
+  deadline_.async_wait([self = this->shared_from_this(), generation](boost::system::error_code ec) {
+    if (ec || generation != self->deadline_generation_) return;
+    self->timed_out_ = true;
+    boost::system::error_code ignored;
+    self->Socket().cancel(ignored);
+  });
+}
+
+template <typename Stream>
+void SyncSession<Stream>::Disarm() {
+  ++deadline_generation_;
+  deadline_.cancel();
+}
+
+// ---- TLS ----
+
+template <typename Stream>
+void SyncSession<Stream>::do_handshake() {
+  if constexpr (!std::is_same_v<Stream, tcp::socket>) {
+    Arm(context_.options.handshake_deadline);
+    stream_.async_handshake(asio::ssl::stream_base::server,
+                            [self = this->shared_from_this()](boost::system::error_code ec) {
+                              self->on_handshake(ec);
+                            });
+  }
+}
+
+template <typename Stream>
+void SyncSession<Stream>::on_handshake(const boost::system::error_code& ec) {
+  Disarm();
+  if (ec) {
+    close_reason_ = timed_out_
+                        ? "no TLS handshake within " + Seconds(context_.options.handshake_deadline)
+                        : "TLS handshake failed: " + ec.message();
+    spdlog::warn("session {} refused: {}", peer_, close_reason_);
+    return CloseSocket();
+  }
+  if (!refuse_.empty()) return Fail(v1::ErrorFrame::INTERNAL, refuse_);
+  do_read_prefix();
+}
+
+// ---- Reading frames ----
+
+template <typename Stream>
+void SyncSession<Stream>::do_read_prefix() {
+  if (shutting_down_ || context_.draining.load()) {
+    return Fail(v1::ErrorFrame::SHUTTING_DOWN, "the server is shutting down; retry later");
+  }
+  idle_ = true;
+  Arm(context_.options.io_deadline);
+  asio::async_read(
+      stream_, asio::buffer(prefix_),
+      [self = this->shared_from_this()](boost::system::error_code ec, std::size_t bytes) {
+        self->on_read_prefix(ec, bytes);
+      });
+}
+
+template <typename Stream>
+void SyncSession<Stream>::on_read_prefix(const boost::system::error_code& ec, std::size_t bytes) {
+  idle_ = false;
+  Disarm();
+  context_.activity.BytesReceived(bytes);
+  if (ec) {
+    if (timed_out_) {
+      return Fail(v1::ErrorFrame::TIMEOUT,
+                  "no frame within " + Seconds(context_.options.io_deadline));
+    }
+    if (ec == asio::error::operation_aborted && shutting_down_) {
+      return Fail(v1::ErrorFrame::SHUTTING_DOWN, "the server is shutting down; retry later");
+    }
+    if (bytes > 0) {
+      close_reason_ = "truncated frame: the connection ended after " + std::to_string(bytes) +
+                      " of the 4 bytes of a frame's length (" + ec.message() + ")";
+      spdlog::warn("session {}: {}", Who(), close_reason_);
+    } else if (ec != asio::error::eof) {
+      close_reason_ = "read failed: " + ec.message();
+    }
+    return CloseSocket();
+  }
+  const auto* p = reinterpret_cast<const unsigned char*>(prefix_.data());
+  const std::uint32_t announced = (std::uint32_t{p[0]} << 24) | (std::uint32_t{p[1]} << 16) |
+                                  (std::uint32_t{p[2]} << 8) | std::uint32_t{p[3]};
+  if (announced == 0) return Fail(v1::ErrorFrame::BAD_FRAME, "a frame of 0 bytes (no body)");
+  std::uint32_t length = 0;
+  try {
+    // The cap is checked here, before a byte of the body is read or a buffer allocated.
+    length = DecodeSyncFrameLength(std::string_view(prefix_.data(), prefix_.size()));
+  } catch (const Error& error) {
+    return Fail(v1::ErrorFrame::FRAME_TOO_LARGE, error.message());
+  }
+  do_read_body(length);
+}
+
+template <typename Stream>
+void SyncSession<Stream>::do_read_body(std::uint32_t length) {
+  body_.resize(length);
+  Arm(context_.options.io_deadline);
+  asio::async_read(
+      stream_, asio::buffer(body_),
+      [self = this->shared_from_this()](boost::system::error_code ec, std::size_t bytes) {
+        self->on_read_body(ec, bytes);
+      });
+}
+
+template <typename Stream>
+void SyncSession<Stream>::on_read_body(const boost::system::error_code& ec, std::size_t bytes) {
+  Disarm();
+  context_.activity.BytesReceived(bytes);
+  if (ec) {
+    const std::string got =
+        std::to_string(bytes) + " of the " + std::to_string(body_.size()) + " bytes announced";
+    if (timed_out_) {
+      return Fail(v1::ErrorFrame::TIMEOUT, "a frame's body did not arrive within " +
+                                               Seconds(context_.options.io_deadline) + ": " + got);
+    }
+    close_reason_ =
+        "truncated frame: the connection ended after " + got + " (" + ec.message() + ")";
+    spdlog::warn("session {}: {}", Who(), close_reason_);
+    return CloseSocket();
+  }
+  v1::SyncFrame frame;
+  try {
+    frame = DecodeSyncFrameBody(body_);
+  } catch (const Error& error) {
+    return Fail(v1::ErrorFrame::BAD_FRAME, error.message());
+  }
+  // Chunks are up to 64 MiB: give the memory back rather than keep the largest for the session.
+  if (body_.capacity() > (std::size_t{1} << 16)) {
+    std::string().swap(body_);
+  }
+  ++frames_;
+  Handle(frame);
+}
+
+// ---- Writing ----
+
+template <typename Stream>
+void SyncSession<Stream>::do_write(std::shared_ptr<const std::string> frame,
+                                   std::function<void()> next) {
+  out_ = std::move(frame);
+  after_write_ = std::move(next);
+  Arm(phase_ == Phase::kClosing ? std::min(kErrorWriteDeadline, context_.options.io_deadline)
+                                : context_.options.io_deadline);
+  asio::async_write(
+      stream_, asio::buffer(*out_),
+      [self = this->shared_from_this()](boost::system::error_code ec, std::size_t bytes) {
+        self->on_write(ec, bytes);
+      });
+}
+
+template <typename Stream>
+void SyncSession<Stream>::on_write(const boost::system::error_code& ec, std::size_t bytes) {
+  Disarm();
+  context_.activity.BytesSent(bytes);
+  out_.reset();
+  if (ec) {
+    close_reason_ = timed_out_ ? "the robot did not take a frame within " +
+                                     Seconds(context_.options.io_deadline)
+                               : "write failed: " + ec.message();
+    spdlog::warn("session {}: {}", Who(), close_reason_);
+    return CloseSocket();
+  }
+  std::function<void()> next = std::move(after_write_);
+  next();
+}
+
+template <typename Stream>
+void SyncSession<Stream>::Reply(const v1::SyncFrame& frame) {
+  do_write(std::make_shared<const std::string>(EncodeSyncFrame(frame)),
+           [self = this->shared_from_this()] { self->do_read_prefix(); });
+}
+
+template <typename Stream>
+void SyncSession<Stream>::Fail(ErrorCodeV1 code, const std::string& text) {
+  if (phase_ == Phase::kClosing) return;
+  phase_ = Phase::kClosing;
+  const std::string name = v1::ErrorFrame::Code_Name(code);
+  close_reason_ = name + ": " + text;
+  spdlog::warn("session {} refused: {}: {}", Who(), name, text);
+  context_.activity.ErrorSent(name);
+  v1::SyncFrame frame;
+  frame.mutable_error()->set_code(code);
+  frame.mutable_error()->set_text(text);
+  do_write(std::make_shared<const std::string>(EncodeSyncFrame(frame)),
+           [self = this->shared_from_this()] { self->do_close(); });
+}
+
+template <typename Stream>
+void SyncSession<Stream>::FailStore(ErrorCode code, const std::string& text) {
+  switch (code) {
+    case ErrorCode::kNotFound:
+      return Fail(v1::ErrorFrame::NOT_FOUND, text);
+    case ErrorCode::kConflict:
+      return Fail(v1::ErrorFrame::CONFLICT, text);
+    case ErrorCode::kInvalidArgument:
+    case ErrorCode::kCorrupt:
+    case ErrorCode::kIntegrity:
+      return Fail(v1::ErrorFrame::INVALID, text);
+    default:
+      spdlog::error("session {}: the store failed: {}", Who(), text);
+      return Fail(v1::ErrorFrame::INTERNAL, "the server's store failed (retry later): " + text);
+  }
+}
+
+// ---- Closing ----
+
+template <typename Stream>
+void SyncSession<Stream>::do_close() {
+  phase_ = Phase::kClosing;
+  // Our side is done: FIN (under TLS too; the robot reads the frames it has, then the end),
+  // then what the robot still sends is drained briefly so the close does not reset.
+  boost::system::error_code ignored;
+  Socket().shutdown(tcp::socket::shutdown_send, ignored);
+  drained_ = 0;
+  Arm(kLingerDeadline);
+  do_drain();
+}
+
+template <typename Stream>
+void SyncSession<Stream>::do_drain() {
+  Socket().async_read_some(
+      asio::buffer(drain_buffer_),
+      [self = this->shared_from_this()](boost::system::error_code ec, std::size_t bytes) {
+        self->on_drain(ec, bytes);
+      });
+}
+
+template <typename Stream>
+void SyncSession<Stream>::on_drain(const boost::system::error_code& ec, std::size_t bytes) {
+  drained_ += bytes;
+  if (ec || drained_ > kLingerBytes) {
+    Disarm();
+    return CloseSocket();
+  }
+  do_drain();
+}
+
+template <typename Stream>
+void SyncSession<Stream>::CloseSocket() {
+  phase_ = Phase::kClosing;
+  boost::system::error_code ignored;
+  Socket().shutdown(tcp::socket::shutdown_both, ignored);
+  Socket().close(ignored);
+}
+
+// ---- Store calls ----
+
+template <typename Stream>
+template <typename Work, typename Done>
+void SyncSession<Stream>::OnStore(Work work, Done done) {
+  context_.store.Post([self = this->shared_from_this(), work = std::move(work),
+                       done = std::move(done)](Repository& repository) mutable {
+    using Result = decltype(work(repository));
+    std::optional<Result> result;
+    std::optional<std::pair<ErrorCode, std::string>> error;
+    try {
+      result.emplace(work(repository));
+    } catch (const Error& e) {
+      error.emplace(e.code(), e.message());
+    } catch (const std::exception& e) {
+      error.emplace(ErrorCode::kBackend, e.what());
+    }
+    asio::post(self->executor_, [self, result = std::move(result), error = std::move(error),
+                                 done = std::move(done)]() mutable {
+      if (error) return self->FailStore(error->first, error->second);
+      done(std::move(*result));
+    });
+  });
+}
+
+// ---- Exchanges ----
+
+template <typename Stream>
+void SyncSession<Stream>::Handle(const v1::SyncFrame& frame) {
+  const std::string name(SyncFrameName(frame));
+  using F = v1::SyncFrame;
+  if (frame.body_case() == F::kBye) {
+    close_reason_ = "bye";
+    return do_close();
+  }
+  switch (phase_) {
+    case Phase::kHello:
+      if (frame.body_case() != F::kHello) {
+        return Fail(v1::ErrorFrame::OUT_OF_ORDER,
+                    name + " before hello: a session opens with hello");
+      }
+      return OnHello(frame.hello());
+    case Phase::kReady:
+      switch (frame.body_case()) {
+        case F::kPushBegin:
+          return OnPushBegin(frame.push_begin());
+        case F::kMergeStatusRequest:
+          return OnMergeStatusRequest(frame.merge_status_request());
+        case F::kDownloadRequest:
+          return OnDownloadRequest(frame.download_request());
+        case F::kPushChunk:
+        case F::kPushEnd:
+          return Fail(v1::ErrorFrame::OUT_OF_ORDER,
+                      name + " without a push in progress (push_begin first)");
+        default:
+          return Fail(v1::ErrorFrame::OUT_OF_ORDER,
+                      name +
+                          " does not start an exchange (push_begin, merge_status_request, "
+                          "download_request or bye)");
+      }
+    case Phase::kPushing:
+      switch (frame.body_case()) {
+        case F::kPushChunk:
+          return OnPushChunk(frame.push_chunk());
+        case F::kPushEnd:
+          return OnPushEnd();
+        default:
+          return Fail(v1::ErrorFrame::OUT_OF_ORDER,
+                      name + " during a push (expected push_chunk or push_end)");
+      }
+    case Phase::kClosing:
+      return;
+  }
+}
+
+template <typename Stream>
+void SyncSession<Stream>::OnHello(const v1::Hello& hello) {
+  if (hello.protocol_version() != kSyncProtocolVersion) {
+    return Fail(v1::ErrorFrame::UNSUPPORTED_VERSION,
+                "protocol version " + std::to_string(hello.protocol_version()) +
+                    ": this server speaks version " + std::to_string(kSyncProtocolVersion));
+  }
+  if (hello.robot_id().size() != Uuid::kSize) {
+    return Fail(v1::ErrorFrame::UNKNOWN_ROBOT, "a robot id of " +
+                                                   std::to_string(hello.robot_id().size()) +
+                                                   " bytes: robot ids are 16 bytes (a UUID)");
+  }
+  const Uuid robot = Uuid::FromBytes(hello.robot_id());
+  struct Result {
+    RobotAuthenticationResult auth;
+    RevisionNumber head = 0;
+  };
+  OnStore(
+      [robot, token = hello.token()](Repository& repository) {
+        RobotRegistry registry(repository.versions());
+        Result result{registry.Authenticate(robot, token), 0};
+        if (result.auth.outcome == RobotAuthentication::kAccepted) {
+          registry.RecordSync(robot, NowNs());
+          result.head = repository.Head();
+        }
+        return result;
+      },
+      [self = this->shared_from_this(), robot, agent = hello.agent()](Result result) {
+        switch (result.auth.outcome) {
+          case RobotAuthentication::kUnknownRobot:
+            return self->Fail(v1::ErrorFrame::UNKNOWN_ROBOT,
+                              "no robot " + robot.ToString() +
+                                  " is registered here (`fleetmap robot add NAME` registers one)");
+          case RobotAuthentication::kBadToken:
+            return self->Fail(v1::ErrorFrame::BAD_TOKEN,
+                              "wrong token for robot " + robot.ToString());
+          case RobotAuthentication::kAccepted:
+            break;
+        }
+        self->robot_ = robot;
+        self->robot_name_ = result.auth.robot->name;
+        self->phase_ = Phase::kReady;
+        self->context_.activity.RobotSynced(*result.auth.robot, NowNs());
+        spdlog::info("session {} opened: robot {} ({}), {}", self->Who(), self->robot_name_,
+                     robot.ToString(), agent.empty() ? "agent unnamed" : agent);
+        v1::SyncFrame frame;
+        v1::Welcome& welcome = *frame.mutable_welcome();
+        welcome.set_protocol_version(kSyncProtocolVersion);
+        welcome.set_head_revision(result.head);
+        welcome.set_robot_name(self->robot_name_);
+        welcome.set_max_frame_bytes(kMaxSyncFrameBytes);
+        self->Reply(frame);
+      });
+}
+
+template <typename Stream>
+void SyncSession<Stream>::OnPushBegin(const v1::PushBegin& begin) {
+  if (begin.submission_id().size() != Uuid::kSize) {
+    return Fail(v1::ErrorFrame::INVALID, "push_begin: a submission id of " +
+                                             std::to_string(begin.submission_id().size()) +
+                                             " bytes (ids are 16 bytes)");
+  }
+  if (begin.chunk_count() == 0) {
+    return Fail(v1::ErrorFrame::INVALID,
+                "push_begin: 0 chunks announced (even an empty map has one chunk)");
+  }
+  const Uuid id = Uuid::FromBytes(begin.submission_id());
+  OnStore(
+      [id, robot = robot_, author = begin.author()](Repository& repository) {
+        return repository.BeginChunkedPush(id, robot, author.empty() ? robot.ToString() : author);
+      },
+      [self = this->shared_from_this(), begin](Submission stored) {
+        const bool complete = stored.state != SubmissionState::kReceiving;
+        if (complete && stored.digest != begin.digest()) {
+          return self->Fail(v1::ErrorFrame::CONFLICT,
+                            "submission " + stored.id.ToString() +
+                                " is stored whole with another content (another digest)");
+        }
+        if (stored.chunk_count > begin.chunk_count()) {
+          return self->Fail(v1::ErrorFrame::CONFLICT,
+                            "submission " + stored.id.ToString() + " has " +
+                                std::to_string(stored.chunk_count) +
+                                " chunks stored, more than the " +
+                                std::to_string(begin.chunk_count()) + " announced");
+        }
+        if (!complete && stored.chunk_count > 0) {
+          spdlog::info("push {} from {}: resuming at chunk {} of {}", stored.id.ToString(),
+                       self->Who(), stored.chunk_count, begin.chunk_count());
+        }
+        Push push;
+        push.submission = stored.id;
+        push.chunk_count = begin.chunk_count();
+        push.digest = begin.digest();
+        push.next_seq = static_cast<std::uint32_t>(stored.chunk_count);
+        push.complete = complete;
+        self->push_ = push;
+        self->phase_ = Phase::kPushing;
+        v1::SyncFrame frame;
+        v1::PushReady& ready = *frame.mutable_push_ready();
+        ready.set_submission_id(stored.id.ToBytesString());
+        ready.set_next_chunk(push.next_seq);
+        ready.set_complete(complete);
+        self->Reply(frame);
+      });
+}
+
+template <typename Stream>
+void SyncSession<Stream>::OnPushChunk(v1::PushChunk chunk) {
+  const std::uint32_t seq = chunk.seq();
+  if (seq > push_->next_seq) {
+    return Fail(
+        v1::ErrorFrame::OUT_OF_ORDER,
+        "push_chunk " + std::to_string(seq) + " before chunk " + std::to_string(push_->next_seq));
+  }
+  if (seq >= push_->chunk_count) {
+    return Fail(v1::ErrorFrame::INVALID, "push_chunk " + std::to_string(seq) + " past the " +
+                                             std::to_string(push_->chunk_count) +
+                                             " chunks announced");
+  }
+  auto data = std::make_shared<const std::string>(std::move(*chunk.mutable_data()));
+  OnStore(
+      [id = push_->submission, seq, data,
+       delay = context_.options.debug_chunk_delay](Repository& repository) {
+        if (delay.count() > 0) std::this_thread::sleep_for(delay);
+        repository.PutPushChunk(id, seq, *data);
+        return seq;
+      },
+      [self = this->shared_from_this()](std::uint32_t stored) {
+        if (stored == self->push_->next_seq) ++self->push_->next_seq;
+        v1::SyncFrame frame;
+        frame.mutable_push_chunk_ack()->set_seq(stored);
+        self->Reply(frame);
+      });
+}
+
+template <typename Stream>
+void SyncSession<Stream>::OnPushEnd() {
+  if (!push_->complete && push_->next_seq < push_->chunk_count) {
+    return Fail(v1::ErrorFrame::OUT_OF_ORDER, "push_end after " + std::to_string(push_->next_seq) +
+                                                  " of the " + std::to_string(push_->chunk_count) +
+                                                  " chunks announced");
+  }
+  struct Result {
+    Submission submission;
+    std::uint32_t position = 0;
+  };
+  OnStore(
+      [id = push_->submission, digest = push_->digest, robot = robot_,
+       &merges = context_.merges](Repository& repository) {
+        Result result{repository.CompleteChunkedPush(id, digest), 0};
+        if (result.submission.state == SubmissionState::kQueued) {
+          result.position = merges.Enqueue(id, robot);
+        }
+        return result;
+      },
+      [self = this->shared_from_this()](Result result) {
+        const Submission& s = result.submission;
+        self->phase_ = Phase::kReady;
+        self->push_.reset();
+        self->context_.activity.PushAccepted(self->robot_);
+        spdlog::info("push {} from {}: {} chunks, {} bytes, {} (queue position {})",
+                     s.id.ToString(), self->Who(), s.chunk_count, s.bytes,
+                     SubmissionStateName(s.state), result.position);
+        v1::SyncFrame frame;
+        v1::PushAccepted& accepted = *frame.mutable_push_accepted();
+        accepted.set_submission_id(s.id.ToBytesString());
+        accepted.set_state(std::string(SubmissionStateName(s.state)));
+        accepted.set_revision(s.revision);
+        accepted.set_queue_position(result.position);
+        self->Reply(frame);
+      });
+}
+
+template <typename Stream>
+void SyncSession<Stream>::OnMergeStatusRequest(const v1::MergeStatusRequest& request) {
+  if (request.submission_id().size() != Uuid::kSize) {
+    return Fail(v1::ErrorFrame::INVALID, "merge_status_request: a submission id of " +
+                                             std::to_string(request.submission_id().size()) +
+                                             " bytes (ids are 16 bytes)");
+  }
+  QueryMergeStatus(Uuid::FromBytes(request.submission_id()), request.wait_ms() > 0,
+                   request.wait_ms());
+}
+
+template <typename Stream>
+void SyncSession<Stream>::QueryMergeStatus(const Uuid& id, bool may_wait, std::uint32_t wait_ms) {
+  OnStore(
+      [id, &merges = context_.merges](Repository& repository) {
+        const std::optional<Submission> s = repository.versions().FindSubmission(id);
+        if (!s) throw Error(ErrorCode::kNotFound, "no submission " + id.ToString() + " is stored");
+        v1::MergeStatus status;
+        status.set_submission_id(id.ToBytesString());
+        status.set_state(std::string(SubmissionStateName(s->state)));
+        status.set_revision(s->revision);
+        status.set_error(s->error);
+        if (s->state == SubmissionState::kMerged) {
+          if (const std::optional<Revision> r = repository.versions().FindRevision(s->revision)) {
+            status.set_nodes_added(r->nodes_added);
+          }
+        }
+        if (s->state == SubmissionState::kQueued) {
+          if (merges.IsMerging(id)) status.set_state("merging");
+          status.set_queue_position(merges.Position(id).value_or(0));
+        }
+        return status;
+      },
+      [self = this->shared_from_this(), id, may_wait, wait_ms](v1::MergeStatus status) {
+        const bool pending = status.state() == "queued" || status.state() == "merging";
+        if (may_wait && pending && !self->shutting_down_) {
+          const auto wait =
+              std::min(std::chrono::milliseconds(wait_ms), self->context_.options.merge_wait_cap);
+          self->merge_wait_.expires_after(wait);
+          self->merge_wait_.async_wait([self, id](boost::system::error_code) {
+            self->QueryMergeStatus(id, false, 0);  // expired, or the merge finished
+          });
+          const bool watching = self->context_.merges.Watch(
+              id, [weak = self->weak_from_this(), executor = self->executor_] {
+                asio::post(executor, [weak] {
+                  if (auto session = weak.lock()) session->merge_wait_.cancel();
+                });
+              });
+          if (!watching) self->merge_wait_.cancel();  // it finished in between: ask again now
+          return;
+        }
+        v1::SyncFrame frame;
+        *frame.mutable_merge_status() = std::move(status);
+        self->Reply(frame);
+      });
+}
+
+template <typename Stream>
+void SyncSession<Stream>::OnDownloadRequest(const v1::DownloadRequest& request) {
+  try {
+    PolicyOfRequest(request);  // refuse a bad request before it costs the store anything
+  } catch (const Error& error) {
+    return Fail(v1::ErrorFrame::INVALID, "download_request: " + error.message());
+  }
+  struct Result {
+    std::shared_ptr<const EncodedDownload> download;
+    bool cached = false;
+  };
+  download_start_ = std::chrono::steady_clock::now();
+  OnStore(
+      [request, &cache = context_.downloads](Repository& repository) {
+        const RevisionNumber head = repository.Head();
+        const std::string key = DownloadCache::Key(head, request);
+        Result result{cache.Find(key), true};
+        if (!result.download) {
+          result.download = EncodeDownload(repository, request, head);
+          result.cached = false;
+          cache.Put(key, result.download);
+        }
+        return result;
+      },
+      [self = this->shared_from_this()](Result result) {
+        self->download_ = std::move(result.download);
+        self->download_cached_ = result.cached;
+        self->do_write_download(0);
+      });
+}
+
+template <typename Stream>
+void SyncSession<Stream>::do_write_download(std::size_t index) {
+  if (index == download_->frames.size()) {
+    const double seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - download_start_).count();
+    const v1::DownloadHeader& h = download_->header;
+    spdlog::info(
+        "download to {}: policy {}, revision {} (base {}), {} nodes, {} chunks, {} bytes in "
+        "{:.3f} s ({:.1f} MB/s){}",
+        Who(), download_->report.policy, h.revision(), h.base_revision(), h.nodes(),
+        h.chunk_count(), download_->frame_bytes, seconds,
+        seconds > 0 ? static_cast<double>(download_->frame_bytes) / 1e6 / seconds : 0.0,
+        download_cached_ ? ", from memory" : "");
+    context_.activity.DownloadSent(robot_);
+    download_.reset();
+    return do_read_prefix();
+  }
+  Arm(context_.options.io_deadline);
+  // Straight from the encoded download: no copy per write.
+  asio::async_write(
+      stream_, asio::buffer(download_->frames[index]),
+      [self = this->shared_from_this(), index](boost::system::error_code ec, std::size_t bytes) {
+        self->Disarm();
+        self->context_.activity.BytesSent(bytes);
+        if (ec) {
+          self->close_reason_ = self->timed_out_
+                                    ? "the robot did not take a download frame within " +
+                                          Seconds(self->context_.options.io_deadline)
+                                    : "download write failed: " + ec.message();
+          spdlog::warn("session {}: {}", self->Who(), self->close_reason_);
+          return self->CloseSocket();
+        }
+        self->do_write_download(index + 1);
+      });
+}
+
+template class SyncSession<tcp::socket>;
+template class SyncSession<asio::ssl::stream<tcp::socket>>;
+
+}  // namespace fleetmap::server
