@@ -1,0 +1,470 @@
+// fleetmap-agent: the robot side of the fleet's map sync (DESIGN.md "Sync protocol").
+//   sync    one sync now: push what the server lacks, optionally wait for the merge, download
+//           and install the mission's map
+//   daemon  a sync each time the dock file appears (the robot docked), until SIGTERM/SIGINT
+//   status  what the map directory holds and what is not on the server yet
+// Exit codes: 0 ok; 1 the sync failed (after its retries); 2 bad arguments or refused by the
+// server (a wrong token, an unknown robot, content it will not take).
+#include <pthread.h>
+#include <signal.h>
+
+#include <CLI/CLI.hpp>
+#include <atomic>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+#include <nlohmann/json.hpp>
+#include <thread>
+
+#include "fleetmap/agent/agent_sync.h"
+#include "fleetmap/agent/local_map.h"
+#include "fleetmap/agent/sync_client.h"
+#include "fleetmap/common/error.h"
+#include "fleetmap/common/graph_store.h"
+#include "fleetmap/policies/download_policy.h"
+
+namespace fleetmap {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+constexpr int kExitOk = 0;
+constexpr int kExitFailed = 1;
+constexpr int kExitRefused = 2;
+
+// What the command line says, before it is checked.
+struct AgentArguments {
+  std::string server;
+  std::string robot;
+  std::string token;
+  std::string token_file;
+  std::string map_dir = "./robot";
+  std::string mission_start = "00:00";
+  std::string policy = "copy";
+  double window_min = 0.0;
+  double percent = 0.0;
+  std::int64_t budget_bytes = 0;
+  double epoch_min = 0.0;
+  std::vector<std::string> include_nodes;
+  bool wait_merge = false;
+  double merge_timeout_s = 300.0;
+  double retry_for_s = 120.0;
+  double io_timeout_s = 30.0;
+  std::string tls_ca;
+  bool tls_insecure = false;
+  bool json = false;
+  bool quiet = false;
+  std::string dock_file;
+};
+
+void Say(const std::string& line) {
+  std::cerr << "fleetmap-agent: " << line << std::endl;
+}
+
+std::chrono::milliseconds Millis(double seconds, const char* option) {
+  if (!(seconds >= 0.0) || !std::isfinite(seconds)) {
+    throw Error(ErrorCode::kInvalidArgument,
+                std::string(option) + " must be a number of seconds >= 0");
+  }
+  return std::chrono::milliseconds(static_cast<std::int64_t>(seconds * 1000.0));
+}
+
+// "HH:MM" (UTC) or plain minutes since midnight.
+double ParseMissionStart(const std::string& text) {
+  const std::size_t colon = text.find(':');
+  try {
+    std::size_t used = 0;
+    double minutes = 0.0;
+    if (colon == std::string::npos) {
+      minutes = std::stod(text, &used);
+      if (used != text.size()) throw std::invalid_argument(text);
+    } else {
+      const std::string hours_text = text.substr(0, colon);
+      const std::string minutes_text = text.substr(colon + 1);
+      const int hours = std::stoi(hours_text, &used);
+      if (used != hours_text.size()) throw std::invalid_argument(text);
+      const int mins = std::stoi(minutes_text, &used);
+      if (used != minutes_text.size() || mins < 0 || mins >= 60 || hours < 0) {
+        throw std::invalid_argument(text);
+      }
+      minutes = hours * 60.0 + mins;
+    }
+    if (minutes < 0.0 || minutes >= 1440.0) throw std::invalid_argument(text);
+    return minutes;
+  } catch (const std::logic_error&) {
+    throw Error(
+        ErrorCode::kInvalidArgument,
+        "--mission-start '" + text + "' is not HH:MM (00:00 to 23:59) or minutes in [0, 1440)");
+  }
+}
+
+std::string ReadToken(const AgentArguments& args) {
+  if (!args.token_file.empty()) {
+    std::ifstream in(args.token_file);
+    if (!in)
+      throw Error(ErrorCode::kInvalidArgument, "cannot read --token-file " + args.token_file);
+    std::string token;
+    std::getline(in, token);
+    while (!token.empty() && (token.back() == '\r' || token.back() == ' ')) token.pop_back();
+    if (token.empty())
+      throw Error(ErrorCode::kInvalidArgument, "--token-file " + args.token_file + " is empty");
+    return token;
+  }
+  if (args.token.empty()) {
+    throw Error(
+        ErrorCode::kInvalidArgument,
+        "no token: give --token, --token-file or FLEETMAP_TOKEN (printed by `fleetmap robot add`)");
+  }
+  return args.token;
+}
+
+// The checked options of one sync. Throws Error(kInvalidArgument) naming what is wrong.
+AgentSyncOptions SyncOptionsOf(const AgentArguments& args, const std::atomic<bool>* stop) {
+  AgentSyncOptions options;
+  options.server = args.server;
+  options.robot = Uuid::Parse(args.robot);
+  options.token = ReadToken(args);
+  options.link.tls = !args.tls_ca.empty() ? TlsMode::kVerify
+                     : args.tls_insecure  ? TlsMode::kInsecure
+                                          : TlsMode::kNone;
+  options.link.tls_ca_file = args.tls_ca;
+  options.link.io_timeout = Millis(args.io_timeout_s, "--io-timeout");
+  options.link.stop = stop;
+  options.stop = stop;
+  options.wait_merge = args.wait_merge;
+  options.merge_timeout = Millis(args.merge_timeout_s, "--merge-timeout");
+  options.retry_for = Millis(args.retry_for_s, "--retry-for");
+
+  DownloadParams& download = options.download;
+  download.mission_start_min = ParseMissionStart(args.mission_start);
+  download.window_min = args.window_min;
+  download.best_percent = args.percent;
+  download.budget_bytes = args.budget_bytes;
+  download.epoch_min = args.epoch_min;
+  for (const std::string& node : args.include_nodes)
+    download.include_nodes.push_back(Uuid::Parse(node));
+  // Refuse a policy the server would refuse, before dialling; the request carries the
+  // canonical name so equal policies compare equal for an incremental download.
+  DownloadPolicy policy = ParseDownloadPolicy(args.policy);
+  policy.mission_start_min = download.mission_start_min;
+  if (download.window_min != 0.0) policy.window_min = download.window_min;
+  if (download.best_percent != 0.0) policy.best_percent = download.best_percent;
+  if (download.epoch_min != 0.0) policy.epoch_min = download.epoch_min;
+  if (download.budget_bytes != 0) policy.budget_bytes = download.budget_bytes;
+  ValidateDownloadPolicy(policy);
+  download.policy = policy.Name();
+  if (!args.quiet) options.progress = Say;
+  return options;
+}
+
+json ResultJson(const SyncResult& r) {
+  return {{"pushed_nodes", r.pushed_nodes},
+          {"pushed_edges", r.pushed_edges},
+          {"pushed_paths", r.pushed_paths},
+          {"submission", r.submission.IsNil() ? json(nullptr) : json(r.submission.ToString())},
+          {"push_state", r.push_state},
+          {"merge_state", r.merge_state},
+          {"merged_revision", r.merged_revision},
+          {"merge_error", r.merge_error},
+          {"revision", r.revision},
+          {"incremental", r.incremental},
+          {"nodes", r.nodes},
+          {"edges", r.edges},
+          {"paths", r.paths},
+          {"downloaded_nodes", r.downloaded_nodes},
+          {"downloaded_edges", r.downloaded_edges},
+          {"downloaded_paths", r.downloaded_paths},
+          {"removed_nodes", r.removed_nodes},
+          {"downloaded_bytes", r.downloaded_bytes},
+          {"kept_unsynced", r.kept_unsynced},
+          {"kept_unmerged", r.kept_unmerged},
+          {"bytes_sent", r.bytes_sent},
+          {"bytes_received", r.bytes_received},
+          {"retries", r.retries},
+          {"seconds", r.seconds},
+          {"push_seconds", r.push_seconds},
+          {"merge_wait_seconds", r.merge_wait_seconds},
+          {"download_seconds", r.download_seconds},
+          {"install_seconds", r.install_seconds}};
+}
+
+void PrintResult(const SyncResult& r, bool as_json) {
+  if (as_json) {
+    std::cout << ResultJson(r).dump() << std::endl;
+    return;
+  }
+  std::printf("revision %lld: %zu nodes, %zu edges, %zu paths (%s; %zu nodes downloaded)\n",
+              static_cast<long long>(r.revision), r.nodes, r.edges, r.paths,
+              r.incremental ? "incremental" : "full", r.downloaded_nodes);
+  if (!r.submission.IsNil()) {
+    std::printf("pushed %zu nodes, %zu edges, %zu paths as submission %s (%s)\n", r.pushed_nodes,
+                r.pushed_edges, r.pushed_paths, r.submission.ToString().c_str(),
+                r.merge_state.empty() ? r.push_state.c_str() : r.merge_state.c_str());
+  } else {
+    std::printf("nothing to push\n");
+  }
+  std::printf(
+      "%.2f s (push %.2f, merge wait %.2f, download %.2f, install %.2f); %llu bytes sent, "
+      "%llu received; %d retries\n",
+      r.seconds, r.push_seconds, r.merge_wait_seconds, r.download_seconds, r.install_seconds,
+      static_cast<unsigned long long>(r.bytes_sent),
+      static_cast<unsigned long long>(r.bytes_received), r.retries);
+  std::fflush(stdout);
+}
+
+// The exit code for a failed sync, after saying why.
+int ReportFailure(const std::exception& error) {
+  Say(error.what());
+  if (const auto* refused = dynamic_cast<const SyncServerError*>(&error)) {
+    return refused->retryable() ? kExitFailed : kExitRefused;
+  }
+  if (dynamic_cast<const SyncLinkError*>(&error) != nullptr) return kExitFailed;
+  if (const auto* e = dynamic_cast<const Error*>(&error)) {
+    return e->code() == ErrorCode::kInvalidArgument ? kExitRefused : kExitFailed;
+  }
+  return kExitFailed;
+}
+
+// With --wait-merge, a merge that failed fails the sync (after the download went ahead).
+int MergeOutcome(const AgentArguments& args, const SyncResult& result) {
+  if (args.wait_merge && result.merge_state == "failed") {
+    Say("merge of submission " + result.submission.ToString() + " failed: " + result.merge_error);
+    return kExitFailed;
+  }
+  return kExitOk;
+}
+
+int SyncCommand(const AgentArguments& args) {
+  AgentSyncOptions options;
+  try {
+    options = SyncOptionsOf(args, nullptr);
+  } catch (const Error& e) {
+    Say(e.what());
+    return kExitRefused;
+  }
+  try {
+    LocalMap map = LocalMap::Open(args.map_dir);
+    const SyncResult result = RunSync(map, options);
+    PrintResult(result, args.json);
+    return MergeOutcome(args, result);
+  } catch (const std::exception& e) {
+    return ReportFailure(e);
+  }
+}
+
+// SIGTERM and SIGINT raise `stop` (sigwait on a thread of its own, so no handler and no
+// global); the destructor wakes that thread when the daemon ends for another reason.
+class StopOnSignal {
+ public:
+  explicit StopOnSignal(std::atomic<bool>& stop) {
+    sigemptyset(&signals_);
+    sigaddset(&signals_, SIGTERM);
+    sigaddset(&signals_, SIGINT);
+    pthread_sigmask(SIG_BLOCK, &signals_, nullptr);
+    waiter_ = std::thread([this, &stop] {
+      int signal_number = 0;
+      sigwait(&signals_, &signal_number);
+      if (!done_.load())
+        Say(std::string("stopping on ") + (signal_number == SIGINT ? "SIGINT" : "SIGTERM"));
+      stop.store(true);
+    });
+  }
+  ~StopOnSignal() {
+    done_.store(true);
+    pthread_kill(waiter_.native_handle(), SIGTERM);
+    waiter_.join();
+  }
+  StopOnSignal(const StopOnSignal&) = delete;
+  StopOnSignal& operator=(const StopOnSignal&) = delete;
+
+ private:
+  sigset_t signals_;
+  std::atomic<bool> done_{false};
+  std::thread waiter_;
+};
+
+// Sleeps up to `duration`, returning early (false) when `stop` is raised.
+bool Pause(std::chrono::milliseconds duration, const std::atomic<bool>& stop) {
+  const auto until = std::chrono::steady_clock::now() + duration;
+  while (std::chrono::steady_clock::now() < until) {
+    if (stop.load()) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  return !stop.load();
+}
+
+int DaemonCommand(const AgentArguments& args) {
+  if (args.dock_file.empty()) {
+    Say("daemon needs --dock-file PATH (the file whose appearance means the robot docked)");
+    return kExitRefused;
+  }
+  std::atomic<bool> stop{false};
+  StopOnSignal on_signal(stop);
+  AgentSyncOptions options;
+  try {
+    options = SyncOptionsOf(args, &stop);
+  } catch (const Error& e) {
+    Say(e.what());
+    return kExitRefused;
+  }
+  std::optional<LocalMap> map;
+  try {
+    map.emplace(LocalMap::Open(args.map_dir));
+  } catch (const Error& e) {
+    return ReportFailure(e);
+  }
+  Say("waiting for " + args.dock_file + " (map " + args.map_dir + ", server " + args.server + ")");
+  constexpr std::chrono::milliseconds kPoll{200};
+  constexpr std::chrono::milliseconds kAfterFailure{10'000};
+  while (!stop.load()) {
+    std::error_code ec;
+    if (fs::exists(args.dock_file, ec)) {
+      Say("docked (" + args.dock_file + "): syncing");
+      try {
+        const SyncResult result = RunSync(*map, options);
+        PrintResult(result, args.json);
+        MergeOutcome(args, result);
+        fs::remove(args.dock_file, ec);
+        Say("synced; waiting for the next dock");
+      } catch (const SyncStopped&) {
+        break;
+      } catch (const std::exception& e) {
+        if (ReportFailure(e) == kExitRefused) return kExitRefused;  // retrying cannot help
+        Say("will try again in " + std::to_string(kAfterFailure.count() / 1000) +
+            " s while docked");
+        if (!Pause(kAfterFailure, stop)) break;
+        continue;
+      }
+    }
+    if (!Pause(kPoll, stop)) break;
+  }
+  Say("stopped");
+  return kExitOk;
+}
+
+int StatusCommand(const AgentArguments& args) {
+  try {
+    LocalMap map = LocalMap::Open(args.map_dir, LocalMapAccess::kReadOnly);
+    const SyncState& state = map.state();
+    const GraphBatch unsynced = map.Unsynced();
+    std::int64_t map_nodes = 0, map_edges = 0, map_paths = 0;
+    if (fs::exists(map.map_path())) {
+      const StoreStats stats = GraphStore::Open(map.map_uri())->Stats();
+      map_nodes = stats.nodes;
+      map_edges = stats.edges;
+      map_paths = stats.paths;
+    }
+    json out = {{"map_dir", map.dir().string()},
+                {"robot", state.robot ? json(state.robot->ToString()) : json(nullptr)},
+                {"revision", state.revision},
+                {"policy", state.request ? json(state.request->policy) : json(nullptr)},
+                {"map_nodes", map_nodes},
+                {"map_edges", map_edges},
+                {"map_paths", map_paths},
+                {"installed_nodes", state.installed.nodes.size()},
+                {"installed_edges", state.installed.edges.size()},
+                {"installed_paths", state.installed.paths.size()},
+                {"unsynced_nodes", unsynced.nodes.size()},
+                {"unsynced_edges", unsynced.edges.size()},
+                {"unsynced_paths", unsynced.paths.size()},
+                {"pending_submission",
+                 state.submission ? json(state.submission->id.ToString()) : json(nullptr)}};
+    if (args.json) {
+      std::cout << out.dump() << std::endl;
+      return kExitOk;
+    }
+    std::printf("map %s\n", map.dir().string().c_str());
+    std::printf("robot %s\n", state.robot ? state.robot->ToString().c_str() : "(never synced)");
+    if (state.revision > 0) {
+      std::printf("revision %lld (%s): %zu nodes, %zu edges, %zu paths installed\n",
+                  static_cast<long long>(state.revision), state.request->policy.c_str(),
+                  state.installed.nodes.size(), state.installed.edges.size(),
+                  state.installed.paths.size());
+    } else {
+      std::printf("revision none installed\n");
+    }
+    std::printf("map.db %lld nodes, %lld edges, %lld paths\n", static_cast<long long>(map_nodes),
+                static_cast<long long>(map_edges), static_cast<long long>(map_paths));
+    std::printf("unsynced %zu nodes, %zu edges, %zu paths\n", unsynced.nodes.size(),
+                unsynced.edges.size(), unsynced.paths.size());
+    if (state.submission) {
+      std::printf("pending submission %s\n", state.submission->id.ToString().c_str());
+    }
+    return kExitOk;
+  } catch (const std::exception& e) {
+    return ReportFailure(e);
+  }
+}
+
+void AddSyncOptions(CLI::App& command, AgentArguments& args) {
+  command.add_option("--server", args.server, "fleetmapd address HOST:PORT")->required();
+  command.add_option("--robot", args.robot, "this robot's UUID (from `fleetmap robot add`)")
+      ->required();
+  CLI::Option* token_file =
+      command.add_option("--token-file", args.token_file, "file whose first line is the token");
+  command.add_option("--token", args.token, "the robot's token (or FLEETMAP_TOKEN)")
+      ->envname("FLEETMAP_TOKEN")
+      ->excludes(token_file);
+  command.add_option("--map-dir", args.map_dir, "the robot's map directory")->capture_default_str();
+  command
+      .add_option("--mission-start", args.mission_start,
+                  "the next mission's start, HH:MM UTC (or minutes since midnight)")
+      ->capture_default_str();
+  command.add_option("--policy", args.policy, "download policy: copy, tod, tod+paths, budget, ...")
+      ->capture_default_str();
+  command.add_option("--window-min", args.window_min, "time-of-day window T_w (0: the default)");
+  command.add_option("--percent", args.percent, "best paths p % (0: the default)");
+  command.add_option("--budget-bytes", args.budget_bytes, "byte budget (0: the default)");
+  command.add_option("--epoch-min", args.epoch_min, "epoch length (0: the default)");
+  command.add_option("--include-node", args.include_nodes,
+                     "a node every download keeps (where the robot is docked); repeatable");
+  command.add_flag("--wait-merge", args.wait_merge, "wait for the pushed map to be merged");
+  command.add_option("--merge-timeout", args.merge_timeout_s, "seconds to wait for the merge")
+      ->capture_default_str();
+  command.add_option("--retry-for", args.retry_for_s, "seconds to keep retrying a failing link")
+      ->capture_default_str();
+  command.add_option("--io-timeout", args.io_timeout_s, "seconds for one frame read or written")
+      ->capture_default_str();
+  CLI::Option* tls_ca =
+      command.add_option("--tls-ca", args.tls_ca, "TLS: verify the server against this CA (PEM)");
+  command.add_flag("--tls-insecure", args.tls_insecure, "TLS without verifying the server (tests)")
+      ->excludes(tls_ca);
+  command.add_flag("--json", args.json, "print the result as one JSON object on stdout");
+  command.add_flag("--quiet", args.quiet, "no progress lines on stderr");
+}
+
+}  // namespace
+}  // namespace fleetmap
+
+int main(int argc, char** argv) {
+  using namespace fleetmap;
+  // A server that hangs up mid-write is a link error to retry, not a signal that kills us
+  // (Asio already sends with MSG_NOSIGNAL; this covers any other write).
+  signal(SIGPIPE, SIG_IGN);
+  CLI::App app{"fleetmap-agent: syncs a robot's experience map with fleetmapd."};
+  app.require_subcommand(1);
+  AgentArguments args;
+  CLI::App* sync = app.add_subcommand("sync", "sync now: push, (wait for the merge,) download");
+  AddSyncOptions(*sync, args);
+  CLI::App* daemon = app.add_subcommand("daemon", "sync each time the dock file appears");
+  AddSyncOptions(*daemon, args);
+  daemon->add_option("--dock-file", args.dock_file, "appears when the robot docks")->required();
+  CLI::App* status = app.add_subcommand("status", "what the map directory holds");
+  status->add_option("--map-dir", args.map_dir, "the robot's map directory")->capture_default_str();
+  status->add_flag("--json", args.json, "print one JSON object on stdout");
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForAllHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    app.exit(e);
+    return kExitRefused;
+  }
+  if (sync->parsed()) return SyncCommand(args);
+  if (daemon->parsed()) return DaemonCommand(args);
+  return StatusCommand(args);
+}

@@ -1,0 +1,197 @@
+// The robot's map directory (default ./robot): the map the robot localises in and builds into,
+// and what the agent knows about the server's copy of it (DESIGN.md "Sync protocol"; seed 004
+// §V: push, then download).
+//
+//   DIR/map.db          a SQLite GraphStore (sqlite:DIR/map.db): the installed download plus
+//                       whatever the EBN builder added since
+//   DIR/sync.json       the sync state (SyncState), replaced atomically (tmp, fsync, rename)
+//   DIR/agent.lock      flock'ed by the one LocalMap that may write the directory
+//   DIR/map.db.new      transient: the next map while an install writes it
+//   DIR/sync.json.next  transient: the state that goes with map.db.new
+//
+// An install writes the new map into map.db.new, checks it, fsyncs it, writes the state that
+// goes with it as sync.json.next, renames map.db.new over map.db and then sync.json.next over
+// sync.json. Each rename is atomic, so after a crash at any point Open finds one of:
+//   map.db.new and no sync.json.next   the install never committed: map.db.new is deleted;
+//   map.db.new and sync.json.next      the map rename did not happen: both are deleted;
+//   sync.json.next alone               the map rename happened: sync.json.next is renamed over
+//                                      sync.json (rolled forward).
+// So map.db and sync.json always describe each other: nothing the server sent is taken for
+// local content (and pushed back), and nothing local is taken for the server's.
+//
+// Which elements the server has: the installed selection (what the last download holds) and
+// what this robot pushed and had accepted since. Everything else in map.db is unsynced. Nodes,
+// edges and paths only: annotations are not synced (GraphStore::ReadMap does not carry them).
+//
+// Threading: one thread at a time. Processes: one exclusive LocalMap per directory (the lock);
+// the EBN builder must not write map.db while an install runs (the robot is docked).
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "fleetmap/common/graph.h"
+#include "fleetmap/common/uuid.h"
+
+namespace fleetmap {
+
+// What a download was asked for (sync.proto DownloadRequest). An incremental download is only
+// asked for with parameters identical to those of the installed one: the server computes the
+// change against the selection these parameters made at the installed revision.
+struct DownloadParams {
+  std::string policy = "copy";  // download_policy.h names
+  double mission_start_min = 0.0;
+  double window_min = 0.0;          // 0: the server's default
+  double best_percent = 0.0;        // 0: the server's default
+  std::int64_t budget_bytes = 0;    // 0: the server's default
+  double epoch_min = 0.0;           // 0: the server's default
+  std::vector<Uuid> include_nodes;  // nodes every download keeps (where the robot is docked)
+
+  friend bool operator==(const DownloadParams&, const DownloadParams&) = default;
+};
+
+// UUIDs of nodes, edges and paths.
+struct ElementIds {
+  std::set<Uuid> nodes;
+  std::set<Uuid> edges;
+  std::set<Uuid> paths;
+
+  std::size_t size() const { return nodes.size() + edges.size() + paths.size(); }
+  bool Contains(const ElementIds& other) const;
+  friend bool operator==(const ElementIds&, const ElementIds&) = default;
+};
+ElementIds IdsOf(const GraphBatch& batch);
+
+// A push in progress: its id and exactly what it carries, recorded before the first byte is
+// sent so that a retry (after a dropped link or a restart) sends the same content under the
+// same id and the server resumes it instead of storing it twice.
+struct PendingSubmission {
+  Uuid id;
+  ElementIds content;
+
+  friend bool operator==(const PendingSubmission&, const PendingSubmission&) = default;
+};
+
+// A push the server accepted whose merge no download has reflected yet. Until one does, its
+// content stays in the robot's map through installs: a download of a revision before the merge
+// does not hold it, and the robot must not lose what it just built for its next mission.
+struct UnmergedSubmission {
+  Uuid id;
+  ElementIds content;
+  // The revision the merge made, once the server said so; 0 when the merge failed (the server
+  // keeps the submission; the fleet map does not take it).
+  std::optional<std::int64_t> merged_revision;
+
+  friend bool operator==(const UnmergedSubmission&, const UnmergedSubmission&) = default;
+};
+
+struct SyncState {
+  std::optional<Uuid> robot;              // the robot this directory syncs as, once it has synced
+  std::int64_t revision = 0;              // the installed download's revision; 0: none
+  std::optional<DownloadParams> request;  // what the installed download was asked for
+  ElementIds installed;                   // the installed selection
+  ElementIds pushed;                      // pushed and accepted, not in `installed`
+  std::optional<PendingSubmission> submission;
+  std::vector<UnmergedSubmission> unmerged;  // in push order
+
+  friend bool operator==(const SyncState&, const SyncState&) = default;
+};
+
+// A download as received (sync.proto DownloadHeader and its chunks, decoded).
+struct MapDownload {
+  std::int64_t revision = 0;
+  std::int64_t base_revision = 0;  // 0: `content` is the whole selection; else what is new
+  DownloadParams request;
+  GraphBatch content;
+  ElementIds removed;  // incremental only: in the selection at base_revision, no longer
+  // The selection in full, for checking the installed result.
+  std::uint64_t nodes = 0;
+  std::uint64_t edges = 0;
+  std::uint64_t paths = 0;
+};
+
+struct InstallReport {
+  std::int64_t revision = 0;
+  bool incremental = false;
+  std::size_t nodes = 0;  // the installed selection
+  std::size_t edges = 0;
+  std::size_t paths = 0;
+  std::size_t kept_unsynced = 0;  // local elements not yet on the server, kept in the new map
+  std::size_t kept_unmerged = 0;  // pushed elements whose merge the download does not reflect
+  // Elements outside the selection kept because kept (unsynced or unmerged) edges reference
+  // them.
+  std::size_t kept_for_unsynced = 0;
+};
+
+enum class LocalMapAccess {
+  kExclusive,  // takes the lock, recovers an interrupted install, may write
+  kReadOnly,   // no lock, no recovery, no writes (status while a daemon runs)
+};
+
+class LocalMap {
+ public:
+  // Opens the directory, creating it and an empty map.db when missing. Throws
+  // Error(kConflict) when another process holds the lock, Error(kCorrupt) for a state file
+  // that does not parse, Error(kBackend) for I/O failures (naming the file).
+  static LocalMap Open(const std::filesystem::path& dir,
+                       LocalMapAccess access = LocalMapAccess::kExclusive);
+  ~LocalMap();
+  LocalMap(LocalMap&& other) noexcept;
+  LocalMap& operator=(LocalMap&&) = delete;
+  LocalMap(const LocalMap&) = delete;
+  LocalMap& operator=(const LocalMap&) = delete;
+
+  const std::filesystem::path& dir() const { return dir_; }
+  std::filesystem::path map_path() const { return dir_ / "map.db"; }
+  std::string map_uri() const { return "sqlite:" + map_path().string(); }
+  const SyncState& state() const { return state_; }
+
+  // The nodes, edges and paths of map.db the server does not have, each kind ordered by UUID
+  // (so the same content always encodes to the same chunks). Edges may reference known nodes.
+  GraphBatch Unsynced();
+
+  // Records `robot` as the robot this directory syncs as. Throws Error(kInvalidArgument) when
+  // it synced as another robot before (its known set belongs to that robot's history).
+  void BindRobot(const Uuid& robot);
+
+  // Starts a push of `content` (from Unsynced()) under a new time-ordered UUID, durably
+  // recorded before it returns. REQUIRES: no submission pending (else kInvalidArgument).
+  PendingSubmission BeginSubmission(const GraphBatch& content);
+  // The content of the pending submission, read back from map.db in the order Unsynced()
+  // gives. Throws Error(kNotFound) naming an element map.db no longer holds.
+  GraphBatch SubmissionContent(const PendingSubmission& submission);
+  // The server accepted the pending submission: its content is known from now on, and
+  // unmerged until RecordMerge.
+  void MarkPushed(const Uuid& submission);
+  // The server merged (revision > 0) or failed to merge (0) an unmerged submission. Unknown
+  // ids are ignored (an install already retired them).
+  void RecordMerge(const Uuid& submission, std::int64_t revision);
+
+  // Installs a download (see the file comment): full, the selection; incremental, the
+  // installed selection minus download.removed plus download.content; in both cases plus
+  // every unsynced element of map.db, the content of unmerged submissions whose merge is not
+  // at or before download.revision, and what those reference. Unmerged submissions merged at
+  // or before it are retired. An incremental download that changes nothing rewrites no map.
+  // Throws Error(kCorrupt) when
+  // the result's counts disagree with the header's (map.db untouched),
+  // Error(kInvalidArgument) for an incremental download whose base is not the installed
+  // revision or whose parameters differ, Error(kConflict) when another process has map.db
+  // open with a write-ahead log, Error(kBackend) for I/O failures.
+  InstallReport Install(const MapDownload& download);
+
+ private:
+  LocalMap(std::filesystem::path dir, LocalMapAccess access, int lock_fd);
+  void RequireWritable(const char* what) const;
+  void SaveState();
+
+  std::filesystem::path dir_;
+  LocalMapAccess access_;
+  int lock_fd_ = -1;
+  SyncState state_;
+};
+
+}  // namespace fleetmap

@@ -1,0 +1,425 @@
+#include "fleetmap/agent/agent_sync.h"
+
+#include <algorithm>
+#include <cstdio>
+#include <random>
+#include <thread>
+#include <utility>
+#include <vector>
+
+#include "fleetmap/common/map_chunks.h"
+
+namespace fleetmap {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+using std::chrono::milliseconds;
+
+double SecondsSince(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+milliseconds Remaining(Clock::time_point deadline) {
+  return std::chrono::duration_cast<milliseconds>(deadline - Clock::now());
+}
+
+std::string Counts(std::size_t nodes, std::size_t edges, std::size_t paths) {
+  return std::to_string(nodes) + " nodes, " + std::to_string(edges) + " edges, " +
+         std::to_string(paths) + " paths";
+}
+
+std::string Mib(std::uint64_t bytes) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.2f MiB", static_cast<double>(bytes) / (1 << 20));
+  return text;
+}
+
+// One sync: the steps of an attempt, and what survives from one attempt to the next.
+class SyncRun {
+ public:
+  SyncRun(LocalMap& map, const AgentSyncOptions& options, SyncResult& result)
+      : map_(map), options_(options), result_(result) {}
+
+  // One pass from the connect to the install; steps finished by an earlier pass are skipped.
+  void Attempt() {
+    SyncClient client(options_.server, options_.link);
+    // The link's bytes count whether or not the attempt completes.
+    struct ByteCount {
+      SyncClient& client;
+      SyncResult& result;
+      ~ByteCount() {
+        result.bytes_sent += client.bytes_sent();
+        result.bytes_received += client.bytes_received();
+      }
+    } count{client, result_};
+
+    Hello(client);
+    const Clock::time_point push_start = Clock::now();
+    PushAll(client);
+    result_.push_seconds += SecondsSince(push_start);
+    FollowMerges(client);
+    const Clock::time_point download_start = Clock::now();
+    MapDownload download = Download(client);
+    result_.download_seconds += SecondsSince(download_start);
+
+    const Clock::time_point install_start = Clock::now();
+    const InstallReport report = map_.Install(download);
+    result_.install_seconds += SecondsSince(install_start);
+    result_.revision = report.revision;
+    result_.incremental = report.incremental;
+    result_.nodes = report.nodes;
+    result_.edges = report.edges;
+    result_.paths = report.paths;
+    result_.kept_unsynced = report.kept_unsynced;
+    result_.kept_unmerged = report.kept_unmerged;
+    Progress("installed revision " + std::to_string(report.revision) + ": " +
+             Counts(report.nodes, report.edges, report.paths) +
+             (report.incremental ? " (incremental)" : " (full)") +
+             (report.kept_unsynced > 0
+                  ? ", kept " + std::to_string(report.kept_unsynced) + " unsynced elements"
+                  : "") +
+             (report.kept_unmerged > 0 ? ", kept " + std::to_string(report.kept_unmerged) +
+                                             " pushed elements not merged yet"
+                                       : ""));
+  }
+
+  // Steps completed so far that a retry will not redo: a failure after one starts a new
+  // retry window.
+  int milestones() const { return milestones_; }
+
+ private:
+  void Progress(const std::string& line) const {
+    if (options_.progress) options_.progress(line);
+  }
+
+  void Hello(SyncClient& client) {
+    v1::SyncFrame frame;
+    v1::Hello* hello = frame.mutable_hello();
+    hello->set_protocol_version(kSyncProtocolVersion);
+    hello->set_robot_id(options_.robot.ToBytesString());
+    hello->set_token(options_.token);
+    hello->set_agent("fleetmap-agent 0.1.0");
+    client.Send(frame);
+    const v1::SyncFrame welcome = client.Expect(v1::SyncFrame::kWelcome, "hello");
+    map_.BindRobot(options_.robot);
+    Progress("connected to " + options_.server + " as robot '" + welcome.welcome().robot_name() +
+             "' (head revision " + std::to_string(welcome.welcome().head_revision()) + ")");
+  }
+
+  // The submission a crash or a dropped link left pending, then everything unsynced.
+  void PushAll(SyncClient& client) {
+    for (;;) {
+      std::optional<PendingSubmission> submission = map_.state().submission;
+      GraphBatch content;
+      if (submission) {
+        content = map_.SubmissionContent(*submission);
+      } else {
+        content = map_.Unsynced();
+        if (content.nodes.empty() && content.edges.empty() && content.paths.empty()) return;
+        submission = map_.BeginSubmission(content);
+      }
+      Push(client, *submission, content);
+    }
+  }
+
+  void Push(SyncClient& client, const PendingSubmission& submission, const GraphBatch& content) {
+    const std::string id = submission.id.ToString();
+    const std::string during = "push of submission " + id;
+    const std::vector<std::string> chunks = EncodeMapChunks(content);
+    std::uint64_t total_bytes = 0;
+    for (const std::string& chunk : chunks) total_bytes += chunk.size();
+
+    v1::SyncFrame begin;
+    v1::PushBegin* push_begin = begin.mutable_push_begin();
+    push_begin->set_submission_id(submission.id.ToBytesString());
+    push_begin->set_author(options_.author);
+    push_begin->set_chunk_count(static_cast<std::uint32_t>(chunks.size()));
+    push_begin->set_digest(DigestOfChunks(chunks));
+    push_begin->set_total_bytes(total_bytes);
+    client.Send(begin);
+    const v1::PushReady ready = client.Expect(v1::SyncFrame::kPushReady, during).push_ready();
+    Progress("pushing submission " + id + ": " +
+             Counts(content.nodes.size(), content.edges.size(), content.paths.size()) + ", " +
+             std::to_string(chunks.size()) + " chunks, " + Mib(total_bytes) +
+             (ready.complete() ? " (stored whole before)"
+              : ready.next_chunk() > 0
+                  ? " (resuming at chunk " + std::to_string(ready.next_chunk() + 1) + ")"
+                  : ""));
+    if (!ready.complete()) {
+      for (std::uint32_t seq = ready.next_chunk(); seq < chunks.size(); ++seq) {
+        Progress("pushing chunk " + std::to_string(seq + 1) + "/" + std::to_string(chunks.size()));
+        v1::SyncFrame frame;
+        frame.mutable_push_chunk()->set_seq(seq);
+        frame.mutable_push_chunk()->set_data(chunks[seq]);
+        client.Send(frame);
+        const v1::SyncFrame ack = client.Expect(v1::SyncFrame::kPushChunkAck, during);
+        if (ack.push_chunk_ack().seq() != seq) {
+          throw Error(ErrorCode::kCorrupt, during + ": the server acknowledged chunk " +
+                                               std::to_string(ack.push_chunk_ack().seq()) +
+                                               " for chunk " + std::to_string(seq));
+        }
+      }
+    }
+    v1::SyncFrame end;
+    end.mutable_push_end();
+    client.Send(end);
+    const v1::PushAccepted accepted =
+        client.Expect(v1::SyncFrame::kPushAccepted, during, options_.download_timeout)
+            .push_accepted();
+    map_.MarkPushed(submission.id);
+    ++milestones_;
+    result_.pushed_nodes += content.nodes.size();
+    result_.pushed_edges += content.edges.size();
+    result_.pushed_paths += content.paths.size();
+    result_.submission = submission.id;
+    result_.push_state = accepted.state();
+    result_.merge_state.clear();
+    result_.merged_revision = 0;
+    if (accepted.state() == "merged") {
+      map_.RecordMerge(submission.id, accepted.revision());
+      result_.merge_state = "merged";
+      result_.merged_revision = accepted.revision();
+    } else if (accepted.state() == "failed") {
+      map_.RecordMerge(submission.id, 0);
+      result_.merge_state = "failed";
+    }
+    Progress("pushed submission " + id + ": " + accepted.state() +
+             (accepted.state() == "queued"
+                  ? " (position " + std::to_string(accepted.queue_position()) + ")"
+              : accepted.state() == "merged" ? " as revision " + std::to_string(accepted.revision())
+                                             : ""));
+  }
+
+  // Asks after every accepted submission whose merge no download reflects yet (waiting for
+  // each with wait_merge, else a glance), so the install knows which pushed content the
+  // download already accounts for (LocalMap::RecordMerge).
+  void FollowMerges(SyncClient& client) {
+    const std::vector<UnmergedSubmission> unmerged = map_.state().unmerged;
+    for (const UnmergedSubmission& submission : unmerged) {
+      if (submission.merged_revision) continue;
+      const bool wait = options_.wait_merge;
+      if (wait && !merge_deadline_) merge_deadline_ = Clock::now() + options_.merge_timeout;
+      const Clock::time_point wait_start = Clock::now();
+      const v1::MergeStatus status = FollowMerge(client, submission.id, wait);
+      if (wait) result_.merge_wait_seconds += SecondsSince(wait_start);
+      if (status.state() == "merged") {
+        map_.RecordMerge(submission.id, status.revision());
+      } else if (status.state() == "failed") {
+        map_.RecordMerge(submission.id, 0);
+      }
+      if (submission.id == result_.submission) {
+        result_.merge_state = status.state();
+        result_.merged_revision = status.state() == "merged" ? status.revision() : 0;
+        result_.merge_error = status.error();
+      }
+    }
+  }
+
+  // The merge status of one submission: at once, or when `wait`, once it is merged or failed
+  // or the merge deadline passed.
+  v1::MergeStatus FollowMerge(SyncClient& client, const Uuid& submission, bool wait) {
+    const std::string id = submission.ToString();
+    for (;;) {
+      const milliseconds remaining =
+          wait ? std::max(milliseconds(0), Remaining(*merge_deadline_)) : milliseconds(0);
+      const milliseconds wait_ms = std::min(remaining, options_.merge_poll);
+      v1::SyncFrame request;
+      request.mutable_merge_status_request()->set_submission_id(submission.ToBytesString());
+      request.mutable_merge_status_request()->set_wait_ms(
+          static_cast<std::uint32_t>(wait_ms.count()));
+      client.Send(request);
+      const v1::MergeStatus status =
+          client
+              .Expect(v1::SyncFrame::kMergeStatus, "merge status of submission " + id,
+                      wait_ms + options_.link.io_timeout)
+              .merge_status();
+      if (status.state() == "merged") {
+        ++milestones_;
+        Progress("submission " + id + " merged as revision " + std::to_string(status.revision()) +
+                 " (" + std::to_string(status.nodes_added()) + " nodes added)");
+        return status;
+      }
+      if (status.state() == "failed") {
+        ++milestones_;
+        Progress("merge of submission " + id + " failed: " + status.error());
+        return status;
+      }
+      if (!wait) return status;
+      if (Remaining(*merge_deadline_).count() <= 0) {
+        Progress("merge of submission " + id + " not finished after " +
+                 std::to_string(options_.merge_timeout.count() / 1000) +
+                 " s; downloading without it");
+        return status;
+      }
+      Progress("waiting for merge of submission " + id + ": " + status.state() +
+               (status.state() == "queued"
+                    ? " (position " + std::to_string(status.queue_position()) + ")"
+                    : ""));
+    }
+  }
+
+  MapDownload Download(SyncClient& client) {
+    const DownloadParams& params = options_.download;
+    const SyncState& state = map_.state();
+    const std::int64_t base =
+        state.revision > 0 && state.request && *state.request == params ? state.revision : 0;
+    v1::SyncFrame frame;
+    v1::DownloadRequest* request = frame.mutable_download_request();
+    request->set_policy(params.policy);
+    request->set_mission_start_min(params.mission_start_min);
+    request->set_window_min(params.window_min);
+    request->set_best_percent(params.best_percent);
+    request->set_budget_bytes(params.budget_bytes);
+    request->set_epoch_min(params.epoch_min);
+    request->set_base_revision(base);
+    for (const Uuid& node : params.include_nodes) request->add_include_nodes(node.ToBytesString());
+    client.Send(frame);
+
+    const std::string during = "download (" + params.policy + ")";
+    const v1::DownloadHeader header =
+        client.Expect(v1::SyncFrame::kDownloadHeader, during, options_.download_timeout)
+            .download_header();
+    if (header.base_revision() != 0 && header.base_revision() != base) {
+      throw Error(ErrorCode::kCorrupt,
+                  during + ": asked for changes since revision " + std::to_string(base) +
+                      ", the server sent changes since " + std::to_string(header.base_revision()));
+    }
+    Progress("downloading revision " + std::to_string(header.revision()) +
+             (header.base_revision() != 0
+                  ? " (changes since revision " + std::to_string(header.base_revision()) + ")"
+                  : " (full)") +
+             ": " + std::to_string(header.chunk_count()) + " chunks, " + Mib(header.total_bytes()));
+    std::vector<std::string> chunks;
+    chunks.reserve(header.chunk_count());
+    MapContentDigest digest;
+    std::uint64_t bytes = 0;
+    for (std::uint32_t seq = 0; seq < header.chunk_count(); ++seq) {
+      v1::SyncFrame chunk = client.Expect(v1::SyncFrame::kDownloadChunk, during);
+      if (chunk.download_chunk().seq() != seq) {
+        throw Error(ErrorCode::kCorrupt,
+                    during + ": chunk " + std::to_string(chunk.download_chunk().seq()) +
+                        " arrived where chunk " + std::to_string(seq) + " was due");
+      }
+      Progress("downloading chunk " + std::to_string(seq + 1) + "/" +
+               std::to_string(header.chunk_count()));
+      digest.Add(chunk.download_chunk().data());
+      bytes += chunk.download_chunk().data().size();
+      chunks.push_back(std::move(*chunk.mutable_download_chunk()->mutable_data()));
+    }
+    client.Expect(v1::SyncFrame::kDownloadEnd, during);
+    if (digest.value() != header.digest() || bytes != header.total_bytes()) {
+      throw Error(ErrorCode::kCorrupt, during + " of revision " +
+                                           std::to_string(header.revision()) + ": the chunks (" +
+                                           std::to_string(bytes) +
+                                           " bytes) do not match the header's digest and size (" +
+                                           std::to_string(header.total_bytes()) + " bytes)");
+    }
+    v1::SyncFrame bye;
+    bye.mutable_bye();
+    try {
+      client.Send(bye);
+    } catch (const SyncLinkError&) {
+      // The download is whole; a server that closed first loses nothing.
+    }
+    client.Close();
+
+    MapDownload download;
+    download.revision = header.revision();
+    download.base_revision = header.base_revision();
+    download.request = params;
+    try {
+      download.content = DecodeMapChunks(chunks);
+      for (const std::string& id : header.removed_nodes())
+        download.removed.nodes.insert(Uuid::FromBytes(id));
+      for (const std::string& id : header.removed_edges())
+        download.removed.edges.insert(Uuid::FromBytes(id));
+      for (const std::string& id : header.removed_paths())
+        download.removed.paths.insert(Uuid::FromBytes(id));
+    } catch (const Error& e) {
+      throw Error(ErrorCode::kCorrupt, during + " of revision " +
+                                           std::to_string(header.revision()) + ": " + e.message());
+    }
+    download.nodes = header.nodes();
+    download.edges = header.edges();
+    download.paths = header.paths();
+    result_.downloaded_nodes = download.content.nodes.size();
+    result_.downloaded_edges = download.content.edges.size();
+    result_.downloaded_paths = download.content.paths.size();
+    result_.removed_nodes = download.removed.nodes.size();
+    result_.downloaded_bytes = bytes;
+    return download;
+  }
+
+  LocalMap& map_;
+  const AgentSyncOptions& options_;
+  SyncResult& result_;
+  std::optional<Clock::time_point> merge_deadline_;
+  int milestones_ = 0;
+};
+
+// Sleeps `delay`, waking every 50 ms to look at the stop flag.
+void SleepUnlessStopped(milliseconds delay, const std::atomic<bool>* stop) {
+  const Clock::time_point until = Clock::now() + delay;
+  while (Clock::now() < until) {
+    if (stop != nullptr && stop->load()) throw SyncStopped("sync abandoned (stopping)");
+    std::this_thread::sleep_for(std::min(Remaining(until), milliseconds(50)));
+  }
+}
+
+}  // namespace
+
+SyncResult RunSync(LocalMap& map, const AgentSyncOptions& options) {
+  const Clock::time_point start = Clock::now();
+  SyncResult result;
+  SyncRun run(map, options, result);
+  std::minstd_rand jitter(std::random_device{}());
+  std::uniform_real_distribution<double> factor(0.75, 1.25);
+  std::optional<Clock::time_point> first_failure;
+  int milestones_at_failure = 0;
+  milliseconds backoff = options.first_backoff;
+  for (;;) {
+    std::string reason;
+    try {
+      run.Attempt();
+      break;
+    } catch (const SyncServerError& e) {
+      if (!e.retryable()) throw;
+      reason = e.what();
+    } catch (const SyncLinkError& e) {
+      if (!e.retryable()) throw;
+      reason = e.what();
+    }
+    if (!first_failure || run.milestones() != milestones_at_failure) {
+      first_failure = Clock::now();  // progress since the last failure: a new window
+      milestones_at_failure = run.milestones();
+      backoff = options.first_backoff;
+    }
+    const milliseconds left =
+        options.retry_for - std::chrono::duration_cast<milliseconds>(Clock::now() - *first_failure);
+    if (left.count() <= 0) {
+      throw SyncLinkError("sync with " + options.server + " failed after " +
+                              std::to_string(result.retries) + " retries over " +
+                              std::to_string(options.retry_for.count() / 1000) +
+                              " s; last: " + reason,
+                          false);
+    }
+    const milliseconds delay =
+        std::min(left, milliseconds(static_cast<std::int64_t>(static_cast<double>(backoff.count()) *
+                                                              factor(jitter))));
+    ++result.retries;
+    result.last_retry_reason = reason;
+    if (options.progress) {
+      char seconds[32];
+      std::snprintf(seconds, sizeof seconds, "%.1f", static_cast<double>(delay.count()) / 1000.0);
+      options.progress("retry " + std::to_string(result.retries) + " in " + seconds +
+                       " s: " + reason);
+    }
+    SleepUnlessStopped(delay, options.stop);
+    backoff = std::min(backoff * 2, options.max_backoff);
+  }
+  result.seconds = SecondsSince(start);
+  return result;
+}
+
+}  // namespace fleetmap

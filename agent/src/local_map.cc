@@ -1,0 +1,505 @@
+#include "fleetmap/agent/local_map.h"
+
+#include <fcntl.h>
+#include <sys/file.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cstring>
+#include <map>
+#include <memory>
+#include <utility>
+
+#include "fleetmap/common/error.h"
+#include "fleetmap/common/graph_store.h"
+#include "sync_state_file.h"
+
+namespace fleetmap {
+
+namespace {
+
+namespace fs = std::filesystem;
+using agent_internal::ReadSyncState;
+using agent_internal::SyncStateToJson;
+using agent_internal::SyncToDisk;
+using agent_internal::WriteFileAtomically;
+
+constexpr const char* kStateFile = "sync.json";
+constexpr const char* kNextStateFile = "sync.json.next";
+constexpr const char* kMapFile = "map.db";
+constexpr const char* kNewMapFile = "map.db.new";
+constexpr const char* kLockFile = "agent.lock";
+
+fs::path WithSuffix(const fs::path& path, const char* suffix) {
+  return path.string() + suffix;
+}
+
+// A SQLite database and the log and index files SQLite keeps beside it.
+void RemoveDatabaseFiles(const fs::path& db) {
+  std::error_code ignored;
+  fs::remove(db, ignored);
+  fs::remove(WithSuffix(db, "-wal"), ignored);
+  fs::remove(WithSuffix(db, "-shm"), ignored);
+  fs::remove(WithSuffix(db, "-journal"), ignored);
+}
+
+// A write-ahead log with content beside `db`: another connection has it open (the last one to
+// close checkpoints the log into the file and deletes it).
+bool HasLiveLog(const fs::path& db) {
+  std::error_code ec;
+  const auto size = fs::file_size(WithSuffix(db, "-wal"), ec);
+  return !ec && size > 0;
+}
+
+void Rename(const fs::path& from, const fs::path& to) {
+  if (::rename(from.c_str(), to.c_str()) != 0) {
+    throw Error(ErrorCode::kBackend, "cannot rename " + from.string() + " to " + to.string() +
+                                         ": " + std::strerror(errno));
+  }
+}
+
+template <typename Element>
+void SortById(std::vector<Element>& elements) {
+  std::sort(elements.begin(), elements.end(),
+            [](const Element& a, const Element& b) { return a.id < b.id; });
+  elements.erase(std::unique(elements.begin(), elements.end(),
+                             [](const Element& a, const Element& b) { return a.id == b.id; }),
+                 elements.end());
+}
+
+void SortById(GraphBatch& batch) {
+  SortById(batch.nodes);
+  SortById(batch.edges);
+  SortById(batch.paths);
+}
+
+// The elements of `map` whose ids `keep` accepts, each kind ordered by UUID.
+template <typename Keep>
+GraphBatch Filter(const GraphBatch& map, Keep keep) {
+  GraphBatch out;
+  for (const Path& path : map.paths) {
+    if (keep(path.id, 2)) out.paths.push_back(path);
+  }
+  for (const Node& node : map.nodes) {
+    if (keep(node.id, 0)) out.nodes.push_back(node);
+  }
+  for (const Edge& edge : map.edges) {
+    if (keep(edge.id, 1)) out.edges.push_back(edge);
+  }
+  SortById(out);
+  return out;
+}
+
+const std::set<Uuid>& OfKind(const ElementIds& ids, int kind) {
+  return kind == 0 ? ids.nodes : kind == 1 ? ids.edges : ids.paths;
+}
+
+bool InAny(const ElementIds& a, const ElementIds& b, const Uuid& id, int kind) {
+  return OfKind(a, kind).contains(id) || OfKind(b, kind).contains(id);
+}
+
+// The elements of the store at `uri` that `keep` accepts, each kind ordered by UUID. Only the
+// kept nodes' landmarks are read: the robot's map is mostly synced, and landmarks are most of
+// its bytes.
+template <typename Keep>
+GraphBatch ReadElements(const std::string& uri, Keep keep) {
+  const std::unique_ptr<GraphStore> store = GraphStore::Open(uri);
+  NodeFilter bare;
+  bare.with_landmarks = false;
+  std::vector<Uuid> all_nodes;
+  std::vector<Uuid> kept_nodes;
+  for (const Node& node : store->ListNodes(bare)) {
+    all_nodes.push_back(node.id);
+    if (keep(node.id, 0)) kept_nodes.push_back(node.id);
+  }
+  GraphBatch out;
+  out.nodes = store->GetNodes(kept_nodes);
+  for (Edge& edge : store->EdgesTouching(all_nodes)) {
+    if (keep(edge.id, 1)) out.edges.push_back(std::move(edge));
+  }
+  for (Path& path : store->ListPaths({})) {
+    if (keep(path.id, 2)) out.paths.push_back(std::move(path));
+  }
+  SortById(out);
+  return out;
+}
+
+GraphBatch ReadWholeMap(const std::string& uri) {
+  const std::unique_ptr<GraphStore> store = GraphStore::Open(uri);
+  return store->ReadMap();
+}
+
+// Elements by id, for building the next map out of the current one and a download.
+struct MapIndex {
+  std::map<Uuid, Node> nodes;
+  std::map<Uuid, Edge> edges;
+  std::map<Uuid, Path> paths;
+
+  void Add(const GraphBatch& batch) {
+    for (const Node& node : batch.nodes) nodes.insert_or_assign(node.id, node);
+    for (const Edge& edge : batch.edges) edges.insert_or_assign(edge.id, edge);
+    for (const Path& path : batch.paths) paths.insert_or_assign(path.id, path);
+  }
+  GraphBatch ToBatch() const {
+    GraphBatch batch;
+    for (const auto& [id, path] : paths) batch.paths.push_back(path);
+    for (const auto& [id, node] : nodes) batch.nodes.push_back(node);
+    for (const auto& [id, edge] : edges) batch.edges.push_back(edge);
+    return batch;
+  }
+};
+
+std::string Counts(std::size_t nodes, std::size_t edges, std::size_t paths) {
+  return std::to_string(nodes) + " nodes, " + std::to_string(edges) + " edges, " +
+         std::to_string(paths) + " paths";
+}
+
+}  // namespace
+
+bool ElementIds::Contains(const ElementIds& other) const {
+  return std::includes(nodes.begin(), nodes.end(), other.nodes.begin(), other.nodes.end()) &&
+         std::includes(edges.begin(), edges.end(), other.edges.begin(), other.edges.end()) &&
+         std::includes(paths.begin(), paths.end(), other.paths.begin(), other.paths.end());
+}
+
+ElementIds IdsOf(const GraphBatch& batch) {
+  ElementIds ids;
+  for (const Node& node : batch.nodes) ids.nodes.insert(node.id);
+  for (const Edge& edge : batch.edges) ids.edges.insert(edge.id);
+  for (const Path& path : batch.paths) ids.paths.insert(path.id);
+  return ids;
+}
+
+LocalMap LocalMap::Open(const fs::path& dir, LocalMapAccess access) {
+  if (access == LocalMapAccess::kReadOnly) {
+    if (!fs::is_directory(dir)) {
+      throw Error(ErrorCode::kNotFound, "no robot map directory " + dir.string());
+    }
+    LocalMap map(dir, access, -1);
+    map.state_ = ReadSyncState(dir / kStateFile);
+    return map;
+  }
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec) {
+    throw Error(ErrorCode::kBackend,
+                "cannot create robot map directory " + dir.string() + ": " + ec.message());
+  }
+  const fs::path lock_path = dir / kLockFile;
+  const int fd = ::open(lock_path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  if (fd < 0) {
+    throw Error(ErrorCode::kBackend,
+                "cannot open " + lock_path.string() + ": " + std::strerror(errno));
+  }
+  if (::flock(fd, LOCK_EX | LOCK_NB) != 0) {
+    ::close(fd);
+    throw Error(ErrorCode::kConflict,
+                "robot map directory " + dir.string() + " is in use by another fleetmap-agent");
+  }
+  LocalMap map(dir, access, fd);
+
+  // Finish or undo an install a crash interrupted (see the header).
+  const fs::path next_state = dir / kNextStateFile;
+  const fs::path new_map = dir / kNewMapFile;
+  if (fs::exists(next_state)) {
+    if (fs::exists(new_map)) {
+      RemoveDatabaseFiles(new_map);
+      fs::remove(next_state);
+    } else {
+      Rename(next_state, dir / kStateFile);
+    }
+    SyncToDisk(dir);
+  } else if (fs::exists(new_map)) {
+    RemoveDatabaseFiles(new_map);
+  }
+  std::error_code ignored;
+  fs::remove(WithSuffix(dir / kStateFile, ".tmp"), ignored);
+  fs::remove(WithSuffix(next_state, ".tmp"), ignored);
+
+  map.state_ = ReadSyncState(dir / kStateFile);
+  GraphStore::Open(map.map_uri());  // creates an empty map, so the builder and readers find one
+  return map;
+}
+
+LocalMap::LocalMap(fs::path dir, LocalMapAccess access, int lock_fd)
+    : dir_(std::move(dir)), access_(access), lock_fd_(lock_fd) {}
+
+LocalMap::LocalMap(LocalMap&& other) noexcept
+    : dir_(std::move(other.dir_)),
+      access_(other.access_),
+      lock_fd_(std::exchange(other.lock_fd_, -1)),
+      state_(std::move(other.state_)) {}
+
+LocalMap::~LocalMap() {
+  if (lock_fd_ >= 0) ::close(lock_fd_);  // releases the flock
+}
+
+void LocalMap::RequireWritable(const char* what) const {
+  if (access_ != LocalMapAccess::kExclusive) {
+    throw Error(ErrorCode::kInvalidArgument,
+                std::string(what) + ": robot map " + dir_.string() + " was opened read-only");
+  }
+}
+
+void LocalMap::SaveState() {
+  WriteFileAtomically(dir_ / kStateFile, SyncStateToJson(state_));
+}
+
+GraphBatch LocalMap::Unsynced() {
+  if (!fs::exists(map_path())) return {};
+  return ReadElements(map_uri(), [this](const Uuid& id, int kind) {
+    return !InAny(state_.installed, state_.pushed, id, kind);
+  });
+}
+
+void LocalMap::BindRobot(const Uuid& robot) {
+  RequireWritable("bind robot");
+  if (state_.robot == robot) return;
+  if (state_.robot) {
+    throw Error(ErrorCode::kInvalidArgument,
+                "robot map " + dir_.string() + " syncs as robot " + state_.robot->ToString() +
+                    ", not " + robot.ToString() + "; use another --map-dir for another robot");
+  }
+  state_.robot = robot;
+  SaveState();
+}
+
+PendingSubmission LocalMap::BeginSubmission(const GraphBatch& content) {
+  RequireWritable("begin submission");
+  if (state_.submission) {
+    throw Error(ErrorCode::kInvalidArgument, "robot map " + dir_.string() +
+                                                 " already has submission " +
+                                                 state_.submission->id.ToString() + " pending");
+  }
+  state_.submission = PendingSubmission{Uuid::Generate(), IdsOf(content)};
+  SaveState();
+  return *state_.submission;
+}
+
+GraphBatch LocalMap::SubmissionContent(const PendingSubmission& submission) {
+  const ElementIds& ids = submission.content;
+  GraphBatch content = ReadElements(
+      map_uri(), [&ids](const Uuid& id, int kind) { return OfKind(ids, kind).contains(id); });
+  const ElementIds found = IdsOf(content);
+  if (found != ids) {
+    for (int kind = 0; kind < 3; ++kind) {
+      for (const Uuid& id : OfKind(ids, kind)) {
+        if (!OfKind(found, kind).contains(id)) {
+          throw Error(ErrorCode::kNotFound, "submission " + submission.id.ToString() + ": " +
+                                                map_path().string() + " no longer holds " +
+                                                (kind == 0   ? "node "
+                                                 : kind == 1 ? "edge "
+                                                             : "path ") +
+                                                id.ToString());
+        }
+      }
+    }
+  }
+  return content;
+}
+
+void LocalMap::MarkPushed(const Uuid& submission) {
+  RequireWritable("mark pushed");
+  if (!state_.submission || state_.submission->id != submission) {
+    throw Error(ErrorCode::kInvalidArgument, "submission " + submission.ToString() +
+                                                 " is not the one pending in " + dir_.string());
+  }
+  const ElementIds& content = state_.submission->content;
+  state_.pushed.nodes.insert(content.nodes.begin(), content.nodes.end());
+  state_.pushed.edges.insert(content.edges.begin(), content.edges.end());
+  state_.pushed.paths.insert(content.paths.begin(), content.paths.end());
+  state_.unmerged.push_back(UnmergedSubmission{submission, content, std::nullopt});
+  state_.submission.reset();
+  SaveState();
+}
+
+void LocalMap::RecordMerge(const Uuid& submission, std::int64_t revision) {
+  RequireWritable("record merge");
+  for (UnmergedSubmission& unmerged : state_.unmerged) {
+    if (unmerged.id == submission && unmerged.merged_revision != revision) {
+      unmerged.merged_revision = revision;
+      SaveState();
+    }
+  }
+}
+
+InstallReport LocalMap::Install(const MapDownload& download) {
+  RequireWritable("install");
+  const bool incremental = download.base_revision != 0;
+  if (incremental) {
+    if (download.base_revision != state_.revision) {
+      throw Error(ErrorCode::kInvalidArgument,
+                  "incremental download of revision " + std::to_string(download.revision) +
+                      " is based on revision " + std::to_string(download.base_revision) + ", but " +
+                      dir_.string() + " holds revision " + std::to_string(state_.revision));
+    }
+    if (!state_.request || !(*state_.request == download.request)) {
+      throw Error(ErrorCode::kInvalidArgument,
+                  "incremental download of revision " + std::to_string(download.revision) +
+                      " was asked with other parameters than the installed one in " +
+                      dir_.string());
+    }
+  }
+  auto check_counts = [&](std::size_t nodes, std::size_t edges, std::size_t paths) {
+    if (nodes != download.nodes || edges != download.edges || paths != download.paths) {
+      throw Error(ErrorCode::kCorrupt, std::string(incremental ? "incremental" : "full") +
+                                           " download of revision " +
+                                           std::to_string(download.revision) + " gives " +
+                                           Counts(nodes, edges, paths) + ", its header says " +
+                                           Counts(download.nodes, download.edges, download.paths) +
+                                           "; " + map_path().string() + " left as it was");
+    }
+  };
+
+  // Unmerged submissions this download reflects retire; the others' content stays.
+  std::vector<UnmergedSubmission> still_unmerged;
+  ElementIds keep_unmerged;
+  for (const UnmergedSubmission& unmerged : state_.unmerged) {
+    if (unmerged.merged_revision && *unmerged.merged_revision <= download.revision) continue;
+    still_unmerged.push_back(unmerged);
+    keep_unmerged.nodes.insert(unmerged.content.nodes.begin(), unmerged.content.nodes.end());
+    keep_unmerged.edges.insert(unmerged.content.edges.begin(), unmerged.content.edges.end());
+    keep_unmerged.paths.insert(unmerged.content.paths.begin(), unmerged.content.paths.end());
+  }
+
+  InstallReport report;
+  report.revision = download.revision;
+  report.incremental = incremental;
+
+  // Nothing changed in the selection and nothing retires: the map stays as it is.
+  const bool nothing_new = download.content.nodes.empty() && download.content.edges.empty() &&
+                           download.content.paths.empty() && download.removed.size() == 0;
+  if (incremental && nothing_new && still_unmerged.size() == state_.unmerged.size()) {
+    check_counts(state_.installed.nodes.size(), state_.installed.edges.size(),
+                 state_.installed.paths.size());
+    report.nodes = state_.installed.nodes.size();
+    report.edges = state_.installed.edges.size();
+    report.paths = state_.installed.paths.size();
+    if (state_.revision != download.revision) {
+      state_.revision = download.revision;
+      SaveState();
+    }
+    return report;
+  }
+
+  const GraphBatch current = ReadWholeMap(map_uri());
+
+  // The selection the download makes, in full.
+  MapIndex selection;
+  if (incremental) {
+    selection.Add(Filter(current, [&](const Uuid& id, int kind) {
+      return OfKind(state_.installed, kind).contains(id) &&
+             !OfKind(download.removed, kind).contains(id);
+    }));
+  }
+  selection.Add(download.content);
+  check_counts(selection.nodes.size(), selection.edges.size(), selection.paths.size());
+
+  // Local content the server does not have yet, and pushed content not merged yet, stays with
+  // whatever it references.
+  MapIndex next = selection;
+  const GraphBatch unsynced = Filter(current, [this](const Uuid& id, int kind) {
+    return !InAny(state_.installed, state_.pushed, id, kind);
+  });
+  const GraphBatch unmerged = Filter(
+      current, [&](const Uuid& id, int kind) { return OfKind(keep_unmerged, kind).contains(id); });
+  report.kept_unsynced = unsynced.nodes.size() + unsynced.edges.size() + unsynced.paths.size();
+  report.kept_unmerged = unmerged.nodes.size() + unmerged.edges.size() + unmerged.paths.size();
+  next.Add(unsynced);
+  next.Add(unmerged);
+  MapIndex current_index;
+  current_index.Add(current);
+  for (const GraphBatch* kept : {&unsynced, &unmerged}) {
+    for (const Edge& edge : kept->edges) {
+      for (const Uuid& end : {edge.from, edge.to}) {
+        if (!next.nodes.contains(end) && current_index.nodes.contains(end)) {
+          next.nodes.emplace(end, current_index.nodes.at(end));
+          ++report.kept_for_unsynced;
+        }
+      }
+      if (!edge.path.IsNil() && !next.paths.contains(edge.path) &&
+          current_index.paths.contains(edge.path)) {
+        next.paths.emplace(edge.path, current_index.paths.at(edge.path));
+        ++report.kept_for_unsynced;
+      }
+    }
+  }
+  const GraphBatch next_map = next.ToBatch();
+
+  // Write and check the next map beside the current one.
+  const fs::path new_map = dir_ / kNewMapFile;
+  RemoveDatabaseFiles(new_map);
+  try {
+    StoreOptions options;
+    options.durability = Durability::kBuffered;  // fsync'ed as a whole below
+    const std::unique_ptr<GraphStore> store =
+        GraphStore::Open("sqlite:" + new_map.string(), options);
+    store->Put(next_map);
+    const StoreStats stats = store->Stats();
+    if (static_cast<std::size_t>(stats.nodes) != next_map.nodes.size() ||
+        static_cast<std::size_t>(stats.edges) != next_map.edges.size() ||
+        static_cast<std::size_t>(stats.paths) != next_map.paths.size()) {
+      throw Error(ErrorCode::kCorrupt,
+                  new_map.string() + " holds " + Counts(stats.nodes, stats.edges, stats.paths) +
+                      " after writing " +
+                      Counts(next_map.nodes.size(), next_map.edges.size(), next_map.paths.size()));
+    }
+  } catch (const Error& e) {
+    RemoveDatabaseFiles(new_map);
+    if (e.code() == ErrorCode::kIntegrity) {
+      throw Error(ErrorCode::kCorrupt, "download of revision " + std::to_string(download.revision) +
+                                           " is not an integral map: " + e.message());
+    }
+    throw;
+  }
+  if (HasLiveLog(new_map)) {  // closing the only connection should have checkpointed it
+    RemoveDatabaseFiles(new_map);
+    throw Error(ErrorCode::kBackend, new_map.string() + "-wal was not checkpointed on close");
+  }
+  SyncToDisk(new_map);
+  if (HasLiveLog(map_path())) {
+    RemoveDatabaseFiles(new_map);
+    throw Error(ErrorCode::kConflict, map_path().string() +
+                                          " is open in another process (its write-ahead log "
+                                          "is live); stop the map builder before a sync");
+  }
+
+  // What the server has that the new map holds: the selection, and known elements kept
+  // outside it (unmerged content and what kept content references).
+  SyncState next_state = state_;
+  next_state.revision = download.revision;
+  next_state.request = download.request;
+  next_state.installed = IdsOf(selection.ToBatch());
+  next_state.pushed = {};
+  next_state.unmerged = std::move(still_unmerged);
+  auto known_outside_selection = [&](const Uuid& id, int kind) {
+    return !OfKind(next_state.installed, kind).contains(id) &&
+           InAny(state_.installed, state_.pushed, id, kind);
+  };
+  for (const auto& [id, node] : next.nodes) {
+    if (known_outside_selection(id, 0)) next_state.pushed.nodes.insert(id);
+  }
+  for (const auto& [id, edge] : next.edges) {
+    if (known_outside_selection(id, 1)) next_state.pushed.edges.insert(id);
+  }
+  for (const auto& [id, path] : next.paths) {
+    if (known_outside_selection(id, 2)) next_state.pushed.paths.insert(id);
+  }
+
+  // Commit: the state that goes with the new map, then the map, then the state.
+  const fs::path next_state_path = dir_ / kNextStateFile;
+  WriteFileAtomically(next_state_path, SyncStateToJson(next_state));
+  Rename(new_map, map_path());
+  SyncToDisk(dir_);
+  Rename(next_state_path, dir_ / kStateFile);
+  SyncToDisk(dir_);
+  state_ = std::move(next_state);
+
+  report.nodes = selection.nodes.size();
+  report.edges = selection.edges.size();
+  report.paths = selection.paths.size();
+  return report;
+}
+
+}  // namespace fleetmap

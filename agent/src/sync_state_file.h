@@ -1,0 +1,25 @@
+// The sync state as a file (local_map.h: DIR/sync.json): JSON, UUIDs in canonical text, so a
+// person can read what the agent believes the server has.
+#pragma once
+
+#include <filesystem>
+#include <string>
+
+#include "fleetmap/agent/local_map.h"
+
+namespace fleetmap::agent_internal {
+
+std::string SyncStateToJson(const SyncState& state);
+// Throws Error(kCorrupt) naming `source` for text that is not a state this build writes.
+SyncState SyncStateFromJson(const std::string& text, const std::string& source);
+
+// The state in `path`; the empty state when the file does not exist. Throws as
+// SyncStateFromJson, Error(kBackend) when it cannot be read.
+SyncState ReadSyncState(const std::filesystem::path& path);
+// Writes `text` to `path` so that a crash leaves either the old file or the new one whole:
+// path.tmp, fsync, rename, fsync of the directory. Throws Error(kBackend) naming the file.
+void WriteFileAtomically(const std::filesystem::path& path, const std::string& text);
+// fsync of a file or a directory. Throws Error(kBackend) naming it.
+void SyncToDisk(const std::filesystem::path& path);
+
+}  // namespace fleetmap::agent_internal
