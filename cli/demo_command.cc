@@ -1,152 +1,156 @@
-// `fleetmap demo`: the README's first command. For now it shows the storage layer end to end
-// on the embedded default: create a map store, write a small experience graph, read it back.
-#include <chrono>
+// `fleetmap demo`: the README's first command. The fleet demo (fleet_demo.h): fleetmapd on
+// SQLite in a temporary directory, a few robots driving forays of the synthetic world, docking
+// and syncing with real fleetmap-agent processes between forays; a line per robot per foray, a
+// summary table, a CSV and a plot.
+#include <unistd.h>
+
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
-#include <optional>
-#include <random>
+#include <memory>
 
 #include "commands.h"
 #include "fleetmap/common/error.h"
-#include "fleetmap/common/graph_store.h"
+#include "fleetmap/common/uuid.h"
+#include "fleetmap/experiments/fleet_demo.h"
 
 namespace fleetmap::cli {
 
 namespace {
 
-struct DemoOptions {
-  std::string store_uri;  // empty: a fresh SQLite file in a temporary directory
-  int nodes = 50;
+namespace fs = std::filesystem;
+
+struct DemoArgs {
+  int robots = 3;
+  int forays = 6;
+  std::string policy = "tod+paths";
+  std::string out = "fleetmap-demo";
   bool keep = false;
 };
 
-// A node with a handful of random landmarks, like one remembered view.
-Node MakeExperience(std::mt19937& rng, const Uuid& robot, const Uuid& outing,
-                    std::int64_t stamp_ns) {
-  std::uniform_real_distribution<float> coord(-5.0f, 5.0f);
-  std::uniform_int_distribution<int> byte(0, 255);
-  Landmarks landmarks;
-  for (int i = 0; i < 40; ++i) {
-    landmarks.points_camera.emplace_back(coord(rng), coord(rng), 2.0f + std::abs(coord(rng)));
-    Descriptor256 d;
-    for (auto& b : d) b = static_cast<std::uint8_t>(byte(rng));
-    landmarks.descriptors.push_back(d);
-  }
-  return Node{Uuid::Generate(), stamp_ns, robot, outing, EncodeLandmarks(landmarks)};
+// The fleetmapd and fleetmap-agent built beside this fleetmap (build/server, build/agent).
+fs::path Sibling(const std::string& folder, const std::string& program) {
+  std::error_code error;
+  const fs::path self = fs::read_symlink("/proc/self/exe", error);
+  return self.parent_path().parent_path() / folder / program;
 }
 
-// The demo's temporary directory: removed when the demo ends, also on an error, unless kept.
-class DemoDirectory {
- public:
-  explicit DemoDirectory(bool keep)
-      : path_(std::filesystem::temp_directory_path() /
-              ("fleetmap-demo-" + Uuid::GenerateRandom().ToString().substr(0, 8))),
-        keep_(keep) {
-    std::filesystem::create_directories(path_);
-    if (keep_) std::cout << "  the store stays in " << path_.string() << "\n";
-  }
-  ~DemoDirectory() {
-    std::error_code ignored;
-    if (!keep_) std::filesystem::remove_all(path_, ignored);
-  }
-  const std::filesystem::path& path() const { return path_; }
+double Percent(int part, int whole) {
+  return whole ? 100.0 * part / whole : 0.0;
+}
 
- private:
-  std::filesystem::path path_;
-  bool keep_;
-};
+std::string Bytes(std::int64_t bytes) {
+  char text[32];
+  if (bytes >= (1 << 20)) {
+    std::snprintf(text, sizeof text, "%.1f MiB", static_cast<double>(bytes) / (1 << 20));
+  } else {
+    std::snprintf(text, sizeof text, "%.1f KiB", static_cast<double>(bytes) / 1024.0);
+  }
+  return text;
+}
 
-int RunDemo(const DemoOptions& options) {
-  std::optional<DemoDirectory> dir;
-  std::string uri = options.store_uri;
-  if (uri.empty()) {
-    dir.emplace(options.keep);
-    uri = "sqlite:" + (dir->path() / "map.sqlite").string();
+void PrintForay(const ForayReport& foray) {
+  std::printf("foray %d (missions from %s UTC)\n", foray.foray, foray.mission_start.c_str());
+  for (const RobotForay& r : foray.robots) {
+    std::printf(
+        "  %-8s localised %5.1f %% of %4d frames; map %5lld nodes at the dock, pushed %4lld "
+        "new; holds %5lld after the %s pull; sent %s, received %s in %.2f s\n",
+        r.robot.c_str(), Percent(r.localised, r.frames), r.frames,
+        static_cast<long long>(r.nodes_after_drive), static_cast<long long>(r.pushed_nodes),
+        static_cast<long long>(r.nodes_held), r.incremental ? "incremental" : "full",
+        Bytes(r.bytes_sent).c_str(), Bytes(r.bytes_received).c_str(), r.sync_seconds);
   }
-  std::cout << "fleetmap demo: experience graph on " << uri << "\n";
-  auto store = GraphStore::Open(uri);
-  std::cout << "  opened store, schema version " << store->schema_version() << "\n";
+  std::printf("  server   revision %lld, %lld nodes\n",
+              static_cast<long long>(foray.server_revision),
+              static_cast<long long>(foray.server_nodes));
+}
 
-  std::mt19937 rng(42);
-  const Uuid robot = Uuid::Generate();
-  const Uuid outing = Uuid::Generate();
-  const std::int64_t t0 = 1'700'000'000'000'000'000;
-  GraphBatch batch;
-  Path path{Uuid::Generate(), robot, outing, t0, t0 + options.nodes * 100'000'000LL};
-  batch.paths.push_back(path);
-  for (int i = 0; i < options.nodes; ++i) {
-    batch.nodes.push_back(MakeExperience(rng, robot, outing, t0 + i * 100'000'000LL));
-  }
-  // Metric edges 1 m apart along x, and a path-memory edge every 5 nodes (seed 002 §IV).
-  for (int i = 0; i + 1 < options.nodes; ++i) {
-    Se3 from_T_to = Se3::Identity();
-    from_T_to.translation() = Eigen::Vector3d(1.0, 0.0, 0.0);
-    batch.edges.push_back(Edge{Uuid::Generate(), batch.nodes[i].id, batch.nodes[i + 1].id,
-                               EdgeKind::kMetric, from_T_to, Uuid()});
-  }
-  for (int i = 0; i + 5 < options.nodes; i += 5) {
-    batch.edges.push_back(Edge{Uuid::Generate(), batch.nodes[i].id, batch.nodes[i + 5].id,
-                               EdgeKind::kPath, Se3::Identity(), path.id});
-  }
-  batch.annotations.push_back(Annotation{Uuid::Generate(), AnnotationTarget::kNode,
-                                         batch.nodes[0].id, Uuid(), "fleetmap.demo.Note",
-                                         "first experience of the outing"});
-  const auto start = std::chrono::steady_clock::now();
-  store->Put(batch);
-  const double put_ms =
-      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-  std::printf("  wrote %zu nodes, %zu edges, 1 path, 1 annotation in one batch (%.1f ms)\n",
-              batch.nodes.size(), batch.edges.size(), put_ms);
-
-  const Subgraph chain = store->ReadChain(batch.nodes.front().id);
-  std::printf("  read the whole chain back in one call: %zu nodes, %zu metric edges\n",
-              chain.nodes.size(), chain.edges.size());
-  const Landmarks first = DecodeLandmarks(chain.nodes.front().landmarks_blob);
+void PrintSummary(const FleetDemoResult& result) {
   std::printf(
-      "  first node %s: %zu landmarks, annotated \"%s\"\n",
-      chain.nodes.front().id.ToString().c_str(), first.size(),
-      store->AnnotationsOn(AnnotationTarget::kNode, chain.nodes.front().id).at(0).payload.c_str());
+      "\nsummary\n| foray | localised (all robots) | robot nodes held | server revision | "
+      "server nodes | bytes moved |\n|---|---|---|---|---|---|\n");
+  for (const ForayReport& f : result.forays) {
+    int frames = 0, localised = 0;
+    std::int64_t held = 0, moved = 0;
+    for (const RobotForay& r : f.robots) {
+      frames += r.frames;
+      localised += r.localised;
+      held += r.nodes_held;
+      moved += r.bytes_sent + r.bytes_received;
+    }
+    std::printf("| %d | %.1f %% | %lld | %lld | %lld | %s |\n", f.foray, Percent(localised, frames),
+                static_cast<long long>(held), static_cast<long long>(f.server_revision),
+                static_cast<long long>(f.server_nodes), Bytes(moved).c_str());
+  }
+  std::printf("\ncsv:  %s\n", result.csv.string().c_str());
+  for (const fs::path& plot : result.plots) std::printf("plot: %s\n", plot.string().c_str());
+  if (result.plots.empty()) std::printf("plot: none (gnuplot not installed)\n");
+  std::printf("done in %.1f s\n", result.seconds);
+}
 
-  const Uuid middle = batch.nodes[static_cast<std::size_t>(options.nodes / 2)].id;
-  const Subgraph near = store->Neighbourhood({.centre = middle, .max_radius_m = 3.5});
-  std::printf("  neighbourhood within 3.5 m of node %d: %zu nodes, %zu edges\n", options.nodes / 2,
-              near.nodes.size(), near.edges.size());
-  const Subgraph hops =
-      store->Neighbourhood({.centre = middle, .max_hops = 2, .follow_path_edges = true});
-  std::printf("  neighbourhood within 2 hops (path edges followed): %zu nodes\n",
-              hops.nodes.size());
-
-  const StoreStats stats = store->Stats();
-  std::printf(
-      "  store holds %lld nodes, %lld edges, %lld paths, %lld annotations, %lld landmark bytes\n",
-      static_cast<long long>(stats.nodes), static_cast<long long>(stats.edges),
-      static_cast<long long>(stats.paths), static_cast<long long>(stats.annotations),
-      static_cast<long long>(stats.landmark_bytes));
-
+int RunDemo(const DemoArgs& args) {
+  FleetDemoOptions options;
+  options.robots = args.robots;
+  options.forays = args.forays;
+  options.policy = args.policy;
+  options.out_dir = fs::absolute(args.out);
+  options.work_dir = fs::temp_directory_path() /
+                     ("fleetmap-demo-" + Uuid::GenerateRandom().ToString().substr(0, 8));
+  options.fleetmapd = Sibling("server", "fleetmapd");
+  options.agent = Sibling("agent", "fleetmap-agent");
+  options.foray_done = [](const ForayReport& foray) {
+    PrintForay(foray);
+    std::fflush(stdout);
+  };
+  std::printf("fleetmap demo: %d robots, %d forays, pulling \"%s\"; work dir %s\n", args.robots,
+              args.forays, args.policy.c_str(), options.work_dir.string().c_str());
+  // The temporary directory goes when the demo ends, whatever happens, unless kept.
+  struct Cleanup {
+    fs::path dir;
+    bool keep;
+    ~Cleanup() {
+      std::error_code ignored;
+      if (!keep) fs::remove_all(dir, ignored);
+    }
+  } cleanup{options.work_dir, args.keep};
+  options.progress = [](const std::string& line) {
+    std::printf("· %s\n", line.c_str());
+    std::fflush(stdout);
+  };
+  FleetDemoResult result;
   try {
-    store->PutEdge(Edge{Uuid::Generate(), middle, Uuid::Generate(), EdgeKind::kMetric,
-                        Se3::Identity(), Uuid()});
-  } catch (const Error& e) {
-    std::printf("  a dangling edge is refused: %s\n", e.what());
+    result = RunFleetDemo(options);
+  } catch (const Error& error) {
+    std::fprintf(stderr, "demo: %s\n", error.what());
+    if (!args.keep) std::fprintf(stderr, "demo: rerun with --keep to keep the logs\n");
+    return 1;
   }
-  store.reset();
-  std::cout << "demo done. (The fleet demo with fleetmapd and agents arrives with later issues.)\n";
+  PrintSummary(result);
+  if (args.keep) std::printf("kept: %s\n", options.work_dir.string().c_str());
   return 0;
 }
 
 }  // namespace
 
 void AddDemoCommand(CLI::App& app) {
-  auto options = std::make_shared<DemoOptions>();
+  auto args = std::make_shared<DemoArgs>();
   CLI::App* demo = app.add_subcommand(
-      "demo", "Write and read a small experience graph on the embedded store (SQLite)");
-  demo->add_option("--store", options->store_uri,
-                   "store URI (default: a new SQLite file in a temporary directory)");
-  demo->add_option("--nodes", options->nodes, "experiences to write")->check(CLI::Range(2, 100000));
-  demo->add_flag("--keep", options->keep, "keep the temporary store");
-  demo->callback([options] {
-    const int rc = RunDemo(*options);
+      "demo",
+      "The fleet demo: fleetmapd on SQLite and a few robots that drive forays of the synthetic "
+      "world, dock, and sync through fleetmap-agent (push, merge, pull)");
+  demo->add_option("--robots", args->robots, "robots in the fleet")
+      ->check(CLI::Range(1, 8))
+      ->capture_default_str();
+  demo->add_option("--forays", args->forays, "forays each robot drives")
+      ->check(CLI::Range(1, 20))
+      ->capture_default_str();
+  demo->add_option("--policy", args->policy,
+                   "what robots pull at the dock (copy, tod, tod+paths, ...)")
+      ->capture_default_str();
+  demo->add_option("--out", args->out, "directory for the CSV and the plot")->capture_default_str();
+  demo->add_flag("--keep", args->keep, "keep the work directory (stores, robots' maps, logs)");
+  demo->callback([args] {
+    const int rc = RunDemo(*args);
     if (rc != 0) throw CLI::RuntimeError(rc);
   });
 }
