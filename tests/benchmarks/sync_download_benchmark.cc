@@ -6,6 +6,7 @@
 //   SyncDownload/warm   a copy download streamed to a bare protocol client that reads every
 //                       frame and keeps none (what the link sustains once the server holds the
 //                       encoded selection; the first, cold download is reported as a counter);
+//   AgentPull           the same download by fleetmap-agent, installed into a fresh local map;
 //   RawLoopback         the same number of bytes written in 1 MiB pieces over one socket.
 // Run by hand: build/tests/benchmarks/sync_download_benchmark (about a minute of setup).
 #include <arpa/inet.h>
@@ -42,9 +43,13 @@ struct Fixture {
   std::uint64_t wire_bytes = 0;
 };
 
+// Made on first use, destroyed by main after the run: fleetmapd stops and the store goes.
+std::unique_ptr<Fixture> shared_fixture;
+
 Fixture& Shared() {
-  static Fixture* fixture = [] {
-    auto* f = new Fixture;
+  if (!shared_fixture) {
+    shared_fixture = std::make_unique<Fixture>();
+    Fixture* f = shared_fixture.get();
     f->uri = "sqlite:" + (f->dir / "central.db").string();
     f->robot = RegisterRobot(f->uri, "bench", f->dir / "robot");
     {
@@ -57,9 +62,8 @@ Fixture& Shared() {
       f->landmark_bytes = store->Stats().landmark_bytes;
     }
     f->server = StartFleetmapd(f->uri, f->dir / "fleetmapd.log");
-    return f;
-  }();
-  return *fixture;
+  }
+  return *shared_fixture;
 }
 
 // One copy download, every frame read and decoded, none kept; the bytes on the wire.
@@ -100,7 +104,34 @@ void SyncDownload(benchmark::State& state) {
   state.counters["cold_s"] = f.cold_seconds;
   state.counters["cold_MBps"] = static_cast<double>(f.wire_bytes) / 1e6 / f.cold_seconds;
 }
-BENCHMARK(SyncDownload)->Name("SyncDownload/warm")->Unit(benchmark::kMillisecond)->Iterations(5);
+BENCHMARK(SyncDownload)
+    ->Name("SyncDownload/warm")
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(5)
+    ->UseRealTime();
+
+// The whole pull as a robot does it: fleetmap-agent (a process) downloads the copy, checks it
+// and installs it into a fresh local SQLite map (written, fsynced, renamed into place).
+void AgentPull(benchmark::State& state) {
+  Fixture& f = Shared();
+  int run = 0;
+  for (auto _ : state) {
+    TestRobot robot = f.robot;
+    robot.map_dir = f.dir / ("pull-" + std::to_string(run++));
+    std::filesystem::create_directories(robot.map_dir);
+    const std::filesystem::path log = robot.map_dir / "agent.log";
+    std::unique_ptr<ChildProcess> agent = StartSync(robot, f.server.address, log, {"--quiet"});
+    const SyncOutcome outcome = FinishSync(*agent, log, std::chrono::milliseconds(600'000));
+    if (outcome.exit != 0) state.SkipWithError("the agent failed");
+    state.counters["download_s"] = outcome.result.value("download_seconds", 0.0);
+    state.counters["install_s"] = outcome.result.value("install_seconds", 0.0);
+    state.PauseTiming();
+    std::filesystem::remove_all(robot.map_dir);
+    state.ResumeTiming();
+  }
+  state.SetBytesProcessed(static_cast<std::int64_t>(state.iterations() * f.wire_bytes));
+}
+BENCHMARK(AgentPull)->Unit(benchmark::kMillisecond)->Iterations(2)->UseRealTime();
 
 // The ceiling: the same bytes through one loopback TCP connection, 1 MiB per write.
 void RawLoopback(benchmark::State& state) {
@@ -141,9 +172,21 @@ void RawLoopback(benchmark::State& state) {
   close(listener);
   state.SetBytesProcessed(static_cast<std::int64_t>(state.iterations() * total));
 }
-BENCHMARK(RawLoopback)->Unit(benchmark::kMillisecond)->Iterations(5);
+BENCHMARK(RawLoopback)->Unit(benchmark::kMillisecond)->Iterations(5)->UseRealTime();
 
 }  // namespace
+
+void DestroySharedFixture() {
+  shared_fixture.reset();
+}
+
 }  // namespace fleetmap::testing
 
-BENCHMARK_MAIN();
+int main(int argc, char** argv) {
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  fleetmap::testing::DestroySharedFixture();
+  return 0;
+}
