@@ -73,7 +73,7 @@ TEST(SyncFrame, EncodingRefusesAFrameOverTheCapAndAnEmptyOne) {
 TEST(SyncFrame, BytesThatAreNotASyncFrameAreCorrupt) {
   // Field 1 (hello) announcing 5 bytes with 2 behind it.
   ExpectError(
-      ErrorCode::kCorrupt, [&] { DecodeSyncFrameBody("\x0a\x05ab"); }, "do not parse");
+      ErrorCode::kCorrupt, [&] { DecodeSyncFrameBody("\x0a\x05" "ab"); }, "do not parse");
   // A well-formed message whose only field this build does not know: no body.
   ExpectError(
       ErrorCode::kCorrupt, [&] { DecodeSyncFrameBody("\xf8\x07\x01"); }, "no body");
