@@ -217,4 +217,10 @@ RevisionChanges ChangesFromRows(RevisionNumber from, RevisionNumber to,
   return changes;
 }
 
+void OrderNodesAt(std::vector<Node>& nodes) {
+  std::sort(nodes.begin(), nodes.end(), [](const Node& a, const Node& b) {
+    return a.stamp_ns != b.stamp_ns ? a.stamp_ns < b.stamp_ns : a.id < b.id;
+  });
+}
+
 }  // namespace fleetmap::internal

@@ -43,6 +43,11 @@ void RequireNextRevision(RevisionNumber number, RevisionNumber head);
 // Reads at a revision: 0 <= r <= head.
 void RequireInHistory(RevisionNumber r, RevisionNumber head);
 
+// Puts the nodes of a revision in NodesAt's order (stamp_ns, then id). Both backends sort in
+// memory, not with ORDER BY: a database sorter carries whole rows, landmark blobs included,
+// and for a large map (500 MB) that sort (spilled to disk) was most of a cold download.
+void OrderNodesAt(std::vector<Node>& nodes);
+
 // AppendRevert's revision before its hidden counts are known: a kRevert with no submission
 // and nothing counted yet, whatever the caller filled in.
 Revision RevertAsRecorded(const Revision& revision);

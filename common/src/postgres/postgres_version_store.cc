@@ -279,6 +279,7 @@ class PostgresVersionStore final : public VersionStore {
           t.exec_prepared(with_landmarks ? "version_nodes_at" : "version_nodes_at_bare", r);
       nodes.reserve(rows.size());
       for (const pqxx::row& row : rows) nodes.push_back(ReadNode(row, with_landmarks));
+      OrderNodesAt(nodes);
       return nodes;
     });
   }
@@ -493,10 +494,10 @@ class PostgresVersionStore final : public VersionStore {
     // The map at a revision.
     const std::string visible_nodes =
         Cat({" FROM nodes n LEFT JOIN element_versions v ON v.id = n.id WHERE ", kVisibleAtParam1});
-    c.prepare("version_nodes_at", Cat({"SELECT n.id, n.stamp_ns, n.robot, n.outing, n.landmarks",
-                                       visible_nodes, " ORDER BY n.stamp_ns, n.id"}));
-    c.prepare("version_nodes_at_bare", Cat({"SELECT n.id, n.stamp_ns, n.robot, n.outing, NULL",
-                                            visible_nodes, " ORDER BY n.stamp_ns, n.id"}));
+    c.prepare("version_nodes_at",
+              Cat({"SELECT n.id, n.stamp_ns, n.robot, n.outing, n.landmarks", visible_nodes}));
+    c.prepare("version_nodes_at_bare",
+              Cat({"SELECT n.id, n.stamp_ns, n.robot, n.outing, NULL", visible_nodes}));
     c.prepare("version_edges_at",
               Cat({"SELECT e.id, e.from_id, e.to_id, e.kind, e.tx, e.ty, e.tz, e.qw, e.qx, e.qy,"
                    " e.qz, e.path_id FROM edges e LEFT JOIN element_versions v ON v.id = e.id"

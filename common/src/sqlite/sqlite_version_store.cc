@@ -339,6 +339,7 @@ class SqliteVersionStore final : public VersionStore {
     s->Bind(1, r);
     std::vector<Node> nodes;
     while (s->Step()) nodes.push_back(ReadNode(*s, with_landmarks));
+    OrderNodesAt(nodes);
     return nodes;
   }
 
@@ -485,12 +486,11 @@ class SqliteVersionStore final : public VersionStore {
           hidden_counts(db,
                         "SELECT kind, count(*) FROM element_versions WHERE hidden_rev = ?1"
                         " GROUP BY kind"),
-          nodes_at(db, Sql({"SELECT n.id, n.stamp_ns, n.robot, n.outing, n.landmarks",
-                            kVisibleNodes, " ORDER BY n.stamp_ns, n.id"})
-                           .c_str()),
-          nodes_at_bare(db, Sql({"SELECT n.id, n.stamp_ns, n.robot, n.outing, NULL", kVisibleNodes,
-                                 " ORDER BY n.stamp_ns, n.id"})
-                                .c_str()),
+          nodes_at(db,
+                   Sql({"SELECT n.id, n.stamp_ns, n.robot, n.outing, n.landmarks", kVisibleNodes})
+                       .c_str()),
+          nodes_at_bare(
+              db, Sql({"SELECT n.id, n.stamp_ns, n.robot, n.outing, NULL", kVisibleNodes}).c_str()),
           edges_at(db, Sql({"SELECT e.id, e.from_id, e.to_id, e.kind, e.tx, e.ty, e.tz, e.qw,"
                             " e.qx, e.qy, e.qz, e.path_id FROM edges e"
                             " LEFT JOIN element_versions v ON v.id = e.id WHERE ",
