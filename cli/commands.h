@@ -18,5 +18,20 @@ void AddDownloadCommand(CLI::App& app);
 void AddDreamCommand(CLI::App& app);
 // `fleetmap robot add|list`: the robots fleetmapd lets sync (robot_command.cc).
 void AddRobotCommands(CLI::App& app);
+// `fleetmap log split|cat`: record files of raw sensor data (log_file_commands.cc). Shares the
+// `log` subcommand with the revision history and the sensor index; registers after
+// AddHistoryCommands.
+void AddLogFileCommands(CLI::App& app);
+// `fleetmap log ingest|reindex`: the SQL index of record files (log_index_commands.cc); shares
+// `log` like AddLogFileCommands.
+void AddLogIndexCommands(CLI::App& app);
+// `fleetmap query datum|nearest|join|batch-join`: seed 000 Eqs. 1-2 (query_command.cc).
+void AddQueryCommand(CLI::App& app);
+// `fleetmap bench index`: seed 000 Table 1 (bench_index_command.cc). Registers after
+// AddBenchCommand.
+void AddBenchIndexCommand(CLI::App& app);
+// `fleetmap annotate bbox|rm` and `fleetmap query annotated`: annotations on raw sensor data
+// (annotation_commands.cc). Shares `query` with the sensor-index queries.
+void AddAnnotationCommands(CLI::App& app);
 
 }  // namespace fleetmap::cli

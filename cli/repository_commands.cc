@@ -206,7 +206,11 @@ void AddHistoryCommands(CLI::App& app) {
       "each added and hid.");
   AddStoreOption(*log, log_args->store);
   log->add_flag("--json", log_args->json, "Print JSON (with each merge's full report)");
-  log->callback([log_args] { RunLog(*log_args); });
+  // `log` is shared with the sensor-log commands (`log split`, ...): the history is shown only
+  // when no such subcommand ran.
+  log->callback([log_args, log] {
+    if (log->get_subcommands().empty()) RunLog(*log_args);
+  });
 
   auto checkout_args = std::make_shared<CheckoutArgs>();
   CLI::App* checkout =

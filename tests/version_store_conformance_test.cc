@@ -10,11 +10,12 @@
 #include <set>
 #include <thread>
 #include <tuple>
+#include <type_traits>
 
+#include "expect_error.h"
 #include "fleetmap/common/error.h"
 #include "fleetmap/common/graph_store.h"
 #include "fleetmap/common/version_store.h"
-#include "expect_error.h"
 #include "store_backends.h"
 
 namespace fleetmap {
@@ -200,8 +201,24 @@ TYPED_TEST(VersionStoreConformance, SchemaOneStoreMigratesWithItsMapAtRevisionZe
   const GraphBatch old = Chain(3, 0);
   this->store_->Put(old);
   this->store_.reset();
+  // Back to schema 1: undo 0004 (annotations on data: the payload tables, and the annotation
+  // table as schema 1 had it, empty here), 0003 (sensor index) and 0002 (versions).
+  const bool sqlite = std::is_same_v<TypeParam, SqliteBackend>;
   this->backend_->ExecRaw(
-      "DROP TABLE settings; DROP TABLE element_versions; DROP TABLE submission_chunks;"
+      std::string("DROP TABLE annotation_datum_link; DROP TABLE annotation_bbox2d;"
+                  " DROP TABLE annotations;") +
+      (sqlite ? "CREATE TABLE annotations (seq INTEGER PRIMARY KEY, id BLOB NOT NULL UNIQUE,"
+                " node_id BLOB REFERENCES nodes (id), edge_id BLOB REFERENCES edges (id),"
+                " parent_id BLOB REFERENCES annotations (id), type TEXT NOT NULL,"
+                " payload BLOB NOT NULL, CHECK ((node_id IS NOT NULL) + (edge_id IS NOT NULL)"
+                " + (parent_id IS NOT NULL) = 1));"
+              : "CREATE TABLE annotations (id uuid PRIMARY KEY, node_id uuid REFERENCES nodes"
+                " (id), edge_id uuid REFERENCES edges (id), parent_id uuid REFERENCES"
+                " annotations (id), type text NOT NULL, payload bytea NOT NULL,"
+                " CHECK (num_nonnulls(node_id, edge_id, parent_id) = 1));") +
+      "DROP TABLE data; DROP TABLE files; DROP TABLE sensor_mounts; DROP TABLE sensors;"
+      " DROP TABLE platforms;"
+      " DROP TABLE settings; DROP TABLE element_versions; DROP TABLE submission_chunks;"
       " DROP TABLE submissions; DROP TABLE revisions; UPDATE fleetmap_schema SET version = 1");
   this->store_ = GraphStore::Open(this->backend_->Uri());
   EXPECT_EQ(this->store_->schema_version(), GraphStore::LatestSchemaVersion());

@@ -58,19 +58,27 @@ void Validate(const Path& path) {
 
 void Validate(const Annotation& annotation) {
   RequireId(annotation.id, "annotation id", annotation.id);
-  const bool on_element = annotation.target_kind != AnnotationTarget::kNone;
-  // Seed 000 §4.2: exactly one of "what it annotates" and "its parent annotation".
-  if (on_element == !annotation.parent.IsNil() || (on_element && annotation.target.IsNil()) ||
-      (!on_element && !annotation.target.IsNil())) {
-    throw Error(ErrorCode::kInvalidArgument,
-                "annotation " + annotation.id.ToString() +
-                    " must be on exactly one of a node, an edge or a parent annotation");
-  }
-  if (annotation.target_kind != AnnotationTarget::kNone &&
-      annotation.target_kind != AnnotationTarget::kNode &&
-      annotation.target_kind != AnnotationTarget::kEdge) {
+  const AnnotationTarget kind = annotation.target_kind;
+  if (kind != AnnotationTarget::kNone && kind != AnnotationTarget::kNode &&
+      kind != AnnotationTarget::kEdge && kind != AnnotationTarget::kDatum) {
     throw Error(ErrorCode::kInvalidArgument,
                 "annotation " + annotation.id.ToString() + " has an unknown target kind");
+  }
+  const bool on_element = kind == AnnotationTarget::kNode || kind == AnnotationTarget::kEdge;
+  const bool on_datum = kind == AnnotationTarget::kDatum;
+  const bool on_parent = kind == AnnotationTarget::kNone;
+  // Seed 000 §4.2: exactly one of "what it annotates" and "its parent annotation"; the
+  // fields of the other targets stay empty.
+  if (on_parent == annotation.parent.IsNil() || on_element == annotation.target.IsNil() ||
+      on_datum != (annotation.data_id != 0)) {
+    throw Error(ErrorCode::kInvalidArgument,
+                "annotation " + annotation.id.ToString() +
+                    " must be on exactly one of a node, an edge, a datum or a parent annotation");
+  }
+  if (on_datum && annotation.data_id < 0) {
+    throw Error(ErrorCode::kInvalidArgument,
+                "annotation " + annotation.id.ToString() + " names datum " +
+                    std::to_string(annotation.data_id) + ": data ids are positive");
   }
   if (annotation.type.empty()) {
     throw Error(ErrorCode::kInvalidArgument,

@@ -232,8 +232,10 @@ std::vector<Edge> GraphStore::EdgesOfPath(const Uuid& path) {
 
 std::vector<Annotation> GraphStore::AnnotationsOn(AnnotationTarget kind, const Uuid& target) {
   return Guarded([&] {
-    if (kind == AnnotationTarget::kNone) {
-      throw Error(ErrorCode::kInvalidArgument, "AnnotationsOn needs a node or edge target");
+    if (kind != AnnotationTarget::kNode && kind != AnnotationTarget::kEdge) {
+      throw Error(ErrorCode::kInvalidArgument,
+                  "AnnotationsOn needs a node or edge target (annotations on a datum: "
+                  "AnnotationStore::OnDatum)");
     }
     return DoAnnotationsOn(kind, target);
   });
@@ -388,6 +390,11 @@ std::optional<std::string> GraphStore::MissingReference(const Annotation& a) {
         return prefix + "parent annotation " + a.parent.ToString() + " is not stored";
       }
       break;
+    case AnnotationTarget::kDatum:
+      if (!DoDatumStored(a.data_id)) {
+        return prefix + "datum " + std::to_string(a.data_id) + " is not in the sensor index";
+      }
+      break;
   }
   return std::nullopt;
 }
@@ -448,6 +455,12 @@ std::optional<std::string> GraphStore::MissingReferenceInBatch(const GraphBatch&
       case AnnotationTarget::kNone:
         if (!annotations.contains(a.parent) && !DoFindAnnotation(a.parent)) {
           return refused("annotation", a.id, "parent annotation", a.parent);
+        }
+        break;
+      case AnnotationTarget::kDatum:
+        if (!DoDatumStored(a.data_id)) {
+          return "annotation " + a.id.ToString() + " refused: datum " + std::to_string(a.data_id) +
+                 " is not in the sensor index";
         }
         break;
     }

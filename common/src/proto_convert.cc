@@ -130,6 +130,11 @@ v1::Annotation ToProto(const Annotation& annotation) {
     case AnnotationTarget::kNone:
       proto.set_target_kind(v1::ANNOTATION_TARGET_UNSPECIFIED);
       break;
+    case AnnotationTarget::kDatum:
+      // Data ids are local to the repository that indexes the data: not part of a map.
+      throw Error(ErrorCode::kInvalidArgument,
+                  "annotation " + annotation.id.ToString() +
+                      " is on a datum of the sensor index; such annotations are not synced");
   }
   proto.set_target(UuidBytes(annotation.target));
   proto.set_parent(UuidBytes(annotation.parent));

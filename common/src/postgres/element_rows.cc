@@ -64,8 +64,9 @@ Edge ReadEdge(const pqxx::row& r, pqxx::row::size_type first) {
         Eigen::Quaterniond(DoubleField(r[first + 7]), DoubleField(r[first + 8]),
                            DoubleField(r[first + 9]), DoubleField(r[first + 10])));
   } catch (const Error& error) {
-    throw Error(ErrorCode::kCorrupt, "edge " + e.id.ToString() +
-                                         " has a stored pose that is not SE(3): " + error.message());
+    throw Error(
+        ErrorCode::kCorrupt,
+        "edge " + e.id.ToString() + " has a stored pose that is not SE(3): " + error.message());
   }
   e.path = UuidField(r[first + 11]);
   return e;
@@ -85,6 +86,9 @@ Annotation ReadAnnotation(const pqxx::row& r) {
   } else if (!r[2].is_null()) {
     a.target_kind = AnnotationTarget::kEdge;
     a.target = UuidField(r[2]);
+  } else if (!r[6].is_null()) {
+    a.target_kind = AnnotationTarget::kDatum;
+    a.data_id = r[6].as<std::int64_t>();
   } else {
     a.parent = UuidField(r[3]);
   }

@@ -17,7 +17,8 @@ inline constexpr const char* kNodeColumns = "id, stamp_ns, robot, outing, landma
 inline constexpr const char* kEdgeColumns =
     "id, from_id, to_id, kind, tx, ty, tz, qw, qx, qy, qz, path_id";
 inline constexpr const char* kPathColumns = "id, robot, outing, start_ns, end_ns";
-inline constexpr const char* kAnnotationColumns = "id, node_id, edge_id, parent_id, type, payload";
+inline constexpr const char* kAnnotationColumns =
+    "id, node_id, edge_id, parent_id, type, payload, data_id";
 
 // The parts concatenated (for building SQL).
 std::string Cat(std::initializer_list<std::string_view> parts);

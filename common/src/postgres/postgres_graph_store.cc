@@ -19,11 +19,15 @@
 #include <type_traits>
 
 #include "backends.h"
+#include "fleetmap/common/annotation_store.h"
 #include "fleetmap/common/error.h"
+#include "fleetmap/common/sensor_index.h"
 #include "fleetmap/common/version_store.h"
 #include "migration.h"
 #include "postgres/element_rows.h"
 #include "postgres/pg_session.h"
+#include "postgres/postgres_annotation_store.h"
+#include "postgres/postgres_sensor_index.h"
 #include "postgres/postgres_version_store.h"
 
 namespace fleetmap::internal {
@@ -72,11 +76,15 @@ class PostgresGraphStore final : public GraphStore {
     Migrate();
     session_.Translate("prepare", [&] { Prepare(); });
     versions_ = NewPostgresVersionStore(session_);
+    sensors_ = NewPostgresSensorIndex(session_);
+    annotations_ = NewPostgresAnnotationStore(session_);
   }
 
   std::string uri() const override { return session_.uri(); }
 
   VersionStore& versions() override { return *versions_; }
+  SensorIndex& sensors() override { return *sensors_; }
+  AnnotationStore& annotations() override { return *annotations_; }
 
   int schema_version() override {
     return session_.Autocommit("schema version", [&](pqxx::transaction_base& t) {
@@ -151,6 +159,7 @@ class PostgresGraphStore final : public GraphStore {
 
   void DoPutAnnotation(const Annotation& a) override {
     int inserted = 0;
+    const std::string datum = std::to_string(a.data_id);
     try {
       inserted =
           session_.Autocommit("put annotation " + a.id.ToString(), [&](pqxx::transaction_base& t) {
@@ -159,7 +168,8 @@ class PostgresGraphStore final : public GraphStore {
                     "insert_annotation", a.id.ToString(),
                     NullableUuidText(a.target_kind == AnnotationTarget::kNode ? a.target : Uuid()),
                     NullableUuidText(a.target_kind == AnnotationTarget::kEdge ? a.target : Uuid()),
-                    NullableUuidText(a.parent), a.type, pqxx::binarystring(a.payload))
+                    NullableUuidText(a.parent), a.type, pqxx::binarystring(a.payload),
+                    a.target_kind == AnnotationTarget::kDatum ? datum.c_str() : nullptr)
                 .affected_rows();
           });
     } catch (const Error& e) {
@@ -253,6 +263,12 @@ class PostgresGraphStore final : public GraphStore {
   }
   std::vector<Annotation> DoChildAnnotations(const Uuid& parent) override {
     return ReadAnnotations("annotations_of_parent", parent);
+  }
+
+  bool DoDatumStored(std::int64_t data_id) override {
+    return session_.Autocommit("find datum", [&](pqxx::transaction_base& t) {
+      return !t.exec_params("SELECT 1 FROM data WHERE data_id = $1", data_id).empty();
+    });
   }
 
   Subgraph DoReadChainUnordered(const Uuid& start) override {
@@ -357,9 +373,9 @@ class PostgresGraphStore final : public GraphStore {
               "INSERT INTO paths (id, robot, outing, start_ns, end_ns)"
               " VALUES ($1, $2, $3, $4, $5) ON CONFLICT (id) DO NOTHING");
     c.prepare("insert_annotation",
-              "INSERT INTO annotations (id, node_id, edge_id, parent_id, type, payload)"
+              "INSERT INTO annotations (id, node_id, edge_id, parent_id, type, payload, data_id)"
               " VALUES ($1, NULLIF($2, '')::uuid, NULLIF($3, '')::uuid, NULLIF($4, '')::uuid,"
-              " $5, $6) ON CONFLICT (id) DO NOTHING");
+              " $5, $6, $7) ON CONFLICT (id) DO NOTHING");
     c.prepare("find_node", Cat({"SELECT ", kNodeColumns, " FROM nodes WHERE id = $1"}));
     c.prepare("find_edge", Cat({"SELECT ", kEdgeColumns, " FROM edges WHERE id = $1"}));
     c.prepare("find_path", "SELECT id, robot, outing, start_ns, end_ns FROM paths WHERE id = $1");
@@ -497,16 +513,18 @@ class PostgresGraphStore final : public GraphStore {
     }
     if (!batch.annotations.empty()) {
       {
-        pqxx::stream_to s(
-            t, "stage_annotations",
-            std::vector<std::string>{"id", "node_id", "edge_id", "parent_id", "type", "payload"});
+        pqxx::stream_to s(t, "stage_annotations",
+                          std::vector<std::string>{"id", "node_id", "edge_id", "parent_id", "type",
+                                                   "payload", "data_id"});
         for (const Annotation& a : batch.annotations) {
           const std::string target = a.target.ToString(), parent = a.parent.ToString();
           const char* node = a.target_kind == AnnotationTarget::kNode ? target.c_str() : nullptr;
           const char* edge = a.target_kind == AnnotationTarget::kEdge ? target.c_str() : nullptr;
+          const std::string datum = std::to_string(a.data_id);
           s << std::make_tuple(a.id.ToString(), node, edge,
                                a.parent.IsNil() ? nullptr : parent.c_str(), a.type,
-                               ByteaHex(a.payload));
+                               ByteaHex(a.payload),
+                               a.target_kind == AnnotationTarget::kDatum ? datum.c_str() : nullptr);
         }
         s.complete();
       }
@@ -522,6 +540,13 @@ class PostgresGraphStore final : public GraphStore {
                });
       }
       Refuse(t, ErrorCode::kIntegrity,
+             "SELECT s.id, s.data_id FROM stage_annotations s WHERE s.data_id IS NOT NULL"
+             " AND NOT EXISTS (SELECT 1 FROM data d WHERE d.data_id = s.data_id) LIMIT 1",
+             [](const pqxx::row& r) {
+               return Cat({"annotation ", r[0].c_str(), " refused: datum ", r[1].c_str(),
+                           " is not in the sensor index"});
+             });
+      Refuse(t, ErrorCode::kIntegrity,
              "SELECT s.id, s.parent_id FROM stage_annotations s WHERE s.parent_id IS NOT NULL"
              " AND NOT EXISTS (SELECT 1 FROM annotations a WHERE a.id = s.parent_id)"
              " AND NOT EXISTS (SELECT 1 FROM stage_annotations b WHERE b.id = s.parent_id)"
@@ -534,8 +559,8 @@ class PostgresGraphStore final : public GraphStore {
       Refuse(
           t, ErrorCode::kConflict,
           "SELECT s.id FROM stage_annotations s JOIN annotations a ON a.id = s.id WHERE"
-          " (a.node_id, a.edge_id, a.parent_id, a.type, a.payload) IS DISTINCT FROM"
-          " (s.node_id, s.edge_id, s.parent_id, s.type, s.payload) LIMIT 1",
+          " (a.node_id, a.edge_id, a.parent_id, a.type, a.payload, a.data_id) IS DISTINCT FROM"
+          " (s.node_id, s.edge_id, s.parent_id, s.type, s.payload, s.data_id) LIMIT 1",
           [](const pqxx::row& r) {
             return Cat({"annotation ", r[0].c_str(), " is already stored with different content"});
           });
@@ -583,7 +608,9 @@ class PostgresGraphStore final : public GraphStore {
   }
 
   PgSession session_;
-  std::unique_ptr<VersionStore> versions_;  // shares session_, so declared after it
+  std::unique_ptr<VersionStore> versions_;        // shares session_, so declared after it
+  std::unique_ptr<SensorIndex> sensors_;          // shares session_, so declared after it
+  std::unique_ptr<AnnotationStore> annotations_;  // shares session_, so declared after it
 };
 
 }  // namespace

@@ -26,8 +26,9 @@ Edge ReadEdge(const Statement& s, int first) {
         Eigen::Quaterniond(s.Double(first + 7), s.Double(first + 8), s.Double(first + 9),
                            s.Double(first + 10)));
   } catch (const Error& error) {
-    throw Error(ErrorCode::kCorrupt, "edge " + e.id.ToString() +
-                                         " has a stored pose that is not SE(3): " + error.message());
+    throw Error(
+        ErrorCode::kCorrupt,
+        "edge " + e.id.ToString() + " has a stored pose that is not SE(3): " + error.message());
   }
   e.path = s.UuidAt(first + 11);
   return e;
@@ -46,6 +47,9 @@ Annotation ReadAnnotation(const Statement& s) {
   } else if (!s.IsNull(2)) {
     a.target_kind = AnnotationTarget::kEdge;
     a.target = s.UuidAt(2);
+  } else if (!s.IsNull(6)) {
+    a.target_kind = AnnotationTarget::kDatum;
+    a.data_id = s.Int64(6);
   } else {
     a.parent = s.UuidAt(3);
   }

@@ -15,7 +15,7 @@ Node ReadNode(const Statement& s, bool with_landmarks);
 Edge ReadEdge(const Statement& s, int first);
 // Columns id, robot, outing, start_ns, end_ns.
 Path ReadPath(const Statement& s);
-// Columns id, node_id, edge_id, parent_id, type, payload.
+// Columns id, node_id, edge_id, parent_id, type, payload, data_id.
 Annotation ReadAnnotation(const Statement& s);
 
 }  // namespace fleetmap::internal

@@ -13,10 +13,14 @@
 #include <unordered_set>
 
 #include "backends.h"
+#include "fleetmap/common/annotation_store.h"
 #include "fleetmap/common/error.h"
+#include "fleetmap/common/sensor_index.h"
 #include "fleetmap/common/version_store.h"
 #include "migration.h"
 #include "sqlite/element_rows.h"
+#include "sqlite/sqlite_annotation_store.h"
+#include "sqlite/sqlite_sensor_index.h"
 #include "sqlite/sqlite_version_store.h"
 #include "sqlite/statement.h"
 
@@ -27,7 +31,8 @@ namespace {
 constexpr const char* kNodeColumns = "id, stamp_ns, robot, outing, landmarks";
 constexpr const char* kEdgeColumns =
     "id, from_id, to_id, kind, tx, ty, tz, qw, qx, qy, qz, path_id";
-constexpr const char* kAnnotationColumns = "id, node_id, edge_id, parent_id, type, payload";
+constexpr const char* kAnnotationColumns =
+    "id, node_id, edge_id, parent_id, type, payload, data_id";
 
 constexpr int kChunkRows = 32;
 constexpr const char* kNodeInsertColumns = "id, stamp_ns, robot, outing, landmarks";
@@ -102,7 +107,11 @@ class SqliteGraphStore final : public GraphStore {
       Migrate();
       Prepare();
       versions_ = NewSqliteVersionStore(db_);
+      sensors_ = NewSqliteSensorIndex(db_);
+      annotations_ = NewSqliteAnnotationStore(db_);
     } catch (...) {
+      annotations_.reset();
+      sensors_.reset();
       versions_.reset();
       statements_.reset();
       sqlite3_close(db_);
@@ -112,6 +121,8 @@ class SqliteGraphStore final : public GraphStore {
 
   ~SqliteGraphStore() override {
     // Prepared statements first: sqlite3_close refuses a connection that still has some.
+    annotations_.reset();
+    sensors_.reset();
     versions_.reset();
     statements_.reset();
     sqlite3_close(db_);
@@ -120,6 +131,8 @@ class SqliteGraphStore final : public GraphStore {
   std::string uri() const override { return "sqlite:" + path_; }
 
   VersionStore& versions() override { return *versions_; }
+  SensorIndex& sensors() override { return *sensors_; }
+  AnnotationStore& annotations() override { return *annotations_; }
 
   int schema_version() override {
     Statement s(db_, "SELECT coalesce(max(version), 0) FROM fleetmap_schema");
@@ -182,6 +195,7 @@ class SqliteGraphStore final : public GraphStore {
       s->BindNullableUuid(4, a.parent);
       s->BindText(5, a.type);
       s->BindBlob(6, a.payload);
+      if (a.target_kind == AnnotationTarget::kDatum) s->Bind(7, a.data_id);
       if (s->Run() == 1) return;
     } catch (const Error& e) {
       if (e.code() == ErrorCode::kIntegrity) {
@@ -300,6 +314,12 @@ class SqliteGraphStore final : public GraphStore {
     return ReadAnnotations(statements_->annotations_of_parent, parent);
   }
 
+  bool DoDatumStored(std::int64_t data_id) override {
+    Statement s(db_, "SELECT 1 FROM data WHERE data_id = ?1");
+    s.Bind(1, data_id);
+    return s.Step();
+  }
+
   Subgraph DoReadChainUnordered(const Uuid& start) override {
     // One recursive query: UNION (not UNION ALL) drops a node seen before, so a cycle ends.
     // Each row is a node with one of its outgoing metric edges (NULLs at the chain's end).
@@ -368,7 +388,7 @@ class SqliteGraphStore final : public GraphStore {
                       " VALUES (?1, ?2, ?3, ?4, ?5) ON CONFLICT (id) DO NOTHING"),
           insert_annotation(db,
                             "INSERT INTO annotations (id, node_id, edge_id, parent_id, type,"
-                            " payload) VALUES (?1, ?2, ?3, ?4, ?5, ?6)"
+                            " payload, data_id) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7)"
                             " ON CONFLICT (id) DO NOTHING"),
           find_node(db, Sql({"SELECT ", kNodeColumns, " FROM nodes WHERE id = ?1"}).c_str()),
           find_edge(db, Sql({"SELECT ", kEdgeColumns, " FROM edges WHERE id = ?1"}).c_str()),
@@ -550,7 +570,9 @@ class SqliteGraphStore final : public GraphStore {
   std::string path_;
   sqlite3* db_ = nullptr;
   std::unique_ptr<Statements> statements_;
-  std::unique_ptr<VersionStore> versions_;  // on db_, sharing its transactions
+  std::unique_ptr<VersionStore> versions_;        // on db_, sharing its transactions
+  std::unique_ptr<SensorIndex> sensors_;          // on db_, sharing its transactions
+  std::unique_ptr<AnnotationStore> annotations_;  // on db_, sharing its transactions
 };
 
 }  // namespace

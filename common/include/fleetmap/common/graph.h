@@ -71,17 +71,21 @@ enum class AnnotationTarget : int {
   kNone = 0,  // the annotation hangs off a parent annotation instead
   kNode = 1,
   kEdge = 2,
+  kDatum = 3,  // a datum of the sensor index (seed 000 §4.1 Data relation), by data_id
 };
 
 // Seed 000 §4.2 and §4.3.1: an annotation is on exactly one thing, either a graph element
-// (target_kind + target) or a lower-level annotation (parent).
+// (target_kind + target), a datum of the sensor index (kDatum + data_id) or a lower-level
+// annotation (parent). Annotations on data stay in the repository that indexes the data:
+// they are not synced (proto conversion refuses them).
 struct Annotation {
   Uuid id;
   AnnotationTarget target_kind = AnnotationTarget::kNone;
-  Uuid target;  // node or edge UUID when target_kind != kNone
+  Uuid target;  // node or edge UUID when target_kind is kNode or kEdge, nil otherwise
   Uuid parent;  // parent annotation when target_kind == kNone
   std::string type;
   std::string payload;
+  std::int64_t data_id = 0;  // the datum when target_kind == kDatum, 0 otherwise
 
   friend bool operator==(const Annotation&, const Annotation&) = default;
 };

@@ -33,6 +33,8 @@
 namespace fleetmap {
 
 class VersionStore;
+class SensorIndex;
+class AnnotationStore;
 
 // Seed 000 §6.1: synchronous flushes every commit to stable storage (SQLite WAL with
 // synchronous=FULL; PostgreSQL synchronous_commit=on). Buffered leaves writes to the OS
@@ -147,6 +149,7 @@ class GraphStore {
   std::vector<Edge> EdgesOfPath(const Uuid& path);
 
   // Annotations on a node or an edge, and the children of an annotation; ordered by UUID.
+  // Annotations on a datum, typed payloads and compound queries: annotations() below.
   std::vector<Annotation> AnnotationsOn(AnnotationTarget kind, const Uuid& target);
   std::vector<Annotation> ChildAnnotations(const Uuid& parent);
 
@@ -171,6 +174,14 @@ class GraphStore {
   // The versioning tables of this store (version_store.h): submissions, revisions, and which
   // revision added and hid each element. Same connection, so it shares Transactions.
   virtual VersionStore& versions() = 0;
+
+  // The SQL index of raw sensor data (sensor_index.h, seed 000 §4.1): platforms, sensors,
+  // mounts and the Data relation. Same connection, so it shares Transactions.
+  virtual SensorIndex& sensors() = 0;
+
+  // The annotation layer over this store (annotation_store.h): annotations on data of the
+  // sensor index, typed payload tables, compound queries. Same connection and Transactions.
+  virtual AnnotationStore& annotations() = 0;
 
  protected:
   GraphStore() = default;
@@ -197,6 +208,8 @@ class GraphStore {
   virtual std::vector<Edge> DoEdgesOfPath(const Uuid& path) = 0;
   virtual std::vector<Annotation> DoAnnotationsOn(AnnotationTarget kind, const Uuid& target) = 0;
   virtual std::vector<Annotation> DoChildAnnotations(const Uuid& parent) = 0;
+  // Whether the sensor index holds the datum (for annotations on a datum).
+  virtual bool DoDatumStored(std::int64_t data_id) = 0;
   // Nodes reachable from start over outgoing metric edges (start included) and the metric
   // edges among them, in any order; one query.
   virtual Subgraph DoReadChainUnordered(const Uuid& start) = 0;
