@@ -8,6 +8,9 @@ namespace fleetmap::cli {
 void AddDemoCommand(CLI::App& app);
 void AddBenchCommand(CLI::App& app);
 void AddExperimentCommand(CLI::App& app);
+// `fleetmap experiment real`: real stereo images through the EBN core (real_experiment_command.cc);
+// registered by AddExperimentCommand on its `experiment` subcommand.
+void AddRealExperimentCommand(CLI::App& experiment);
 // The repository (seed 004 §IV–§VI), registered in the order a user meets them: init
 // (repository_commands.cc); push, submissions, merge (submission_commands.cc); log, checkout,
 // diff, revert (repository_commands.cc); download; dream.
@@ -33,5 +36,8 @@ void AddBenchIndexCommand(CLI::App& app);
 // `fleetmap annotate bbox|rm` and `fleetmap query annotated`: annotations on raw sensor data
 // (annotation_commands.cc). Shares `query` with the sensor-index queries.
 void AddAnnotationCommands(CLI::App& app);
+// `fleetmap images ingest DIR`: a EuRoC stereo folder into a record-file log of image pairs in the
+// sensor-data repository (images_command.cc).
+void AddImagesCommand(CLI::App& app);
 
 }  // namespace fleetmap::cli

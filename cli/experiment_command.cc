@@ -1,5 +1,5 @@
 // `fleetmap experiment ...`: the papers' experiments on the synthetic world, reproducible from a
-// world file and a scale.
+// world file and a scale (`real`, on real images, is in real_experiment_command.cc).
 #include <filesystem>
 #include <iostream>
 
@@ -141,7 +141,9 @@ void RunFleet(const FleetArgs& args) {
 
 void AddExperimentCommand(CLI::App& app) {
   CLI::App* experiment = app.add_subcommand(
-      "experiment", "Reproduce the papers' experiments on the synthetic appearance-change world");
+      "experiment",
+      "Reproduce the papers' experiments on the synthetic appearance-change world, and run the "
+      "EBN core on real stereo images");
   experiment->require_subcommand(1);
 
   experiment
@@ -212,6 +214,8 @@ void AddExperimentCommand(CLI::App& app) {
   fleet->add_option("--seed", fleet_args->seed, "Override the world file's seed")
       ->check(CLI::NonNegativeNumber);
   fleet->callback([fleet_args] { RunFleet(*fleet_args); });
+
+  AddRealExperimentCommand(*experiment);
 }
 
 }  // namespace fleetmap::cli

@@ -24,6 +24,7 @@ int main(int argc, char** argv) {
   fleetmap::cli::AddQueryCommand(app);
   fleetmap::cli::AddBenchIndexCommand(app);
   fleetmap::cli::AddAnnotationCommands(app);
+  fleetmap::cli::AddImagesCommand(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

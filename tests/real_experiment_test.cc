@@ -1,0 +1,92 @@
+// `fleetmap experiment real` on the EuRoC sequence (real_experiment.h): the acceptance
+// figures, measured by running it, and a bad dataset refused before anything is written.
+#include "fleetmap/experiments/real_experiment.h"
+
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include "euroc_test_data.h"
+#include "fleetmap/common/error.h"
+#include "fleetmap/common/graph_store.h"
+#include "fleetmap/common/uuid.h"
+
+namespace fleetmap {
+namespace {
+
+namespace fs = std::filesystem;
+
+class RealExperimentTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    out_ = fs::temp_directory_path() / ("fleetmap-real-" + Uuid::GenerateRandom().ToString());
+  }
+  void TearDown() override { fs::remove_all(out_); }
+  fs::path out_;
+};
+
+TEST_F(RealExperimentTest, EurocSequenceMeetsTheAcceptanceFigures) {
+  FLEETMAP_REQUIRE_EUROC_SEQUENCE();
+  RealExperimentOptions options;
+  options.dataset_dir = testing::EurocSequenceDir();
+  options.out_dir = out_;
+  std::ostringstream log;
+  int last_done = 0, last_total = 0;
+  const RealExperimentResult r = RunRealExperiment(options, log, [&](int done, int total) {
+    last_done = done;
+    last_total = total;
+  });
+  ASSERT_EQ(r.frames.size(), 95u);
+  EXPECT_EQ(last_done, 95);
+  EXPECT_EQ(last_total, 95);
+  EXPECT_EQ(r.map_frames, 48);
+  // Depth in the room's scale; VO on >= 90 % of consecutive pairs with >= 30 inliers; no jump
+  // over 0.3 m between frames.
+  EXPECT_GT(r.median_depth_m, 0.5);
+  EXPECT_LT(r.median_depth_m, 10.0);
+  EXPECT_EQ(r.vo_pairs, 94);
+  EXPECT_GE(r.vo_pairs_with_30_inliers, 85) << "90 % of 94";
+  EXPECT_LE(r.max_step_m, 0.3);
+  // The localised part overlaps the map's views (the drone stays in one corner of the room
+  // for these 4.75 s) and localises there.
+  EXPECT_EQ(r.localised_frames, 47);
+  EXPECT_GT(r.overlapping_frames, 0);
+  EXPECT_GE(r.overlapping_ok, r.overlapping_frames * 9 / 10);
+  EXPECT_GE(r.map_nodes, 1);
+  // Both negative controls fail, without an exception.
+  ASSERT_EQ(r.controls.size(), 2u);
+  for (const NegativeControl& c : r.controls) EXPECT_FALSE(c.success) << c.what;
+
+  // The files: a CSV row per frame, the plot, the summary, and the map with the nodes counted.
+  std::ifstream csv(r.csv);
+  int lines = 0;
+  for (std::string line; std::getline(csv, line);) ++lines;
+  EXPECT_EQ(lines, 96);
+  EXPECT_TRUE(fs::exists(r.summary));
+  ASSERT_FALSE(r.png.empty()) << log.str();
+  EXPECT_GT(fs::file_size(r.png), 10000u);
+  const auto store = GraphStore::Open("sqlite:" + (out_ / "real-map.db").string());
+  EXPECT_EQ(static_cast<std::int64_t>(store->ReadMap().nodes.size()), r.map_nodes);
+}
+
+TEST_F(RealExperimentTest, AMissingDatasetIsRefusedBeforeAnythingIsWritten) {
+  RealExperimentOptions options;
+  options.dataset_dir = out_ / "no-such-sequence";
+  options.out_dir = out_ / "results";
+  std::ostringstream log;
+  try {
+    RunRealExperiment(options, log);
+    FAIL() << "ran without a dataset";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.code(), ErrorCode::kNotFound);
+    EXPECT_NE(std::string(e.what()).find("no-such-sequence"), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(fs::exists(options.out_dir));
+  options.map_fraction = 1.0;
+  EXPECT_THROW(RunRealExperiment(options, log), Error);
+}
+
+}  // namespace
+}  // namespace fleetmap
