@@ -11,7 +11,9 @@
 // of three matched point pairs (stopping adaptively), each fitted rigidly (Eigen::umeyama, no
 // scale); a match is an inlier when its residual |node_T_frame * p_frame - p_node| is below the
 // threshold. The best hypothesis is refitted on its inliers and recounted until the inlier set
-// stops growing.
+// stops changing; the result is always that least-squares refit, even when it keeps a few
+// inliers fewer than the three-point hypothesis did (with stereo's depth noise a three-point
+// fit can be off by centimetres and still gather most matches within the threshold).
 #pragma once
 
 #include <cstdint>
