@@ -12,6 +12,7 @@
 
 #include "euroc_test_data.h"
 #include "fleetmap/common/error.h"
+#include "fleetmap/common/localiser.h"
 #include "fleetmap/experiments/euroc_sequence.h"
 
 namespace fleetmap {
@@ -208,6 +209,43 @@ TEST(StereoFrontEndTest, RealPairsTriangulateAtTheRoomsScale) {
     EXPECT_LT(median, 10.0) << "pair " << i;
     EXPECT_EQ(r.frame.stamp_ns, pair.stamp_ns);
   }
+}
+
+// A real frame localises against itself, and fails, without an exception, against frames made
+// from its own pair turned by 180 degrees (the rows still line up, but every disparity changes
+// sign, so the few landmarks left are mismatches) and from a blank pair (no landmarks at all).
+TEST(StereoFrontEndTest, RealFrameFailsCleanlyAgainstItsPairRotatedOrBlank) {
+  FLEETMAP_REQUIRE_EUROC_SEQUENCE();
+  const EurocSequence sequence = LoadEurocSequence(testing::EurocSequenceDir());
+  const StereoRectifier rectifier(sequence.left, sequence.right);
+  const StereoFrontEnd front_end(rectifier.geometry(), StereoFrontEndOptions{});
+  const StereoPairFiles& pair = sequence.pairs[10];
+  cv::Mat left, right;
+  rectifier.Rectify(ReadMonoImage(pair.left_image, 752, 480),
+                    ReadMonoImage(pair.right_image, 752, 480), left, right);
+  const Landmarks frame = front_end.Process(0, left, right).frame.landmarks;
+  const Localiser localiser;
+  const LocalisationResult itself = localiser.Localise(frame, frame);
+  ASSERT_TRUE(itself.success);
+  EXPECT_GT(itself.inliers, 200);
+
+  cv::Mat left_turned, right_turned;
+  cv::rotate(left, left_turned, cv::ROTATE_180);
+  cv::rotate(right, right_turned, cv::ROTATE_180);
+  const Landmarks turned = front_end.Process(0, left_turned, right_turned).frame.landmarks;
+  EXPECT_LT(turned.size(), frame.size() / 2);
+  LocalisationResult r = localiser.Localise(frame, turned);
+  EXPECT_FALSE(r.success) << r.inliers << " inliers";
+  r = localiser.Localise(turned, frame);
+  EXPECT_FALSE(r.success) << r.inliers << " inliers";
+
+  const cv::Mat blank(left.size(), CV_8UC1, cv::Scalar(128));
+  const Landmarks nothing = front_end.Process(0, blank, blank).frame.landmarks;
+  EXPECT_EQ(nothing.size(), 0u);
+  r = localiser.Localise(frame, nothing);
+  EXPECT_FALSE(r.success);
+  EXPECT_EQ(r.inliers, 0);
+  EXPECT_FALSE(localiser.Localise(nothing, frame).success);
 }
 
 }  // namespace
