@@ -171,16 +171,17 @@ LocalisationResult Localiser::Localise(const Landmarks& frame, const Landmarks& 
     }
   }
 
-  // Refine: refit on all inliers and recount until the set settles. The refit is kept even when
-  // it loses a marginal inlier: a least-squares fit over hundreds of matches beats the minimal
-  // sample that found them. The reported count is always that of the reported transform.
+  // Refine: refit on all inliers and recount (options.least_squares_result says which refit
+  // stands). The reported count is always that of the reported transform.
   for (int round = 0; round < kMaxRefinements && best_inliers.size() >= 3; ++round) {
     const Se3 refined = FitInliers(c, best_inliers);
     std::vector<int> inliers = Inliers(c, refined, options_.inlier_threshold_m);
-    const bool same = inliers == best_inliers;
+    if (!options_.least_squares_result && inliers.size() < best_inliers.size()) break;
+    const bool settled = options_.least_squares_result ? inliers == best_inliers
+                                                       : inliers.size() == best_inliers.size();
     best = refined;
     best_inliers = std::move(inliers);
-    if (same) break;
+    if (settled) break;
   }
 
   result.inliers = static_cast<int>(best_inliers.size());

@@ -35,7 +35,12 @@ struct RealExperimentOptions {
   double map_fraction = 0.5;          // of the pairs, in (0, 1): the map's part comes first
   StereoFrontEndOptions front_end{};
   VisualOdometryOptions odometry{};
-  BuilderOptions builder{};  // for both parts; localise_only is set for the second
+  // For both parts (localise_only is set for the second); the localiser as visual odometry's.
+  BuilderOptions builder = [] {
+    BuilderOptions options;
+    options.localiser = StereoLocaliserOptions();
+    return options;
+  }();
   double overlap_distance_m = 1.0;
   double overlap_angle_deg = 30.0;
 };

@@ -18,8 +18,17 @@
 
 namespace fleetmap {
 
+// The localiser keeps its least-squares refit (LocaliserOptions::least_squares_result): between
+// consecutive frames the motion is small, and stereo depth noise would otherwise let a
+// three-point fit that is centimetres off stand.
+inline LocaliserOptions StereoLocaliserOptions() {
+  LocaliserOptions options;
+  options.least_squares_result = true;
+  return options;
+}
+
 struct VisualOdometryOptions {
-  LocaliserOptions localiser{};
+  LocaliserOptions localiser = StereoLocaliserOptions();
   // A step needs this many inliers to count as estimated; below it the constant-velocity guess
   // is used. >= localiser.min_inliers.
   int min_inliers = 30;
