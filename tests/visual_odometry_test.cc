@@ -114,7 +114,7 @@ TEST(VisualOdometryTest, ChainedOverTheRealSequenceAgreesWithTheDirectPose) {
     last = frame.landmarks;
   }
   EXPECT_GE(tracked, 85) << "of 94 steps";
-  const LocalisationResult direct = Localiser().Localise(last, first);
+  const LocalisationResult direct = Localiser(StereoLocaliserOptions()).Localise(last, first);
   ASSERT_TRUE(direct.success);
   const Se3 disagreement = direct.node_T_frame.inverse() * first_T_camera;
   EXPECT_LT(disagreement.translation().norm(), 0.03);

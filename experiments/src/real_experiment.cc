@@ -107,7 +107,7 @@ bool Plot(const RealExperimentResult& result, const std::filesystem::path& dir, 
      << "set grid\nset multiplot layout 1,2\n"
      << "set title 'Visual odometry, first camera frame (x right, y down)'\n"
      << "set xlabel 'x (m)'\nset ylabel 'y (m)'\nset size ratio -1\nset key below\n"
-     << "set format x '%.2f'\nset xtics rotate by 90 right\n"
+     << "set format x '%.3f'\nset xtics rotate by 90 right\n"
      << "plot " << csv
      << " using 9:(strcol(3) eq \"map\" ? $10 : 1/0) with linespoints pt 7 ps 0.5 title 'map "
         "part', \\\n"
@@ -118,7 +118,7 @@ bool Plot(const RealExperimentResult& result, const std::filesystem::path& dir, 
      << " using 9:($15 == 1 ? $10 : 1/0) with points pt 6 ps 2 lw 2 title 'experiences'\n"
      << "set size noratio\nset xtics norotate\nset format x '%g'\nset title 'Inliers per frame'\n"
      << "set xlabel 'frame'\n"
-     << "set ylabel 'inliers'\nset key top right\n"
+     << "set ylabel 'inliers'\nset key inside top right\n"
      << "plot " << csv << " using 1:8 with lines lw 2 title 'VO (from the previous frame)', \\\n"
      << "     " << csv
      << " using 1:(strcol(3) eq \"localise\" ? $16 : 1/0) with lines lw 2 "
@@ -140,7 +140,8 @@ void WriteSummary(const RealExperimentOptions& options, const RealExperimentResu
      << "| consecutive pairs with a VO estimate of >= 30 inliers | " << r.vo_pairs_with_30_inliers
      << " / " << r.vo_pairs << " (" << percent(r.vo_pairs_with_30_inliers, r.vo_pairs) << " %) |\n"
      << "| largest VO step between frames | " << Fixed(r.max_step_m, 3) << " m |\n"
-     << "| VO path length | " << Fixed(r.path_length_m, 3) << " m |\n"
+     << "| VO path length (sum of steps) / first to last frame | " << Fixed(r.path_length_m, 3)
+     << " / " << Fixed(r.frames.back().position_m.norm(), 3) << " m |\n"
      << "| map nodes (experiences) | " << r.map_nodes << " |\n"
      << "| localised frames (all of the second part) | " << r.localised_ok << " / "
      << r.localised_frames << " (" << percent(r.localised_ok, r.localised_frames) << " %) |\n"

@@ -17,7 +17,8 @@ namespace {
 void CheckOptions(const StereoMatchOptions& o) {
   if (!(o.min_disparity_px > 0) || !(o.max_disparity_px >= o.min_disparity_px) ||
       !(o.row_tolerance_px > 0) || o.max_distance < 0 || o.max_distance > 256 ||
-      !(o.ratio > 0 && o.ratio <= 1) || o.refine_patch_radius_px < 0 || o.refine_search_px < 0) {
+      !(o.ratio > 0 && o.ratio <= 1) || o.refine_patch_radius_px < 0 || o.refine_search_px < 0 ||
+      o.max_octave_difference < 0) {
     throw Error(ErrorCode::kInvalidArgument, "stereo match options out of range");
   }
 }
@@ -76,25 +77,23 @@ double OctaveScale(const cv::KeyPoint& k) {
   return std::max(1.0, static_cast<double>(k.size) / 31.0);
 }
 
-// Zero-mean sum of absolute differences of two patches: robust to the two cameras' different
-// exposure.
-double PatchCost(const cv::Mat& left, int ul, const cv::Mat& right, int ur, int v, int r) {
-  double left_sum = 0, right_sum = 0;
+int PatchSum(const cv::Mat& image, int u, int v, int r) {
+  int sum = 0;
   for (int y = v - r; y <= v + r; ++y) {
-    const std::uint8_t* lrow = left.ptr<std::uint8_t>(y);
-    const std::uint8_t* rrow = right.ptr<std::uint8_t>(y);
-    for (int x = -r; x <= r; ++x) {
-      left_sum += lrow[ul + x];
-      right_sum += rrow[ur + x];
-    }
+    const std::uint8_t* row = image.ptr<std::uint8_t>(y);
+    for (int x = u - r; x <= u + r; ++x) sum += row[x];
   }
-  const double n = (2.0 * r + 1) * (2.0 * r + 1);
-  const double offset = (left_sum - right_sum) / n;
-  double cost = 0;
+  return sum;
+}
+
+// Sum of absolute differences after removing the patches' mean difference (`offset`, in whole
+// grey levels): robust to the two cameras' different exposure. Integers, so it vectorises.
+int PatchCost(const cv::Mat& left, int ul, const cv::Mat& right, int ur, int v, int r, int offset) {
+  int cost = 0;
   for (int y = v - r; y <= v + r; ++y) {
-    const std::uint8_t* lrow = left.ptr<std::uint8_t>(y);
-    const std::uint8_t* rrow = right.ptr<std::uint8_t>(y);
-    for (int x = -r; x <= r; ++x) cost += std::abs(lrow[ul + x] - rrow[ur + x] - offset);
+    const std::uint8_t* lrow = left.ptr<std::uint8_t>(y) + ul - r;
+    const std::uint8_t* rrow = right.ptr<std::uint8_t>(y) + ur - r;
+    for (int x = 0; x <= 2 * r; ++x) cost += std::abs(lrow[x] - rrow[x] - offset);
   }
   return cost;
 }
@@ -111,9 +110,13 @@ bool Refine(const cv::Mat& left, const cv::Mat& right, const cv::KeyPoint& lk,
     return false;
   }
   std::vector<double> cost(static_cast<std::size_t>(2 * s + 1));
+  const int area = (2 * r + 1) * (2 * r + 1);
+  const int left_sum = PatchSum(left, ul, v, r);
   int best = 0;
   for (int k = -s; k <= s; ++k) {
-    cost[static_cast<std::size_t>(k + s)] = PatchCost(left, ul, right, ur + k, v, r);
+    const int offset = static_cast<int>(
+        std::lround(static_cast<double>(left_sum - PatchSum(right, ur + k, v, r)) / area));
+    cost[static_cast<std::size_t>(k + s)] = PatchCost(left, ul, right, ur + k, v, r, offset);
     if (cost[static_cast<std::size_t>(k + s)] < cost[static_cast<std::size_t>(best + s)]) best = k;
   }
   if (best == -s || best == s) return false;
@@ -175,12 +178,17 @@ std::vector<StereoMatch> MatchStereoRows(const std::vector<cv::KeyPoint>& left_k
   const auto in_range = [&](double disparity) {
     return disparity >= options.min_disparity_px && disparity <= options.max_disparity_px;
   };
-  // The right keypoint's own best left keypoint, under the same row and disparity limits.
+  // Both cameras see a point at one distance, so at about one pyramid level.
+  const auto same_scale = [&](const cv::KeyPoint& a, const cv::KeyPoint& b) {
+    return std::abs(a.octave - b.octave) <= options.max_octave_difference;
+  };
+  // The right keypoint's own best left keypoint, under the same row, disparity and scale limits.
   const auto best_left_for = [&](int j) {
     const cv::KeyPoint& rk = right_keypoints[static_cast<std::size_t>(j)];
     Best best;
     left_rows.ForRows(rk.pt.y, options.row_tolerance_px * OctaveScale(rk), [&](int i) {
-      if (in_range(left_keypoints[static_cast<std::size_t>(i)].pt.x - rk.pt.x)) {
+      const cv::KeyPoint& lk = left_keypoints[static_cast<std::size_t>(i)];
+      if (in_range(lk.pt.x - rk.pt.x) && same_scale(lk, rk)) {
         best.Offer(i, HammingDistance(left[static_cast<std::size_t>(i)],
                                       right[static_cast<std::size_t>(j)]));
       }
@@ -193,7 +201,8 @@ std::vector<StereoMatch> MatchStereoRows(const std::vector<cv::KeyPoint>& left_k
     const cv::KeyPoint& lk = left_keypoints[static_cast<std::size_t>(i)];
     Best best;
     right_rows.ForRows(lk.pt.y, options.row_tolerance_px * OctaveScale(lk), [&](int j) {
-      if (in_range(lk.pt.x - right_keypoints[static_cast<std::size_t>(j)].pt.x)) {
+      const cv::KeyPoint& rk = right_keypoints[static_cast<std::size_t>(j)];
+      if (in_range(lk.pt.x - rk.pt.x) && same_scale(lk, rk)) {
         best.Offer(j, HammingDistance(left[static_cast<std::size_t>(i)],
                                       right[static_cast<std::size_t>(j)]));
       }

@@ -7,7 +7,8 @@
 // - on its row, within row_tolerance_px times the keypoint's pyramid scale (ORB positions at
 //   coarse levels are that much less exact), and
 // - at a disparity in [min_disparity_px, max_disparity_px] (depths between f B / max and
-//   f B / min),
+//   f B / min), and
+// - found at nearly the same pyramid level (the point is at one distance from both cameras),
 // by Hamming distance of their 256-bit descriptors. A pair is kept when it is the best for the
 // left keypoint, beats the runner-up by the ratio test, lies within max_distance bits, and —
 // the left-right check — the left keypoint is also the best among the right keypoint's own
@@ -30,6 +31,7 @@ struct StereoMatchOptions {
   double max_disparity_px = 150.0;  // >= min_disparity_px
   double row_tolerance_px = 2.0;    // at pyramid level 0, > 0
   int max_distance = 64;            // bits, [0, 256]
+  int max_octave_difference = 1;    // pyramid levels between the two keypoints, >= 0
   double ratio = 0.9;               // (0, 1]; 1 disables
   bool left_right_check = true;
   // Sub-pixel refinement: a (2 r + 1)^2 patch slid over +-search pixels; 0 turns it off.
