@@ -157,6 +157,18 @@ TEST_F(StereoRowMatchTest, RowToleranceAndDisparityRange) {
   EXPECT_EQ(counts.no_candidate, 2);
 }
 
+TEST_F(StereoRowMatchTest, KeypointsTwoPyramidLevelsApartDoNotMatch) {
+  // Same row, same descriptor, disparity 30; the left keypoint at level 0, the right at level
+  // 1 (kept) or 2 (refused by max_octave_difference = 1).
+  const std::vector<cv::KeyPoint> left{cv::KeyPoint(200, 100, 31, -1, 0, 0)};
+  const cv::Mat d = Descriptors({{0x5a}});
+  for (const int octave : {1, 2}) {
+    const std::vector<cv::KeyPoint> right{cv::KeyPoint(170, 100, 31, -1, 0, octave)};
+    const auto m = MatchStereoRows(left, d, right, d, cv::Mat(), cv::Mat(), NoRefinement());
+    EXPECT_EQ(m.size(), octave == 1 ? 1u : 0u) << "right octave " << octave;
+  }
+}
+
 TEST_F(StereoRowMatchTest, LeftRightCheckKeepsOnlyTheMutualBest) {
   // Two left keypoints whose best right candidate is the same one; only the closer descriptor
   // (left 1, one bit away) survives the check. Left 0's own best (2 bits) loses to it.
