@@ -1,5 +1,6 @@
 // `fleetmap experiment real`: the EBN core on real stereo images (real_experiment.h).
 #include <CLI/CLI.hpp>
+#include <filesystem>
 #include <fstream>
 #include <iostream>
 #include <memory>
@@ -7,6 +8,7 @@
 #include <string>
 
 #include "commands.h"
+#include "fleetmap/common/error.h"
 #include "fleetmap/experiments/real_experiment.h"
 #include "progress_bar.h"
 
@@ -22,6 +24,13 @@ struct RealArgs {
 };
 
 void RunReal(const RealArgs& args) {
+  std::error_code ec;
+  if (!std::filesystem::is_directory(args.data_dir, ec)) {
+    // The default is relative to a checkout's top directory; say how to point elsewhere.
+    throw Error(ErrorCode::kNotFound, "EuRoC sequence " + args.data_dir +
+                                          " not found; pass --data DIR (the folder holding cam0/ "
+                                          "and cam1/)");
+  }
   RealExperimentOptions options;
   options.dataset_dir = args.data_dir;
   options.out_dir = args.out_dir;

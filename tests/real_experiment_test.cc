@@ -9,6 +9,7 @@
 #include <string>
 
 #include "euroc_test_data.h"
+#include "fleetmap/common/child_process.h"
 #include "fleetmap/common/error.h"
 #include "fleetmap/common/graph_store.h"
 #include "fleetmap/common/uuid.h"
@@ -86,6 +87,36 @@ TEST_F(RealExperimentTest, AMissingDatasetIsRefusedBeforeAnythingIsWritten) {
   EXPECT_FALSE(fs::exists(options.out_dir));
   options.map_fraction = 1.0;
   EXPECT_THROW(RunRealExperiment(options, log), Error);
+}
+
+// The command as a user runs it: the summary on stdout and the files in --out; a missing
+// --data folder exits 1 saying how to point at one.
+TEST_F(RealExperimentTest, CommandPrintsTheSummaryAndWritesTheFiles) {
+  FLEETMAP_REQUIRE_EUROC_SEQUENCE();
+  fs::create_directories(out_);
+  const auto run = [&](const std::vector<std::string>& args) {
+    std::vector<std::string> argv{FLEETMAP_CLI, "experiment", "real"};
+    argv.insert(argv.end(), args.begin(), args.end());
+    ChildProcess child(argv, {.stderr_file = out_ / "stderr.txt", .environment = {}});
+    const std::string out = child.ReadRest(std::chrono::seconds(120));
+    return std::pair{child.Wait(std::chrono::seconds(30)).value_or(-1), out};
+  };
+  const auto [code, out] =
+      run({"--data", testing::EurocSequenceDir().string(), "--out", (out_ / "real").string()});
+  EXPECT_EQ(code, 0);
+  EXPECT_NE(out.find("median triangulated depth"), std::string::npos) << out;
+  EXPECT_NE(out.find("180-degree rotated pair"), std::string::npos) << out;
+  for (const char* file : {"real.csv", "real.png", "real.gp", "summary.md", "real-map.db"}) {
+    EXPECT_TRUE(fs::exists(out_ / "real" / file)) << file;
+  }
+  const auto [missing_code, missing_out] =
+      run({"--data", (out_ / "nowhere").string(), "--out", (out_ / "other").string()});
+  EXPECT_EQ(missing_code, 1);
+  std::ifstream err(out_ / "stderr.txt");
+  const std::string stderr_text{std::istreambuf_iterator<char>(err),
+                                std::istreambuf_iterator<char>()};
+  EXPECT_NE(stderr_text.find("pass --data DIR"), std::string::npos) << stderr_text;
+  EXPECT_FALSE(fs::exists(out_ / "other"));
 }
 
 }  // namespace
