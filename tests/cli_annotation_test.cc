@@ -1,21 +1,14 @@
 // `fleetmap annotate bbox|rm` and `fleetmap query annotated` end to end: the built executable
 // run as a subprocess against real stores (both backends). Bad input must exit non-zero and
 // say what was wrong.
-#include <fcntl.h>
 #include <gtest/gtest.h>
-#include <spawn.h>
-#include <sys/wait.h>
 
-#include <cstring>
-#include <fstream>
 #include <nlohmann/json.hpp>
-#include <sstream>
 
 #include "fleetmap/common/uuid.h"
+#include "fleetmap_cli_run.h"
 #include "scratch_dir.h"
 #include "store_backends.h"
-
-extern char** environ;
 
 namespace fleetmap {
 namespace {
@@ -23,47 +16,10 @@ namespace {
 using testing::BackendNames;
 using testing::StoreBackends;
 
-struct RunResult {
-  int exit_code = -1;
-  std::string out, err;
-};
+using RunResult = testing::CliRun;
 
-std::string ReadFile(const std::filesystem::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
-
-// Runs the built `fleetmap` with `args`; stdout and stderr go through files in `dir`.
 RunResult RunCli(const ScratchDir& dir, const std::vector<std::string>& args) {
-  const std::string out_file = (dir / "cli.stdout").string();
-  const std::string err_file = (dir / "cli.stderr").string();
-  posix_spawn_file_actions_t actions;
-  posix_spawn_file_actions_init(&actions);
-  posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, out_file.c_str(),
-                                   O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  posix_spawn_file_actions_addopen(&actions, STDERR_FILENO, err_file.c_str(),
-                                   O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  std::vector<std::string> argv_text{FLEETMAP_CLI};
-  argv_text.insert(argv_text.end(), args.begin(), args.end());
-  std::vector<char*> argv;
-  for (std::string& arg : argv_text) argv.push_back(arg.data());
-  argv.push_back(nullptr);
-  pid_t pid = 0;
-  RunResult result;
-  const int spawned = posix_spawn(&pid, FLEETMAP_CLI, &actions, nullptr, argv.data(), environ);
-  posix_spawn_file_actions_destroy(&actions);
-  if (spawned != 0) {
-    result.err = "posix_spawn failed: " + std::string(std::strerror(spawned));
-    return result;
-  }
-  int status = 0;
-  waitpid(pid, &status, 0);
-  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-  result.out = ReadFile(out_file);
-  result.err = ReadFile(err_file);
-  return result;
+  return testing::RunFleetmapCli(dir.path(), args);
 }
 
 template <typename Backend>

@@ -6,19 +6,18 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
-#include <chrono>
 #include <filesystem>
 #include <memory>
 #include <string>
 #include <vector>
 
 #include "expect_error.h"
-#include "fleetmap/common/child_process.h"
 #include "fleetmap/common/graph_store.h"
 #include "fleetmap/common/record_file.h"
 #include "fleetmap/common/record_layout.h"
 #include "fleetmap/experiments/stereo_image_log.h"
 #include "fleetmap/sensors.pb.h"
+#include "fleetmap_cli_run.h"
 #include "scratch_dir.h"
 #include "synthetic_euroc.h"
 
@@ -229,21 +228,10 @@ TEST_F(ImageIngestTest, BadNamesAreRefusedBeforeWriting) {
 
 // ---- The `fleetmap` executable ----
 
-struct CliRun {
-  int exit_code = -1;
-  std::string out, err;
-};
+using testing::CliRun;
 
-CliRun RunCli(const ScratchDir& scratch, std::vector<std::string> args) {
-  const fs::path err_file = scratch / "cli.stderr";
-  fs::remove(err_file);
-  args.insert(args.begin(), FLEETMAP_CLI);
-  ChildProcess child(args, {.stderr_file = err_file, .environment = {}});
-  CliRun run;
-  run.out = child.ReadRest(std::chrono::seconds(120));
-  run.exit_code = child.Wait(std::chrono::seconds(30)).value_or(-1);
-  run.err = ReadFileBytes(err_file);
-  return run;
+CliRun RunCli(const ScratchDir& scratch, const std::vector<std::string>& args) {
+  return testing::RunFleetmapCli(scratch.path(), args);
 }
 
 class ImagesCommandTest : public ::testing::Test {

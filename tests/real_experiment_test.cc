@@ -9,10 +9,10 @@
 #include <string>
 
 #include "euroc_test_data.h"
-#include "fleetmap/common/child_process.h"
 #include "fleetmap/common/error.h"
 #include "fleetmap/common/graph_store.h"
 #include "fleetmap/common/uuid.h"
+#include "fleetmap_cli_run.h"
 
 namespace fleetmap {
 namespace {
@@ -95,27 +95,22 @@ TEST_F(RealExperimentTest, CommandPrintsTheSummaryAndWritesTheFiles) {
   FLEETMAP_REQUIRE_EUROC_SEQUENCE();
   fs::create_directories(out_);
   const auto run = [&](const std::vector<std::string>& args) {
-    std::vector<std::string> argv{FLEETMAP_CLI, "experiment", "real"};
+    std::vector<std::string> argv{"experiment", "real"};
     argv.insert(argv.end(), args.begin(), args.end());
-    ChildProcess child(argv, {.stderr_file = out_ / "stderr.txt", .environment = {}});
-    const std::string out = child.ReadRest(std::chrono::seconds(120));
-    return std::pair{child.Wait(std::chrono::seconds(30)).value_or(-1), out};
+    return testing::RunFleetmapCli(out_, argv);
   };
-  const auto [code, out] =
+  const testing::CliRun result =
       run({"--data", testing::EurocSequenceDir().string(), "--out", (out_ / "real").string()});
-  EXPECT_EQ(code, 0);
-  EXPECT_NE(out.find("median triangulated depth"), std::string::npos) << out;
-  EXPECT_NE(out.find("180-degree rotated pair"), std::string::npos) << out;
+  EXPECT_EQ(result.exit_code, 0);
+  EXPECT_NE(result.out.find("median triangulated depth"), std::string::npos) << result.out;
+  EXPECT_NE(result.out.find("180-degree rotated pair"), std::string::npos) << result.out;
   for (const char* file : {"real.csv", "real.png", "real.gp", "summary.md", "real-map.db"}) {
     EXPECT_TRUE(fs::exists(out_ / "real" / file)) << file;
   }
-  const auto [missing_code, missing_out] =
+  const testing::CliRun missing =
       run({"--data", (out_ / "nowhere").string(), "--out", (out_ / "other").string()});
-  EXPECT_EQ(missing_code, 1);
-  std::ifstream err(out_ / "stderr.txt");
-  const std::string stderr_text{std::istreambuf_iterator<char>(err),
-                                std::istreambuf_iterator<char>()};
-  EXPECT_NE(stderr_text.find("pass --data DIR"), std::string::npos) << stderr_text;
+  EXPECT_EQ(missing.exit_code, 1);
+  EXPECT_NE(missing.err.find("pass --data DIR"), std::string::npos) << missing.err;
   EXPECT_FALSE(fs::exists(out_ / "other"));
 }
 
