@@ -12,8 +12,11 @@
 #include <chrono>
 #include <csignal>
 #include <cstdio>
+#include <cstring>
 #include <fstream>
 #include <iterator>
+#include <new>
+#include <optional>
 #include <random>
 #include <string>
 #include <vector>
@@ -386,6 +389,97 @@ TEST(RecordFileTest, GarbageBetweenRecordsIsSkipped) {
   EXPECT_EQ(reader.problems()[0].offset, at);
   EXPECT_EQ(reader.problems()[0].length, noise.size());
   EXPECT_EQ(records[5].location.offset, at + noise.size());
+}
+
+// A record header that checks (its CRC is right, as a forger can make it) and claims a payload
+// of `payload_bytes`, of which none follows.
+std::string ForgedHeader(std::uint32_t payload_bytes) {
+  const std::string type = "fleetmap.v1.GpsFix";
+  std::string h(kRecordFixedHeaderBytes, '\0');
+  const auto put = [&h](std::size_t at, std::uint64_t value, std::size_t bytes) {
+    for (std::size_t i = 0; i < bytes; ++i) h[at + i] = static_cast<char>(value >> (8 * i));
+  };
+  std::memcpy(h.data(), kRecordMagic, 4);
+  put(4, kRecordFormatVersion, 2);
+  put(6, kRecordFixedHeaderBytes + type.size(), 2);
+  put(8, payload_bytes, 4);
+  put(12, static_cast<std::uint64_t>(StampOf(0)), 8);
+  put(20, 0x12345678u, 4);
+  put(24, Crc32c(type, Crc32c(std::string_view(h.data(), 24))), 4);
+  put(28, type.size(), 2);
+  return h + type;
+}
+
+// A forged header claiming a 256 MiB payload (the largest a header may claim) in a file of a
+// few KiB, once in the middle and once at the end. The reader allocated the claimed length
+// before finding the file too short; now the file's remaining length is checked first and the
+// stretch is corruption, reported with file and offset like any other. The reading runs in a
+// child whose address space is capped 64 MiB above what it already uses, so allocating the
+// claimed payload fails there (std::bad_alloc) instead of passing unnoticed.
+TEST(RecordFileTest, ForgedHugePayloadLengthIsCorruptionNotAnAllocation) {
+  ScratchDir dir("record-file");
+  const fs::path middle = dir / "forged-middle.rec";
+  const std::vector<Written> written = WriteRecords(middle, 6);
+  const std::string good = ReadBytes(middle);
+  const std::uint64_t forged_at = written[3].location.offset;
+  const std::string forged = ForgedHeader(kMaxRecordPayloadBytes) + std::string(100, 'p');
+  std::string bytes = good;
+  bytes.insert(forged_at, forged);
+  WriteBytes(middle, bytes);
+  std::vector<Written> expected = written;  // the records after the forgery moved along
+  for (std::size_t i = 3; i < expected.size(); ++i) expected[i].location.offset += forged.size();
+  const fs::path tail = dir / "forged-tail.rec";
+  WriteBytes(tail, good + ForgedHeader(kMaxRecordPayloadBytes));
+
+  const pid_t child = ::fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    long pages = 0;
+    std::ifstream("/proc/self/statm") >> pages;
+    const auto used = static_cast<rlim_t>(pages) * static_cast<rlim_t>(::sysconf(_SC_PAGESIZE));
+    const rlimit limit{used + (rlim_t{64} << 20), used + (rlim_t{64} << 20)};
+    if (pages <= 0 || ::setrlimit(RLIMIT_AS, &limit) != 0) ::_exit(3);
+    try {
+      RecordReader reader(middle);
+      std::size_t records = 0;
+      while (reader.Next()) ++records;
+      if (records != written.size() || reader.problems().size() != 1) ::_exit(4);
+      try {
+        reader.ReadAt(forged_at);
+        ::_exit(5);
+      } catch (const Error& e) {
+        if (e.code() != ErrorCode::kCorrupt) ::_exit(5);
+      }
+      const std::optional<RecordProblem> cut = RecoverRecordFile(tail);
+      if (!cut || cut->offset != good.size()) ::_exit(6);
+      ::_exit(0);
+    } catch (const std::bad_alloc&) {
+      ::_exit(7);
+    } catch (...) {
+      ::_exit(8);
+    }
+  }
+  int status = 0;
+  ASSERT_EQ(::waitpid(child, &status, 0), child);
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 0)
+      << "3: could not cap the address space, 4: wrong records or problems, 5: ReadAt did not "
+         "throw kCorrupt, 6: the forged tail was not cut, 7: std::bad_alloc (the claimed payload "
+         "was allocated), 8: another exception";
+
+  // The same reads here, with their messages.
+  RecordReader reader(middle);
+  ExpectRecords(expected, ReadAll(reader));
+  ASSERT_EQ(reader.problems().size(), 1u);
+  EXPECT_EQ(reader.problems()[0].file, middle);
+  EXPECT_EQ(reader.problems()[0].offset, forged_at);
+  EXPECT_EQ(reader.problems()[0].length, forged.size());
+  EXPECT_NE(reader.problems()[0].what.find("cut short"), std::string::npos)
+      << reader.problems()[0].what;
+  ExpectError(
+      ErrorCode::kCorrupt, [&] { reader.ReadAt(forged_at); },
+      middle.string() + ": no whole record at offset " + std::to_string(forged_at));
+  EXPECT_EQ(fs::file_size(tail), good.size());  // cut in the child
 }
 
 TEST(RecordFileTest, SplitThenCatGivesTheOriginalRecords) {

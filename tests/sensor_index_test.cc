@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <map>
 #include <memory>
@@ -358,6 +359,51 @@ TYPED_TEST(SensorIndexTest, MovedRootStillResolvesAndReindexes) {
   const auto before = Rows(x);
   EXPECT_EQ(ReindexRoot(x, moved).inserted, 0);
   EXPECT_EQ(Rows(x), before);
+}
+
+// Symbolic links under a root that lead out of it: one to a directory of record files, one to
+// a single record file elsewhere. Reindex followed the file link (and would index whatever a
+// link points at as if it lay under the root); now it indexes neither, and reports each link
+// by its path as a skipped problem. Ingesting a file through a link is refused, naming it.
+TYPED_TEST(SensorIndexTest, SymlinksUnderTheRootAreReportedAndNotFollowed) {
+  ScratchDir dir("sensor-index");
+  const fs::path root = dir / "repo";
+  const std::vector<fs::path> files = WriteRepository(root);
+  const std::vector<fs::path> outside = WriteRepository(dir / "outside");
+  const fs::path dir_link = root / "husky" / "lidar";
+  fs::create_directory_symlink(outside[0].parent_path().parent_path(), dir_link);
+  const fs::path file_link = files[1].parent_path() / "elsewhere.rec";
+  fs::create_symlink(outside[1], file_link);
+
+  SensorIndex& x = this->index();
+  const IngestResult r = ReindexRoot(x, root);
+  EXPECT_EQ(r.files, 2);
+  EXPECT_EQ(r.inserted, 380);
+  std::vector<fs::path> reported;
+  for (const RecordProblem& p : r.problems) {
+    reported.push_back(p.file);
+    EXPECT_NE(p.what.find("symbolic link"), std::string::npos) << p.what;
+  }
+  std::sort(reported.begin(), reported.end());
+  EXPECT_EQ(reported, (std::vector<fs::path>{file_link, dir_link}));
+  const auto listed = x.ListFiles();
+  ASSERT_EQ(listed.size(), 2u);
+  EXPECT_EQ(listed[0].file, RelativeToRoot(root, files[0]).generic_string());
+  EXPECT_EQ(listed[1].file, RelativeToRoot(root, files[1]).generic_string());
+
+  ExpectError(
+      ErrorCode::kInvalidArgument, [&] { IngestRecordFile(x, root, file_link, "husky", "gps"); },
+      file_link.string());
+  ExpectError(
+      ErrorCode::kInvalidArgument,
+      [&] {
+        IngestRecordFile(x, root,
+                         dir_link / files[0].parent_path().filename() / files[0].filename(),
+                         "husky", "lidar");
+      },
+      dir_link.string());
+  EXPECT_EQ(x.CountData(), 380);
+  EXPECT_EQ(x.ListFiles().size(), 2u);
 }
 
 }  // namespace

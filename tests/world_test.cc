@@ -11,6 +11,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <numbers>
 #include <numeric>
 #include <set>
@@ -126,6 +127,66 @@ TEST(WorldConfig, RejectsBadValuesNamingTheKey) {
   bad.odometry.frame_spacing_m = 0.0;
   EXPECT_NE(InvalidArgumentMessage([&] { World world(bad); }).find("odometry.frame_spacing_m"),
             std::string::npos);
+}
+
+// frame_spacing_m: 1e-9 was inside its range (0, 100], and a 700 m loop then generates 7e11
+// frames: memory without bound. The spacing starts at 0.05 m, and the frames a world's schedule
+// can generate in all are capped at 1e6; each message names the field, its value and the range.
+TEST(WorldConfig, RejectsFrameSpacingsThatGrowMemoryWithoutBound) {
+  for (const std::string value : {"1e-9", "0", "-1", "0.049"}) {
+    SCOPED_TRACE(value);
+    const std::string message = InvalidArgumentMessage(
+        [&] { ParseWorldConfig(R"({"odometry": {"frame_spacing_m": )" + value + "}}"); });
+    EXPECT_NE(message.find("odometry.frame_spacing_m = "), std::string::npos) << message;
+    EXPECT_NE(message.find("outside [0.05, 100]"), std::string::npos) << message;
+  }
+  EXPECT_NE(InvalidArgumentMessage([] {
+              ParseWorldConfig(R"({"odometry": {"frame_spacing_m": 1e-9}})");
+            }).find("= 1e-09 "),
+            std::string::npos);
+  // JSON has no NaN; a config built in code can.
+  WorldConfig nan;
+  nan.odometry.frame_spacing_m = std::numeric_limits<double>::quiet_NaN();
+  const std::string message = InvalidArgumentMessage([&] { World world(nan); });
+  EXPECT_NE(message.find("odometry.frame_spacing_m = nan is outside [0.05, 100]"),
+            std::string::npos)
+      << message;
+  EXPECT_NO_THROW(ParseWorldConfig(R"({"odometry": {"frame_spacing_m": 0.05}})"));
+
+  // Each field in range, together too many frames: 100000 outings of a 700 m lap at 0.05 m.
+  const std::string total = InvalidArgumentMessage([] {
+    ParseWorldConfig(R"({"odometry": {"frame_spacing_m": 0.05}, "schedule": {"outings": 100000}})");
+  });
+  for (const char* part : {"schedule.outings", "schedule.laps", "route.length_m",
+                           "odometry.frame_spacing_m", "1.4e+09 frames", "at most 1e+06"}) {
+    EXPECT_NE(total.find(part), std::string::npos) << part << " in: " << total;
+  }
+  // At the cap exactly is fine: 1000 outings of 1000 frames.
+  EXPECT_NO_THROW(ParseWorldConfig(
+      R"({"route": {"length_m": 1000}, "schedule": {"outings": 1000}, "odometry": {"frame_spacing_m": 1}})"));
+}
+
+// The other fields whose tiny or huge values made the world build without bound (landmarks,
+// zones) or overflow an integer (parking slots, structural intervals, shadow phases, weather
+// spells, viewpoint levels, frame stamps at a crawl) are bounded too.
+TEST(WorldConfig, RejectsValuesThatRunAwayOrOverflow) {
+  const auto rejects = [](const std::string& json, const std::string& key) {
+    const std::string message = InvalidArgumentMessage([&] { ParseWorldConfig(json); });
+    EXPECT_NE(message.find(key), std::string::npos) << json << " -> " << message;
+  };
+  rejects(R"({"appearance": {"zone_length_m": 1e-300}})", "appearance.zone_length_m = 1e-300");
+  rejects(R"({"appearance": {"car_slot_length_m": 1e-300}})", "appearance.car_slot_length_m");
+  rejects(R"({"appearance": {"structural_period_min_days": 1e-300}})",
+          "appearance.structural_period_min_days");
+  rejects(R"({"appearance": {"sun_shadow_phase_h": 1e-300}})", "appearance.sun_shadow_phase_h");
+  rejects(R"({"schedule": {"weather_spell_h": 1e-300}})", "schedule.weather_spell_h");
+  rejects(R"({"schedule": {"speed_min_mps": 1e-300}})", "schedule.speed_min_mps");
+  rejects(R"({"observation": {"scale_level_factor": 1.000000001}})",
+          "observation.scale_level_factor");
+  rejects(R"({"observation": {"bearing_level_deg": 1e-300}})", "observation.bearing_level_deg");
+  rejects(R"({"route": {"length_m": 100000}, "landmarks": {"per_metre": 1000}})",
+          "landmarks.per_metre");
+  EXPECT_NO_THROW(ParseWorldConfig(R"({"appearance": {"sun_shadow_phase_h": 0}})"));
 }
 
 TEST(WorldConfig, FilesSaveAndLoad) {
@@ -396,6 +457,9 @@ TEST(World, RejectsBadOutings) {
   o = LapOuting(1, 0, 12.0, Weather::kSun);
   o.id = Uuid();
   EXPECT_NE(InvalidArgumentMessage([&] { world.Frames(o); }).find("id"), std::string::npos);
+  // An outing made in code is held to the world's frame cap too: 1e7 m at 1 m a frame.
+  o = LapOuting(1, 0, 12.0, Weather::kSun, 1e7);
+  EXPECT_NE(InvalidArgumentMessage([&] { world.Frames(o); }).find("frames"), std::string::npos);
 }
 
 TEST(World, ScheduleIsDeterministicAndCoversConditions) {

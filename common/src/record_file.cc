@@ -140,7 +140,18 @@ std::string_view RecordScanner::Window(std::uint64_t offset, std::size_t bytes,
     keep = static_cast<std::size_t>(buffer_end - offset);
     std::memmove(buffer_.data(), buffer_.data() + (offset - buffer_start_), keep);
   }
-  const std::size_t want = std::max(bytes, readahead);
+  std::size_t want = std::max(bytes, readahead);
+  if (want > readahead) {
+    // Beyond the readahead, read (and allocate) only what the file holds: `bytes` comes from a
+    // header, and a header that checks may still be forged or torn and claim up to
+    // kMaxRecordPayloadBytes in a file of a few KiB. The caller then finds fewer bytes than
+    // it asked for and reports the record cut short, with its file and offset. Records this
+    // big are rare, so the fstat costs nothing on a scan.
+    const std::uint64_t size = FileSize();
+    const std::uint64_t held = size > offset ? size - offset : 0;
+    want = static_cast<std::size_t>(
+        std::max<std::uint64_t>(readahead, std::min<std::uint64_t>(want, held)));
+  }
   if (buffer_.size() < want) {
     std::vector<char> bigger(want);
     std::memcpy(bigger.data(), buffer_.data(), keep);

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cstdio>
 #include <string>
+#include <system_error>
 
 #include "fleetmap/common/error.h"
 
@@ -84,6 +85,27 @@ std::filesystem::path ResolveUnderRoot(const std::filesystem::path& root,
                                                  " does not lie under the root " + root.string());
   }
   return root / normal;
+}
+
+std::optional<std::filesystem::path> LinkUnderRoot(const std::filesystem::path& root,
+                                                   const std::filesystem::path& file) {
+  namespace fs = std::filesystem;
+  const fs::path relative = RelativeToRoot(root, file);
+  fs::path on_the_way = root;
+  for (const fs::path& part : relative) {
+    on_the_way /= part;
+    std::error_code ec;  // a component that does not exist is no link
+    if (fs::is_symlink(fs::symlink_status(on_the_way, ec))) return on_the_way;
+  }
+  // "root/link/../x.rec" normalises to "root/x.rec", which the walk above finds free of links,
+  // but opening it goes through the link's target. Where the file really is settles it.
+  std::error_code ec;
+  const fs::path real = fs::weakly_canonical(file, ec);
+  if (ec) return std::nullopt;  // nothing there to be led to
+  const fs::path real_root = fs::weakly_canonical(root, ec);
+  if (ec) return std::nullopt;
+  if (real != (real_root / relative).lexically_normal()) return file;
+  return std::nullopt;
 }
 
 }  // namespace fleetmap

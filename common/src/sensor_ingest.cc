@@ -44,6 +44,13 @@ IngestResult IngestRecordFile(SensorIndex& index, const fs::path& root, const fs
                               const std::string& platform, const std::string& sensor, bool rescan,
                               const IngestProgress& progress) {
   const std::string relative = RelativeToRoot(root, file).generic_string();
+  if (const std::optional<fs::path> link = LinkUnderRoot(root, file)) {
+    throw Error(ErrorCode::kInvalidArgument,
+                "record file " + file.string() + " is reached through the symbolic link " +
+                    link->string() + " under the root " + root.string() +
+                    "; links under a root are not followed (they may lead out of it): move or "
+                    "copy the file under the root");
+  }
   IngestResult result;
   std::error_code ec;
   const auto size = fs::file_size(file, ec);
@@ -105,7 +112,20 @@ IngestResult ReindexRoot(SensorIndex& index, const fs::path& root,
   std::vector<fs::path> files;
   std::uint64_t total = 0;
   std::error_code ec;
+  IngestResult result;
+  // Symbolic links are skipped, each reported, whatever they point at: one may lead out of the
+  // root, and one inside it would index the same records twice under two paths. (The iterator
+  // does not descend into a linked directory; is_regular_file would follow a linked file.)
   for (fs::recursive_directory_iterator it(root, ec), end; !ec && it != end; it.increment(ec)) {
+    std::error_code link_ec;
+    if (it->is_symlink(link_ec)) {
+      const fs::path target = fs::read_symlink(it->path(), link_ec);
+      result.problems.push_back(
+          RecordProblem{it->path(), 0, 0,
+                        "symbolic link (to " + target.string() +
+                            "): links under a record root are not followed; skipped"});
+      continue;
+    }
     if (it->is_regular_file() && it->path().extension() == ".rec") {
       files.push_back(it->path());
       total += it->file_size();
@@ -115,7 +135,6 @@ IngestResult ReindexRoot(SensorIndex& index, const fs::path& root,
     throw Error(ErrorCode::kNotFound, "cannot scan root " + root.string() + ": " + ec.message());
   std::sort(files.begin(), files.end());
 
-  IngestResult result;
   std::uint64_t done = 0;
   for (const fs::path& file : files) {
     const fs::path relative = RelativeToRoot(root, file);

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdio>
 #include <numbers>
 #include <string>
 
@@ -647,6 +648,18 @@ std::vector<Frame> World::Frames(const Outing& outing) const {
 OutingFrames::OutingFrames(const World& world, const Outing& outing)
     : world_(world.impl_), outing_(outing) {
   ValidateOuting(outing);
+  // The world config bounds its schedule's frames; an outing made in code must not get round
+  // that (World::Frames keeps every frame in memory).
+  const double frames = outing.length_m / world_->config.odometry.frame_spacing_m;
+  if (frames > kMaxWorldFrames) {
+    char what[200];
+    std::snprintf(what, sizeof what,
+                  "outing: length_m %g at odometry.frame_spacing_m %g would generate %g frames, "
+                  "but a world may generate at most %g",
+                  outing.length_m, world_->config.odometry.frame_spacing_m, frames,
+                  kMaxWorldFrames);
+    throw Error(ErrorCode::kInvalidArgument, what);
+  }
   stream_ = Hash(world_->config.seed, Stream::kOuting, UuidKey(outing.id));
 }
 

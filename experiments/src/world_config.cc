@@ -56,9 +56,12 @@ Range RightOpen(double lo, double hi) {
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
 // One list of fields per struct, walked by three visitors (write, read, validate), so a field's
-// name and range are written once. `T` is the struct, const for the writer and validator.
-// A visitor has Number(key, double&, Range), Integer(key, int-type&, Range) and
-// Object(key, sub-struct&).
+// name and range are written once. A world file is input from anyone: a lower bound of a length,
+// period or speed keeps what the world derives from it (frames, zones, parking slots, intervals,
+// shadow phases, weather spells, viewpoint levels, frame stamps) finite and within its integer
+// type; the totals a world builds are capped in ValidateRelations. `T` is the struct, const for the
+// writer and validator. A visitor has Number(key, double&, Range), Integer(key, int-type&, Range)
+// and Object(key, sub-struct&).
 
 template <class V, class T>
 requires std::is_same_v<std::remove_const_t<T>, PerLighting>
@@ -120,7 +123,7 @@ template <class V, class T>
 requires std::is_same_v<std::remove_const_t<T>, AppearanceConfig>
 void Fields(V& v, T& c) {
   v.Object("classes", c.classes);
-  v.Number("zone_length_m", c.zone_length_m, LeftOpen(0, 1e5));
+  v.Number("zone_length_m", c.zone_length_m, Closed(1, 1e5));
   v.Number("zone_mix_concentration", c.zone_mix_concentration, LeftOpen(0, 1e6));
   v.Number("zone_volatility_spread", c.zone_volatility_spread, Closed(1, 1000));
   v.Number("replacement_rate_per_day", c.replacement_rate_per_day, Closed(0, 10));
@@ -130,11 +133,11 @@ void Fields(V& v, T& c) {
   v.Number("night_start_h", c.night_start_h, RightOpen(0, 24));
   v.Number("boundary_jitter_h", c.boundary_jitter_h, RightOpen(0, 12));
   v.Number("sun_shadow_phase_h", c.sun_shadow_phase_h, RightOpen(0, 24));
-  v.Number("structural_period_min_days", c.structural_period_min_days, LeftOpen(0, 1e5));
-  v.Number("structural_period_max_days", c.structural_period_max_days, LeftOpen(0, 1e5));
+  v.Number("structural_period_min_days", c.structural_period_min_days, Closed(0.1, 1e5));
+  v.Number("structural_period_max_days", c.structural_period_max_days, Closed(0.1, 1e5));
   v.Number("structural_presence", c.structural_presence, Closed(0, 1));
   v.Number("car_presence", c.car_presence, Closed(0, 1));
-  v.Number("car_slot_length_m", c.car_slot_length_m, LeftOpen(0, 1000));
+  v.Number("car_slot_length_m", c.car_slot_length_m, Closed(0.1, 1000));
   v.Number("car_lateral_min_m", c.car_lateral_min_m, Closed(0, 1000));
   v.Number("car_lateral_max_m", c.car_lateral_max_m, LeftOpen(0, 1000));
   v.Number("car_height_max_m", c.car_height_max_m, LeftOpen(0.2, 10));
@@ -154,15 +157,15 @@ void Fields(V& v, T& c) {
   v.Integer("occlusion_max_frames", c.occlusion_max_frames, Closed(1, 1000));
   v.Number("occlusion_min_width_deg", c.occlusion_min_width_deg, Closed(0, 360));
   v.Number("occlusion_max_width_deg", c.occlusion_max_width_deg, Closed(0, 360));
-  v.Number("scale_level_factor", c.scale_level_factor, LeftOpen(1, 10));
-  v.Number("bearing_level_deg", c.bearing_level_deg, LeftOpen(0, 180));
+  v.Number("scale_level_factor", c.scale_level_factor, Closed(1.01, 10));
+  v.Number("bearing_level_deg", c.bearing_level_deg, Closed(0.5, 180));
   v.Integer("viewpoint_bits_per_level", c.viewpoint_bits_per_level, Closed(0, 128));
 }
 
 template <class V, class T>
 requires std::is_same_v<std::remove_const_t<T>, OdometryConfig>
 void Fields(V& v, T& c) {
-  v.Number("frame_spacing_m", c.frame_spacing_m, LeftOpen(0, 100));
+  v.Number("frame_spacing_m", c.frame_spacing_m, Closed(0.05, 100));
   v.Number("spacing_jitter", c.spacing_jitter, RightOpen(0, 1));
   v.Number("translation_noise_fraction", c.translation_noise_fraction, Closed(0, 1));
   v.Number("yaw_noise_rad_per_m", c.yaw_noise_rad_per_m, Closed(0, 1));
@@ -177,9 +180,9 @@ void Fields(V& v, T& c) {
   v.Number("first_start_h", c.first_start_h, RightOpen(0, 24));
   v.Number("last_start_h", c.last_start_h, RightOpen(0, 24));
   v.Object("weather_probability", c.weather_probability, Closed(0, 1));
-  v.Number("weather_spell_h", c.weather_spell_h, LeftOpen(0, 24));
-  v.Number("speed_min_mps", c.speed_min_mps, LeftOpen(0, 50));
-  v.Number("speed_max_mps", c.speed_max_mps, LeftOpen(0, 50));
+  v.Number("weather_spell_h", c.weather_spell_h, Closed(0.1, 24));
+  v.Number("speed_min_mps", c.speed_min_mps, Closed(0.1, 50));
+  v.Number("speed_max_mps", c.speed_max_mps, Closed(0.1, 50));
   v.Number("laps", c.laps, LeftOpen(0, 1000));
 }
 
@@ -386,7 +389,30 @@ void ValidateRelations(const WorldConfig& c) {
           "observation.occlusion_max_width_deg",
           "must be at least observation.occlusion_min_width_deg");
 
+  // 0 turns shadow phases off; a tiny positive phase would count phases past an int.
+  require(ap.sun_shadow_phase_h == 0.0 || ap.sun_shadow_phase_h >= 0.1,
+          "appearance.sun_shadow_phase_h",
+          "= " + Show(ap.sun_shadow_phase_h) + " must be 0 (no shadow phases) or in [0.1, 24)");
+
+  // Every landmark is built up front (World::Impl), so their number bounds a world's memory.
+  const double landmarks = lm.per_metre * route.length_m;
+  require(landmarks <= kMaxWorldLandmarks, "landmarks.per_metre",
+          "= " + Show(lm.per_metre) + " on route.length_m " + Show(route.length_m) + " m gives " +
+              Show(landmarks) + " landmarks, but a world may hold at most " +
+              Show(kMaxWorldLandmarks) + "; lower landmarks.per_metre or route.length_m");
+
   const ScheduleConfig& sc = c.schedule;
+  // Each field of the product is in range, yet together they may ask for frames without
+  // bound (memory and time of every run over the schedule).
+  const double frames = sc.outings * sc.laps * route.length_m / c.odometry.frame_spacing_m;
+  require(frames <= kMaxWorldFrames, "schedule",
+          "would generate " + Show(frames) + " frames (schedule.outings " +
+              std::to_string(sc.outings) + " x schedule.laps " + Show(sc.laps) +
+              " x route.length_m " + Show(route.length_m) + " m / odometry.frame_spacing_m " +
+              Show(c.odometry.frame_spacing_m) + " m), but a world may generate at most " +
+              Show(kMaxWorldFrames) +
+              "; lower schedule.outings, schedule.laps or route.length_m, or raise "
+              "odometry.frame_spacing_m");
   require(sc.first_start_h <= sc.last_start_h, "schedule.last_start_h",
           "must be at least schedule.first_start_h");
   const PerWeather& p = sc.weather_probability;

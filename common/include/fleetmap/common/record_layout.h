@@ -7,11 +7,12 @@
 // with the date and time in UTC, of the file's first record. The SQL index stores paths
 // relative to the root (RelativeToRoot), so moving or re-mounting the root loses nothing.
 // Pure functions of their arguments (no filesystem access except RelativeToRoot's path
-// normalisation, which does not touch the disk); thread-safe.
+// normalisation, which does not touch the disk), but for LinkUnderRoot; thread-safe.
 #pragma once
 
 #include <cstdint>
 #include <filesystem>
+#include <optional>
 #include <string_view>
 
 namespace fleetmap {
@@ -37,5 +38,16 @@ std::filesystem::path RelativeToRoot(const std::filesystem::path& root,
 // is absolute or climbs out of the root with "..", since index rows must not point outside it.
 std::filesystem::path ResolveUnderRoot(const std::filesystem::path& root,
                                        const std::filesystem::path& relative);
+
+// Record roots are not followed through symbolic links: a link under the root may lead out of
+// it (to another user's files, to /etc), and a file reached through one would be indexed under
+// a path that does not say where its bytes lie. Returns the first path on the way from `root`
+// to `file` that is a symbolic link (from the root's child down to `file` itself), or `file`
+// when its path passes through a link before a "..", which lexical normalisation hides; nullopt
+// when the way is free of links. `root` itself may be a link (a root mounted elsewhere). Reads
+// the file system (lstat of each component). Throws Error(kInvalidArgument) as RelativeToRoot
+// when `file` is not under `root`.
+std::optional<std::filesystem::path> LinkUnderRoot(const std::filesystem::path& root,
+                                                   const std::filesystem::path& file);
 
 }  // namespace fleetmap

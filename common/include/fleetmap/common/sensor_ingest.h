@@ -38,7 +38,8 @@ using IngestProgress = std::function<void(std::uint64_t bytes_done)>;
 // otherwise the records' time span must be covered by mounts on this platform or be mountable
 // there, else Error(kConflict) (a sensor is on one platform at a time). Unless `rescan`, a file
 // indexed before with the same size and mtime is skipped. Throws Error(kInvalidArgument) when
-// the file is not under the root, Error(kNotFound) when it cannot be read.
+// the file is not under the root or is reached through a symbolic link under it (LinkUnderRoot
+// in record_layout.h), Error(kNotFound) when it cannot be read.
 IngestResult IngestRecordFile(SensorIndex& index, const std::filesystem::path& root,
                               const std::filesystem::path& file, const std::string& platform,
                               const std::string& sensor, bool rescan = false,
@@ -46,7 +47,8 @@ IngestResult IngestRecordFile(SensorIndex& index, const std::filesystem::path& r
 
 // Every *.rec file under `root`, in path order, with platform and sensor taken from its first
 // two directories (the layout PLATFORM/SENSOR/DATE/..., record_layout.h). Files elsewhere are
-// reported as problems and skipped. Scans every file (rescan). `progress` gets the bytes done
+// reported as problems and skipped, and so is every symbolic link under the root, to a file or
+// a directory (it is not followed). Scans every file (rescan). `progress` gets the bytes done
 // over all files and their total.
 IngestResult ReindexRoot(
     SensorIndex& index, const std::filesystem::path& root,

@@ -24,6 +24,12 @@
 
 namespace fleetmap {
 
+// What one world may build at most, whatever its file says: the landmarks it holds (all built
+// up front) and the frames its schedule generates (outings x laps x route length / frame
+// spacing). 2e6 landmarks take about 0.25 GB; the defaults use 8400 landmarks and 42000 frames.
+inline constexpr double kMaxWorldLandmarks = 2e6;
+inline constexpr double kMaxWorldFrames = 1e6;
+
 // One value per lighting band (world.h, Lighting).
 struct PerLighting {
   double night = 0.0;
@@ -69,7 +75,8 @@ struct CameraConfig {
 // route's centre line and a height above the ground. Parked cars have their own band
 // (AppearanceConfig).
 struct LandmarkConfig {
-  double per_metre = 12.0;      // landmarks per metre of route, both sides, (0, 1000]
+  double per_metre = 12.0;      // landmarks per metre of route, both sides, (0, 1000];
+                                // times route.length_m at most kMaxWorldLandmarks
   double lateral_min_m = 2.0;   // nearest lateral offset, [0, lateral_max_m)
   double lateral_max_m = 12.0;  // farthest lateral offset, (lateral_min_m, corner_radius_m)
   double height_min_m = 0.0;    // lowest height above the ground, [-10, height_max_m)
@@ -104,7 +111,7 @@ struct AppearanceConfig {
   // (multiplier of the replacement rate, log-uniform in [1/spread, spread]). Places differ: a
   // car park changes daily, a brick wall hardly ever (structure change is one of the
   // difficulties seed 002 §VI-B names).
-  double zone_length_m = 50.0;           // (0, 100000]
+  double zone_length_m = 50.0;           // [1, 100000]
   double zone_mix_concentration = 40.0;  // (0, 1e6]
   double zone_volatility_spread = 8.0;   // [1, 1000]; 1 makes every zone alike
 
@@ -123,11 +130,11 @@ struct AppearanceConfig {
   // Shadows move with the sun: in sunshine by day, a light- and weather-dependent landmark
   // takes a new look every this many hours after its own day start (morning shadows are not
   // afternoon shadows). 0 gives one sunny look all day.
-  double sun_shadow_phase_h = 3.0;  // [0, 24)
+  double sun_shadow_phase_h = 3.0;  // 0, or [0.1, 24)
 
   // Structural landmarks: time is cut into intervals of a per-landmark length, uniform in
   // [min, max] days; the landmark exists in an interval with probability structural_presence.
-  double structural_period_min_days = 10.0;  // (0, structural_period_max_days]
+  double structural_period_min_days = 10.0;  // [0.1, structural_period_max_days]
   double structural_period_max_days = 60.0;  // [structural_period_min_days, 100000]
   double structural_presence = 0.5;          // [0, 1]
 
@@ -135,7 +142,7 @@ struct AppearanceConfig {
   // route) are there together on a day with probability car_presence, and a different car
   // parks each day.
   double car_presence = 0.5;       // [0, 1]
-  double car_slot_length_m = 5.0;  // (0, 1000]
+  double car_slot_length_m = 5.0;  // [0.1, 1000]
   double car_lateral_min_m = 2.0;  // [0, car_lateral_max_m)
   double car_lateral_max_m = 4.0;  // (car_lateral_min_m, corner_radius_m)
   double car_height_max_m = 1.5;   // car landmarks' height is uniform in [0.2, this], (0.2, 10]
@@ -176,8 +183,8 @@ struct ObservationConfig {
   // descriptor drifts by about `viewpoint_bits_per_level` fresh bit flips per step of
   // `scale_level_factor` in viewing distance (from 10 m) and per `bearing_level_deg` of viewing
   // direction (from the landmark's side of the road), the steps adding up like a random walk.
-  double scale_level_factor = 1.15;   // (1, 10]
-  double bearing_level_deg = 4.0;     // (0, 180]
+  double scale_level_factor = 1.15;   // [1.01, 10]
+  double bearing_level_deg = 4.0;     // [0.5, 180]
   int viewpoint_bits_per_level = 32;  // [0, 128]; 0 makes descriptors viewpoint-invariant
 
   friend bool operator==(const ObservationConfig&, const ObservationConfig&) = default;
@@ -185,7 +192,7 @@ struct ObservationConfig {
 
 // Frame spacing and visual-odometry noise.
 struct OdometryConfig {
-  double frame_spacing_m = 1.0;  // mean travel between frames, (0, 100]
+  double frame_spacing_m = 1.0;  // mean travel between frames, [0.05, 100]
   double spacing_jitter = 0.1;   // each step is spacing * (1 + uniform(-j, j)), [0, 1)
   // Per-axis Gaussian translation error of a step, as a fraction of the step's length.
   double translation_noise_fraction = 0.01;  // [0, 1]
@@ -198,6 +205,8 @@ struct OdometryConfig {
 // The default experiment's outings (ScheduleOutings in world.h). Like the Begbroke data
 // (seed 002 §VI-A: summer daylight over two months) the default outings run by day, before
 // dusk; dawn, dusk and night are in the world for schedules that reach them.
+// Together, outings x laps x route.length_m / odometry.frame_spacing_m is at most
+// kMaxWorldFrames.
 struct ScheduleConfig {
   int outings = 60;            // [1, 100000]
   int days = 45;               // outings fall on days [0, days), [1, 36500]
@@ -207,8 +216,8 @@ struct ScheduleConfig {
   // Weather is drawn once per spell (a block of this many hours of one day) with these
   // probabilities, so outings close in time share it. The probabilities must sum to 1.
   PerWeather weather_probability{.sun = 0.4, .overcast = 0.4, .rain = 0.2};
-  double weather_spell_h = 3.0;  // (0, 24]
-  double speed_min_mps = 1.0;    // (0, speed_max_mps]
+  double weather_spell_h = 3.0;  // [0.1, 24]
+  double speed_min_mps = 1.0;    // [0.1, speed_max_mps]
   double speed_max_mps = 1.5;    // [speed_min_mps, 50]
   double laps = 1.0;             // each outing drives this many loops from the start, (0, 1000]
 
