@@ -2,7 +2,9 @@
 //   sync    one sync now: push what the server lacks, optionally wait for the merge, download
 //           and install the mission's map
 //   daemon  a sync each time the dock file appears (the robot docked), until SIGTERM/SIGINT
-//   status  what the map directory holds and what is not on the server yet
+//   status  what the map directory holds and what is not on the server yet, and any
+//           submission the server refused (its content is kept)
+//   discard lets the next install drop a refused submission's content (the only removal)
 // Exit codes: 0 ok; 1 the sync failed (after its retries); 2 bad arguments or refused by the
 // server (a wrong token, an unknown robot, content it will not take).
 #include <pthread.h>
@@ -57,6 +59,7 @@ struct AgentArguments {
   bool json = false;
   bool quiet = false;
   std::string dock_file;
+  std::string discard;  // a submission UUID
 };
 
 void Say(const std::string& line) {
@@ -180,6 +183,7 @@ json ResultJson(const SyncResult& r) {
           {"downloaded_bytes", r.downloaded_bytes},
           {"kept_unsynced", r.kept_unsynced},
           {"kept_unmerged", r.kept_unmerged},
+          {"kept_failed", r.kept_failed},
           {"bytes_sent", r.bytes_sent},
           {"bytes_received", r.bytes_received},
           {"retries", r.retries},
@@ -371,6 +375,19 @@ int StatusCommand(const AgentArguments& args) {
                 {"unsynced_paths", unsynced.paths.size()},
                 {"pending_submission",
                  state.submission ? json(state.submission->id.ToString()) : json(nullptr)}};
+    json unmerged = json::array();
+    for (const UnmergedSubmission& u : state.unmerged) {
+      unmerged.push_back({{"id", u.id.ToString()},
+                          {"nodes", u.content.nodes.size()},
+                          {"edges", u.content.edges.size()},
+                          {"paths", u.content.paths.size()},
+                          {"state", u.failed            ? "failed"
+                                    : u.merged_revision ? "merged"
+                                                        : "pending"},
+                          {"merged_revision", u.merged_revision.value_or(0)},
+                          {"error", u.error}});
+    }
+    out["unmerged"] = unmerged;
     if (args.json) {
       std::cout << out.dump() << std::endl;
       return kExitOk;
@@ -392,6 +409,40 @@ int StatusCommand(const AgentArguments& args) {
     if (state.submission) {
       std::printf("pending submission %s\n", state.submission->id.ToString().c_str());
     }
+    for (const UnmergedSubmission& u : state.unmerged) {
+      const std::string counts = std::to_string(u.content.nodes.size()) + " nodes, " +
+                                 std::to_string(u.content.edges.size()) + " edges, " +
+                                 std::to_string(u.content.paths.size()) + " paths";
+      if (u.failed) {
+        std::printf(
+            "FAILED submission %s (%s, kept in this map): %s\n"
+            "  the server keeps it too; `fleetmap-agent discard %s` drops it from this map\n",
+            u.id.ToString().c_str(), counts.c_str(), u.error.c_str(), u.id.ToString().c_str());
+      } else if (u.merged_revision) {
+        std::printf("submission %s (%s) merged as revision %lld, not downloaded yet\n",
+                    u.id.ToString().c_str(), counts.c_str(),
+                    static_cast<long long>(*u.merged_revision));
+      } else {
+        std::printf("submission %s (%s) waiting for its merge\n", u.id.ToString().c_str(),
+                    counts.c_str());
+      }
+    }
+    return kExitOk;
+  } catch (const std::exception& e) {
+    return ReportFailure(e);
+  }
+}
+
+// Lets the next install drop a failed submission's content from the robot's map (the server
+// keeps the submission): the only way the agent ever removes what the robot built.
+int DiscardCommand(const AgentArguments& args) {
+  try {
+    LocalMap map = LocalMap::Open(args.map_dir);
+    const Uuid id = Uuid::Parse(args.discard);
+    map.Discard(id);
+    Say("submission " + id.ToString() +
+        " discarded: the next sync's install drops its content from " + args.map_dir +
+        " (fleetmapd keeps the submission)");
     return kExitOk;
   } catch (const std::exception& e) {
     return ReportFailure(e);
@@ -404,7 +455,10 @@ void AddSyncOptions(CLI::App& command, AgentArguments& args) {
       ->required();
   CLI::Option* token_file =
       command.add_option("--token-file", args.token_file, "file whose first line is the token");
-  command.add_option("--token", args.token, "the robot's token (or FLEETMAP_TOKEN)")
+  command
+      .add_option("--token", args.token,
+                  "the robot's token; prefer --token-file or FLEETMAP_TOKEN: a token on the "
+                  "command line shows in `ps` to every user of the machine")
       ->envname("FLEETMAP_TOKEN")
       ->excludes(token_file);
   command.add_option("--map-dir", args.map_dir, "the robot's map directory")->capture_default_str();
@@ -454,6 +508,22 @@ int main(int argc, char** argv) {
   CLI::App* status = app.add_subcommand("status", "what the map directory holds");
   status->add_option("--map-dir", args.map_dir, "the robot's map directory")->capture_default_str();
   status->add_flag("--json", args.json, "print one JSON object on stdout");
+  CLI::App* discard = app.add_subcommand(
+      "discard",
+      "drop a FAILED submission's content from this robot's map at the next sync (the server "
+      "keeps it); nothing else ever removes what the robot built");
+  discard->add_option("SUBMISSION", args.discard, "the failed submission's UUID (see status)")
+      ->required();
+  discard->add_option("--map-dir", args.map_dir, "the robot's map directory")
+      ->capture_default_str();
+  // A token typed on the command line is readable by every user through `ps`.
+  for (int i = 1; i < argc; ++i) {
+    const std::string_view arg = argv[i];
+    if (arg == "--token" || arg.starts_with("--token=")) {
+      Say("warning: --token on the command line shows in `ps`; use --token-file or "
+          "FLEETMAP_TOKEN");
+    }
+  }
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
@@ -466,5 +536,6 @@ int main(int argc, char** argv) {
   }
   if (sync->parsed()) return SyncCommand(args);
   if (daemon->parsed()) return DaemonCommand(args);
+  if (discard->parsed()) return DiscardCommand(args);
   return StatusCommand(args);
 }

@@ -32,11 +32,22 @@ GraphBatch ReadRobotMap(const std::string& uri) {
   if (!path.empty() && !std::filesystem::exists(path)) {
     throw Error(ErrorCode::kNotFound, "--map " + uri + ": no such file " + path);
   }
+  // The robot's map must already be a fleetmap store: opened as an ordinary store, an empty
+  // file (or another program's database) would be created and migrated into an empty map, and
+  // the file changed by a command that only reads it.
+  StoreOptions existing_only;
+  existing_only.create_if_missing = false;
+  existing_only.read_only = true;
   GraphBatch map;
   try {
-    map = GraphStore::Open(uri)->ReadMap();
+    map = GraphStore::Open(uri, existing_only)->ReadMap();
   } catch (const Error& error) {
-    throw InContext(error, "--map " + uri + " is not a map store fleetmap can read");
+    // Open says "URI is not a fleetmap map store (why)" for an empty file, a missing table or
+    // a file that is not a database; that reads best after "--map" as it is.
+    if (error.message().find(" is not a fleetmap map store (") != std::string::npos) {
+      throw Error(error.code(), "--map " + error.message() + "; nothing was pushed");
+    }
+    throw InContext(error, "--map " + uri + " could not be read, nothing was pushed");
   }
   if (map.nodes.empty()) {
     throw Error(ErrorCode::kInvalidArgument, "--map " + uri + " holds no nodes: nothing to push");
@@ -104,7 +115,8 @@ void RunSubmissions(const SubmissionsArgs& args) {
       entry["chunks"] = s.chunk_count;
       entry["state"] = SubmissionStateName(s.state);
       if (s.state == SubmissionState::kMerged) entry["revision"] = s.revision;
-      if (s.state == SubmissionState::kFailed) entry["error"] = s.error;
+      // Failed: why. Queued: the last transient failure of its merge, which fleetmapd retries.
+      if (!s.error.empty()) entry["error"] = s.error;
       list.push_back(std::move(entry));
     }
     std::cout << list.dump(2) << "\n";
@@ -124,7 +136,7 @@ void RunSubmissions(const SubmissionsArgs& args) {
   for (const Submission& s : submissions) {
     std::string outcome;
     if (s.state == SubmissionState::kMerged) outcome = std::to_string(s.revision);
-    if (s.state == SubmissionState::kFailed) outcome = s.error;
+    if (s.state != SubmissionState::kMerged) outcome = s.error;  // queued: the last retry's
     std::printf("%-36s  %-36s  %-*s  %-20s  %10lld  %-9s  %s\n", s.id.ToString().c_str(),
                 s.robot.ToString().c_str(), author_width, s.author.c_str(),
                 FormatUtc(s.received_ns).c_str(), static_cast<long long>(s.bytes),
@@ -216,7 +228,8 @@ void AddSubmissionCommands(CLI::App& app) {
       "them, every path) in the repository as one immutable submission, queued for MERGE (seed "
       "004 §IV: robots hand their independently built EBN maps to the server; nothing they send "
       "is lost). Pushing the same --id with the same content again changes nothing; other "
-      "content under a stored id is refused.");
+      "content under a stored id is refused. The --map store is only read: it must already be a "
+      "fleetmap store at this fleetmap's schema version.");
   AddStoreOption(*push, push_args->store);
   push->add_option("--map", push_args->map, "The robot's map store (sqlite:PATH or postgresql://)")
       ->required();

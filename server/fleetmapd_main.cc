@@ -11,7 +11,9 @@
 #include <spdlog/spdlog.h>
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <chrono>
+#include <cstdint>
 #include <cstdio>
 #include <iostream>
 #include <memory>
@@ -25,7 +27,11 @@ int main(int argc, char** argv) {
   fleetmap::SyncServerOptions options;
   std::string http;
   int debug_merge_delay_ms = 0;
+  std::int64_t busy_timeout_ms = options.store_busy_timeout.count();
+  std::int64_t merge_max_retry_ms = options.merge_max_retry.count();
   int debug_chunk_delay_ms = 0;
+  double hello_timeout_s = 5.0;
+  std::uint64_t max_submission_mib = options.max_submission_bytes >> 20;
   app.add_option("--store", options.store_uri, "Repository store URI")->capture_default_str();
   app.add_option("--listen", options.listen, "Sync address HOST:PORT (port 0: any free port)")
       ->capture_default_str();
@@ -37,6 +43,40 @@ int main(int argc, char** argv) {
       ->check(CLI::ExistingFile);
   app.add_option("--tls-key", options.tls_key_path, "TLS private key (PEM)")
       ->check(CLI::ExistingFile);
+  app.add_option("--hello-timeout", hello_timeout_s,
+                 "Seconds a new connection has to deliver its hello (the TLS handshake "
+                 "included); a real agent sends it at once")
+      ->capture_default_str()
+      ->check(CLI::Range(0.1, 600.0));
+  // Why the oldest goes (connection_admission.h): a real agent says hello within milliseconds
+  // of connecting, so the connection that waited longest without one is the least likely to be
+  // a robot, and closing it, not the newcomer, means idle connections cannot lock robots out.
+  app.add_option("--max-pending-hello-per-address", options.max_pending_hello_per_address,
+                 "Connections from one address that have not yet sent a complete hello; past "
+                 "this the OLDEST of them is closed (BUSY), not the new one: a real agent says "
+                 "hello within milliseconds, so a flood of idle connections cannot lock it out")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 100000));
+  app.add_option("--max-pending-hello", options.max_pending_hello,
+                 "The same over all addresses (again the oldest is closed)")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 100000));
+  app.add_option("--max-submission-mib", max_submission_mib,
+                 "Largest submission a robot may push, in MiB, as announced and as received; "
+                 "a larger push is refused (INVALID)")
+      ->capture_default_str()
+      ->check(CLI::Range(std::uint64_t{1}, std::uint64_t{1} << 24));
+  app.add_option("--busy-timeout-ms", busy_timeout_ms,
+                 "How long a store call waits for a lock another writer holds before it fails "
+                 "(SQLite busy timeout, PostgreSQL lock_timeout). A merge that fails so, or for "
+                 "a full disk or a lost connection, stays queued and is retried")
+      ->capture_default_str()
+      ->check(CLI::Range(std::int64_t{0}, std::int64_t{3'600'000}));
+  app.add_option("--merge-max-retry-ms", merge_max_retry_ms,
+                 "Longest wait between retries of a merge that failed transiently (the first "
+                 "waits 500 ms, each next one twice as long)")
+      ->capture_default_str()
+      ->check(CLI::Range(std::int64_t{1}, std::int64_t{3'600'000}));
   // A test knob, hidden from --help: each merge holds its transaction this long before the
   // commit, so a test can kill the daemon mid-merge.
   app.add_option("--debug-merge-delay-ms", debug_merge_delay_ms)->group("");
@@ -48,7 +88,13 @@ int main(int argc, char** argv) {
     return code == 0 ? 0 : 2;
   }
   options.debug_merge_delay = std::chrono::milliseconds(debug_merge_delay_ms);
+  options.store_busy_timeout = std::chrono::milliseconds(busy_timeout_ms);
+  options.merge_max_retry = std::chrono::milliseconds(merge_max_retry_ms);
+  options.merge_first_retry = std::min(options.merge_first_retry, options.merge_max_retry);
   options.debug_chunk_delay = std::chrono::milliseconds(debug_chunk_delay_ms);
+  options.hello_deadline =
+      std::chrono::milliseconds(static_cast<std::int64_t>(hello_timeout_s * 1000.0));
+  options.max_submission_bytes = max_submission_mib << 20;
 
   auto logger = spdlog::stderr_logger_mt("fleetmapd");
   spdlog::set_default_logger(logger);

@@ -287,6 +287,59 @@ TEST(AgentLocalMapTest, PushedContentStaysUntilADownloadReflectsItsMerge) {
   EXPECT_TRUE(map.state().pushed.nodes.empty());
 }
 
+// A submission the server refused stays in the robot's map through every install, survives a
+// restart of the agent, and goes only after an explicit Discard.
+TEST(AgentLocalMapTest, FailedSubmissionIsKeptUntilDiscarded) {
+  const ScratchDir dir("fleetmap-agent-map");
+  const GraphBatch& day = SharedMaps().day;
+  Uuid submission;
+  {
+    LocalMap map = LocalMap::Open(dir / "robot");
+    GraphStore::Open(map.map_uri())->Put(day);
+    submission = map.BeginSubmission(map.Unsynced()).id;
+    map.MarkPushed(submission);
+    ExpectError(
+        ErrorCode::kInvalidArgument, [&] { map.Discard(submission); }, "has not failed");
+    map.RecordFailure(submission, "edge e ends at node n, never seen");
+  }
+  LocalMap map = LocalMap::Open(dir / "robot");  // the state file keeps the failure
+  ASSERT_EQ(map.state().unmerged.size(), 1u);
+  EXPECT_TRUE(map.state().unmerged[0].failed);
+  EXPECT_EQ(map.state().unmerged[0].error, "edge e ends at node n, never seen");
+  for (std::int64_t revision : {3, 4}) {  // later revisions do not retire it either
+    const InstallReport report = map.Install(FullDownload(SharedMaps().night, revision));
+    EXPECT_EQ(report.kept_failed, IdsOf(day).size());
+    EXPECT_TRUE(IdsOf(ReadStore(map.map_uri())).Contains(IdsOf(day)));
+  }
+  ExpectError(ErrorCode::kNotFound, [&] { map.Discard(Uuid::Generate()); });
+  map.Discard(submission);
+  EXPECT_TRUE(map.state().unmerged.empty());
+  map.Install(FullDownload(SharedMaps().night, 5));
+  EXPECT_EQ(IdsOf(ReadStore(map.map_uri())), IdsOf(SharedMaps().night));
+}
+
+// A state file written before failed submissions were kept (merged_revision 0 meant failed)
+// reads as failed, so an upgrade does not drop what the old agent was about to drop.
+TEST(AgentLocalMapTest, OldStateWithMergedRevisionZeroReadsAsFailed) {
+  const ScratchDir dir("fleetmap-agent-map");
+  Uuid submission;
+  {
+    LocalMap map = LocalMap::Open(dir / "robot");
+    GraphStore::Open(map.map_uri())->Put(SharedMaps().day);
+    submission = map.BeginSubmission(map.Unsynced()).id;
+    map.MarkPushed(submission);
+  }
+  std::string text = ReadText(dir / "robot" / "sync.json");
+  const std::string from = "\"merged_revision\": null";
+  ASSERT_NE(text.find(from), std::string::npos) << text;
+  text.replace(text.find(from), from.size(), "\"merged_revision\": 0");
+  WriteText(dir / "robot" / "sync.json", text);
+  LocalMap map = LocalMap::Open(dir / "robot");
+  ASSERT_EQ(map.state().unmerged.size(), 1u);
+  EXPECT_TRUE(map.state().unmerged[0].failed);
+  EXPECT_FALSE(map.state().unmerged[0].merged_revision);
+}
+
 TEST(AgentLocalMapTest, IncrementalDownloadOfNothingRewritesNoMap) {
   const ScratchDir dir("fleetmap-agent-map");
   LocalMap map = LocalMap::Open(dir / "robot");

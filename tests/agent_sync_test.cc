@@ -326,12 +326,14 @@ TEST_F(AgentSyncTest, WrongTokenExitsTwoWithTheServersMessageAndChangesNothing) 
   EXPECT_FALSE(local.state().submission.has_value());
   EXPECT_EQ(local.Unsynced().nodes.size(), CorridorMap().nodes.size());
 
-  // An unknown robot is refused the same way.
+  // An unknown robot is refused the same way, with the same words: the server does not say
+  // which robot ids it knows.
   std::vector<std::string> args = SyncArgs(address_);
   args[4] = Uuid::Generate().ToString();
   const AgentRun unknown = RunAgent(args, token_);
   EXPECT_EQ(unknown.exit, 2) << Describe(unknown);
-  EXPECT_TRUE(Contains(unknown.err, "UNKNOWN_ROBOT")) << unknown.err;
+  EXPECT_TRUE(Contains(unknown.err, "BAD_TOKEN")) << unknown.err;
+  EXPECT_TRUE(Contains(unknown.err, "unknown robot or wrong token")) << unknown.err;
 }
 
 TEST_F(AgentSyncTest, BadArgumentsExitTwoBeforeDialling) {

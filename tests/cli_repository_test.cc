@@ -3,6 +3,7 @@
 // subprocess against real stores, with robot maps built by the EBN builder on the
 // two-condition corridor. Bad input must exit non-zero, say what was wrong, and change nothing.
 #include <gtest/gtest.h>
+#include <sqlite3.h>
 
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -302,6 +303,49 @@ TEST_F(CliRepositoryTest, BadInputExitsNonZeroNamesTheProblemAndChangesNothing) 
       Run({"log", "--store", "sqlite:" + (dir_ / "nowhere.db").string()}, /*succeed=*/false);
   EXPECT_TRUE(Contains(missing.err, "fleetmap init")) << missing.err;
   EXPECT_FALSE(std::filesystem::exists(dir_ / "nowhere.db"));
+}
+
+// A robot's map must already be a fleetmap store. An empty file given as --map (a map never
+// written, a copy cut short) was opened as a new store, created and migrated, and the push then
+// failed for want of nodes with the file grown to a whole empty store. It must be refused as
+// it is and stay 0 bytes; so must an SQLite database of something else.
+TEST_F(CliRepositoryTest, PushRefusesAnEmptyMapFileAndLeavesItEmpty) {
+  RunOn({"init"});
+  const std::string before = Snapshot();
+  const std::filesystem::path empty = dir_ / "empty.db";
+  std::ofstream(empty).close();
+  const std::string map = "sqlite:" + empty.string();
+  const std::vector<std::string> args = {"push",     "--map",   map,   "--robot",
+                                         robot_day_, "--store", store_};
+  const RunResult r = RunCli(dir_, args);
+  EXPECT_NE(r.exit_code, 0) << Describe(args, r);
+  EXPECT_TRUE(Contains(r.err, "fleetmap: ")) << Describe(args, r);
+  EXPECT_TRUE(Contains(
+      r.err, "--map " + map + " is not a fleetmap map store (empty file); nothing was pushed"))
+      << Describe(args, r);
+  EXPECT_EQ(std::filesystem::file_size(empty), 0u);
+  EXPECT_FALSE(std::filesystem::exists(empty.string() + "-wal"));
+  EXPECT_FALSE(std::filesystem::exists(empty.string() + "-journal"));
+
+  // An SQLite database that holds something else: refused, byte for byte as it was.
+  const std::filesystem::path other = dir_ / "other.db";
+  {
+    sqlite3* db = nullptr;
+    ASSERT_EQ(sqlite3_open(other.c_str(), &db), SQLITE_OK);
+    ASSERT_EQ(sqlite3_exec(db, "CREATE TABLE notes (text TEXT); INSERT INTO notes VALUES ('hi')",
+                           nullptr, nullptr, nullptr),
+              SQLITE_OK);
+    sqlite3_close(db);
+  }
+  const std::string other_bytes = ReadFile(other);
+  const std::vector<std::string> other_args = {
+      "push", "--map", "sqlite:" + other.string(), "--robot", robot_day_, "--store", store_};
+  const RunResult o = RunCli(dir_, other_args);
+  EXPECT_NE(o.exit_code, 0) << Describe(other_args, o);
+  EXPECT_TRUE(Contains(o.err, "is not a fleetmap map store (an SQLite database without"))
+      << Describe(other_args, o);
+  EXPECT_TRUE(ReadFile(other) == other_bytes) << "refusing " << other << " changed it";
+  EXPECT_EQ(Snapshot(), before);
 }
 
 TEST_F(CliRepositoryTest, DreamingBeforeAnyMergeTrainsAVocabularyAndStoresNothing) {

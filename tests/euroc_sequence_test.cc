@@ -4,13 +4,16 @@
 // message naming the culprit; and the real V1_01 excerpt from ../shared/data.
 #include "fleetmap/experiments/euroc_sequence.h"
 
+#include <gtest/gtest-spi.h>
 #include <gtest/gtest.h>
 
 #include <filesystem>
 #include <opencv2/imgcodecs.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "euroc_test_data.h"
 #include "expect_error.h"
 #include "scratch_dir.h"
 #include "synthetic_euroc.h"
@@ -245,10 +248,20 @@ TEST_F(EurocSequenceTest, MissingImageFile) {
       ErrorCode::kNotFound, [&] { ReadMonoImage(scratch_ / "gone.png", 752, 480); }, "gone.png");
 }
 
+// Without the sequence the real-image tests fail, saying where CMake looked and how to point
+// at the data; they used to skip, and the suite passed having run none of them.
+TEST(EurocRealSequenceTest, AMissingSequenceFailsSayingWhereItLookedAndHowToSetIt) {
+  EXPECT_FATAL_FAILURE(testing::RequireEurocSequence("", "/nowhere/a and /nowhere/b"),
+                       "CMake looked in /nowhere/a and /nowhere/b");
+  EXPECT_FATAL_FAILURE(testing::RequireEurocSequence("", "/nowhere/a"), "-DFLEETMAP_EUROC_DIR=");
+  EXPECT_FATAL_FAILURE(testing::RequireEurocSequence("/nowhere/euroc", "/nowhere/euroc"),
+                       "the EuRoC sequence /nowhere/euroc (FLEETMAP_EUROC_DIR) has no");
+  // Here the data is present (CI has it too); where it is not, this fails as the tests would.
+  EXPECT_EQ(testing::EurocSequenceMissing(), std::nullopt) << *testing::EurocSequenceMissing();
+}
+
 TEST(EurocRealSequenceTest, LoadsTheV101Excerpt) {
-  if (std::string(FLEETMAP_EUROC_DIR).empty()) {
-    GTEST_SKIP() << "no EuRoC sequence (FLEETMAP_EUROC_DIR is empty)";
-  }
+  FLEETMAP_REQUIRE_EUROC_SEQUENCE();
   const EurocSequence s = LoadEurocSequence(FLEETMAP_EUROC_DIR);
   ASSERT_EQ(s.pairs.size(), 95u);
   for (std::size_t i = 1; i < s.pairs.size(); ++i) {

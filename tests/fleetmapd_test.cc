@@ -5,6 +5,7 @@
 // VersionStore::ListSettings it stands on, on both backends.
 #include <gtest/gtest.h>
 #include <signal.h>
+#include <sqlite3.h>
 
 #include <chrono>
 #include <cstdlib>
@@ -43,6 +44,17 @@ std::string Describe(const std::optional<v1::SyncFrame>& frame) {
   return frame ? frame->ShortDebugString() : "(no frame)";
 }
 
+std::string ErrorTextOf(const std::optional<v1::SyncFrame>& frame) {
+  return frame && frame->has_error() ? frame->error().text() : "";
+}
+
+// A frame's 4-byte length prefix alone.
+std::string LengthPrefix(std::uint32_t n) {
+  const char prefix[4] = {static_cast<char>(n >> 24), static_cast<char>(n >> 16),
+                          static_cast<char>(n >> 8), static_cast<char>(n)};
+  return std::string(prefix, 4);
+}
+
 // A push as a robot sends it: the chunks of a map and their digest.
 struct PushPlan {
   Uuid id = Uuid::GenerateRandom();
@@ -57,24 +69,35 @@ PushPlan PlanPush(const GraphBatch& map, std::size_t chunk_bytes = 16 * 1024) {
   return plan;
 }
 
-std::optional<v1::SyncFrame> SendPushBegin(RawSyncClient& client, const PushPlan& plan) {
+// PushBegin for `plan`; total_bytes is the plan's chunks' unless given.
+std::optional<v1::SyncFrame> SendPushBegin(RawSyncClient& client, const PushPlan& plan,
+                                           std::optional<std::uint64_t> announced = {}) {
   v1::SyncFrame frame;
   v1::PushBegin& begin = *frame.mutable_push_begin();
   begin.set_submission_id(plan.id.ToBytesString());
   begin.set_author("fleetmapd_test");
   begin.set_chunk_count(static_cast<std::uint32_t>(plan.chunks.size()));
   begin.set_digest(plan.digest);
+  std::uint64_t total_bytes = 0;
+  for (const std::string& chunk : plan.chunks) total_bytes += chunk.size();
+  begin.set_total_bytes(announced.value_or(total_bytes));
   if (!client.Send(frame)) return std::nullopt;
   return client.Receive();
+}
+
+// PushChunk `seq` of `data`, with its digest (DigestOfChunk) as a robot sends it.
+v1::SyncFrame ChunkFrame(std::size_t seq, const std::string& data) {
+  v1::SyncFrame frame;
+  frame.mutable_push_chunk()->set_seq(static_cast<std::uint32_t>(seq));
+  frame.mutable_push_chunk()->set_data(data);
+  frame.mutable_push_chunk()->set_digest(DigestOfChunk(data));
+  return frame;
 }
 
 // Sends chunks [from, to) and checks each acknowledgement.
 void SendChunks(RawSyncClient& client, const PushPlan& plan, std::size_t from, std::size_t to) {
   for (std::size_t seq = from; seq < to; ++seq) {
-    v1::SyncFrame frame;
-    frame.mutable_push_chunk()->set_seq(static_cast<std::uint32_t>(seq));
-    frame.mutable_push_chunk()->set_data(plan.chunks[seq]);
-    ASSERT_TRUE(client.Send(frame));
+    ASSERT_TRUE(client.Send(ChunkFrame(seq, plan.chunks[seq])));
     const std::optional<v1::SyncFrame> ack = client.Receive();
     ASSERT_TRUE(ack && ack->has_push_chunk_ack()) << Describe(ack);
     EXPECT_EQ(ack->push_chunk_ack().seq(), seq);
@@ -375,10 +398,10 @@ TEST_F(FleetmapdSqliteTest, EachBadSessionGetsItsErrorWhileAGoodOneKeepsWorking)
     EXPECT_TRUE(bad.ClosedByServer());
   }
   ExpectStillServes(*good);
-  {  // unknown robot
+  {  // unknown robot: the same answer as a wrong token (UnknownRobotAndWrongToken... below)
     RawSyncClient bad(server.address);
     const auto reply = bad.Hello(Uuid::GenerateRandom(), token_);
-    EXPECT_EQ(ErrorCodeOf(reply), v1::ErrorFrame::UNKNOWN_ROBOT) << Describe(reply);
+    EXPECT_EQ(ErrorCodeOf(reply), v1::ErrorFrame::BAD_TOKEN) << Describe(reply);
   }
   ExpectStillServes(*good);
   {  // an older protocol version
@@ -423,10 +446,7 @@ TEST_F(FleetmapdSqliteTest, EachBadSessionGetsItsErrorWhileAGoodOneKeepsWorking)
   ExpectStillServes(*good);
   {  // out of order: a chunk before any push_begin, and anything before hello
     auto bad = Connect(server);
-    v1::SyncFrame chunk;
-    chunk.mutable_push_chunk()->set_seq(0);
-    chunk.mutable_push_chunk()->set_data("x");
-    ASSERT_TRUE(bad->Send(chunk));
+    ASSERT_TRUE(bad->Send(ChunkFrame(0, "x")));
     EXPECT_EQ(ErrorCodeOf(bad->Receive()), v1::ErrorFrame::OUT_OF_ORDER);
     RawSyncClient early(server.address);
     v1::SyncFrame request;
@@ -438,10 +458,7 @@ TEST_F(FleetmapdSqliteTest, EachBadSessionGetsItsErrorWhileAGoodOneKeepsWorking)
     auto bad = Connect(server);
     const PushPlan plan = PlanPush(RandomRobotMap(robot_, 10, 5, 40));
     ASSERT_TRUE(SendPushBegin(*bad, plan));
-    v1::SyncFrame chunk;
-    chunk.mutable_push_chunk()->set_seq(1);
-    chunk.mutable_push_chunk()->set_data(plan.chunks[1]);
-    ASSERT_TRUE(bad->Send(chunk));
+    ASSERT_TRUE(bad->Send(ChunkFrame(1, plan.chunks[1])));
     EXPECT_EQ(ErrorCodeOf(bad->Receive()), v1::ErrorFrame::OUT_OF_ORDER);
   }
   ExpectStillServes(*good);
@@ -559,6 +576,238 @@ TEST_F(FleetmapdSqliteTest, SigtermDrainsAbandonsTheRunningMergeAndExitsZero) {
   EXPECT_EQ(repository->Head(), 0);
   EXPECT_EQ(repository->versions().FindSubmission(plan.id)->state, SubmissionState::kQueued);
   EXPECT_NE(server.Log().find("abandoned"), std::string::npos) << server.Log();
+}
+
+// ---- Authentication, limits and floods (issue "Nothing a robot builds is ever lost") ----
+
+TEST_F(FleetmapdSqliteTest, UnknownRobotAndWrongTokenGetTheSameAnswer) {
+  Fleetmapd server = Start();
+  ASSERT_FALSE(server.address.empty());
+  RawSyncClient wrong(server.address);
+  const std::optional<v1::SyncFrame> wrong_token = wrong.Hello(robot_, std::string(64, '0'));
+  RawSyncClient unknown(server.address);
+  const std::optional<v1::SyncFrame> unknown_robot = unknown.Hello(Uuid::GenerateRandom(), token_);
+  EXPECT_EQ(ErrorCodeOf(wrong_token), v1::ErrorFrame::BAD_TOKEN) << Describe(wrong_token);
+  EXPECT_EQ(ErrorCodeOf(unknown_robot), v1::ErrorFrame::BAD_TOKEN) << Describe(unknown_robot);
+  EXPECT_EQ(ErrorTextOf(wrong_token), "unknown robot or wrong token");
+  EXPECT_EQ(ErrorTextOf(unknown_robot), ErrorTextOf(wrong_token));
+  // Only the server's log says which it was.
+  EXPECT_TRUE(server.LogContains("wrong token for robot " + robot_.ToString())) << server.Log();
+  EXPECT_TRUE(server.LogContains("is registered here")) << server.Log();
+}
+
+TEST_F(FleetmapdSqliteTest, AChunkThatDoesNotMatchItsDigestIsRefusedAndNothingIsStored) {
+  Fleetmapd server = Start();
+  ASSERT_FALSE(server.address.empty());
+  const PushPlan plan = PlanPush(RandomRobotMap(robot_, 10, 31, 40));
+  ASSERT_GT(plan.chunks.size(), 1u);
+  {
+    auto client = Connect(server);
+    const std::optional<v1::SyncFrame> ready = SendPushBegin(*client, plan);
+    ASSERT_TRUE(ready && ready->has_push_ready()) << Describe(ready);
+    SendChunks(*client, plan, 0, 1);
+    v1::SyncFrame damaged = ChunkFrame(1, plan.chunks[1]);  // the digest of the chunk as sent
+    damaged.mutable_push_chunk()->mutable_data()->back() ^= 0x01;  // one bit flipped on the way
+    ASSERT_TRUE(client->Send(damaged));
+    const std::optional<v1::SyncFrame> reply = client->Receive();
+    EXPECT_EQ(ErrorCodeOf(reply), v1::ErrorFrame::CHUNK_DIGEST) << Describe(reply);
+    EXPECT_EQ(ErrorTextOf(reply), "chunk 1 does not match its digest; nothing stored");
+    EXPECT_TRUE(client->ClosedByServer());
+  }
+  const std::optional<Submission> stored =
+      Repository::Open(uri_)->versions().FindSubmission(plan.id);
+  ASSERT_TRUE(stored.has_value());
+  EXPECT_EQ(stored->chunk_count, 1);  // chunk 0 only
+  EXPECT_EQ(stored->bytes, static_cast<std::int64_t>(plan.chunks[0].size()));
+  // The robot sends it again, whole this time: the push resumes at chunk 1 and merges.
+  auto again = Connect(server);
+  const std::optional<v1::SyncFrame> ready = SendPushBegin(*again, plan);
+  ASSERT_TRUE(ready && ready->has_push_ready()) << Describe(ready);
+  EXPECT_EQ(ready->push_ready().next_chunk(), 1u);
+  SendChunks(*again, plan, 1, plan.chunks.size());
+  const std::optional<v1::SyncFrame> accepted = SendPushEnd(*again);
+  ASSERT_TRUE(accepted && accepted->has_push_accepted()) << Describe(accepted);
+  EXPECT_EQ(WaitForState(*again, plan.id, "merged").nodes_added(), 10);
+}
+
+TEST_F(FleetmapdSqliteTest, PushesOverTheSubmissionLimitOrOverWhatTheyAnnouncedAreRefused) {
+  Fleetmapd server = Start({"--max-submission-mib", "1"});
+  ASSERT_FALSE(server.address.empty());
+  constexpr std::uint64_t kLimit = 1 << 20;
+  {  // announced over the limit: refused at push_begin, naming the limit and the option
+    auto client = Connect(server);
+    const PushPlan plan = PlanPush(RandomRobotMap(robot_, 3, 41, 40));
+    const std::optional<v1::SyncFrame> reply = SendPushBegin(*client, plan, 3 * kLimit);
+    EXPECT_EQ(ErrorCodeOf(reply), v1::ErrorFrame::INVALID) << Describe(reply);
+    EXPECT_NE(ErrorTextOf(reply).find(std::to_string(kLimit) + " bytes"), std::string::npos)
+        << ErrorTextOf(reply);
+    EXPECT_NE(ErrorTextOf(reply).find("--max-submission-mib"), std::string::npos)
+        << ErrorTextOf(reply);
+    EXPECT_FALSE(Repository::Open(uri_)->versions().FindSubmission(plan.id).has_value());
+  }
+  {  // announced within the limit, sent over it: refused at the chunk that passes it
+    auto client = Connect(server);
+    PushPlan plan;
+    plan.chunks = {std::string(600 << 10, 'a'), std::string(600 << 10, 'b')};
+    plan.digest = DigestOfChunks(plan.chunks);
+    const std::optional<v1::SyncFrame> ready = SendPushBegin(*client, plan, kLimit);
+    ASSERT_TRUE(ready && ready->has_push_ready()) << Describe(ready);
+    SendChunks(*client, plan, 0, 1);
+    ASSERT_TRUE(client->Send(ChunkFrame(1, plan.chunks[1])));
+    const std::optional<v1::SyncFrame> reply = client->Receive();
+    EXPECT_EQ(ErrorCodeOf(reply), v1::ErrorFrame::INVALID) << Describe(reply);
+    EXPECT_NE(ErrorTextOf(reply).find("--max-submission-mib"), std::string::npos)
+        << ErrorTextOf(reply);
+    EXPECT_EQ(Repository::Open(uri_)->versions().FindSubmission(plan.id)->chunk_count, 1);
+  }
+  {  // more than it announced, under the limit: refused too
+    auto client = Connect(server);
+    PushPlan plan;
+    plan.chunks = {"abc", "def"};
+    plan.digest = DigestOfChunks(plan.chunks);
+    const std::optional<v1::SyncFrame> ready = SendPushBegin(*client, plan, 4);
+    ASSERT_TRUE(ready && ready->has_push_ready()) << Describe(ready);
+    SendChunks(*client, plan, 0, 1);
+    ASSERT_TRUE(client->Send(ChunkFrame(1, plan.chunks[1])));
+    const std::optional<v1::SyncFrame> reply = client->Receive();
+    EXPECT_EQ(ErrorCodeOf(reply), v1::ErrorFrame::INVALID) << Describe(reply);
+    EXPECT_NE(ErrorTextOf(reply).find("announced"), std::string::npos) << ErrorTextOf(reply);
+    EXPECT_EQ(Repository::Open(uri_)->versions().FindSubmission(plan.id)->chunk_count, 1);
+  }
+  // A map within the limit goes through.
+  auto client = Connect(server);
+  const PushPlan plan = PlanPush(RandomRobotMap(robot_, 20, 43, 40));
+  const std::optional<v1::SyncFrame> accepted = PushWhole(*client, plan);
+  ASSERT_TRUE(accepted && accepted->has_push_accepted()) << Describe(accepted);
+}
+
+TEST_F(FleetmapdSqliteTest, BeforeItsHelloAConnectionIsHeldToSmallFramesAndAShortDeadline) {
+  Fleetmapd server = Start({"--hello-timeout", "1"});
+  ASSERT_FALSE(server.address.empty());
+  for (const std::uint32_t length : {std::uint32_t{4097}, std::uint32_t{0x04000000}}) {
+    RawSyncClient client(server.address);
+    ASSERT_TRUE(client.SendBytes(LengthPrefix(length)));
+    const std::optional<v1::SyncFrame> reply = client.Receive();
+    EXPECT_EQ(ErrorCodeOf(reply), v1::ErrorFrame::FRAME_TOO_LARGE) << Describe(reply);
+    EXPECT_NE(ErrorTextOf(reply).find("before a hello"), std::string::npos) << Describe(reply);
+  }
+  for (const std::string& sent : {std::string(), LengthPrefix(60) + "0123456789"}) {
+    // Nothing, or part of a hello, then silence: TIMEOUT after the hello deadline.
+    RawSyncClient client(server.address, false, milliseconds(5000));
+    ASSERT_TRUE(client.SendBytes(sent));
+    const auto start = std::chrono::steady_clock::now();
+    const std::optional<v1::SyncFrame> reply = client.Receive();
+    const auto took = std::chrono::steady_clock::now() - start;
+    EXPECT_EQ(ErrorCodeOf(reply), v1::ErrorFrame::TIMEOUT) << Describe(reply);
+    EXPECT_NE(ErrorTextOf(reply).find("no complete hello within 1 s"), std::string::npos)
+        << Describe(reply);
+    EXPECT_LT(took, milliseconds(2500));
+  }
+  // Past its hello a robot may send frames above 4 KiB (this one is refused for its content,
+  // not its size).
+  auto robot = Connect(server);
+  v1::SyncFrame large;
+  large.mutable_merge_status_request()->set_submission_id(std::string(8000, 'x'));
+  ASSERT_TRUE(robot->Send(large));
+  const std::optional<v1::SyncFrame> reply = robot->Receive();
+  EXPECT_EQ(ErrorCodeOf(reply), v1::ErrorFrame::INVALID) << Describe(reply);
+}
+
+TEST_F(FleetmapdSqliteTest, TheOldestConnectionWithoutAHelloMakesRoomForANewOne) {
+  Fleetmapd server = Start({"--max-pending-hello-per-address", "4"});
+  ASSERT_FALSE(server.address.empty());
+  std::vector<std::unique_ptr<RawSyncClient>> idle;
+  for (int i = 0; i < 4; ++i) idle.push_back(std::make_unique<RawSyncClient>(server.address));
+  // A fifth pushes out the first; a robot (a sixth) gets in and pushes out the second.
+  auto fifth = std::make_unique<RawSyncClient>(server.address);
+  const std::optional<v1::SyncFrame> first = idle[0]->Receive();
+  EXPECT_EQ(ErrorCodeOf(first), v1::ErrorFrame::BUSY) << Describe(first);
+  EXPECT_NE(ErrorTextOf(first).find("had not said hello"), std::string::npos) << Describe(first);
+  auto robot = Connect(server);
+  ExpectStillServes(*robot);
+  EXPECT_EQ(ErrorCodeOf(idle[1]->Receive()), v1::ErrorFrame::BUSY);
+  // The others are still open: each can still say hello.
+  const std::optional<v1::SyncFrame> welcome = idle[2]->Hello(robot_, token_);
+  EXPECT_TRUE(welcome && welcome->has_welcome()) << Describe(welcome);
+}
+
+TEST_F(FleetmapdSqliteTest, TheCapOverAllAddressesPushesOutTheOldestToo) {
+  Fleetmapd server = Start({"--max-pending-hello", "3"});
+  ASSERT_FALSE(server.address.empty());
+  std::vector<std::unique_ptr<RawSyncClient>> idle;
+  for (int i = 0; i < 4; ++i) idle.push_back(std::make_unique<RawSyncClient>(server.address));
+  const std::optional<v1::SyncFrame> first = idle[0]->Receive();
+  EXPECT_EQ(ErrorCodeOf(first), v1::ErrorFrame::BUSY) << Describe(first);
+  EXPECT_NE(ErrorTextOf(first).find("more than 3 connections had not said hello"),
+            std::string::npos)
+      << Describe(first);
+  auto robot = Connect(server);
+  ExpectStillServes(*robot);
+}
+
+// At max_sessions a connection without a hello makes room; only a server full of robots past
+// their hello refuses a new one.
+TEST_F(FleetmapdSqliteTest, AFullServerRefusesOnlyWhenEverySessionIsPastItsHello) {
+  SyncServerOptions options;
+  options.store_uri = uri_;
+  options.listen = "127.0.0.1:0";
+  options.max_sessions = 2;
+  SyncServer server(options);
+  server.Start();
+  Fleetmapd view;  // only its address is used
+  view.address = server.bound_address();
+  auto robot = Connect(view);
+  RawSyncClient idle(view.address);
+  auto second = Connect(view);  // pushes `idle` out
+  const std::optional<v1::SyncFrame> pushed_out = idle.Receive();
+  EXPECT_EQ(ErrorCodeOf(pushed_out), v1::ErrorFrame::BUSY) << Describe(pushed_out);
+  RawSyncClient third(view.address);
+  const std::optional<v1::SyncFrame> refused = third.Receive();
+  EXPECT_EQ(ErrorCodeOf(refused), v1::ErrorFrame::BUSY) << Describe(refused);
+  EXPECT_NE(ErrorTextOf(refused).find("maximum of 2 sessions"), std::string::npos)
+      << Describe(refused);
+  ExpectStillServes(*robot);
+  ExpectStillServes(*second);
+  robot.reset();
+  second.reset();
+  server.Stop();
+}
+
+// The last-sync record is best effort: a store that will not take it (a trigger stands in for
+// a full disk) does not stop a hello or a download.
+TEST_F(FleetmapdSqliteTest, AStoreThatCannotRecordTheLastSyncStillLetsTheRobotIn) {
+  {
+    const std::string path = uri_.substr(std::string("sqlite:").size());
+    sqlite3* db = nullptr;
+    ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
+    for (const char* when : {"INSERT", "UPDATE"}) {
+      const std::string sql = std::string("CREATE TRIGGER refuse_sync_") + when + " BEFORE " +
+                              when +
+                              " ON settings WHEN NEW.key LIKE 'robot-sync/%' BEGIN SELECT "
+                              "RAISE(ABORT, 'database or disk is full (a test trigger)'); END";
+      char* error = nullptr;
+      EXPECT_EQ(sqlite3_exec(db, sql.c_str(), nullptr, nullptr, &error), SQLITE_OK)
+          << (error ? error : "");
+      sqlite3_free(error);
+    }
+    sqlite3_close(db);
+  }
+  SyncServerOptions options;
+  options.store_uri = uri_;
+  options.listen = "127.0.0.1:0";
+  SyncServer server(options);
+  server.Start();
+  Fleetmapd view;  // only its address is used
+  view.address = server.bound_address();
+  auto client = Connect(view);
+  ExpectStillServes(*client);
+  const FleetStatus status = server.Status();
+  EXPECT_EQ(status.last_sync_write_failures, 1u);
+  ASSERT_EQ(status.robots.size(), 1u);
+  EXPECT_GT(status.robots[0].last_sync_ns, 0);  // kept in memory
+  client.reset();
+  server.Stop();
+  EXPECT_EQ(RobotRegistry(Repository::Open(uri_)->versions()).List()[0].last_sync_ns, 0);
 }
 
 }  // namespace

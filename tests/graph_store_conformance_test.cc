@@ -8,11 +8,13 @@
 
 #include <algorithm>
 #include <chrono>
+#include <fstream>
 #include <thread>
+#include <type_traits>
 
+#include "expect_error.h"
 #include "fleetmap/common/error.h"
 #include "fleetmap/common/graph_store.h"
-#include "expect_error.h"
 #include "store_backends.h"
 
 namespace fleetmap {
@@ -101,6 +103,89 @@ TYPED_TEST(GraphStoreConformance, RefusesSchemaNewerThanBinary) {
   ExpectError(
       ErrorCode::kSchemaTooNew, [&] { GraphStore::Open(this->backend_->Uri()); },
       "newer than this fleetmap");
+}
+
+// 4294967300 is 2^32 + 4: read through a cast to int it was this binary's own version 4, and the
+// store opened. It must be refused as newer, and refusing must change nothing: on SQLite the
+// store is in rollback-journal mode, as another program may leave it, so switching it to WAL (or
+// creating the schema table) before the check would rewrite its bytes.
+TYPED_TEST(GraphStoreConformance, RefusesA64BitSchemaVersionAndLeavesTheStoreUnchanged) {
+  this->store_->Put(Chain(3));
+  this->store_.reset();
+  if constexpr (std::is_same_v<TypeParam, SqliteBackend>) {
+    this->backend_->ExecRaw(
+        "PRAGMA journal_mode=DELETE; UPDATE fleetmap_schema SET version = 4294967300");
+  } else {
+    this->backend_->ExecRaw(
+        "ALTER TABLE fleetmap_schema ALTER COLUMN version TYPE bigint;"
+        " UPDATE fleetmap_schema SET version = 4294967300");
+  }
+  const std::string before = this->backend_->StoredState();
+  ExpectError(
+      ErrorCode::kSchemaTooNew, [&] { GraphStore::Open(this->backend_->Uri()); },
+      "schema version 4294967300");
+  EXPECT_TRUE(this->backend_->StoredState() == before) << "refusing the store changed it";
+}
+
+TYPED_TEST(GraphStoreConformance, RefusesANegativeOrGarbageSchemaVersionAsCorrupt) {
+  this->store_.reset();
+  this->backend_->ExecRaw("UPDATE fleetmap_schema SET version = -1");
+  ExpectError(
+      ErrorCode::kCorrupt, [&] { GraphStore::Open(this->backend_->Uri()); }, "'-1'");
+  if constexpr (std::is_same_v<TypeParam, PostgresBackend>) {
+    this->backend_->ExecRaw("ALTER TABLE fleetmap_schema ALTER COLUMN version TYPE text");
+  }
+  this->backend_->ExecRaw("UPDATE fleetmap_schema SET version = 'four'");
+  const std::string before = this->backend_->StoredState();
+  ExpectError(
+      ErrorCode::kCorrupt, [&] { GraphStore::Open(this->backend_->Uri()); }, "'four'");
+  EXPECT_TRUE(this->backend_->StoredState() == before) << "refusing the store changed it";
+}
+
+// StoreOptions for a store that comes from elsewhere (a robot's map given to `fleetmap push`):
+// create_if_missing = false and read_only. What is not a fleetmap store (a missing or empty
+// SQLite file, an empty PostgreSQL database) is refused as such and left as it was; a store
+// opened read-only reads and refuses every write.
+TYPED_TEST(GraphStoreConformance, OpeningOnlyAnExistingStoreRefusesWhatIsNotOne) {
+  StoreOptions existing;
+  existing.create_if_missing = false;
+  StoreOptions read_only;
+  read_only.read_only = true;
+  TypeParam empty;
+  if constexpr (std::is_same_v<TypeParam, SqliteBackend>) {
+    ExpectError(
+        ErrorCode::kNotFound, [&] { GraphStore::Open(empty.Uri(), existing); }, "no such file");
+    std::ofstream(empty.Uri().substr(std::string("sqlite:").size())).close();
+  }
+  const std::string before = empty.StoredState();
+  for (const StoreOptions& options : {existing, read_only}) {
+    ExpectError(
+        ErrorCode::kNotFound, [&] { GraphStore::Open(empty.Uri(), options); },
+        std::is_same_v<TypeParam, SqliteBackend> ? "is not a fleetmap map store (empty file)"
+                                                 : "is not a fleetmap map store");
+  }
+  EXPECT_TRUE(empty.StoredState() == before) << "refusing the store changed it";
+
+  const GraphBatch chain = Chain(4);
+  this->store_->Put(chain);
+  this->store_.reset();
+  {
+    auto reader = GraphStore::Open(this->backend_->Uri(), read_only);
+    EXPECT_EQ(reader->schema_version(), GraphStore::LatestSchemaVersion());
+    EXPECT_EQ(reader->ReadMap().nodes.size(), chain.nodes.size());
+    const Node node = MakeNode(Uuid::Generate(), Uuid::Generate(), 1);
+    ExpectError(ErrorCode::kBackend, [&] { reader->PutNode(node); });
+    ExpectError(ErrorCode::kBackend, [&] { reader->Put(Chain(2)); });
+  }
+  auto writer = GraphStore::Open(this->backend_->Uri(), existing);
+  writer->Put(Chain(2));
+  EXPECT_EQ(writer->Stats().nodes, 6);
+  writer.reset();
+  // An older schema would need migrating, which reading only must not do.
+  this->backend_->ExecRaw("UPDATE fleetmap_schema SET version = 1");
+  ExpectError(
+      ErrorCode::kInvalidArgument, [&] { GraphStore::Open(this->backend_->Uri(), read_only); },
+      "a read-only open does not migrate");
 }
 
 // --- Nodes --------------------------------------------------------------------------------

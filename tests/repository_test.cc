@@ -10,6 +10,7 @@
 
 #include "corridor_robot_map.h"
 #include "fleetmap/common/error.h"
+#include "random_robot_map.h"
 #include "store_backends.h"
 
 namespace fleetmap {
@@ -145,6 +146,71 @@ TYPED_TEST(RepositoryTest, MergeMakesRevisionsAndTheSameSubmissionTwiceAddsNothi
   const Revision redundant = this->PushAndMerge(RobotMap({0}));
   EXPECT_EQ(redundant.nodes_added, 0);
   EXPECT_EQ(this->repository_->History().size(), 3u);
+}
+
+// A robot builds on nodes it pushed before their merge reached it: still queued, or merged and
+// omitted. The server accepts such pushes, merges them after what they depend on, and carries
+// their edges onto the omitted nodes' stand-ins.
+TYPED_TEST(RepositoryTest, PushesMayBuildOnQueuedAndOmittedNodes) {
+  Repository& repository = *this->repository_;
+  const auto chain_from = [&](const Uuid& anchor, std::uint32_t seed) {
+    GraphBatch more = testing::RandomRobotMap(this->robot_, 5, seed);
+    Se3 anchor_T_first = Se3::Identity();
+    anchor_T_first.translation() = Eigen::Vector3d(0.0, 0.0, 1.0);
+    more.edges.push_back(Edge{Uuid::Generate(), anchor, more.nodes.front().id, EdgeKind::kMetric,
+                              anchor_T_first, Uuid()});
+    return more;
+  };
+  const auto joins = [&](const Uuid& from, const Uuid& to) {
+    for (const Edge& edge : repository.Checkout().edges) {
+      if (edge.from == from && edge.to == to && edge.kind == EdgeKind::kMetric) return true;
+    }
+    return false;
+  };
+
+  // Built on a submission still queued: accepted; its merge waits for the first one.
+  const GraphBatch day = RobotMap({0});
+  const Uuid first = Uuid::Generate(), second = Uuid::Generate();
+  repository.Push(first, this->robot_, "robot-1", day);
+  const GraphBatch on_queued = chain_from(day.nodes.back().id, 1);
+  EXPECT_EQ(repository.Push(second, this->robot_, "robot-1", on_queued).state,
+            SubmissionState::kQueued);
+  const MergeOutcome early = repository.Merge(second);
+  ASSERT_TRUE(early.waits_for);
+  EXPECT_EQ(*early.waits_for, first);
+  EXPECT_EQ(repository.Head(), 0);
+  EXPECT_EQ(repository.Merge(first).revision.number, 1);
+  EXPECT_EQ(repository.Merge(second).revision.number, 2);
+  EXPECT_TRUE(joins(day.nodes.back().id, on_queued.nodes.front().id));
+
+  // The same corridor driven again by another robot: MERGE omits it, with stand-ins.
+  const GraphBatch again = RobotMap({0});
+  const Uuid third = Uuid::Generate();
+  repository.Push(third, this->robot_, "robot-1", again);
+  const MergeOutcome omitted = repository.Merge(third);
+  EXPECT_GT(omitted.report.stand_ins, 0u);
+  std::optional<NodeStandIn> anchor;
+  for (const Node& node : again.nodes) {
+    if (const auto found = repository.versions().FindStandIn(node.id)) {
+      EXPECT_TRUE(NodeIds(repository.Checkout()).contains(found->stand_in));
+      EXPECT_EQ(found->revision, omitted.revision.number);
+      anchor = found;
+    }
+  }
+  EXPECT_EQ(omitted.report.stand_ins + omitted.report.nodes_added, again.nodes.size())
+      << "every submitted node is added or stood in for";
+  ASSERT_TRUE(anchor);
+  const GraphBatch on_omitted = chain_from(anchor->node, 2);
+  const Uuid fourth = Uuid::Generate();
+  repository.Push(fourth, this->robot_, "robot-1", on_omitted);
+  const MergeOutcome carried = repository.Merge(fourth);
+  EXPECT_EQ(carried.report.nodes_added, on_omitted.nodes.size());
+  EXPECT_TRUE(joins(anchor->stand_in, on_omitted.nodes.front().id))
+      << "the edge to the omitted node goes to its stand-in";
+
+  // A node the server has never seen is still refused.
+  GraphBatch unseen = chain_from(Uuid::Generate(), 3);
+  EXPECT_THROW(repository.Push(Uuid::Generate(), this->robot_, "robot-1", unseen), Error);
 }
 
 TYPED_TEST(RepositoryTest, CheckoutDiffAndRevert) {

@@ -4,11 +4,15 @@
 #include "fleetmap/server/status_http.h"
 
 #include <gtest/gtest.h>
+#include <sys/socket.h>
+#include <sys/time.h>
 #include <sys/wait.h>
 
 #include <algorithm>
+#include <array>
 #include <boost/asio/io_context.hpp>
 #include <boost/asio/ip/tcp.hpp>
+#include <boost/asio/write.hpp>
 #include <boost/beast/core/flat_buffer.hpp>
 #include <boost/beast/core/tcp_stream.hpp>
 #include <boost/beast/http.hpp>
@@ -293,6 +297,47 @@ TEST(StatusHttpServerTest, StopClosesIdleKeepAliveConnectionsPromptly) {
   EXPECT_LT(took, std::chrono::seconds(2)) << "an idle connection must not hold up Stop()";
   EXPECT_FALSE(idle.Get("/healthz").has_value()) << "the connection should be closed";
   server->Stop();  // idempotent
+}
+
+// Connections that connect and send nothing, as many as the server holds and more: each new
+// one pushes out the one that has waited longest for a request, and the rest go after the
+// request deadline, so /metrics answers at once whatever they do.
+TEST_F(StatusHttpTest, IdleConnectionsDoNotKeepMetricsFromAScraper) {
+  for (const int idle_count : {64, 200}) {
+    net::io_context io;
+    std::vector<tcp::socket> idle;
+    for (int i = 0; i < idle_count; ++i) {
+      idle.emplace_back(io).connect(
+          tcp::endpoint(net::ip::make_address("127.0.0.1"), server_.port()));
+    }
+    const auto start = std::chrono::steady_clock::now();
+    const Response metrics = MustGet(server_.port(), "/metrics");
+    const auto took = std::chrono::steady_clock::now() - start;
+    EXPECT_EQ(metrics.result(), http::status::ok) << idle_count;
+    EXPECT_LT(took, std::chrono::seconds(1)) << idle_count << " idle connections";
+    std::printf("/metrics beside %d idle connections: %.1f ms\n", idle_count,
+                std::chrono::duration<double, std::milli>(took).count());
+  }
+}
+
+// A connection that sends part of a request and stops is closed after the request deadline
+// (3 s), not kept for as long as it cares to trickle.
+TEST_F(StatusHttpTest, APartialRequestIsClosedAfterTheRequestDeadline) {
+  net::io_context io;
+  tcp::socket socket(io);
+  socket.connect(tcp::endpoint(net::ip::make_address("127.0.0.1"), server_.port()));
+  net::write(socket, net::buffer(std::string("GET /metrics HTTP/1.1\r\nHost: x\r\n")));
+  const auto start = std::chrono::steady_clock::now();
+  std::array<char, 64> byte{};
+  beast::error_code ec;
+  // Bounded: SO_RCVTIMEO of 10 s on a blocking read.
+  const timeval ten_s{10, 0};
+  ::setsockopt(socket.native_handle(), SOL_SOCKET, SO_RCVTIMEO, &ten_s, sizeof ten_s);
+  socket.read_some(net::buffer(byte), ec);
+  const auto took = std::chrono::steady_clock::now() - start;
+  EXPECT_TRUE(ec == net::error::eof || ec == net::error::connection_reset) << ec.message();
+  EXPECT_LT(took, std::chrono::seconds(5));
+  EXPECT_GT(took, std::chrono::seconds(2));
 }
 
 TEST(StatusHttpServerTest, BadAddressesAreRefused) {

@@ -9,11 +9,15 @@
 #include <gtest/gtest.h>
 #include <sqlite3.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <optional>
 #include <pqxx/pqxx>
 #include <string>
+#include <vector>
 
 #include "fleetmap/common/uuid.h"
 
@@ -45,6 +49,23 @@ class SqliteBackend {
     sqlite3_free(error);
     sqlite3_close(db);
     if (rc != SQLITE_OK) throw std::runtime_error("raw sqlite: " + message);
+  }
+
+  // Everything the store consists of, to compare before and after a call that must not change
+  // it: the name and bytes of every file in its directory (the database, and a -wal or -shm
+  // file if there is one).
+  std::string StoredState() const {
+    std::vector<std::filesystem::path> files;
+    for (const auto& entry : std::filesystem::directory_iterator(dir_))
+      files.push_back(entry.path());
+    std::sort(files.begin(), files.end());
+    std::string state;
+    for (const std::filesystem::path& file : files) {
+      std::ifstream in(file, std::ios::binary);
+      const std::string bytes{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+      state += file.filename().string() + " " + std::to_string(bytes.size()) + " bytes:\n" + bytes;
+    }
+    return state;
   }
 
  private:
@@ -98,6 +119,37 @@ class PostgresBackend {
     pqxx::connection c(Uri());
     pqxx::nontransaction txn(c);
     txn.exec(sql);
+  }
+
+  // Every table of the database (all schemas but the system ones): its name, its columns with
+  // their types, and its rows, to compare before and after a call that must not change it.
+  std::string StoredState() const {
+    pqxx::connection c(Uri());
+    pqxx::nontransaction txn(c);
+    std::string state;
+    const pqxx::result tables = txn.exec(
+        "SELECT quote_ident(table_schema) || '.' || quote_ident(table_name) FROM "
+        "information_schema.tables WHERE table_schema NOT IN ('pg_catalog', 'information_schema') "
+        "AND table_schema NOT LIKE 'pg_temp%' ORDER BY 1");
+    for (const pqxx::row& table : tables) {
+      const std::string name = table[0].as<std::string>();
+      state += "table " + name + "\n";
+      for (const pqxx::row& column : txn.exec(
+               "SELECT column_name, data_type, is_nullable FROM information_schema.columns WHERE "
+               "quote_ident(table_schema) || '.' || quote_ident(table_name) = " +
+               txn.quote(name) + " ORDER BY ordinal_position")) {
+        state += "  " + column[0].as<std::string>() + " " + column[1].as<std::string>() + " " +
+                 column[2].as<std::string>() + "\n";
+      }
+      state += "  rows " +
+               txn.exec(
+                      "SELECT count(*) || ' ' || coalesce(md5(string_agg(t::text, E'\\n' ORDER BY "
+                      "t::text)), '-') FROM " +
+                      name + " t")[0][0]
+                   .as<std::string>() +
+               "\n";
+    }
+    return state;
   }
 
  private:

@@ -201,11 +201,13 @@ TYPED_TEST(VersionStoreConformance, SchemaOneStoreMigratesWithItsMapAtRevisionZe
   const GraphBatch old = Chain(3, 0);
   this->store_->Put(old);
   this->store_.reset();
-  // Back to schema 1: undo 0004 (annotations on data: the payload tables, and the annotation
-  // table as schema 1 had it, empty here), 0003 (sensor index) and 0002 (versions).
+  // Back to schema 1: undo 0005 (submission nodes, stand-ins), 0004 (annotations on data: the
+  // payload tables, and the annotation table as schema 1 had it, empty here), 0003 (sensor index)
+  // and 0002 (versions).
   const bool sqlite = std::is_same_v<TypeParam, SqliteBackend>;
   this->backend_->ExecRaw(
-      std::string("DROP TABLE annotation_datum_link; DROP TABLE annotation_bbox2d;"
+      std::string("DROP TABLE stand_ins; DROP TABLE submission_nodes;"
+                  " DROP TABLE annotation_datum_link; DROP TABLE annotation_bbox2d;"
                   " DROP TABLE annotations;") +
       (sqlite ? "CREATE TABLE annotations (seq INTEGER PRIMARY KEY, id BLOB NOT NULL UNIQUE,"
                 " node_id BLOB REFERENCES nodes (id), edge_id BLOB REFERENCES edges (id),"
@@ -415,6 +417,57 @@ TYPED_TEST(VersionStoreConformance, ListSubmissionsByReceivedThenId) {
   EXPECT_EQ(listed[0].id, early_a.id);
   EXPECT_EQ(listed[1].id, early_b.id);
   EXPECT_EQ(listed[2].id, late.id);
+}
+
+// A transient failure is recorded with the submission while it stays queued.
+TYPED_TEST(VersionStoreConformance, QueuedSubmissionKeepsItsLastTransientError) {
+  const Submission header = Header();
+  this->versions().BeginSubmission(header);
+  this->versions().CompleteSubmission(header.id, 7);
+  this->versions().SetSubmissionState(header.id, SubmissionState::kQueued, 0,
+                                      "merge attempt 1 failed: database is locked");
+  Submission stored = *this->versions().FindSubmission(header.id);
+  EXPECT_EQ(stored.state, SubmissionState::kQueued);
+  EXPECT_EQ(stored.error, "merge attempt 1 failed: database is locked");
+  this->versions().SetSubmissionState(header.id, SubmissionState::kMerged, 2, "ignored");
+  stored = *this->versions().FindSubmission(header.id);
+  EXPECT_EQ(stored.error, "") << "a merged submission has no error";
+}
+
+// --- What the server has seen of each node ------------------------------------------------
+
+TYPED_TEST(VersionStoreConformance, SubmissionNodesTellWhichSubmissionsCarriedANode) {
+  const Submission first = Header(Uuid::Generate(), 10), second = Header(Uuid::Generate(), 20);
+  const Uuid shared = Uuid::Generate(), only_first = Uuid::Generate();
+  for (const Submission& s : {second, first}) this->versions().BeginSubmission(s);
+  this->versions().PutSubmissionNodes(first.id, {shared, only_first});
+  this->versions().PutSubmissionNodes(second.id, {shared});
+  this->versions().PutSubmissionNodes(second.id, {shared});  // a repeat is a no-op
+  EXPECT_EQ(Ids(this->versions().SubmissionsWithNode(shared)),
+            (std::vector<Uuid>{first.id, second.id}));
+  EXPECT_EQ(Ids(this->versions().SubmissionsWithNode(only_first)), std::vector<Uuid>{first.id});
+  EXPECT_TRUE(this->versions().SubmissionsWithNode(Uuid::Generate()).empty());
+  ExpectError(ErrorCode::kNotFound,
+              [&] { this->versions().PutSubmissionNodes(Uuid::Generate(), {shared}); });
+}
+
+TYPED_TEST(VersionStoreConformance, StandInsAreKeptWithTheirPoseAndFirstOneWins) {
+  const GraphBatch map = Chain(2, 100);
+  this->Commit(map);
+  const Uuid omitted = Uuid::Generate();
+  Se3 pose = Se3FromTranslationQuaternion(Eigen::Vector3d(1.5, -2.0, 0.25),
+                                          Eigen::Quaterniond(0.9, 0.1, -0.2, 0.3).normalized());
+  const NodeStandIn stand_in{omitted, map.nodes[0].id, pose, 1};
+  {
+    auto txn = this->store_->Begin();
+    this->versions().PutStandIns({stand_in});
+    txn.Commit();
+  }
+  EXPECT_EQ(this->versions().FindStandIn(omitted), stand_in);
+  // A later merge cannot move it: edges already carried onto the first stand-in stay right.
+  this->versions().PutStandIns({NodeStandIn{omitted, map.nodes[1].id, Se3::Identity(), 1}});
+  EXPECT_EQ(this->versions().FindStandIn(omitted), stand_in);
+  EXPECT_EQ(this->versions().FindStandIn(Uuid::Generate()), std::nullopt);
 }
 
 // --- Appending revisions ------------------------------------------------------------------

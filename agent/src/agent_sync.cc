@@ -16,6 +16,10 @@ namespace {
 using Clock = std::chrono::steady_clock;
 using std::chrono::milliseconds;
 
+// Pauses between merge-status questions the server answered early (see FollowMerge).
+constexpr milliseconds kFirstStatusPause{100};
+constexpr milliseconds kMaxStatusPause{2'000};
+
 double SecondsSince(Clock::time_point start) {
   return std::chrono::duration<double>(Clock::now() - start).count();
 }
@@ -73,6 +77,7 @@ class SyncRun {
     result_.paths = report.paths;
     result_.kept_unsynced = report.kept_unsynced;
     result_.kept_unmerged = report.kept_unmerged;
+    result_.kept_failed = report.kept_failed;
     Progress("installed revision " + std::to_string(report.revision) + ": " +
              Counts(report.nodes, report.edges, report.paths) +
              (report.incremental ? " (incremental)" : " (full)") +
@@ -81,7 +86,12 @@ class SyncRun {
                   : "") +
              (report.kept_unmerged > 0 ? ", kept " + std::to_string(report.kept_unmerged) +
                                              " pushed elements not merged yet"
-                                       : ""));
+                                       : "") +
+             (report.kept_failed > 0
+                  ? " (" + std::to_string(report.kept_failed) +
+                        " of them from submissions the server refused: see `fleetmap-agent "
+                        "status`)"
+                  : ""));
   }
 
   // Steps completed so far that a retry will not redo: a failure after one starts a new
@@ -152,6 +162,7 @@ class SyncRun {
         v1::SyncFrame frame;
         frame.mutable_push_chunk()->set_seq(seq);
         frame.mutable_push_chunk()->set_data(chunks[seq]);
+        frame.mutable_push_chunk()->set_digest(DigestOfChunk(chunks[seq]));
         client.Send(frame);
         const v1::SyncFrame ack = client.Expect(v1::SyncFrame::kPushChunkAck, during);
         if (ack.push_chunk_ack().seq() != seq) {
@@ -181,14 +192,19 @@ class SyncRun {
       result_.merge_state = "merged";
       result_.merged_revision = accepted.revision();
     } else if (accepted.state() == "failed") {
-      map_.RecordMerge(submission.id, 0);
+      const std::string why =
+          accepted.error().empty() ? "the server gave no reason" : accepted.error();
+      map_.RecordFailure(submission.id, why);
       result_.merge_state = "failed";
+      result_.merge_error = why;
     }
     Progress("pushed submission " + id + ": " + accepted.state() +
              (accepted.state() == "queued"
                   ? " (position " + std::to_string(accepted.queue_position()) + ")"
               : accepted.state() == "merged" ? " as revision " + std::to_string(accepted.revision())
-                                             : ""));
+              : accepted.state() == "failed"
+                  ? ": " + result_.merge_error + " (its content stays in this robot's map)"
+                  : ""));
   }
 
   // Asks after every accepted submission whose merge no download reflects yet (waiting for
@@ -197,7 +213,7 @@ class SyncRun {
   void FollowMerges(SyncClient& client) {
     const std::vector<UnmergedSubmission> unmerged = map_.state().unmerged;
     for (const UnmergedSubmission& submission : unmerged) {
-      if (submission.merged_revision) continue;
+      if (submission.merged_revision || submission.failed) continue;
       const bool wait = options_.wait_merge;
       if (wait && !merge_deadline_) merge_deadline_ = Clock::now() + options_.merge_timeout;
       const Clock::time_point wait_start = Clock::now();
@@ -206,7 +222,8 @@ class SyncRun {
       if (status.state() == "merged") {
         map_.RecordMerge(submission.id, status.revision());
       } else if (status.state() == "failed") {
-        map_.RecordMerge(submission.id, 0);
+        map_.RecordFailure(submission.id,
+                           status.error().empty() ? "the server gave no reason" : status.error());
       }
       if (submission.id == result_.submission) {
         result_.merge_state = status.state();
@@ -220,10 +237,14 @@ class SyncRun {
   // or the merge deadline passed.
   v1::MergeStatus FollowMerge(SyncClient& client, const Uuid& submission, bool wait) {
     const std::string id = submission.ToString();
+    // A server answers a wait early when the merge moved (or when it cannot watch it): then
+    // the next question waits a little first, doubling, so a robot never spins on its server.
+    milliseconds pause = kFirstStatusPause;
     for (;;) {
       const milliseconds remaining =
           wait ? std::max(milliseconds(0), Remaining(*merge_deadline_)) : milliseconds(0);
       const milliseconds wait_ms = std::min(remaining, options_.merge_poll);
+      const Clock::time_point asked = Clock::now();
       v1::SyncFrame request;
       request.mutable_merge_status_request()->set_submission_id(submission.ToBytesString());
       request.mutable_merge_status_request()->set_wait_ms(
@@ -255,7 +276,17 @@ class SyncRun {
       Progress("waiting for merge of submission " + id + ": " + status.state() +
                (status.state() == "queued"
                     ? " (position " + std::to_string(status.queue_position()) + ")"
+                    : "") +
+               (status.merge_attempts() > 0
+                    ? "; the server retries it after " + std::to_string(status.merge_attempts()) +
+                          " transient failures, last: " + status.error()
                     : ""));
+      if (Clock::now() - asked < wait_ms / 2) {
+        std::this_thread::sleep_for(std::min(pause, Remaining(*merge_deadline_)));
+        pause = std::min(pause * 2, kMaxStatusPause);
+      } else {
+        pause = kFirstStatusPause;
+      }
     }
   }
 
@@ -291,7 +322,8 @@ class SyncRun {
                   : " (full)") +
              ": " + std::to_string(header.chunk_count()) + " chunks, " + Mib(header.total_bytes()));
     std::vector<std::string> chunks;
-    chunks.reserve(header.chunk_count());
+    // chunk_count is the server's word: reserve for what a sane download has, grow past it.
+    chunks.reserve(std::min<std::uint32_t>(header.chunk_count(), 4096));
     MapContentDigest digest;
     std::uint64_t bytes = 0;
     for (std::uint32_t seq = 0; seq < header.chunk_count(); ++seq) {

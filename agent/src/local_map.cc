@@ -309,19 +309,55 @@ void LocalMap::MarkPushed(const Uuid& submission) {
   state_.pushed.nodes.insert(content.nodes.begin(), content.nodes.end());
   state_.pushed.edges.insert(content.edges.begin(), content.edges.end());
   state_.pushed.paths.insert(content.paths.begin(), content.paths.end());
-  state_.unmerged.push_back(UnmergedSubmission{submission, content, std::nullopt});
+  state_.unmerged.push_back(UnmergedSubmission{submission, content, std::nullopt, false, {}});
   state_.submission.reset();
   SaveState();
 }
 
 void LocalMap::RecordMerge(const Uuid& submission, std::int64_t revision) {
   RequireWritable("record merge");
+  if (revision <= 0) {
+    throw Error(ErrorCode::kInvalidArgument,
+                "submission " + submission.ToString() + ": a merge makes a revision > 0");
+  }
   for (UnmergedSubmission& unmerged : state_.unmerged) {
     if (unmerged.id == submission && unmerged.merged_revision != revision) {
       unmerged.merged_revision = revision;
+      unmerged.failed = false;
+      unmerged.error.clear();
       SaveState();
     }
   }
+}
+
+void LocalMap::RecordFailure(const Uuid& submission, const std::string& error) {
+  RequireWritable("record failure");
+  for (UnmergedSubmission& unmerged : state_.unmerged) {
+    if (unmerged.id == submission && (!unmerged.failed || unmerged.error != error)) {
+      unmerged.failed = true;
+      unmerged.error = error;
+      SaveState();
+    }
+  }
+}
+
+void LocalMap::Discard(const Uuid& submission) {
+  RequireWritable("discard");
+  const auto found =
+      std::find_if(state_.unmerged.begin(), state_.unmerged.end(),
+                   [&](const UnmergedSubmission& unmerged) { return unmerged.id == submission; });
+  if (found == state_.unmerged.end()) {
+    throw Error(ErrorCode::kNotFound, "robot map " + dir_.string() + " has no submission " +
+                                          submission.ToString() + " waiting for its merge");
+  }
+  if (!found->failed) {
+    throw Error(ErrorCode::kInvalidArgument,
+                "submission " + submission.ToString() +
+                    " has not failed (its merge is pending or done); only a failed one can be "
+                    "discarded");
+  }
+  state_.unmerged.erase(found);
+  SaveState();
 }
 
 InstallReport LocalMap::Install(const MapDownload& download) {
@@ -355,8 +391,10 @@ InstallReport LocalMap::Install(const MapDownload& download) {
   // Unmerged submissions this download reflects retire; the others' content stays.
   std::vector<UnmergedSubmission> still_unmerged;
   ElementIds keep_unmerged;
+  std::size_t failed_elements = 0;
   for (const UnmergedSubmission& unmerged : state_.unmerged) {
     if (unmerged.merged_revision && *unmerged.merged_revision <= download.revision) continue;
+    if (unmerged.failed) failed_elements += unmerged.content.size();
     still_unmerged.push_back(unmerged);
     keep_unmerged.nodes.insert(unmerged.content.nodes.begin(), unmerged.content.nodes.end());
     keep_unmerged.edges.insert(unmerged.content.edges.begin(), unmerged.content.edges.end());
@@ -406,6 +444,7 @@ InstallReport LocalMap::Install(const MapDownload& download) {
       current, [&](const Uuid& id, int kind) { return OfKind(keep_unmerged, kind).contains(id); });
   report.kept_unsynced = unsynced.nodes.size() + unsynced.edges.size() + unsynced.paths.size();
   report.kept_unmerged = unmerged.nodes.size() + unmerged.edges.size() + unmerged.paths.size();
+  report.kept_failed = std::min(failed_elements, report.kept_unmerged);
   next.Add(unsynced);
   next.Add(unmerged);
   MapIndex current_index;

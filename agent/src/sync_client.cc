@@ -80,7 +80,8 @@ SyncServerError::SyncServerError(const v1::ErrorFrame& frame, const std::string&
 
 bool SyncServerError::retryable() const {
   return server_code_ == v1::ErrorFrame::SHUTTING_DOWN ||
-         server_code_ == v1::ErrorFrame::INTERNAL || server_code_ == v1::ErrorFrame::TIMEOUT;
+         server_code_ == v1::ErrorFrame::INTERNAL || server_code_ == v1::ErrorFrame::TIMEOUT ||
+         server_code_ == v1::ErrorFrame::CHUNK_DIGEST || server_code_ == v1::ErrorFrame::BUSY;
 }
 
 // The socket, its TLS layer when there is one, and the io_context that drives both.

@@ -90,7 +90,9 @@ std::string SyncStateToJson(const SyncState& state) {
     unmerged.push_back(
         {{"id", u.id.ToString()},
          {"content", ElementsToJson(u.content)},
-         {"merged_revision", u.merged_revision ? json(*u.merged_revision) : json(nullptr)}});
+         {"merged_revision", u.merged_revision ? json(*u.merged_revision) : json(nullptr)},
+         {"failed", u.failed},
+         {"error", u.error}});
   }
   root["unmerged"] = unmerged;
   if (state.submission) {
@@ -124,9 +126,20 @@ SyncState SyncStateFromJson(const std::string& text, const std::string& source) 
     }
     for (const json& u : root.at("unmerged")) {
       UnmergedSubmission submission{Uuid::Parse(u.at("id").get<std::string>()),
-                                    ElementsFromJson(u.at("content")), std::nullopt};
+                                    ElementsFromJson(u.at("content")),
+                                    std::nullopt,
+                                    false,
+                                    {}};
       if (!u.at("merged_revision").is_null()) {
         submission.merged_revision = u["merged_revision"].get<std::int64_t>();
+      }
+      submission.failed = u.value("failed", false);
+      submission.error = u.value("error", std::string());
+      // Written before failed submissions were kept: a merged_revision of 0 meant failed.
+      if (submission.merged_revision == 0) {
+        submission.merged_revision.reset();
+        submission.failed = true;
+        if (submission.error.empty()) submission.error = "the merge failed (reason not recorded)";
       }
       state.unmerged.push_back(std::move(submission));
     }

@@ -106,4 +106,10 @@ std::uint64_t DigestOfChunks(std::span<const std::string> chunks) {
   return digest.value();
 }
 
+std::uint64_t DigestOfChunk(std::string_view chunk) {
+  MapContentDigest digest;
+  digest.Add(chunk);
+  return digest.value();
+}
+
 }  // namespace fleetmap

@@ -2,6 +2,7 @@
 // (common/src/<backend>/migrations/NNNN_name.sql), embedded at build time.
 #pragma once
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -13,9 +14,15 @@ struct Migration {
   const char* sql;
 };
 
-// Throws Error(kSchemaTooNew) when a store's recorded version is newer than the latest
-// migration this binary carries: an old binary must never write a newer schema.
-void RefuseNewerSchema(const std::string& store, int current, int latest);
+// The schema version a store records, checked, from its fleetmap_schema rows as text: each
+// backend casts the column to text, so whatever a newer or damaged store holds arrives here
+// unconverted (a cast to int read 4294967300 as 4); nullopt stands for a NULL. No rows reads as
+// 0 (a store whose first migration never committed); of several rows the highest counts.
+// Throws Error(kCorrupt) naming `store` for a value that is not a decimal integer or is
+// negative, and Error(kSchemaTooNew) for one above `latest`: an old binary must never write a
+// newer schema. The result is in [0, latest].
+int CheckedSchemaVersion(const std::string& store,
+                         const std::vector<std::optional<std::string>>& rows, int latest);
 
 const std::vector<Migration>& SqliteMigrations();
 const std::vector<Migration>& PostgresMigrations();

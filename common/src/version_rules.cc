@@ -178,7 +178,7 @@ Submission WithState(Submission stored, SubmissionState state, RevisionNumber re
   }
   stored.state = state;
   stored.revision = state == SubmissionState::kMerged ? revision : 0;
-  stored.error = state == SubmissionState::kFailed ? error : std::string();
+  stored.error = state == SubmissionState::kMerged ? std::string() : error;
   return stored;
 }
 

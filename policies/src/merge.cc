@@ -59,9 +59,18 @@ class Merger {
     }
     // Edges from a segment to one omitted after it could not be placed when it was added.
     for (const Edge& edge : submission_.edges) {
-      if (edge.kind == EdgeKind::kMetric) CarryMetric(edge);
+      if (edge.kind == EdgeKind::kMetric && !unresolved_.contains(edge.id)) CarryMetric(edge);
     }
     CarryPathMemory();
+    // Every omitted node of this submission with the server node that stands in for it
+    // (stands_in_for_ also holds earlier merges' stand-ins, which are recorded already).
+    for (const auto& [node, at] : stands_in_for_) {
+      if (!fresh_.contains(node) || server_.Find(node)) continue;
+      result_.stand_ins.push_back(NodeStandIn{node, at.node, at.node_T_omitted, 0});
+    }
+    std::sort(result_.stand_ins.begin(), result_.stand_ins.end(),
+              [](const NodeStandIn& a, const NodeStandIn& b) { return a.node < b.node; });
+    result_.report.stand_ins = result_.stand_ins.size();
     result_.report.seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return std::move(result_);
@@ -103,13 +112,33 @@ class Merger {
       }
     }
     for (const Edge& edge : submission_.edges) {
+      bool resolved = true;
       for (const Uuid& end : {edge.from, edge.to}) {
-        if (!fresh_.contains(end) && !server_.Find(end) && !hidden_.contains(end) &&
-            !(catalogue_.has_hidden_node && catalogue_.has_hidden_node(end))) {
-          throw Error(ErrorCode::kIntegrity, "merge: edge " + edge.id.ToString() + " ends at " +
-                                                 end.ToString() +
-                                                 ", in neither the submission nor the server");
+        if (fresh_.contains(end) || server_.Find(end) || hidden_.contains(end) ||
+            stands_in_for_.contains(end) ||
+            (catalogue_.has_hidden_node && catalogue_.has_hidden_node(end))) {
+          continue;
         }
+        // Omitted by an earlier merge: its stand-in takes the edge (if it is still visible).
+        if (catalogue_.stand_in) {
+          if (const std::optional<NodeStandIn> earlier = catalogue_.stand_in(end);
+              earlier && server_.Find(earlier->stand_in)) {
+            stands_in_for_.emplace(end, StandIn{earlier->stand_in, earlier->stand_in_T_node});
+            continue;
+          }
+        }
+        if (catalogue_.seen_elsewhere && catalogue_.seen_elsewhere(end)) {
+          resolved = false;
+          continue;
+        }
+        throw Error(ErrorCode::kIntegrity, "merge: edge " + edge.id.ToString() + " ends at " +
+                                               end.ToString() +
+                                               ", in neither the submission nor the server");
+      }
+      if (!resolved) {
+        unresolved_.insert(edge.id);
+        ++result_.report.edges_unresolved;
+        continue;
       }
       if (edge.kind != EdgeKind::kMetric) continue;
       metric_of_[edge.from].push_back(&edge);
@@ -388,7 +417,7 @@ class Merger {
   void CarryPathMemory() {
     std::unordered_set<Uuid> paths_used;
     for (const Edge& edge : submission_.edges) {
-      if (edge.kind != EdgeKind::kPath) continue;
+      if (edge.kind != EdgeKind::kPath || unresolved_.contains(edge.id)) continue;
       const std::optional<Uuid> from = OnServer(edge.from), to = OnServer(edge.to);
       if (!from || !to || *from == *to) {
         ++result_.report.path_edges_dropped;
@@ -430,7 +459,9 @@ class Merger {
   std::unordered_set<Uuid> hidden_;              // submitted nodes stored but hidden
   std::unordered_map<Uuid, Landmarks> landmarks_;
   std::unordered_map<Uuid, std::vector<const Edge*>> metric_of_;  // submission metric edges
+  // Omitted nodes (of this submission, and earlier ones its edges reach) -> their stand-ins.
   std::unordered_map<Uuid, StandIn> stands_in_for_;
+  std::unordered_set<Uuid> unresolved_;  // edges to nodes seen only in unmerged submissions
   std::unordered_set<Uuid> written_edges_;
   MergeResult result_;
 };

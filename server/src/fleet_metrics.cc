@@ -78,8 +78,16 @@ std::string FleetMetricsText(const FleetStatus& status) {
           status.downloads);
   Counter(out, "fleetmap_merges_total", "Merges committed since the server started.",
           status.merges);
-  Counter(out, "fleetmap_merges_failed_total", "Merges that failed since the server started.",
+  Counter(out, "fleetmap_merges_failed_total",
+          "Merges refused for their content (the submission is failed) since the server started.",
           status.merges_failed);
+  Counter(out, "fleetmap_merge_retries_total",
+          "Merges that failed for the server's reasons (store busy, disk full, connection lost) "
+          "since the server started; the submission stays queued and is retried.",
+          status.merge_retries);
+  Gauge(out, "fleetmap_merge_backing_off",
+        "1 while the next merge waits for its retry after a transient failure, else 0.",
+        status.merge_backing_off ? 1 : 0);
   out.Family("fleetmap_errors_total", kCounter,
              "Error frames sent to robots since the server started, by code.");
   for (const auto& [code, count] : status.errors_by_code) {
@@ -93,6 +101,9 @@ std::string FleetMetricsText(const FleetStatus& status) {
   Counter(out, "fleetmap_bytes_received_total", "Bytes received on sync sessions.",
           status.bytes_received);
   Counter(out, "fleetmap_bytes_sent_total", "Bytes sent on sync sessions.", status.bytes_sent);
+  Counter(out, "fleetmap_last_sync_write_failures_total",
+          "Hellos whose last-sync time the store would not take (kept in memory only).",
+          status.last_sync_write_failures);
   out.Family("fleetmap_start_time_seconds", kGauge, "Unix time the server started.");
   out.Sample("fleetmap_start_time_seconds", UnixSeconds(status.started_ns));
   return out.text();

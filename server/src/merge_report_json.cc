@@ -18,6 +18,8 @@ std::string MergeReportJson(const MergeReport& r) {
   json["path_edges_added"] = r.path_edges_added;
   json["path_edges_dropped"] = r.path_edges_dropped;
   json["paths_added"] = r.paths_added;
+  json["stand_ins"] = r.stand_ins;
+  json["edges_unresolved"] = r.edges_unresolved;
   json["seconds"] = r.seconds;
   return json.dump();
 }

@@ -30,6 +30,13 @@ std::vector<Descriptor256> VocabularySample(const GraphBatch& map) {
   return sample;
 }
 
+std::vector<Uuid> NodeIdsOf(const GraphBatch& map) {
+  std::vector<Uuid> ids;
+  ids.reserve(map.nodes.size());
+  for (const Node& node : map.nodes) ids.push_back(node.id);
+  return ids;
+}
+
 double SecondsSince(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
@@ -43,7 +50,8 @@ struct Repository::Mirror {
 };
 
 std::unique_ptr<Repository> Repository::Open(std::string_view uri, RepositoryOptions options) {
-  return std::make_unique<Repository>(GraphStore::Open(uri), std::move(options));
+  std::unique_ptr<GraphStore> store = GraphStore::Open(uri, options.store);
+  return std::make_unique<Repository>(std::move(store), std::move(options));
 }
 
 Repository::Repository(std::unique_ptr<GraphStore> store, RepositoryOptions options)
@@ -91,6 +99,7 @@ Submission Repository::Push(const Uuid& id, const Uuid& robot, const std::string
     versions().PutSubmissionChunk(id, static_cast<std::int64_t>(seq), chunks[seq]);
   }
   versions().CompleteSubmission(id, digest);
+  versions().PutSubmissionNodes(id, NodeIdsOf(map));
   transaction.Commit();
   return *versions().FindSubmission(id);
 }
@@ -108,17 +117,30 @@ void Repository::ValidatePushContent(const Uuid& id, const GraphBatch& map) {
     nodes.insert(node.id);
   }
   for (const Path& path : map.paths) Validate(path);
+  std::unordered_set<Uuid> seen;  // ends outside the push found on the server already
   for (const Edge& edge : map.edges) {
     Validate(edge);
     for (const Uuid& end : {edge.from, edge.to}) {
-      if (!nodes.contains(end) && !versions().VersionOf(end)) {
-        throw Error(ErrorCode::kIntegrity, "push " + id.ToString() + ": edge " +
-                                               edge.id.ToString() + " ends at node " +
-                                               end.ToString() + ", neither pushed nor stored");
+      if (nodes.contains(end) || seen.contains(end)) continue;
+      if (!SeenOutside(id, end)) {
+        throw Error(ErrorCode::kIntegrity,
+                    "push " + id.ToString() + ": edge " + edge.id.ToString() + " ends at node " +
+                        end.ToString() +
+                        ", which is neither pushed nor stored, omitted by a merge or in an "
+                        "earlier submission");
       }
+      seen.insert(end);
     }
   }
   for (const Annotation& annotation : map.annotations) Validate(annotation);
+}
+
+bool Repository::SeenOutside(const Uuid& submission, const Uuid& node) {
+  if (versions().VersionOf(node) || versions().FindStandIn(node)) return true;
+  for (const Submission& other : versions().SubmissionsWithNode(node)) {
+    if (other.id != submission) return true;
+  }
+  return false;
 }
 
 Submission Repository::BeginChunkedPush(const Uuid& id, const Uuid& robot,
@@ -186,7 +208,10 @@ Submission Repository::CompleteChunkedPush(const Uuid& id, std::uint64_t digest)
     if (error.code() == ErrorCode::kBackend) throw;  // the store failed, not the content
     fail(error);
   }
+  GraphStore::Transaction transaction = store_->Begin();
   versions().CompleteSubmission(id, digest);
+  versions().PutSubmissionNodes(id, NodeIdsOf(map));
+  transaction.Commit();
   return *versions().FindSubmission(id);
 }
 
@@ -282,13 +307,35 @@ MergeOutcome Repository::Merge(const Uuid& id, const MergeProgress& progress) {
     if (error.code() == ErrorCode::kCorrupt) fail(error);
     throw;
   }
-  Mirror& mirror = HeadMirror(&content);
   VersionStore& versions = this->versions();
-  const ServerCatalogue catalogue{
-      [&](const Uuid& edge) { return versions.VersionOf(edge).has_value(); },
-      [&](const Uuid& path) { return versions.VersionOf(path).has_value(); },
-      // Not in the mirror but stored: hidden by a revert.
-      [&](const Uuid& node) { return versions.VersionOf(node).has_value(); }};
+  // Edge ends outside the submission that the map does not hold: omitted by an earlier merge
+  // (a stand-in), or only in other submissions. One still queued merges first.
+  std::unordered_set<Uuid> submitted;
+  for (const Node& node : content.nodes) submitted.insert(node.id);
+  std::unordered_set<Uuid> seen_elsewhere;
+  for (const Edge& edge : content.edges) {
+    for (const Uuid& end : {edge.from, edge.to}) {
+      if (submitted.contains(end) || seen_elsewhere.contains(end) || versions.VersionOf(end) ||
+          versions.FindStandIn(end)) {
+        continue;
+      }
+      for (const Submission& other : versions.SubmissionsWithNode(end)) {
+        if (other.id != id && other.state == SubmissionState::kQueued) {
+          outcome.waits_for = other.id;
+          outcome.seconds = SecondsSince(start);
+          return outcome;
+        }
+      }
+      seen_elsewhere.insert(end);
+    }
+  }
+  Mirror& mirror = HeadMirror(&content);
+  ServerCatalogue catalogue{[&](const Uuid& edge) { return versions.VersionOf(edge).has_value(); },
+                            [&](const Uuid& path) { return versions.VersionOf(path).has_value(); },
+                            // Not in the mirror but stored: hidden by a revert.
+                            [&](const Uuid& node) { return versions.VersionOf(node).has_value(); }};
+  catalogue.stand_in = [&](const Uuid& node) { return versions.FindStandIn(node); };
+  catalogue.seen_elsewhere = [&](const Uuid& node) { return seen_elsewhere.contains(node); };
   MergeResult result;
   try {
     result = fleetmap::Merge(mirror.map, content, catalogue, options_.merge, progress);
@@ -309,6 +356,8 @@ MergeOutcome Repository::Merge(const Uuid& id, const MergeProgress& progress) {
     revision.report = MergeReportJson(result.report);
     outcome.revision = versions.AppendRevision(revision, result.additions);
     store_->Put(result.additions);
+    for (NodeStandIn& stand_in : result.stand_ins) stand_in.revision = revision.number;
+    versions.PutStandIns(result.stand_ins);
     versions.SetSubmissionState(id, SubmissionState::kMerged, revision.number, "");
     if (options_.before_merge_commit) options_.before_merge_commit(id);
     transaction.Commit();

@@ -59,15 +59,22 @@ std::string SyncKey(const Uuid& robot) {
   return std::string(kSyncPrefix) + robot.ToString();
 }
 
+// Authenticate's stand-in for a robot that is not registered: shaped as a real record, with a
+// "hash" that is not hex, so that no token's hash equals it.
+constexpr std::string_view kUnknownRobotRecord =
+    R"({"name":"","salt":"00000000000000000000000000000000",)"
+    R"("hash":"----------------------------------------------------------------",)"
+    R"("added_ns":0})";
+
 struct StoredRobot {
   RegisteredRobot robot;
   std::string salt;
   std::string hash;
 };
 
-StoredRobot ParseStored(const std::string& key, const std::string& value) {
+StoredRobot ParseStored(const std::string& key, std::string_view value) {
   try {
-    const nlohmann::json json = nlohmann::json::parse(value);
+    const nlohmann::json json = nlohmann::json::parse(value.begin(), value.end());
     StoredRobot stored;
     stored.robot.id = Uuid::Parse(key.substr(kRobotPrefix.size()));
     stored.robot.name = json.at("name").get<std::string>();
@@ -120,16 +127,19 @@ NewRobot RobotRegistry::Add(std::string_view name, std::int64_t now_ns) {
 RobotAuthenticationResult RobotRegistry::Authenticate(const Uuid& robot, std::string_view token) {
   RobotAuthenticationResult result;
   const std::optional<std::string> value = versions_.FindSetting(RobotKey(robot));
-  if (!value) {
-    result.outcome = RobotAuthentication::kUnknownRobot;
-    return result;
-  }
-  const StoredRobot stored = ParseStored(RobotKey(robot), *value);
+  // An unknown robot costs what a known one does (a record parsed, the token hashed and
+  // compared, against a stand-in no token matches), so the time of the answer does not tell a
+  // stranger which ids are registered.
+  const StoredRobot stored = ParseStored(RobotKey(robot), value ? *value : kUnknownRobotRecord);
   const std::string hash = SaltedHash(stored.salt, token);
   // Both are hex SHA-256 (64 characters) unless the store is damaged; compare in constant
   // time so the answer's timing says nothing about how much of the token was right.
   const bool match = hash.size() == stored.hash.size() &&
                      CRYPTO_memcmp(hash.data(), stored.hash.data(), hash.size()) == 0;
+  if (!value) {
+    result.outcome = RobotAuthentication::kUnknownRobot;
+    return result;
+  }
   if (!match) {
     result.outcome = RobotAuthentication::kBadToken;
     return result;

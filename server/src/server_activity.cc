@@ -52,6 +52,16 @@ void ServerActivity::MergeFinished(bool merged) {
   ++(merged ? totals_.merges : totals_.merges_failed);
 }
 
+void ServerActivity::MergeRetried() {
+  std::lock_guard lock(mutex_);
+  ++totals_.merge_retries;
+}
+
+void ServerActivity::LastSyncNotRecorded() {
+  std::lock_guard lock(mutex_);
+  ++totals_.last_sync_write_failures;
+}
+
 void ServerActivity::SetRobots(const std::vector<RegisteredRobot>& robots) {
   std::lock_guard lock(mutex_);
   std::map<Uuid, RobotActivity> listed;

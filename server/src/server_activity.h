@@ -32,6 +32,9 @@ class ServerActivity {
   void PushAccepted(const Uuid& robot);
   void DownloadSent(const Uuid& robot);
   void MergeFinished(bool merged);
+  // A hello whose last-sync time could not be written to the store (it is kept here).
+  void LastSyncNotRecorded();
+  void MergeRetried();  // a merge failed transiently; its submission stays queued
 
   // The registered robots as last read from the store (replacing the list).
   void SetRobots(const std::vector<RegisteredRobot>& robots);

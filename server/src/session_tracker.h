@@ -9,6 +9,7 @@
 #include <cstddef>
 #include <memory>
 #include <mutex>
+#include <string>
 #include <vector>
 
 namespace fleetmap::server {
@@ -20,6 +21,9 @@ class SessionControl {
   // Finish the exchange in progress, then close with SHUTTING_DOWN (at once when idle).
   // Returns at once; the session does it on its own strand.
   virtual void Shutdown() = 0;
+  // Close now with BUSY (`why` its text) if the hello frame has not arrived whole yet; else
+  // nothing (connection_admission.h). Returns at once, as Shutdown.
+  virtual void Evict(const std::string& why) = 0;
 };
 
 class SessionTracker {

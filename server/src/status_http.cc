@@ -43,8 +43,14 @@ using beast::error_code;
 
 constexpr std::size_t kHeaderLimit = 8 * 1024;
 constexpr std::uint64_t kBodyLimit = 8 * 1024;
+// Connections at once. At the limit the connection that has waited longest for a request is
+// closed to make room (SessionRegistry::Add), so idle connections cannot keep a scraper out.
 constexpr std::size_t kMaxSessions = 64;
-constexpr std::chrono::seconds kReadTimeout{10};
+// Reading one request, from the moment the server waits for it (on a keep-alive connection,
+// the wait for the next request counts too) to its last byte. Short: a client that has
+// connected sends its request at once, and a connection that sends nothing, or trickles,
+// holds a slot only this long.
+constexpr std::chrono::seconds kRequestTimeout{3};
 constexpr std::chrono::seconds kWriteTimeout{10};
 constexpr std::chrono::seconds kDrainTimeout{3};
 // How long a connection we close after an answer (413, 400, "Connection: close") may still
@@ -59,12 +65,17 @@ class HttpSession;
 // its destructor, which may run after the server object is gone, during io_context teardown).
 class SessionRegistry {
  public:
-  // False when stopping or full: the caller drops the connection.
-  bool Add(const std::shared_ptr<HttpSession>& session) {
+  // Registers a new session. When kMaxSessions are live, the one that has waited longest for a
+  // request is pushed out (closed, and no longer counted) to make room; false (the caller drops
+  // the connection) when stopping, or when every live session is busy with a request.
+  bool Add(const std::shared_ptr<HttpSession>& session);
+  // The session waits for a request (true) or handles one (false).
+  void SetWaiting(const HttpSession* session, bool waiting) {
     std::lock_guard lock(mutex_);
-    if (stopping_ || live_.size() >= kMaxSessions) return false;
-    live_.emplace(session.get(), session);
-    return true;
+    if (const auto it = live_.find(session); it != live_.end()) {
+      it->second.waiting_since =
+          waiting ? std::optional(std::chrono::steady_clock::now()) : std::nullopt;
+    }
   }
   void Remove(const HttpSession* session) {
     std::lock_guard lock(mutex_);
@@ -76,8 +87,8 @@ class SessionRegistry {
     std::lock_guard lock(mutex_);
     stopping_ = true;
     std::vector<std::shared_ptr<HttpSession>> sessions;
-    for (const auto& [key, weak] : live_) {
-      if (auto session = weak.lock()) sessions.push_back(std::move(session));
+    for (const auto& [key, entry] : live_) {
+      if (auto session = entry.session.lock()) sessions.push_back(std::move(session));
     }
     return sessions;
   }
@@ -87,10 +98,16 @@ class SessionRegistry {
   }
 
  private:
+  struct Entry {
+    std::weak_ptr<HttpSession> session;
+    // Set while it waits for a request; a new session counts as waiting from the accept.
+    std::optional<std::chrono::steady_clock::time_point> waiting_since;
+  };
+
   std::mutex mutex_;
   std::condition_variable drained_;
-  std::unordered_map<const HttpSession*, std::weak_ptr<HttpSession>> live_;
-  bool stopping_ = false;
+  std::unordered_map<const HttpSession*, Entry> live_;  // guarded by mutex_
+  bool stopping_ = false;                               // guarded by mutex_
 };
 
 // One connection: read a request, write its response, again while keep-alive, on its strand.
@@ -118,15 +135,18 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
 
  private:
   void DoRead() {
+    registry_->SetWaiting(this, true);
     parser_.emplace();
     parser_->header_limit(kHeaderLimit);
     parser_->body_limit(kBodyLimit);
-    stream_.expires_after(kReadTimeout);
+    // For the whole request, however it trickles in: not renewed by each read.
+    stream_.expires_after(kRequestTimeout);
     http::async_read(stream_, buffer_, *parser_,
                      beast::bind_front_handler(&HttpSession::OnRead, shared_from_this()));
   }
 
   void OnRead(error_code ec, std::size_t /*bytes*/) {
+    registry_->SetWaiting(this, false);
     if (ec == http::error::end_of_stream) return CloseNow();
     if (ec == http::error::body_limit) {
       return Reply(PlainTextResponse(http::status::payload_too_large, 11, false,
@@ -202,6 +222,31 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
   bool writing_ = false;
   bool closing_ = false;
 };
+
+bool SessionRegistry::Add(const std::shared_ptr<HttpSession>& session) {
+  std::shared_ptr<HttpSession> pushed_out;
+  {
+    std::lock_guard lock(mutex_);
+    if (stopping_) return false;
+    if (live_.size() >= kMaxSessions) {
+      auto oldest = live_.end();
+      for (auto it = live_.begin(); it != live_.end(); ++it) {
+        if (!it->second.waiting_since) continue;
+        if (oldest == live_.end() || *it->second.waiting_since < *oldest->second.waiting_since) {
+          oldest = it;
+        }
+      }
+      if (oldest == live_.end()) return false;  // every one is answering a request
+      pushed_out = oldest->second.session.lock();
+      live_.erase(oldest);
+    }
+    live_.emplace(session.get(), Entry{session, std::chrono::steady_clock::now()});
+  }
+  // Outside the lock: Close() only posts to the session's strand, but the last reference to
+  // it may go with `pushed_out`, and its destructor takes the lock.
+  if (pushed_out) pushed_out->Close();
+  return true;
+}
 
 // Accepts connections and starts a session for each, until Close().
 class HttpListener : public std::enable_shared_from_this<HttpListener> {

@@ -6,9 +6,11 @@
 
 namespace fleetmap::server {
 
-StoreWorkers::StoreWorkers(const std::string& uri, int count) {
+StoreWorkers::StoreWorkers(const std::string& uri, int count, const StoreOptions& store_options) {
   if (count < 1) throw Error(ErrorCode::kInvalidArgument, "store workers: need at least one");
-  for (int i = 0; i < count; ++i) repositories_.push_back(Repository::Open(uri));
+  RepositoryOptions options;
+  options.store = store_options;
+  for (int i = 0; i < count; ++i) repositories_.push_back(Repository::Open(uri, options));
   for (const std::unique_ptr<Repository>& repository : repositories_) {
     threads_.emplace_back([this, r = repository.get()] { Run(*r); });
   }

@@ -26,7 +26,7 @@ class StoreWorkers {
 
   // Opens `count` (>= 1) repositories on `uri`, one after another (so that a new store is
   // created and migrated once), and starts a thread for each. Throws as Repository::Open.
-  StoreWorkers(const std::string& uri, int count);
+  StoreWorkers(const std::string& uri, int count, const StoreOptions& store_options = {});
   ~StoreWorkers();  // Stop()
   StoreWorkers(const StoreWorkers&) = delete;
   StoreWorkers& operator=(const StoreWorkers&) = delete;

@@ -12,6 +12,7 @@
 #include <thread>
 #include <vector>
 
+#include "connection_admission.h"
 #include "download_cache.h"
 #include "fleetmap/common/error.h"
 #include "fleetmap/server/robot_registry.h"
@@ -61,6 +62,11 @@ tcp::endpoint ParseListen(const std::string& listen) {
   return tcp::endpoint(address, static_cast<unsigned short>(port));
 }
 
+server::AdmissionLimits LimitsOf(const SyncServerOptions& options) {
+  return server::AdmissionLimits{options.max_sessions, options.max_pending_hello,
+                                 options.max_pending_hello_per_address};
+}
+
 std::string EndpointText(const tcp::endpoint& endpoint) {
   const std::string host = endpoint.address().to_string();
   const std::string port = std::to_string(endpoint.port());
@@ -74,9 +80,13 @@ class SyncServer::Impl {
   explicit Impl(SyncServerOptions options)
       : options_(std::move(options)),
         cache_(options_.download_cache_bytes),
+        admission_(LimitsOf(options_)),
         acceptor_(asio::make_strand(ioc_)) {
     if (options_.io_threads < 1 || options_.store_threads < 1) {
       throw Error(ErrorCode::kInvalidArgument, "fleetmapd: --threads must be at least 1");
+    }
+    if (options_.hello_deadline.count() <= 0) {
+      throw Error(ErrorCode::kInvalidArgument, "fleetmapd: --hello-timeout must be positive");
     }
     const tcp::endpoint endpoint = ParseListen(options_.listen);
     if (options_.tls_cert_path.empty() != options_.tls_key_path.empty()) {
@@ -84,9 +94,15 @@ class SyncServer::Impl {
                   "TLS needs both a certificate and a key (--tls-cert and --tls-key)");
     }
     if (!options_.tls_cert_path.empty()) LoadTls();
-    store_ = std::make_unique<server::StoreWorkers>(options_.store_uri, options_.store_threads);
+    StoreOptions store_options;
+    store_options.busy_timeout_ms = options_.store_busy_timeout.count();
+    store_ = std::make_unique<server::StoreWorkers>(options_.store_uri, options_.store_threads,
+                                                    store_options);
     server::MergeQueueOptions merge_options;
     merge_options.debug_delay = options_.debug_merge_delay;
+    merge_options.first_retry = options_.merge_first_retry;
+    merge_options.max_retry = options_.merge_max_retry;
+    merge_options.store = store_options;
     merges_ = std::make_unique<server::MergeQueue>(
         options_.store_uri, merge_options,
         [this](const server::MergeDone& done) { OnMergeDone(done); });
@@ -101,7 +117,7 @@ class SyncServer::Impl {
     }
     bound_ = acceptor_.local_endpoint();
     context_.emplace(server::SessionContext{options_, *store_, *merges_, cache_, activity_,
-                                            tracker_, draining_});
+                                            tracker_, admission_, draining_});
   }
 
   ~Impl() { Stop(); }
@@ -154,6 +170,7 @@ class SyncServer::Impl {
     status.tls = tls_.has_value();
     status.draining = draining_.load();
     status.queue_length = merges_->Length();
+    status.merge_backing_off = merges_->backing_off();
     if (const auto running = merges_->Merging()) {
       status.merging = MergingSubmission{running->submission.ToString(),
                                          activity_.RobotName(running->robot), running->started_ns};
@@ -210,6 +227,13 @@ class SyncServer::Impl {
       activity_.SetHead(done.revision, done.head_stats);
       spdlog::info("merge {}: revision {}, {} nodes added, {:.3f} s", done.submission.ToString(),
                    done.revision, done.nodes_added, done.seconds);
+    } else if (done.transient) {
+      activity_.MergeRetried();
+      spdlog::warn(
+          "merge {}: attempt {} failed after {:.3f} s, retrying in {} ms (it stays "
+          "queued): {}",
+          done.submission.ToString(), done.attempts, done.seconds, done.retry_in.count(),
+          done.error);
     } else if (done.abandoned) {
       spdlog::warn("merge {}: {} ({:.3f} s)", done.submission.ToString(), done.error, done.seconds);
     } else {
@@ -236,31 +260,33 @@ class SyncServer::Impl {
     boost::system::error_code peer_ec;
     const tcp::endpoint remote = socket.remote_endpoint(peer_ec);
     const std::string peer = peer_ec ? "unknown peer" : EndpointText(remote);
-    std::string refuse;
-    if (activity_.sessions_open() >= options_.max_sessions) {
-      refuse = "the server holds its maximum of " + std::to_string(options_.max_sessions) +
-               " sessions; retry later";
-    }
+    const std::string address = peer_ec ? peer : remote.address().to_string();
     if (tls_) {
       Launch(std::make_shared<server::TlsSyncSession>(
-          asio::ssl::stream<tcp::socket>(std::move(socket), *tls_), *context_, peer, refuse));
+                 asio::ssl::stream<tcp::socket>(std::move(socket), *tls_), *context_, peer),
+             address);
     } else {
-      Launch(
-          std::make_shared<server::PlainSyncSession>(std::move(socket), *context_, peer, refuse));
+      Launch(std::make_shared<server::PlainSyncSession>(std::move(socket), *context_, peer),
+             address);
     }
     do_accept();
   }
 
+  // Counts the session in (connection_admission.h), pushes out the connections it displaces
+  // and starts it.
   template <typename Session>
-  void Launch(std::shared_ptr<Session> session) {
+  void Launch(std::shared_ptr<Session> session, const std::string& address) {
     tracker_.Opened(session);
-    session->Start();
+    server::AdmissionDecision admitted = admission_.Admit(address, session);
+    for (const auto& [evicted, why] : admitted.evict) evicted->Evict(why);
+    session->Start(admitted.ticket);
   }
 
   SyncServerOptions options_;
   server::ServerActivity activity_;
   server::SessionTracker tracker_;
   server::DownloadCache cache_;
+  server::ConnectionAdmission admission_;
   std::unique_ptr<server::MergeQueue> merges_;
   std::unique_ptr<server::StoreWorkers> store_;
   std::atomic<bool> draining_{false};

@@ -11,6 +11,7 @@
 #include <type_traits>
 
 #include "fleetmap/common/error.h"
+#include "fleetmap/common/map_chunks.h"
 #include "fleetmap/common/sync_frame.h"
 #include "fleetmap/server/robot_registry.h"
 
@@ -25,8 +26,19 @@ using tcp = asio::ip::tcp;
 // destroy the ErrorFrame before the robot reads it.
 constexpr std::chrono::milliseconds kLingerDeadline{2000};
 constexpr std::size_t kLingerBytes = std::size_t{1} << 20;
+// Before a hello is accepted the peer may be anyone, and a flood of them reconnects as fast
+// as it is closed: each gets a short linger, so closing ones cannot pile up.
+constexpr std::chrono::milliseconds kPreHelloLingerDeadline{250};
+constexpr std::size_t kPreHelloLingerBytes = std::size_t{64} << 10;
 // An ErrorFrame is small; a robot that does not read it for this long gets no more patience.
 constexpr std::chrono::milliseconds kErrorWriteDeadline{5000};
+constexpr std::chrono::milliseconds kPreHelloErrorWriteDeadline{1000};
+// Until a hello is accepted, a frame is at most this long: a Hello is a 16-byte id, a 64-digit
+// token and an agent string. Larger frames (chunks up to kMaxSyncFrameBytes) only from robots.
+constexpr std::uint32_t kMaxPreHelloFrameBytes = 4096;
+// A frame's body is read at most this much at a time, into a buffer that grows by what
+// arrived: a prefix announcing 64 MiB costs nothing until 64 MiB come.
+constexpr std::size_t kBodyPieceBytes = std::size_t{64} << 10;
 
 std::int64_t NowNs() {
   return std::chrono::duration_cast<std::chrono::nanoseconds>(
@@ -38,16 +50,23 @@ std::string Seconds(std::chrono::milliseconds d) {
   return fmt::format("{:g} s", static_cast<double>(d.count()) / 1000.0);
 }
 
+std::string Mib(std::uint64_t bytes) {
+  return fmt::format("{:.1f} MiB", static_cast<double>(bytes) / double(1 << 20));
+}
+
+// Both refusals of a hello say this and nothing more: which of the two it was would tell a
+// stranger which robot ids are registered. The log says which.
+constexpr std::string_view kHelloRefused = "unknown robot or wrong token";
+
 }  // namespace
 
 template <typename Stream>
-SyncSession<Stream>::SyncSession(Stream stream, SessionContext& context, std::string peer,
-                                 std::string refuse)
+SyncSession<Stream>::SyncSession(Stream stream, SessionContext& context, std::string peer)
     : stream_(std::move(stream)),
       executor_(Socket().get_executor()),
       context_(context),
       peer_(std::move(peer)),
-      refuse_(std::move(refuse)),
+      hello_by_(std::chrono::steady_clock::now() + context.options.hello_deadline),
       deadline_(executor_),
       merge_wait_(executor_) {
   context_.activity.SessionOpened();
@@ -56,6 +75,7 @@ SyncSession<Stream>::SyncSession(Stream stream, SessionContext& context, std::st
 template <typename Stream>
 SyncSession<Stream>::~SyncSession() {
   spdlog::info("session {} closed: {}; {} frames", Who(), close_reason_, frames_);
+  LeaveAdmission();
   context_.activity.SessionClosed();
   context_.tracker.Closed();
 }
@@ -76,10 +96,17 @@ std::string SyncSession<Stream>::Who() const {
 }
 
 template <typename Stream>
-void SyncSession<Stream>::Start() {
+void SyncSession<Stream>::Start(std::uint64_t admission_ticket) {
+  admission_ticket_ = admission_ticket;
+  refused_ = admission_ticket == 0;
   asio::post(executor_, [self = this->shared_from_this()] {
     if constexpr (std::is_same_v<Stream, tcp::socket>) {
-      if (!self->refuse_.empty()) return self->Fail(v1::ErrorFrame::INTERNAL, self->refuse_);
+      if (self->refused_) {
+        return self->Fail(v1::ErrorFrame::BUSY,
+                          "the server holds its maximum of " +
+                              std::to_string(self->context_.options.max_sessions) +
+                              " sessions; retry later");
+      }
       self->do_read_prefix();
     } else {
       self->do_handshake();
@@ -96,6 +123,25 @@ void SyncSession<Stream>::Shutdown() {
     if (self->idle_) self->Socket().cancel(ignored);  // on_read_prefix says SHUTTING_DOWN
     self->merge_wait_.cancel();                       // answers the status now; then SHUTTING_DOWN
   });
+}
+
+template <typename Stream>
+void SyncSession<Stream>::Evict(const std::string& why) {
+  asio::post(executor_, [self = this->shared_from_this(), why] {
+    if (self->hello_received_ || self->evicted_ || self->phase_ != Phase::kHello) return;
+    self->evicted_ = true;
+    self->evicted_why_ = why;
+    // Before the hello there is always a handshake or a read pending: its handler sees
+    // evicted_ and closes.
+    boost::system::error_code ignored;
+    self->Socket().cancel(ignored);
+  });
+}
+
+template <typename Stream>
+void SyncSession<Stream>::LeaveAdmission() {
+  context_.admission.Release(admission_ticket_);
+  admission_ticket_ = 0;
 }
 
 // ---- Deadlines ----
@@ -119,12 +165,20 @@ void SyncSession<Stream>::Disarm() {
   deadline_.cancel();
 }
 
+template <typename Stream>
+std::chrono::milliseconds SyncSession<Stream>::ReadDeadline() const {
+  if (welcomed_) return context_.options.io_deadline;
+  const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
+      hello_by_ - std::chrono::steady_clock::now());
+  return std::clamp(left, std::chrono::milliseconds(1), context_.options.io_deadline);
+}
+
 // ---- TLS ----
 
 template <typename Stream>
 void SyncSession<Stream>::do_handshake() {
   if constexpr (!std::is_same_v<Stream, tcp::socket>) {
-    Arm(context_.options.handshake_deadline);
+    Arm(std::min(context_.options.handshake_deadline, ReadDeadline()));
     stream_.async_handshake(asio::ssl::stream_base::server,
                             [self = this->shared_from_this()](boost::system::error_code ec) {
                               self->on_handshake(ec);
@@ -135,14 +189,28 @@ void SyncSession<Stream>::do_handshake() {
 template <typename Stream>
 void SyncSession<Stream>::on_handshake(const boost::system::error_code& ec) {
   Disarm();
+  if (evicted_) {
+    // Under TLS nothing can be said before the handshake ends: it just closes.
+    if (ec) {
+      close_reason_ = "BUSY (before the TLS handshake ended): " + evicted_why_;
+      spdlog::warn("session {} refused: {}", peer_, close_reason_);
+      return CloseSocket();
+    }
+    return Fail(v1::ErrorFrame::BUSY, evicted_why_);
+  }
   if (ec) {
-    close_reason_ = timed_out_
-                        ? "no TLS handshake within " + Seconds(context_.options.handshake_deadline)
-                        : "TLS handshake failed: " + ec.message();
+    close_reason_ = timed_out_ ? "no TLS handshake within " +
+                                     Seconds(std::min(context_.options.handshake_deadline,
+                                                      context_.options.hello_deadline))
+                               : "TLS handshake failed: " + ec.message();
     spdlog::warn("session {} refused: {}", peer_, close_reason_);
     return CloseSocket();
   }
-  if (!refuse_.empty()) return Fail(v1::ErrorFrame::INTERNAL, refuse_);
+  if (refused_) {
+    return Fail(v1::ErrorFrame::BUSY, "the server holds its maximum of " +
+                                          std::to_string(context_.options.max_sessions) +
+                                          " sessions; retry later");
+  }
   do_read_prefix();
 }
 
@@ -154,7 +222,7 @@ void SyncSession<Stream>::do_read_prefix() {
     return Fail(v1::ErrorFrame::SHUTTING_DOWN, "the server is shutting down; retry later");
   }
   idle_ = true;
-  Arm(context_.options.io_deadline);
+  Arm(ReadDeadline());
   asio::async_read(
       stream_, asio::buffer(prefix_),
       [self = this->shared_from_this()](boost::system::error_code ec, std::size_t bytes) {
@@ -167,7 +235,13 @@ void SyncSession<Stream>::on_read_prefix(const boost::system::error_code& ec, st
   idle_ = false;
   Disarm();
   context_.activity.BytesReceived(bytes);
+  if (evicted_) return Fail(v1::ErrorFrame::BUSY, evicted_why_);
   if (ec) {
+    if (timed_out_ && !welcomed_) {
+      return Fail(v1::ErrorFrame::TIMEOUT, "no complete hello within " +
+                                               Seconds(context_.options.hello_deadline) +
+                                               " of connecting");
+    }
     if (timed_out_) {
       return Fail(v1::ErrorFrame::TIMEOUT,
                   "no frame within " + Seconds(context_.options.io_deadline));
@@ -195,27 +269,57 @@ void SyncSession<Stream>::on_read_prefix(const boost::system::error_code& ec, st
   } catch (const Error& error) {
     return Fail(v1::ErrorFrame::FRAME_TOO_LARGE, error.message());
   }
+  if (!welcomed_ && length > kMaxPreHelloFrameBytes) {
+    return Fail(v1::ErrorFrame::FRAME_TOO_LARGE,
+                "a frame of " + std::to_string(length) +
+                    " bytes before a hello was accepted: until then a frame is at most " +
+                    std::to_string(kMaxPreHelloFrameBytes) + " bytes");
+  }
   do_read_body(length);
 }
 
 template <typename Stream>
 void SyncSession<Stream>::do_read_body(std::uint32_t length) {
-  body_.resize(length);
-  Arm(context_.options.io_deadline);
-  asio::async_read(
-      stream_, asio::buffer(body_),
-      [self = this->shared_from_this()](boost::system::error_code ec, std::size_t bytes) {
-        self->on_read_body(ec, bytes);
+  body_.clear();
+  body_length_ = length;
+  // One deadline for the whole body: a robot that trickles it does not renew it.
+  Arm(ReadDeadline());
+  do_read_body_piece();
+}
+
+template <typename Stream>
+void SyncSession<Stream>::do_read_body_piece() {
+  const std::size_t had = body_.size();
+  const std::size_t want = std::min(kBodyPieceBytes, body_length_ - had);
+  body_.resize(had + want);
+  stream_.async_read_some(
+      asio::buffer(body_.data() + had, want),
+      [self = this->shared_from_this(), had](boost::system::error_code ec, std::size_t bytes) {
+        self->on_read_body_piece(ec, had, bytes);
       });
 }
 
 template <typename Stream>
-void SyncSession<Stream>::on_read_body(const boost::system::error_code& ec, std::size_t bytes) {
-  Disarm();
+void SyncSession<Stream>::on_read_body_piece(const boost::system::error_code& ec, std::size_t had,
+                                             std::size_t bytes) {
+  body_.resize(had + bytes);
   context_.activity.BytesReceived(bytes);
+  if (!ec && !evicted_ && body_.size() < body_length_) return do_read_body_piece();
+  on_read_body(ec);
+}
+
+template <typename Stream>
+void SyncSession<Stream>::on_read_body(const boost::system::error_code& ec) {
+  Disarm();
+  if (evicted_) return Fail(v1::ErrorFrame::BUSY, evicted_why_);
   if (ec) {
-    const std::string got =
-        std::to_string(bytes) + " of the " + std::to_string(body_.size()) + " bytes announced";
+    const std::string got = std::to_string(body_.size()) + " of the " +
+                            std::to_string(body_length_) + " bytes announced";
+    if (timed_out_ && !welcomed_) {
+      return Fail(v1::ErrorFrame::TIMEOUT, "no complete hello within " +
+                                               Seconds(context_.options.hello_deadline) +
+                                               " of connecting: " + got);
+    }
     if (timed_out_) {
       return Fail(v1::ErrorFrame::TIMEOUT, "a frame's body did not arrive within " +
                                                Seconds(context_.options.io_deadline) + ": " + got);
@@ -246,7 +350,9 @@ void SyncSession<Stream>::do_write(std::shared_ptr<const std::string> frame,
                                    std::function<void()> next) {
   out_ = std::move(frame);
   after_write_ = std::move(next);
-  Arm(phase_ == Phase::kClosing ? std::min(kErrorWriteDeadline, context_.options.io_deadline)
+  const std::chrono::milliseconds error_deadline =
+      welcomed_ ? kErrorWriteDeadline : kPreHelloErrorWriteDeadline;
+  Arm(phase_ == Phase::kClosing ? std::min(error_deadline, context_.options.io_deadline)
                                 : context_.options.io_deadline);
   asio::async_write(
       stream_, asio::buffer(*out_),
@@ -281,6 +387,7 @@ template <typename Stream>
 void SyncSession<Stream>::Fail(ErrorCodeV1 code, const std::string& text) {
   if (phase_ == Phase::kClosing) return;
   phase_ = Phase::kClosing;
+  LeaveAdmission();
   const std::string name = v1::ErrorFrame::Code_Name(code);
   close_reason_ = name + ": " + text;
   spdlog::warn("session {} refused: {}: {}", Who(), name, text);
@@ -314,12 +421,13 @@ void SyncSession<Stream>::FailStore(ErrorCode code, const std::string& text) {
 template <typename Stream>
 void SyncSession<Stream>::do_close() {
   phase_ = Phase::kClosing;
+  LeaveAdmission();
   // Our side is done: FIN (under TLS too; the robot reads the frames it has, then the end),
   // then what the robot still sends is drained briefly so the close does not reset.
   boost::system::error_code ignored;
   Socket().shutdown(tcp::socket::shutdown_send, ignored);
   drained_ = 0;
-  Arm(kLingerDeadline);
+  Arm(welcomed_ ? kLingerDeadline : kPreHelloLingerDeadline);
   do_drain();
 }
 
@@ -335,7 +443,7 @@ void SyncSession<Stream>::do_drain() {
 template <typename Stream>
 void SyncSession<Stream>::on_drain(const boost::system::error_code& ec, std::size_t bytes) {
   drained_ += bytes;
-  if (ec || drained_ > kLingerBytes) {
+  if (ec || drained_ > (welcomed_ ? kLingerBytes : kPreHelloLingerBytes)) {
     Disarm();
     return CloseSocket();
   }
@@ -345,6 +453,7 @@ void SyncSession<Stream>::on_drain(const boost::system::error_code& ec, std::siz
 template <typename Stream>
 void SyncSession<Stream>::CloseSocket() {
   phase_ = Phase::kClosing;
+  LeaveAdmission();
   boost::system::error_code ignored;
   Socket().shutdown(tcp::socket::shutdown_both, ignored);
   Socket().close(ignored);
@@ -427,47 +536,66 @@ void SyncSession<Stream>::Handle(const v1::SyncFrame& frame) {
 
 template <typename Stream>
 void SyncSession<Stream>::OnHello(const v1::Hello& hello) {
+  hello_received_ = true;
+  context_.admission.HelloReceived(admission_ticket_);  // it can no longer be evicted
   if (hello.protocol_version() != kSyncProtocolVersion) {
     return Fail(v1::ErrorFrame::UNSUPPORTED_VERSION,
                 "protocol version " + std::to_string(hello.protocol_version()) +
                     ": this server speaks version " + std::to_string(kSyncProtocolVersion));
   }
   if (hello.robot_id().size() != Uuid::kSize) {
-    return Fail(v1::ErrorFrame::UNKNOWN_ROBOT, "a robot id of " +
-                                                   std::to_string(hello.robot_id().size()) +
-                                                   " bytes: robot ids are 16 bytes (a UUID)");
+    // The id's form, not whether it is registered: this says nothing a stranger may not know.
+    return Fail(v1::ErrorFrame::INVALID, "hello: a robot id of " +
+                                             std::to_string(hello.robot_id().size()) +
+                                             " bytes: robot ids are 16 bytes (a UUID)");
   }
   const Uuid robot = Uuid::FromBytes(hello.robot_id());
   struct Result {
     RobotAuthenticationResult auth;
     RevisionNumber head = 0;
+    std::string sync_not_recorded;  // why the last sync was not written, when it was not
   };
   OnStore(
       [robot, token = hello.token()](Repository& repository) {
         RobotRegistry registry(repository.versions());
-        Result result{registry.Authenticate(robot, token), 0};
+        Result result{registry.Authenticate(robot, token), 0, {}};
         if (result.auth.outcome == RobotAuthentication::kAccepted) {
-          registry.RecordSync(robot, NowNs());
           result.head = repository.Head();
+          // Best effort, and last: a store that cannot write (its disk full) must not stop a
+          // robot from downloading; the time is kept in memory (ServerActivity) meanwhile.
+          try {
+            registry.RecordSync(robot, NowNs());
+          } catch (const std::exception& error) {
+            result.sync_not_recorded = error.what();
+          }
         }
         return result;
       },
       [self = this->shared_from_this(), robot, agent = hello.agent()](Result result) {
         switch (result.auth.outcome) {
           case RobotAuthentication::kUnknownRobot:
-            return self->Fail(v1::ErrorFrame::UNKNOWN_ROBOT,
-                              "no robot " + robot.ToString() +
-                                  " is registered here (`fleetmap robot add NAME` registers one)");
+            spdlog::warn("session {}: hello refused: no robot {} is registered here", self->Who(),
+                         robot.ToString());
+            return self->Fail(v1::ErrorFrame::BAD_TOKEN, std::string(kHelloRefused));
           case RobotAuthentication::kBadToken:
-            return self->Fail(v1::ErrorFrame::BAD_TOKEN,
-                              "wrong token for robot " + robot.ToString());
+            spdlog::warn("session {}: hello refused: wrong token for robot {}", self->Who(),
+                         robot.ToString());
+            return self->Fail(v1::ErrorFrame::BAD_TOKEN, std::string(kHelloRefused));
           case RobotAuthentication::kAccepted:
             break;
         }
         self->robot_ = robot;
         self->robot_name_ = result.auth.robot->name;
         self->phase_ = Phase::kReady;
+        self->welcomed_ = true;
         self->context_.activity.RobotSynced(*result.auth.robot, NowNs());
+        if (!result.sync_not_recorded.empty()) {
+          self->context_.activity.LastSyncNotRecorded();
+          spdlog::warn(
+              "session {}: the last sync of robot {} was not written to the store ({}); "
+              "kept in memory only, the hello goes on",
+              self->Who(), robot.ToString(), result.sync_not_recorded);
+        }
         spdlog::info("session {} opened: robot {} ({}), {}", self->Who(), self->robot_name_,
                      robot.ToString(), agent.empty() ? "agent unnamed" : agent);
         v1::SyncFrame frame;
@@ -490,6 +618,14 @@ void SyncSession<Stream>::OnPushBegin(const v1::PushBegin& begin) {
   if (begin.chunk_count() == 0) {
     return Fail(v1::ErrorFrame::INVALID,
                 "push_begin: 0 chunks announced (even an empty map has one chunk)");
+  }
+  const std::uint64_t limit = context_.options.max_submission_bytes;
+  if (begin.total_bytes() > limit) {
+    return Fail(v1::ErrorFrame::INVALID, "push_begin: " + std::to_string(begin.total_bytes()) +
+                                             " bytes announced (" + Mib(begin.total_bytes()) +
+                                             "), over this server's limit of " +
+                                             std::to_string(limit) + " bytes (" + Mib(limit) +
+                                             ") a submission (fleetmapd --max-submission-mib)");
   }
   const Uuid id = Uuid::FromBytes(begin.submission_id());
   OnStore(
@@ -518,7 +654,9 @@ void SyncSession<Stream>::OnPushBegin(const v1::PushBegin& begin) {
         push.submission = stored.id;
         push.chunk_count = begin.chunk_count();
         push.digest = begin.digest();
+        push.total_bytes = begin.total_bytes();
         push.next_seq = static_cast<std::uint32_t>(stored.chunk_count);
+        push.bytes = static_cast<std::uint64_t>(stored.bytes);
         push.complete = complete;
         self->push_ = push;
         self->phase_ = Phase::kPushing;
@@ -544,6 +682,31 @@ void SyncSession<Stream>::OnPushChunk(v1::PushChunk chunk) {
                                              std::to_string(push_->chunk_count) +
                                              " chunks announced");
   }
+  // What the robot encoded, checked before a byte is stored: a chunk damaged on the way (or in
+  // the robot's memory) is refused whole, and the robot sends it again.
+  if (chunk.digest() != DigestOfChunk(chunk.data())) {
+    return Fail(v1::ErrorFrame::CHUNK_DIGEST,
+                "chunk " + std::to_string(seq) + " does not match its digest; nothing stored");
+  }
+  const std::uint64_t size = chunk.data().size();
+  if (seq == push_->next_seq) {  // a new chunk (an earlier one again is checked by the store)
+    const std::uint64_t after = push_->bytes + size;
+    const std::uint64_t limit = context_.options.max_submission_bytes;
+    if (after > limit) {
+      return Fail(v1::ErrorFrame::INVALID,
+                  "push_chunk " + std::to_string(seq) + ": the submission would reach " +
+                      std::to_string(after) + " bytes, over this server's limit of " +
+                      std::to_string(limit) + " bytes (" + Mib(limit) +
+                      ") a submission (fleetmapd --max-submission-mib); nothing stored");
+    }
+    if (after > push_->total_bytes) {
+      return Fail(v1::ErrorFrame::INVALID,
+                  "push_chunk " + std::to_string(seq) + ": the submission would reach " +
+                      std::to_string(after) + " bytes, more than the " +
+                      std::to_string(push_->total_bytes) +
+                      " announced at push_begin (total_bytes); nothing stored");
+    }
+  }
   auto data = std::make_shared<const std::string>(std::move(*chunk.mutable_data()));
   OnStore(
       [id = push_->submission, seq, data,
@@ -552,8 +715,11 @@ void SyncSession<Stream>::OnPushChunk(v1::PushChunk chunk) {
         repository.PutPushChunk(id, seq, *data);
         return seq;
       },
-      [self = this->shared_from_this()](std::uint32_t stored) {
-        if (stored == self->push_->next_seq) ++self->push_->next_seq;
+      [self = this->shared_from_this(), size](std::uint32_t stored) {
+        if (stored == self->push_->next_seq) {
+          ++self->push_->next_seq;
+          self->push_->bytes += size;
+        }
         v1::SyncFrame frame;
         frame.mutable_push_chunk_ack()->set_seq(stored);
         self->Reply(frame);
@@ -594,6 +760,7 @@ void SyncSession<Stream>::OnPushEnd() {
         accepted.set_state(std::string(SubmissionStateName(s.state)));
         accepted.set_revision(s.revision);
         accepted.set_queue_position(result.position);
+        accepted.set_error(s.error);  // why, when it failed
         self->Reply(frame);
       });
 }
@@ -626,8 +793,14 @@ void SyncSession<Stream>::QueryMergeStatus(const Uuid& id, bool may_wait, std::u
           }
         }
         if (s->state == SubmissionState::kQueued) {
+          // Queued in the store but not in this server's queue (pushed with `fleetmap push`, or
+          // left by a failure): queue it, so it merges and a wait below has a merge to watch.
+          if (!merges.Position(id)) merges.Enqueue(id, s->robot);
           if (merges.IsMerging(id)) status.set_state("merging");
           status.set_queue_position(merges.Position(id).value_or(0));
+          const MergeQueue::Retries retries = merges.RetriesOf(id);
+          status.set_merge_attempts(retries.attempts);
+          if (status.error().empty()) status.set_error(retries.last_error);
         }
         return status;
       },

@@ -7,6 +7,12 @@
 // error first. Every read and write has a deadline. Store calls run on the StoreWorkers and
 // post their result back to the strand, so an io thread never waits on the store.
 //
+// Until its hello is accepted a connection is a stranger: its frames are at most 4 KiB, the
+// hello deadline (from the accept) bounds its handshake and reads, it lingers only briefly
+// after an ErrorFrame, and the server may push it out to make room (Evict;
+// connection_admission.h). A frame's body is read a piece at a time into a buffer that grows
+// as the bytes arrive, so an announced length costs nothing until its bytes come.
+//
 // Stream is a TCP socket or a TLS stream over one (explicitly instantiated in the .cc).
 #pragma once
 
@@ -21,6 +27,7 @@
 #include <optional>
 #include <string>
 
+#include "connection_admission.h"
 #include "download_cache.h"
 #include "fleetmap/common/error.h"
 #include "fleetmap/common/uuid.h"
@@ -41,6 +48,7 @@ struct SessionContext {
   DownloadCache& downloads;
   ServerActivity& activity;
   SessionTracker& tracker;
+  ConnectionAdmission& admission;
   const std::atomic<bool>& draining;
 };
 
@@ -48,14 +56,16 @@ template <typename Stream>
 class SyncSession : public SessionControl,
                     public std::enable_shared_from_this<SyncSession<Stream>> {
  public:
-  // `stream`'s executor must be a strand. `refuse` (non-empty): the server is full; the session
-  // sends an ErrorFrame saying so and closes.
-  SyncSession(Stream stream, SessionContext& context, std::string peer, std::string refuse);
+  // `stream`'s executor must be a strand.
+  SyncSession(Stream stream, SessionContext& context, std::string peer);
   ~SyncSession() override;
 
-  // Starts the session (the TLS handshake first, if any). Call once, right after make_shared.
-  void Start();
+  // Starts the session (the TLS handshake first, if any). Call once, right after make_shared
+  // and context.admission.Admit: `admission_ticket` is what Admit gave, 0 when it refused the
+  // connection (the session then says BUSY and closes).
+  void Start(std::uint64_t admission_ticket);
   void Shutdown() override;
+  void Evict(const std::string& why) override;
 
  private:
   enum class Phase { kHello, kReady, kPushing, kClosing };
@@ -65,7 +75,9 @@ class SyncSession : public SessionControl,
     Uuid submission;
     std::uint32_t chunk_count = 0;  // announced
     std::uint64_t digest = 0;       // announced
+    std::uint64_t total_bytes = 0;  // announced
     std::uint32_t next_seq = 0;     // chunks [0, next_seq) are stored
+    std::uint64_t bytes = 0;        // of chunks [0, next_seq)
     bool complete = false;          // stored whole before this session
   };
 
@@ -76,7 +88,9 @@ class SyncSession : public SessionControl,
   void do_read_prefix();
   void on_read_prefix(const boost::system::error_code& ec, std::size_t bytes);
   void do_read_body(std::uint32_t length);
-  void on_read_body(const boost::system::error_code& ec, std::size_t bytes);
+  void do_read_body_piece();
+  void on_read_body_piece(const boost::system::error_code& ec, std::size_t had, std::size_t bytes);
+  void on_read_body(const boost::system::error_code& ec);
   void do_write(std::shared_ptr<const std::string> frame, std::function<void()> next);
   void on_write(const boost::system::error_code& ec, std::size_t bytes);
   void do_write_download(std::size_t index);
@@ -89,6 +103,11 @@ class SyncSession : public SessionControl,
   // session knows it timed out.
   void Arm(std::chrono::milliseconds deadline);
   void Disarm();
+  // The deadline of the next read: io_deadline, and before the hello no later than the hello
+  // deadline (counted from the accept).
+  std::chrono::milliseconds ReadDeadline() const;
+  // The session starts closing: it no longer counts against the server's limits.
+  void LeaveAdmission();
 
   void Handle(const v1::SyncFrame& frame);
   void OnHello(const v1::Hello& hello);
@@ -116,7 +135,12 @@ class SyncSession : public SessionControl,
   boost::asio::any_io_executor executor_;  // the session's strand
   SessionContext& context_;
   std::string peer_;
-  std::string refuse_;
+  std::uint64_t admission_ticket_ = 0;  // 0: not counted (refused, or released)
+  bool refused_ = false;                // the server was full at the accept
+  bool hello_received_ = false;         // a hello frame arrived whole
+  bool evicted_ = false;                // Evict() came before the hello arrived whole
+  std::string evicted_why_;
+  std::chrono::steady_clock::time_point hello_by_;  // the hello deadline
   boost::asio::steady_timer deadline_;
   std::uint64_t deadline_generation_ = 0;
   bool timed_out_ = false;
@@ -125,12 +149,16 @@ class SyncSession : public SessionControl,
   bool idle_ = false;  // waiting for the first byte of a frame
 
   Phase phase_ = Phase::kHello;
+  bool welcomed_ = false;  // past the hello: a robot, authenticated
   Uuid robot_;
   std::string robot_name_;
   std::optional<Push> push_;
 
   std::array<char, 4> prefix_{};
+  // The frame being read. It grows as the bytes arrive, a piece at a time, never to the length
+  // the prefix announced before they have: memory follows what was received.
   std::string body_;
+  std::size_t body_length_ = 0;  // announced
   std::shared_ptr<const std::string> out_;
   std::function<void()> after_write_;
   std::shared_ptr<const EncodedDownload> download_;

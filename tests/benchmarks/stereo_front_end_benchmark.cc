@@ -51,7 +51,9 @@ const RealPairs& Pairs() {
 
 bool HaveData(benchmark::State& state) {
   if (std::string(FLEETMAP_EUROC_DIR).empty()) {
-    state.SkipWithError("the EuRoC sequence was not found at configure time");
+    state.SkipWithError(
+        "the EuRoC sequence was not found at configure time; configure with "
+        "-DFLEETMAP_EUROC_DIR=/path/to/euroc-v1_01-micro");
     return false;
   }
   return true;

@@ -11,12 +11,15 @@
 //   statement's context.
 // - The connection lives in a PgSession shared with this store's VersionStore
 //   (postgres_version_store.cc), so both see the same explicit Transaction.
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <memory>
+#include <optional>
 #include <pqxx/pqxx>
 #include <string>
 #include <type_traits>
+#include <vector>
 
 #include "backends.h"
 #include "fleetmap/common/annotation_store.h"
@@ -72,12 +75,42 @@ class PostgresGraphStore final : public GraphStore {
       t.exec(options.durability == Durability::kSynchronous ? "SET synchronous_commit = on"
                                                             : "SET synchronous_commit = off");
       t.exec("SET client_min_messages = warning");
+      // As SQLite's busy timeout: a writer blocked by another's lock gives up after this long
+      // (Error(kBackend)) instead of waiting for ever; callers retry what is transient.
+      t.exec("SET lock_timeout = " +
+             std::to_string(std::max<std::int64_t>(0, options.busy_timeout_ms)));
     });
-    Migrate();
+    // Read-only first: a database this binary refuses must be left exactly as it was, so the
+    // schema table is neither created nor migrated before the recorded version is checked.
+    const bool create = options.create_if_missing && !options.read_only;
+    const std::optional<int> found = RecordedSchemaVersion();
+    const int latest = static_cast<int>(PostgresMigrations().size());
+    if (!found && !create) {
+      throw Error(ErrorCode::kNotFound,
+                  session_.uri() +
+                      " is not a fleetmap map store (a database without a fleetmap_schema "
+                      "table)");
+    }
+    if (options.read_only && *found != latest) {
+      throw Error(ErrorCode::kInvalidArgument,
+                  session_.uri() + " has schema version " + std::to_string(*found) +
+                      ", older than this fleetmap's " + std::to_string(latest) +
+                      ", and a read-only open does not migrate: open it once read-write (any "
+                      "fleetmap command that writes to it) and retry");
+    }
+    if (!options.read_only) Migrate();
     session_.Translate("prepare", [&] { Prepare(); });
     versions_ = NewPostgresVersionStore(session_);
     sensors_ = NewPostgresSensorIndex(session_);
     annotations_ = NewPostgresAnnotationStore(session_);
+    if (options.read_only) {
+      // Only now: the session-local staging tables above are created with CREATE TEMP TABLE,
+      // which a read-only transaction refuses (they change nothing of the database's own).
+      session_.Translate("connect read-only", [&] {
+        pqxx::nontransaction t(session_.connection());
+        t.exec("SET default_transaction_read_only = on");
+      });
+    }
   }
 
   std::string uri() const override { return session_.uri(); }
@@ -88,7 +121,8 @@ class PostgresGraphStore final : public GraphStore {
 
   int schema_version() override {
     return session_.Autocommit("schema version", [&](pqxx::transaction_base& t) {
-      return t.exec("SELECT coalesce(max(version), 0) FROM fleetmap_schema")[0][0].as<int>();
+      return CheckedSchemaVersion(session_.uri(), SchemaRows(t),
+                                  static_cast<int>(PostgresMigrations().size()));
     });
   }
 
@@ -339,17 +373,42 @@ class PostgresGraphStore final : public GraphStore {
   }
 
  private:
+  // The rows of fleetmap_schema, each as text (NULL as nullopt), for CheckedSchemaVersion:
+  // as text, because a newer or damaged store may hold a bigint, or anything, there.
+  static std::vector<std::optional<std::string>> SchemaRows(pqxx::transaction_base& t) {
+    std::vector<std::optional<std::string>> rows;
+    for (const pqxx::row& row : t.exec("SELECT version::text FROM fleetmap_schema")) {
+      rows.push_back(row[0].is_null() ? std::nullopt : std::optional(row[0].as<std::string>()));
+    }
+    return rows;
+  }
+
+  // The checked schema version (CheckedSchemaVersion), or nullopt when the database has no
+  // fleetmap_schema table. Only reads.
+  std::optional<int> RecordedSchemaVersion() {
+    return session_.Translate("read the schema version of " + session_.uri(), [&] {
+      pqxx::read_transaction t(session_.connection());
+      std::optional<int> version;
+      if (t.exec("SELECT to_regclass('fleetmap_schema') IS NOT NULL")[0][0].as<bool>()) {
+        version = CheckedSchemaVersion(session_.uri(), SchemaRows(t),
+                                       static_cast<int>(PostgresMigrations().size()));
+      }
+      t.commit();
+      return version;
+    });
+  }
+
   void Migrate() {
     session_.Translate("migrate " + session_.uri(), [&] {
       pqxx::work t(session_.connection());
       // Two servers opening a fresh database at once migrate one after the other.
       t.exec("SELECT pg_advisory_xact_lock(" + std::to_string(kMigrationLockKey) + ")");
       t.exec("CREATE TABLE IF NOT EXISTS fleetmap_schema (version integer NOT NULL)");
-      const int current =
-          t.exec("SELECT coalesce(max(version), 0) FROM fleetmap_schema")[0][0].as<int>();
+      // Again under the lock: another server may have migrated since the read-only check. A
+      // refusal here rolls the transaction back, table and all.
       const auto& migrations = PostgresMigrations();
-      const int latest = static_cast<int>(migrations.size());
-      RefuseNewerSchema(session_.uri(), current, latest);
+      const int current =
+          CheckedSchemaVersion(session_.uri(), SchemaRows(t), static_cast<int>(migrations.size()));
       for (const Migration& m : migrations) {
         if (m.version <= current) continue;
         t.exec(m.sql, m.name);

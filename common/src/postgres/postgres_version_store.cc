@@ -351,6 +351,57 @@ class PostgresVersionStore final : public VersionStore {
                                });
   }
 
+  // ---- What the server has seen of each node ----
+
+  void PutSubmissionNodes(const Uuid& id, const std::vector<Uuid>& nodes) override {
+    session_.Atomically("nodes of submission " + id.ToString(), [&](pqxx::transaction_base& t) {
+      LockSubmission(t, id);
+      t.exec_prepared("version_put_submission_nodes", UuidArray(nodes), id.ToString());
+    });
+  }
+
+  std::vector<Submission> SubmissionsWithNode(const Uuid& node) override {
+    return session_.Autocommit(
+        "submissions with node " + node.ToString(), [&](pqxx::transaction_base& t) {
+          std::vector<Submission> submissions;
+          for (const auto& row :
+               t.exec_prepared("version_submissions_with_node", node.ToString())) {
+            submissions.push_back(ReadSubmission(row));
+          }
+          return submissions;
+        });
+  }
+
+  void PutStandIns(const std::vector<NodeStandIn>& stand_ins) override {
+    session_.Atomically("stand-ins", [&](pqxx::transaction_base& t) {
+      for (const NodeStandIn& stand_in : stand_ins) {
+        const Eigen::Vector3d p = stand_in.stand_in_T_node.translation();
+        const Eigen::Quaterniond q = RotationQuaternion(stand_in.stand_in_T_node);
+        t.exec_prepared("version_put_stand_in", stand_in.node.ToString(),
+                        stand_in.stand_in.ToString(), p.x(), p.y(), p.z(), q.w(), q.x(), q.y(),
+                        q.z(), stand_in.revision);
+      }
+    });
+  }
+
+  std::optional<NodeStandIn> FindStandIn(const Uuid& node) override {
+    return session_.Autocommit(
+        "stand-in of " + node.ToString(),
+        [&](pqxx::transaction_base& t) -> std::optional<NodeStandIn> {
+          const pqxx::result r = t.exec_prepared("version_find_stand_in", node.ToString());
+          if (r.empty()) return std::nullopt;
+          NodeStandIn found;
+          found.node = node;
+          found.stand_in = UuidField(r[0][0]);
+          found.stand_in_T_node = Se3FromTranslationQuaternion(
+              Eigen::Vector3d(r[0][1].as<double>(), r[0][2].as<double>(), r[0][3].as<double>()),
+              Eigen::Quaterniond(r[0][4].as<double>(), r[0][5].as<double>(), r[0][6].as<double>(),
+                                 r[0][7].as<double>()));
+          found.revision = r[0][8].as<std::int64_t>();
+          return found;
+        });
+  }
+
   // ---- Settings ----
 
   std::optional<std::string> FindSetting(std::string_view key) override {
@@ -527,6 +578,20 @@ class PostgresVersionStore final : public VersionStore {
               " SELECT id FROM paths WHERE id = $1) s LEFT JOIN element_versions v"
               " ON v.id = s.id LIMIT 1");
     // Settings.
+    // What the server has seen of each node (0005_submission_nodes.sql).
+    c.prepare("version_put_submission_nodes",
+              "INSERT INTO submission_nodes (node, submission) SELECT unnest($1::uuid[]), $2"
+              " ON CONFLICT DO NOTHING");
+    c.prepare("version_submissions_with_node",
+              std::string("SELECT ") + kSubmissionColumns +
+                  " FROM submissions WHERE id IN (SELECT submission FROM submission_nodes"
+                  " WHERE node = $1) ORDER BY received_ns, id");
+    c.prepare("version_put_stand_in",
+              "INSERT INTO stand_ins (node, stand_in, tx, ty, tz, qw, qx, qy, qz, revision)"
+              " VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10) ON CONFLICT (node) DO NOTHING");
+    c.prepare("version_find_stand_in",
+              "SELECT stand_in, tx, ty, tz, qw, qx, qy, qz, revision FROM stand_ins"
+              " WHERE node = $1");
     c.prepare("version_find_setting", "SELECT value FROM settings WHERE key = $1");
     c.prepare("version_put_setting",
               "INSERT INTO settings (key, value) VALUES ($1, $2)"

@@ -5,12 +5,17 @@
 // holds us to a ratio against exactly that baseline.
 #include <sqlite3.h>
 
+#include <algorithm>
+#include <filesystem>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <span>
 #include <string>
+#include <system_error>
 #include <type_traits>
 #include <unordered_set>
+#include <vector>
 
 #include "backends.h"
 #include "fleetmap/common/annotation_store.h"
@@ -80,31 +85,63 @@ class ForeignKeysOff {
 class SqliteGraphStore final : public GraphStore {
  public:
   SqliteGraphStore(const std::string& path, const StoreOptions& options) : path_(path) {
+    const bool create = options.create_if_missing && !options.read_only;
     // NOMUTEX: a GraphStore is used by one thread at a time (see graph_store.h), so SQLite's
     // own per-call mutex would be pure overhead.
-    const int flags = SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_NOMUTEX;
+    const int flags = (options.read_only ? SQLITE_OPEN_READONLY : SQLITE_OPEN_READWRITE) |
+                      (create ? SQLITE_OPEN_CREATE : 0) | SQLITE_OPEN_NOMUTEX;
     const int rc = sqlite3_open_v2(path.c_str(), &db_, flags, nullptr);
     if (rc != SQLITE_OK) {
       const std::string message = db_ ? sqlite3_errmsg(db_) : sqlite3_errstr(rc);
       sqlite3_close(db_);
       db_ = nullptr;
+      std::error_code ec;
+      if (!create && !std::filesystem::exists(path, ec)) {
+        throw Error(ErrorCode::kNotFound, uri() + " is not a fleetmap map store (no such file)");
+      }
       throw Error(ErrorCode::kBackend, "cannot open sqlite store " + path + ": " + message);
     }
     try {
       sqlite3_extended_result_codes(db_, 1);
-      sqlite3_busy_timeout(db_, 10000);
-      // Seed 000 §6.1: both modes use the write-ahead log; synchronous flushes it on every
-      // commit, buffered leaves flushing to the OS (safe against a killed process).
-      // 8 KiB pages for new stores (a no-op on existing ones): a 10^6-node chain loads
-      // 20-30% faster than with 4 KiB pages (fewer page splits, shorter checkpoint).
-      ExecSql(db_, "PRAGMA page_size=8192");
-      ExecSql(db_, "PRAGMA journal_mode=WAL");
+      sqlite3_busy_timeout(db_, static_cast<int>(std::clamp<std::int64_t>(
+                                    options.busy_timeout_ms, 0, std::numeric_limits<int>::max())));
+      // Read-only first: a store this binary refuses must be left exactly as it was, so nothing
+      // below that writes (the journal mode, the schema table, migrations) runs before the
+      // recorded version has been read and checked.
+      const std::optional<int> found = RecordedSchemaVersion();
+      const int latest = static_cast<int>(SqliteMigrations().size());
+      if (!found && !create) {
+        std::error_code ec;
+        const bool empty = std::filesystem::file_size(path, ec) == 0 && !ec;
+        throw Error(
+            ErrorCode::kNotFound,
+            uri() + " is not a fleetmap map store (" +
+                (empty ? "empty file" : "an SQLite database without a fleetmap_schema table") +
+                ")");
+      }
+      if (options.read_only && *found != latest) {
+        throw Error(ErrorCode::kInvalidArgument,
+                    uri() + " has schema version " + std::to_string(*found) +
+                        ", older than this fleetmap's " + std::to_string(latest) +
+                        ", and a read-only open does not migrate: open it once read-write "
+                        "(any fleetmap command that writes to it) and retry");
+      }
+      if (!options.read_only) {
+        // Seed 000 §6.1: both modes use the write-ahead log; synchronous flushes it on every
+        // commit, buffered leaves flushing to the OS (safe against a killed process).
+        // 8 KiB pages for new stores (a no-op on existing ones): a 10^6-node chain loads
+        // 20-30% faster than with 4 KiB pages (fewer page splits, shorter checkpoint).
+        ExecSql(db_, "PRAGMA page_size=8192");
+        ExecSql(db_, "PRAGMA journal_mode=WAL");
+      }
       ExecSql(db_, options.durability == Durability::kSynchronous ? "PRAGMA synchronous=FULL"
                                                                   : "PRAGMA synchronous=OFF");
       ExecSql(db_, "PRAGMA foreign_keys=ON");
       ExecSql(db_, "PRAGMA cache_size=-32768");  // 32 MiB: bulk loads append at the right edge of
                                                  // each B-tree, so this is plenty
-      Migrate();
+      // A store already at this binary's schema needs no write to open: a server restarting
+      // while another writer holds the lock (a long transaction, a backup) starts at once.
+      if (!options.read_only && found != latest) Migrate();
       Prepare();
       versions_ = NewSqliteVersionStore(db_);
       sensors_ = NewSqliteSensorIndex(db_);
@@ -135,9 +172,7 @@ class SqliteGraphStore final : public GraphStore {
   AnnotationStore& annotations() override { return *annotations_; }
 
   int schema_version() override {
-    Statement s(db_, "SELECT coalesce(max(version), 0) FROM fleetmap_schema");
-    s.Step();
-    return static_cast<int>(s.Int64(0));
+    return CheckedSchemaVersion(uri(), SchemaRows(), static_cast<int>(SqliteMigrations().size()));
   }
 
  protected:
@@ -525,15 +560,42 @@ class SqliteGraphStore final : public GraphStore {
     }
   }
 
+  // The rows of fleetmap_schema, each as text (NULL as nullopt), for CheckedSchemaVersion.
+  std::vector<std::optional<std::string>> SchemaRows() {
+    Statement s(db_, "SELECT CAST(version AS TEXT) FROM fleetmap_schema");
+    std::vector<std::optional<std::string>> rows;
+    while (s.Step()) rows.push_back(s.IsNull(0) ? std::nullopt : std::optional(s.Text(0)));
+    return rows;
+  }
+
+  // The checked schema version (CheckedSchemaVersion), or nullopt when there is no
+  // fleetmap_schema table (an empty file, a new store, another program's database). Only
+  // reads. A file that is not a database throws Error(kCorrupt) (statement.h).
+  std::optional<int> RecordedSchemaVersion() {
+    try {
+      Statement table(db_,
+                      "SELECT count(*) FROM sqlite_master WHERE type = 'table' AND name = "
+                      "'fleetmap_schema'");
+      table.Step();
+      if (table.Int64(0) == 0) return std::nullopt;
+    } catch (const Error&) {
+      if ((sqlite3_errcode(db_) & 0xff) != SQLITE_NOTADB) throw;
+      throw Error(ErrorCode::kCorrupt,
+                  uri() + " is not a fleetmap map store (not an SQLite database)");
+    }
+    return CheckedSchemaVersion(uri(), SchemaRows(), static_cast<int>(SqliteMigrations().size()));
+  }
+
   void Migrate() {
-    ExecSql(db_, "CREATE TABLE IF NOT EXISTS fleetmap_schema (version INTEGER NOT NULL)");
-    // IMMEDIATE: two processes opening a new store at once migrate one after the other.
+    // IMMEDIATE: two processes opening a new store at once migrate one after the other. The
+    // schema table is created inside the transaction, so a refusal below rolls it back too.
     ExecSql(db_, "BEGIN IMMEDIATE");
     try {
-      const int current = schema_version();
+      ExecSql(db_, "CREATE TABLE IF NOT EXISTS fleetmap_schema (version INTEGER NOT NULL)");
+      // Again under the lock: another process may have migrated since the read-only check.
       const auto& migrations = SqliteMigrations();
-      const int latest = static_cast<int>(migrations.size());
-      RefuseNewerSchema(path_, current, latest);
+      const int current =
+          CheckedSchemaVersion(uri(), SchemaRows(), static_cast<int>(migrations.size()));
       for (const Migration& m : migrations) {
         if (m.version <= current) continue;
         ExecSql(db_, m.sql);

@@ -401,6 +401,58 @@ class SqliteVersionStore final : public VersionStore {
     return v;
   }
 
+  // ---- What the server has seen of each node ----
+
+  void PutSubmissionNodes(const Uuid& id, const std::vector<Uuid>& nodes) override {
+    Atomically([&] {
+      Require(id);
+      for (const Uuid& node : nodes) {
+        StatementUse s(s_.put_submission_node);
+        s->Bind(1, node);
+        s->Bind(2, id);
+        s->Run();
+      }
+    });
+  }
+
+  std::vector<Submission> SubmissionsWithNode(const Uuid& node) override {
+    StatementUse s(s_.submissions_with_node);
+    s->Bind(1, node);
+    std::vector<Submission> submissions;
+    while (s->Step()) submissions.push_back(ReadSubmission(*s));
+    return submissions;
+  }
+
+  void PutStandIns(const std::vector<NodeStandIn>& stand_ins) override {
+    Atomically([&] {
+      for (const NodeStandIn& stand_in : stand_ins) {
+        StatementUse s(s_.put_stand_in);
+        s->Bind(1, stand_in.node);
+        s->Bind(2, stand_in.stand_in);
+        const Eigen::Vector3d t = stand_in.stand_in_T_node.translation();
+        const Eigen::Quaterniond q = RotationQuaternion(stand_in.stand_in_T_node);
+        const double values[] = {t.x(), t.y(), t.z(), q.w(), q.x(), q.y(), q.z()};
+        for (int i = 0; i < 7; ++i) s->Bind(3 + i, values[i]);
+        s->Bind(10, stand_in.revision);
+        s->Run();
+      }
+    });
+  }
+
+  std::optional<NodeStandIn> FindStandIn(const Uuid& node) override {
+    StatementUse s(s_.find_stand_in);
+    s->Bind(1, node);
+    if (!s->Step()) return std::nullopt;
+    NodeStandIn found;
+    found.node = node;
+    found.stand_in = s->UuidAt(0);
+    found.stand_in_T_node = Se3FromTranslationQuaternion(
+        Eigen::Vector3d(s->Double(1), s->Double(2), s->Double(3)),
+        Eigen::Quaterniond(s->Double(4), s->Double(5), s->Double(6), s->Double(7)));
+    found.revision = s->Int64(8);
+    return found;
+  }
+
   // ---- Settings ----
 
   std::optional<std::string> FindSetting(std::string_view key) override {
@@ -528,7 +580,22 @@ class SqliteVersionStore final : public VersionStore {
           // bytes, like PostgreSQL's COLLATE "C" below.
           list_settings(db,
                         "SELECT key, value FROM settings WHERE substr(CAST(key AS BLOB), 1,"
-                        " length(?1)) = ?1 ORDER BY CAST(key AS BLOB)") {}
+                        " length(?1)) = ?1 ORDER BY CAST(key AS BLOB)"),
+          put_submission_node(db,
+                              "INSERT INTO submission_nodes (node, submission) VALUES (?1, ?2)"
+                              " ON CONFLICT DO NOTHING"),
+          submissions_with_node(
+              db, Sql({"SELECT ", kSubmissionColumns,
+                       " FROM submissions WHERE id IN (SELECT submission FROM submission_nodes"
+                       " WHERE node = ?1) ORDER BY received_ns, id"})
+                      .c_str()),
+          put_stand_in(db,
+                       "INSERT INTO stand_ins (node, stand_in, tx, ty, tz, qw, qx, qy, qz,"
+                       " revision) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10)"
+                       " ON CONFLICT (node) DO NOTHING"),
+          find_stand_in(db,
+                        "SELECT stand_in, tx, ty, tz, qw, qx, qy, qz, revision FROM stand_ins"
+                        " WHERE node = ?1") {}
 
     Statement begin_submission, find_submission, list_submissions;
     Statement chunk_equals, insert_chunk, count_chunk, chunk;
@@ -540,6 +607,7 @@ class SqliteVersionStore final : public VersionStore {
     Statement nodes_at, nodes_at_bare, edges_at, paths_at, stats_at, changed_between;
     Statement version_of;
     Statement find_setting, put_setting, list_settings;
+    Statement put_submission_node, submissions_with_node, put_stand_in, find_stand_in;
   };
 
   // Runs fn as one atomic unit: under a savepoint inside an open transaction (so a failure

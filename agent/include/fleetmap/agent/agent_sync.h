@@ -85,6 +85,8 @@ struct SyncResult {
   std::uint64_t downloaded_bytes = 0;  // chunk bytes
   std::size_t kept_unsynced = 0;       // local elements kept through the install
   std::size_t kept_unmerged = 0;       // pushed elements kept: their merge is not in the download
+  std::size_t kept_failed = 0;         // of those, elements of submissions the server refused (kept
+                                       // until `fleetmap-agent discard`)
   // The link, over every attempt.
   std::uint64_t bytes_sent = 0;
   std::uint64_t bytes_received = 0;

@@ -79,12 +79,18 @@ struct PendingSubmission {
 // A push the server accepted whose merge no download has reflected yet. Until one does, its
 // content stays in the robot's map through installs: a download of a revision before the merge
 // does not hold it, and the robot must not lose what it just built for its next mission.
+//
+// A submission the server refused to merge (failed: its content broke a rule) stays too, for
+// good: the robot keeps what it built and `fleetmap-agent status` lists it with the reason,
+// until an explicit `fleetmap-agent discard` lets the next install drop it. The server keeps
+// the submission as well; nothing is deleted because the server refused or failed it.
 struct UnmergedSubmission {
   Uuid id;
   ElementIds content;
-  // The revision the merge made, once the server said so; 0 when the merge failed (the server
-  // keeps the submission; the fleet map does not take it).
+  // The revision the merge made (> 0), once the server said so.
   std::optional<std::int64_t> merged_revision;
+  bool failed = false;  // the server refused to merge it (`error` says why)
+  std::string error;
 
   friend bool operator==(const UnmergedSubmission&, const UnmergedSubmission&) = default;
 };
@@ -122,6 +128,7 @@ struct InstallReport {
   std::size_t paths = 0;
   std::size_t kept_unsynced = 0;  // local elements not yet on the server, kept in the new map
   std::size_t kept_unmerged = 0;  // pushed elements whose merge the download does not reflect
+  std::size_t kept_failed = 0;    // of those, elements of submissions the server refused
   // Elements outside the selection kept because kept (unsynced or unmerged) edges reference
   // them.
   std::size_t kept_for_unsynced = 0;
@@ -167,20 +174,26 @@ class LocalMap {
   // The server accepted the pending submission: its content is known from now on, and
   // unmerged until RecordMerge.
   void MarkPushed(const Uuid& submission);
-  // The server merged (revision > 0) or failed to merge (0) an unmerged submission. Unknown
-  // ids are ignored (an install already retired them).
+  // The server merged an unmerged submission into `revision` (> 0, else kInvalidArgument).
+  // Unknown ids are ignored (an install already retired them).
   void RecordMerge(const Uuid& submission, std::int64_t revision);
+  // The server refused to merge an unmerged submission, for `error`: its content stays in the
+  // map through every install until Discard. Unknown ids are ignored.
+  void RecordFailure(const Uuid& submission, const std::string& error);
+  // The robot's operator gives up on a failed submission: the next install drops its content
+  // (the server keeps it). Throws Error(kNotFound) for an id not listed as unmerged and
+  // Error(kInvalidArgument) for one that has not failed.
+  void Discard(const Uuid& submission);
 
   // Installs a download (see the file comment): full, the selection; incremental, the
   // installed selection minus download.removed plus download.content; in both cases plus
   // every unsynced element of map.db, the content of unmerged submissions whose merge is not
-  // at or before download.revision, and what those reference. Unmerged submissions merged at
-  // or before it are retired. An incremental download that changes nothing rewrites no map.
-  // Throws Error(kCorrupt) when
-  // the result's counts disagree with the header's (map.db untouched),
-  // Error(kInvalidArgument) for an incremental download whose base is not the installed
-  // revision or whose parameters differ, Error(kConflict) when another process has map.db
-  // open with a write-ahead log, Error(kBackend) for I/O failures.
+  // at or before download.revision (failed ones included, always), and what those reference.
+  // Unmerged submissions merged at or before it are retired. An incremental download that changes
+  // nothing rewrites no map. Throws Error(kCorrupt) when the result's counts disagree with the
+  // header's (map.db untouched), Error(kInvalidArgument) for an incremental download whose base is
+  // not the installed revision or whose parameters differ, Error(kConflict) when another process
+  // has map.db open with a write-ahead log, Error(kBackend) for I/O failures.
   InstallReport Install(const MapDownload& download);
 
  private:

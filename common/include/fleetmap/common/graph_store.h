@@ -44,6 +44,19 @@ enum class Durability { kSynchronous, kBuffered };
 
 struct StoreOptions {
   Durability durability = Durability::kSynchronous;
+  // How long a statement waits for a lock another writer holds before it fails with
+  // Error(kBackend): SQLite's busy timeout, PostgreSQL's lock_timeout.
+  std::int64_t busy_timeout_ms = 10'000;
+  // false: the store must already be a fleetmap store (its fleetmap_schema table present). A
+  // missing SQLite file, an empty one, or a database without the table is refused with
+  // Error(kNotFound) ("... is not a fleetmap map store (empty file)") and left as it was,
+  // instead of becoming a new, empty, migrated store. For maps that come from elsewhere.
+  bool create_if_missing = true;
+  // true: open for reading only, never creating or migrating (implies create_if_missing =
+  // false). SQLite opens the file with SQLITE_OPEN_READONLY; PostgreSQL sets
+  // default_transaction_read_only. A store at an older schema version is refused with
+  // Error(kInvalidArgument) (it would need migrating); every write fails with Error(kBackend).
+  bool read_only = false;
 };
 
 // Which nodes ListNodes returns. Unset fields do not filter; the time window is
@@ -87,9 +100,13 @@ struct StoreStats {
 
 class GraphStore {
  public:
-  // Opens (creating if needed) the store named by uri and migrates it to the latest schema.
-  // Throws Error(kInvalidArgument) for an unknown scheme, Error(kSchemaTooNew), or
-  // Error(kBackend) when the database cannot be opened.
+  // Opens (creating if needed, unless options say otherwise) the store named by uri and
+  // migrates it to the latest schema. The recorded schema version is checked before anything
+  // is written, so a refused store is left byte for byte as it was. Throws
+  // Error(kInvalidArgument) for an unknown scheme, Error(kSchemaTooNew) for a version newer
+  // than this binary, Error(kCorrupt) for a version that is negative or not a number (or a
+  // file that is not a database), Error(kNotFound) for a store that options require to exist,
+  // or Error(kBackend) when the database cannot be opened.
   static std::unique_ptr<GraphStore> Open(std::string_view uri, const StoreOptions& options = {});
 
   // The highest schema version this binary knows (the same number for every backend).

@@ -44,5 +44,8 @@ class MapContentDigest {
 };
 
 std::uint64_t DigestOfChunks(std::span<const std::string> chunks);
+// The digest of one chunk alone (a fresh MapContentDigest over it): what a PushChunk carries,
+// so a receiver checks each chunk before storing it.
+std::uint64_t DigestOfChunk(std::string_view chunk);
 
 }  // namespace fleetmap

@@ -15,7 +15,7 @@
 namespace fleetmap {
 
 // Hello.protocol_version this build speaks. A server refuses any other (UNSUPPORTED_VERSION).
-inline constexpr std::uint32_t kSyncProtocolVersion = 1;
+inline constexpr std::uint32_t kSyncProtocolVersion = 2;
 // 64 MiB: far above a 1 MiB map chunk plus its envelope, far below what would hurt a server
 // holding one frame per session in memory.
 inline constexpr std::uint32_t kMaxSyncFrameBytes = std::uint32_t{64} << 20;

@@ -71,7 +71,9 @@ struct Submission {
   std::uint64_t digest = 0;      // of the content, recorded on completion (0 before)
   SubmissionState state = SubmissionState::kReceiving;
   RevisionNumber revision = 0;  // kMerged: the revision it became
-  std::string error;            // kFailed: why
+  // kFailed: why MERGE refused it. kQueued: the last transient failure of a merge attempt
+  // (the store busy, the disk full), which the server retries; empty when none.
+  std::string error;
 
   friend bool operator==(const Submission&, const Submission&) = default;
 };
@@ -85,6 +87,21 @@ struct RevisionChanges {
   RevisionNumber from = 0, to = 0;
   std::vector<Uuid> nodes_added, edges_added, paths_added;        // visible at `to` only
   std::vector<Uuid> nodes_removed, edges_removed, paths_removed;  // visible at `from` only
+};
+
+// Where MERGE put a submitted node it omitted (seed 004 §V-A): the server node that stands in
+// for it (the node it localised in, or was placed in through a localised neighbour) and its
+// pose there.
+struct NodeStandIn {
+  Uuid node;      // the omitted node, as the robot pushed it
+  Uuid stand_in;  // a node of the map
+  Se3 stand_in_T_node = Se3::Identity();
+  RevisionNumber revision = 0;  // the merge that omitted it
+
+  bool operator==(const NodeStandIn& other) const {
+    return node == other.node && stand_in == other.stand_in && revision == other.revision &&
+           stand_in_T_node.isApprox(other.stand_in_T_node, 1e-12);
+  }
 };
 
 // Which revisions added and hid one element.
@@ -116,8 +133,9 @@ class VersionStore {
   // with the same digest is a no-op; with another, Error(kConflict). The caller checks the
   // digest against the chunks; the store records it.
   virtual void CompleteSubmission(const Uuid& id, std::uint64_t digest) = 0;
-  // Records MERGE's outcome: kMerged with the revision, or kFailed with the error; or puts a
-  // failed submission back to kQueued to retry it. Throws Error(kNotFound) for an unknown id
+  // Records MERGE's outcome: kMerged with the revision, or kFailed with the error; or kQueued
+  // with the last transient failure as `error` (also to put a failed submission back to retry
+  // it). Throws Error(kNotFound) for an unknown id
   // and Error(kInvalidArgument) for a submission still receiving or a move to kReceiving.
   virtual void SetSubmissionState(const Uuid& id, SubmissionState state, RevisionNumber revision,
                                   const std::string& error) = 0;
@@ -126,6 +144,20 @@ class VersionStore {
   virtual std::vector<Submission> ListSubmissions() = 0;
   // Chunk `seq` of a submission. Throws Error(kNotFound) for an unknown id or chunk.
   virtual std::string SubmissionChunk(const Uuid& id, std::int64_t seq) = 0;
+
+  // ---- What the server has seen of each node beyond the map ----
+
+  // Records that submission `id` carries `nodes` (a push records its nodes when it is
+  // complete). Repeats are no-ops. Throws Error(kNotFound) for an unknown submission.
+  virtual void PutSubmissionNodes(const Uuid& id, const std::vector<Uuid>& nodes) = 0;
+  // The submissions that carried `node`, by received_ns then id; empty when none did.
+  virtual std::vector<Submission> SubmissionsWithNode(const Uuid& node) = 0;
+  // Records where MERGE put the nodes it omitted. REQUIRES: each revision is stored (write
+  // them in the merge's transaction, after AppendRevision) and each stand_in is a stored node.
+  // A node that has a stand-in keeps its first one (a repeat is a no-op).
+  virtual void PutStandIns(const std::vector<NodeStandIn>& stand_ins) = 0;
+  // The stand-in of an omitted node; nullopt when MERGE never omitted it.
+  virtual std::optional<NodeStandIn> FindStandIn(const Uuid& node) = 0;
 
   // ---- Revisions: a linear history. ----
 

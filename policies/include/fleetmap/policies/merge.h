@@ -11,6 +11,9 @@
 // 4. A segment that localises well enough is omitted: the server already covers it. Any other
 //    is added whole, with the robot's metric edges into it, and linked to the server map by a
 //    metric edge at its first and last frames that localised.
+//    Every omitted node that localised (or was placed through a localised neighbour) is
+//    reported with its stand-in (MergeResult::stand_ins), so the server can keep accounting
+//    for it and carry later edges to it.
 // 5. The robot's path memory is carried over: path edges whose ends are on the server (held,
 //    added, or omitted but localised, where the server node it localised in stands in) keep
 //    their path UUID.
@@ -26,6 +29,7 @@
 #include "fleetmap/common/experience_builder.h"
 #include "fleetmap/common/experience_map.h"
 #include "fleetmap/common/graph.h"
+#include "fleetmap/common/version_store.h"
 
 namespace fleetmap {
 
@@ -51,12 +55,19 @@ struct MergeReport {
   std::size_t links_added = 0;         // of those, the links
   std::size_t path_edges_added = 0;
   std::size_t path_edges_dropped = 0;  // an end neither on the server nor localised
+  std::size_t stand_ins = 0;           // omitted nodes placed on a server node (result.stand_ins)
+  // Edges to a node the server saw only in a submission it could not merge: dropped here, kept
+  // in both submissions.
+  std::size_t edges_unresolved = 0;
   std::size_t paths_added = 0;
   double seconds = 0.0;
 };
 
 struct MergeResult {
   GraphBatch additions;  // what the server store must write, in one transaction
+  // Where each omitted node of the submission went (revision left 0 for the caller to set):
+  // with `additions`, every submitted node is accounted for (or it was a duplicate).
+  std::vector<NodeStandIn> stand_ins;
   MergeReport report;
 };
 
@@ -67,6 +78,14 @@ struct ServerCatalogue {
   // Optional: nodes stored but not in the mirror (hidden by a revert). Such a node is a
   // duplicate, never added again (UUID dedup, seed 004 §III-D), and edges to it are dropped.
   std::function<bool(const Uuid& node)> has_hidden_node;
+  // Optional: where an earlier merge put a node it omitted. A submission built on such a node
+  // (the robot kept it until its download reflected the merge) has edges to it; they are
+  // carried onto the stand-in like edges to a node omitted in this submission.
+  std::function<std::optional<NodeStandIn>(const Uuid& node)> stand_in = nullptr;
+  // Optional: true for a node the server saw in another submission but neither holds nor has
+  // a stand-in for (that submission failed). Edges to it are dropped and counted
+  // (edges_unresolved) instead of refusing the submission; both submissions stay stored.
+  std::function<bool(const Uuid& node)> seen_elsewhere = nullptr;
 };
 
 // Called after each segment with (segments done, segments in all).

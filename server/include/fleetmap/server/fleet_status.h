@@ -53,14 +53,19 @@ struct FleetStatus {
   std::optional<MergingSubmission> merging;
 
   // Totals since the server started.
-  std::uint64_t pushes = 0;     // pushes accepted (PushAccepted sent)
-  std::uint64_t downloads = 0;  // downloads streamed whole
-  std::uint64_t merges = 0;     // merges committed
-  std::uint64_t merges_failed = 0;
+  std::uint64_t pushes = 0;          // pushes accepted (PushAccepted sent)
+  std::uint64_t downloads = 0;       // downloads streamed whole
+  std::uint64_t merges = 0;          // merges committed
+  std::uint64_t merges_failed = 0;   // refused for their content (permanent)
+  std::uint64_t merge_retries = 0;   // failed for the server's reasons, queued again
+  bool merge_backing_off = false;    // the head of the queue waits for its retry
   std::uint64_t sessions_total = 0;  // sessions accepted
   std::uint64_t sessions_open = 0;
   std::uint64_t bytes_received = 0;
   std::uint64_t bytes_sent = 0;
+  // Hellos whose last-sync time the store would not take (its disk full, ...): the hello went
+  // on and the time is kept in memory only.
+  std::uint64_t last_sync_write_failures = 0;
   // ErrorFrames sent, by code name as in sync.proto ("BAD_TOKEN", "FRAME_TOO_LARGE", ...).
   std::map<std::string, std::uint64_t> errors_by_code;
 };

@@ -33,6 +33,7 @@ namespace fleetmap {
 
 struct RepositoryOptions {
   MergeOptions merge{};
+  StoreOptions store{};  // for Open
   // The appearance vocabulary MERGE indexes the map with. Null: the one stored with the
   // repository; a repository without one trains it from the first submission it merges
   // (deterministically) and stores it, so every later merge uses the same words.
@@ -49,7 +50,10 @@ struct MergeOutcome {
   Revision revision;            // the revision the submission became
   MergeReport report;           // what MERGE did (empty when already merged)
   bool already_merged = false;  // merged before: nothing was done
-  double seconds = 0.0;         // the whole call: mirror, MERGE and the commit
+  // Not merged yet: the submission has edges to nodes of this earlier submission, still
+  // queued, which must merge first (then this one's edges reach them or their stand-ins).
+  std::optional<Uuid> waits_for;
+  double seconds = 0.0;  // the whole call: mirror, MERGE and the commit
 };
 
 struct Download {
@@ -72,7 +76,10 @@ class Repository {
   // nothing and returns the stored submission; with other content throws Error(kConflict).
   // Refuses, storing nothing: Error(kInvalidArgument) for an element that breaks the model
   // rules (graph.h Validate) or a nil id or robot, Error(kCorrupt) for landmarks that do not
-  // decode, Error(kIntegrity) for an edge whose end is neither in the map nor stored.
+  // decode, Error(kIntegrity) for an edge whose end the server has never seen: an end may be in
+  // the map, stored, omitted by an earlier merge (it has a stand-in) or in an earlier
+  // submission (queued, merged or failed), since a robot builds on what it pushed before its
+  // download reflects the merge. The submission's nodes are recorded as seen.
   Submission Push(const Uuid& id, const Uuid& robot, const std::string& author,
                   const GraphBatch& map);
   // A push arriving in chunks over the network (fleetmapd): the same content rules as Push,
@@ -103,10 +110,15 @@ class Repository {
   // ---- MERGE ----
 
   // Merges a stored submission into the next revision (seed 004 §V-A), authored by whoever
-  // pushed it. A submission merged before is not merged again: returns its revision with
-  // already_merged. When MERGE refuses the submission's content (Error(kCorrupt) or
-  // Error(kIntegrity)) the submission is marked failed with the reason and the error
-  // rethrown; the map does not change. Throws Error(kNotFound) for an unknown submission and
+  // pushed it, and records a stand-in for each node MERGE omitted. A submission merged before
+  // is not merged again: returns its revision with already_merged. One with edges to nodes of
+  // an earlier submission still queued is not merged: returns waits_for (merge that first).
+  // Edges to nodes seen only in failed submissions are dropped (MergeReport).
+  // When MERGE refuses the submission's content (Error(kCorrupt) or Error(kIntegrity)) the
+  // submission is marked failed with the reason and the error rethrown; the map does not
+  // change. Anything else thrown (Error(kBackend): the store busy, the disk full, the
+  // connection lost; Error(kConflict): another writer took the revision) leaves it queued:
+  // transient, to be retried. Throws Error(kNotFound) for an unknown submission and
   // Error(kInvalidArgument) for one still being received.
   MergeOutcome Merge(const Uuid& submission, const MergeProgress& progress = {});
 
@@ -143,6 +155,9 @@ class Repository {
   // Push's content rules (see Push), for `map` pushed as submission `id`; throws the first
   // broken one.
   void ValidatePushContent(const Uuid& id, const GraphBatch& map);
+  // Whether the server has seen `node` outside submission `submission`: stored, omitted by a
+  // merge, or carried by another submission.
+  bool SeenOutside(const Uuid& submission, const Uuid& node);
   // The head's mirror, reloaded if another writer moved the head.
   Mirror& HeadMirror(const GraphBatch* first_submission);
   std::shared_ptr<const AppearanceVocabulary> Vocabulary(const GraphBatch* first_submission);

@@ -58,7 +58,11 @@ class RobotRegistry {
   // robot of that name is registered, Error(kBackend) when OpenSSL has no randomness.
   NewRobot Add(std::string_view name, std::int64_t now_ns);
 
-  // Checks a robot's token in constant time (CRYPTO_memcmp over the salted hashes).
+  // Checks a robot's token in constant time (CRYPTO_memcmp over the salted hashes). An unknown
+  // robot costs the same work (its token is hashed and compared against a stand-in), so the
+  // time of the answer does not tell which robots are registered. The outcome tells the caller
+  // which refusal it was, for its log; what it tells the robot should not (fleetmapd answers
+  // both BAD_TOKEN, "unknown robot or wrong token").
   RobotAuthenticationResult Authenticate(const Uuid& robot, std::string_view token);
 
   // Every registered robot, by name.

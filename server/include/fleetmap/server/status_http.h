@@ -9,9 +9,12 @@
 // A query string is ignored for routing.
 //
 // Limits: request headers up to 8 KiB and bodies up to 8 KiB (larger: 431/413 and the
-// connection closes), a 10 s deadline on every read (including a keep-alive connection
-// waiting for its next request) and every write, at most 64 connections at once (more are
-// closed at accept).
+// connection closes); 3 s to receive a whole request, counted from when the server starts
+// waiting for it (a keep-alive connection waiting for its next request included), so a client
+// that connects and sends nothing, or trickles, holds its connection no longer; 10 s for every
+// write; at most 64 connections at once: a new one beyond that pushes out the connection that
+// has waited longest for a request (so idle connections cannot keep /metrics from a scraper),
+// and is closed at accept only when all 64 are answering requests.
 //
 // Threading: the server runs on its own io_context and one thread, started by the
 // constructor; each connection has its own strand. `status_source` is called on that thread,

@@ -30,13 +30,37 @@ struct SyncServerOptions {
   // Both set: TLS (1.2 or later) on every connection; PEM files.
   std::string tls_cert_path;
   std::string tls_key_path;
-  std::chrono::milliseconds io_deadline{30'000};         // each frame read or written
+  // Waiting for a frame's length, reading its body (the whole body, however it trickles in),
+  // writing a frame: each within this.
+  std::chrono::milliseconds io_deadline{30'000};
   std::chrono::milliseconds handshake_deadline{10'000};  // the TLS handshake
-  std::size_t max_sessions = 256;  // more are refused with an ErrorFrame (INTERNAL)
+  // Sessions at most. At the limit a connection that has not said hello is closed to make
+  // room; when every session is past its hello, a new connection is refused (ErrorFrame BUSY).
+  std::size_t max_sessions = 256;
+  // A connection must deliver its hello frame (after the TLS handshake, if any) within this.
+  // A real agent sends it at once; what does not is closed with TIMEOUT.
+  std::chrono::milliseconds hello_deadline{5'000};
+  // Connections that have not yet delivered a complete hello, from one address and in all.
+  // Past either cap the OLDEST such connection is closed (BUSY), never the new one: a real
+  // agent says hello within milliseconds, so a flood of idle connections pushes out its own
+  // oldest, not the robots (connection_admission.h says why).
+  std::size_t max_pending_hello_per_address = 32;
+  std::size_t max_pending_hello = 128;
+  // The bytes of one submission at most, as announced at push_begin (total_bytes) and as
+  // received; more is refused with INVALID. Every chunk of a submission is read back at once
+  // to decode it when the push ends, so this bounds the memory of that step.
+  std::uint64_t max_submission_bytes = std::uint64_t{2048} << 20;
   std::chrono::milliseconds merge_wait_cap{60'000};  // MergeStatusRequest.wait_ms at most
   std::chrono::milliseconds drain_deadline{10'000};  // Stop() waits this long for sessions
   // A test knob: each merge holds its transaction open this long before it commits.
   std::chrono::milliseconds debug_merge_delay{0};
+  // How long a store call waits for a lock another writer holds before it fails (SQLite's
+  // busy timeout, PostgreSQL's lock_timeout). A merge that fails so is retried, not failed.
+  std::chrono::milliseconds store_busy_timeout{10'000};
+  // A merge that failed transiently (store busy, disk full, connection lost) is retried after
+  // merge_first_retry, doubling up to merge_max_retry, until it goes through.
+  std::chrono::milliseconds merge_first_retry{500};
+  std::chrono::milliseconds merge_max_retry{30'000};
   // A test knob: each pushed chunk waits this long before it is stored, so that tests can
   // SIGKILL the server in the middle of a push.
   std::chrono::milliseconds debug_chunk_delay{0};
