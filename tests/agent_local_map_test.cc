@@ -63,6 +63,14 @@ std::string ReadText(const fs::path& path) {
   return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
 }
 
+// The day map built into `map` and pushed (accepted by the server, not merged yet).
+Uuid PushDay(LocalMap& map) {
+  GraphStore::Open(map.map_uri())->Put(SharedMaps().day);
+  const Uuid submission = map.BeginSubmission(map.Unsynced()).id;
+  map.MarkPushed(submission);
+  return submission;
+}
+
 TEST(AgentLocalMapTest, NewDirectoryHasAnEmptyMapAndNothingUnsynced) {
   const ScratchDir dir("fleetmap-agent-map");
   LocalMap map = LocalMap::Open(dir / "robot");
@@ -295,9 +303,7 @@ TEST(AgentLocalMapTest, FailedSubmissionIsKeptUntilDiscarded) {
   Uuid submission;
   {
     LocalMap map = LocalMap::Open(dir / "robot");
-    GraphStore::Open(map.map_uri())->Put(day);
-    submission = map.BeginSubmission(map.Unsynced()).id;
-    map.MarkPushed(submission);
+    submission = PushDay(map);
     ExpectError(
         ErrorCode::kInvalidArgument, [&] { map.Discard(submission); }, "has not failed");
     map.RecordFailure(submission, "edge e ends at node n, never seen");
@@ -325,9 +331,7 @@ TEST(AgentLocalMapTest, OldStateWithMergedRevisionZeroReadsAsFailed) {
   Uuid submission;
   {
     LocalMap map = LocalMap::Open(dir / "robot");
-    GraphStore::Open(map.map_uri())->Put(SharedMaps().day);
-    submission = map.BeginSubmission(map.Unsynced()).id;
-    map.MarkPushed(submission);
+    submission = PushDay(map);
   }
   std::string text = ReadText(dir / "robot" / "sync.json");
   const std::string from = "\"merged_revision\": null";

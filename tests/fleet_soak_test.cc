@@ -42,13 +42,8 @@ struct SoakRobot {
 };
 
 void Foray(SoakRobot& r, std::uint32_t seed) {
-  GraphBatch nodes = RandomRobotMap(r.robot.id, kNodesPerForay, seed, 30);
-  if (r.last) {
-    Se3 last_T_first = Se3::Identity();
-    last_T_first.translation() = Eigen::Vector3d(0.0, 0.0, 1.0);
-    nodes.edges.push_back(Edge{Uuid::Generate(), *r.last, nodes.nodes.front().id, EdgeKind::kMetric,
-                               last_T_first, Uuid()});
-  }
+  const GraphBatch nodes = r.last ? RandomChainFrom(r.robot.id, *r.last, kNodesPerForay, seed, 30)
+                                  : RandomRobotMap(r.robot.id, kNodesPerForay, seed, 30);
   try {
     WriteLocalMap(r.robot, nodes);  // refused (integrity) if the map lost r.last
   } catch (const std::exception& error) {

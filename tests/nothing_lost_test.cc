@@ -51,17 +51,6 @@ std::vector<Uuid> Unaccounted(const std::string& uri, const std::set<Uuid>& node
   return missing;
 }
 
-// `count` new random nodes chained on from `anchor` (a node the robot's map holds), as its
-// builder would add them after a foray that started where the last one ended.
-GraphBatch ChainFrom(const Uuid& robot, const Uuid& anchor, int count, std::uint32_t seed) {
-  GraphBatch more = RandomRobotMap(robot, count, seed);
-  Se3 anchor_T_first = Se3::Identity();
-  anchor_T_first.translation() = Eigen::Vector3d(0.0, 0.0, 1.0);
-  more.edges.push_back(Edge{Uuid::Generate(), anchor, more.nodes.front().id, EdgeKind::kMetric,
-                            anchor_T_first, Uuid()});
-  return more;
-}
-
 template <typename Predicate>
 bool WaitFor(Predicate done, std::chrono::milliseconds timeout) {
   const auto deadline = Clock::now() + timeout;
@@ -125,7 +114,7 @@ TYPED_TEST(NothingLostTest, BuildingOnAPushStillQueuedLosesNothing) {
   ASSERT_EQ(LocalNodes(robot), NodeIds(first));
 
   // The next foray starts at the last node of the first push, whose merge has not committed.
-  const GraphBatch second = ChainFrom(robot.id, first.nodes.back().id, 20, 12);
+  const GraphBatch second = RandomChainFrom(robot.id, first.nodes.back().id, 20, 12);
   WriteLocalMap(robot, second);
   SyncOutcome again =
       FinishSync(*StartSync(robot, server.address, log, {"--policy", "copy", "--wait-merge"}), log);
@@ -189,7 +178,7 @@ TYPED_TEST(NothingLostTest, BuildingOnNodesMergeOmittedLosesNothing) {
   }
   ASSERT_TRUE(anchor) << "MERGE omitted none of the re-driven corridor; the test needs one";
   ASSERT_TRUE(LocalNodes(robot).contains(*anchor));
-  const GraphBatch second = ChainFrom(robot.id, *anchor, 15, 21);
+  const GraphBatch second = RandomChainFrom(robot.id, *anchor, 15, 21);
   WriteLocalMap(robot, second);
   SyncOutcome again =
       FinishSync(*StartSync(robot, server.address, log, {"--policy", "copy", "--wait-merge"}), log);

@@ -52,6 +52,18 @@ inline GraphBatch RandomRobotMap(const Uuid& robot, int nodes, std::uint32_t see
   return map;
 }
 
+// `nodes` new random experiences chained on from `anchor` (a node the robot's map holds, 1 m
+// before the first), as its builder adds them on a foray that starts where the last one ended.
+inline GraphBatch RandomChainFrom(const Uuid& robot, const Uuid& anchor, int nodes,
+                                  std::uint32_t seed, int landmarks = 60) {
+  GraphBatch more = RandomRobotMap(robot, nodes, seed, landmarks);
+  Se3 anchor_T_first = Se3::Identity();
+  anchor_T_first.translation() = Eigen::Vector3d(0.0, 0.0, 1.0);
+  more.edges.push_back(Edge{Uuid::Generate(), anchor, more.nodes.front().id, EdgeKind::kMetric,
+                            anchor_T_first, Uuid()});
+  return more;
+}
+
 inline std::set<Uuid> NodeIds(const GraphBatch& map) {
   std::set<Uuid> ids;
   for (const Node& node : map.nodes) ids.insert(node.id);

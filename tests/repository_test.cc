@@ -154,12 +154,7 @@ TYPED_TEST(RepositoryTest, MergeMakesRevisionsAndTheSameSubmissionTwiceAddsNothi
 TYPED_TEST(RepositoryTest, PushesMayBuildOnQueuedAndOmittedNodes) {
   Repository& repository = *this->repository_;
   const auto chain_from = [&](const Uuid& anchor, std::uint32_t seed) {
-    GraphBatch more = testing::RandomRobotMap(this->robot_, 5, seed);
-    Se3 anchor_T_first = Se3::Identity();
-    anchor_T_first.translation() = Eigen::Vector3d(0.0, 0.0, 1.0);
-    more.edges.push_back(Edge{Uuid::Generate(), anchor, more.nodes.front().id, EdgeKind::kMetric,
-                              anchor_T_first, Uuid()});
-    return more;
+    return testing::RandomChainFrom(this->robot_, anchor, 5, seed);
   };
   const auto joins = [&](const Uuid& from, const Uuid& to) {
     for (const Edge& edge : repository.Checkout().edges) {

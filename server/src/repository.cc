@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <unordered_map>
 #include <unordered_set>
 
 #include "fleetmap/common/error.h"
@@ -309,14 +310,17 @@ MergeOutcome Repository::Merge(const Uuid& id, const MergeProgress& progress) {
   }
   VersionStore& versions = this->versions();
   // Edge ends outside the submission that the map does not hold: omitted by an earlier merge
-  // (a stand-in), or only in other submissions. One still queued merges first.
-  std::unordered_set<Uuid> submitted;
-  for (const Node& node : content.nodes) submitted.insert(node.id);
+  // (a stand-in), or only in other submissions. One still queued merges first. Each end is
+  // looked up once; MERGE asks again only through these answers.
+  std::unordered_set<Uuid> looked_up;
+  for (const Node& node : content.nodes) looked_up.insert(node.id);
+  std::unordered_map<Uuid, NodeStandIn> stand_ins;
   std::unordered_set<Uuid> seen_elsewhere;
   for (const Edge& edge : content.edges) {
     for (const Uuid& end : {edge.from, edge.to}) {
-      if (submitted.contains(end) || seen_elsewhere.contains(end) || versions.VersionOf(end) ||
-          versions.FindStandIn(end)) {
+      if (!looked_up.insert(end).second || versions.VersionOf(end)) continue;
+      if (std::optional<NodeStandIn> stand_in = versions.FindStandIn(end)) {
+        stand_ins.emplace(end, std::move(*stand_in));
         continue;
       }
       for (const Submission& other : versions.SubmissionsWithNode(end)) {
@@ -334,7 +338,11 @@ MergeOutcome Repository::Merge(const Uuid& id, const MergeProgress& progress) {
                             [&](const Uuid& path) { return versions.VersionOf(path).has_value(); },
                             // Not in the mirror but stored: hidden by a revert.
                             [&](const Uuid& node) { return versions.VersionOf(node).has_value(); }};
-  catalogue.stand_in = [&](const Uuid& node) { return versions.FindStandIn(node); };
+  catalogue.stand_in = [&](const Uuid& node) -> std::optional<NodeStandIn> {
+    const auto found = stand_ins.find(node);
+    if (found == stand_ins.end()) return std::nullopt;
+    return found->second;
+  };
   catalogue.seen_elsewhere = [&](const Uuid& node) { return seen_elsewhere.contains(node); };
   MergeResult result;
   try {

@@ -101,12 +101,7 @@ void SyncSession<Stream>::Start(std::uint64_t admission_ticket) {
   refused_ = admission_ticket == 0;
   asio::post(executor_, [self = this->shared_from_this()] {
     if constexpr (std::is_same_v<Stream, tcp::socket>) {
-      if (self->refused_) {
-        return self->Fail(v1::ErrorFrame::BUSY,
-                          "the server holds its maximum of " +
-                              std::to_string(self->context_.options.max_sessions) +
-                              " sessions; retry later");
-      }
+      if (self->refused_) return self->FailFull();
       self->do_read_prefix();
     } else {
       self->do_handshake();
@@ -136,6 +131,13 @@ void SyncSession<Stream>::Evict(const std::string& why) {
     boost::system::error_code ignored;
     self->Socket().cancel(ignored);
   });
+}
+
+template <typename Stream>
+void SyncSession<Stream>::FailFull() {
+  Fail(v1::ErrorFrame::BUSY, "the server holds its maximum of " +
+                                 std::to_string(context_.options.max_sessions) +
+                                 " sessions; retry later");
 }
 
 template <typename Stream>
@@ -206,11 +208,7 @@ void SyncSession<Stream>::on_handshake(const boost::system::error_code& ec) {
     spdlog::warn("session {} refused: {}", peer_, close_reason_);
     return CloseSocket();
   }
-  if (refused_) {
-    return Fail(v1::ErrorFrame::BUSY, "the server holds its maximum of " +
-                                          std::to_string(context_.options.max_sessions) +
-                                          " sessions; retry later");
-  }
+  if (refused_) return FailFull();
   do_read_prefix();
 }
 

@@ -122,6 +122,8 @@ class SyncSession : public SessionControl,
   void Reply(const v1::SyncFrame& frame);
   // Sends an ErrorFrame, logs it, and closes.
   void Fail(ErrorCodeV1 code, const std::string& text);
+  // Fail with BUSY: admission refused this connection, the server holds max_sessions.
+  void FailFull();
   // A store call failed: the ErrorFrame for its Error code.
   void FailStore(ErrorCode code, const std::string& text);
   // Runs `work(Repository&)` on a store thread; `done(result)` on the strand after. An Error
