@@ -11,6 +11,8 @@ void AddExperimentCommand(CLI::App& app);
 // `fleetmap experiment real`: real stereo images through the EBN core (real_experiment_command.cc);
 // registered by AddExperimentCommand on its `experiment` subcommand.
 void AddRealExperimentCommand(CLI::App& experiment);
+// `fleetmap experiment real-merge` (real_merge_command.cc); registered by AddRealExperimentCommand.
+void AddRealMergeExperimentCommand(CLI::App& experiment);
 // The repository (seed 004 §IV–§VI), registered in the order a user meets them: init
 // (repository_commands.cc); push, submissions, merge (submission_commands.cc); log, checkout,
 // diff, revert (repository_commands.cc); download; dream.

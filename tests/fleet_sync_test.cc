@@ -1,15 +1,19 @@
 // Fleet sync across real processes on 127.0.0.1 (issue: fleetmapd and fleetmap-agent): push →
 // merge → download on both central stores, 20 agents at once, and the server SIGKILLed in the
-// middle of a push and of a merge. Exact counts throughout: the robots' maps have random
-// landmarks, so MERGE adds every node pushed and nothing may be lost or doubled.
+// middle of a push and of a merge; landmarks with a stereo camera intact end to end. Exact
+// counts throughout: the robots' maps have random landmarks, so MERGE adds every node pushed and
+// nothing may be lost or doubled.
 #include <gtest/gtest.h>
 #include <signal.h>
 
+#include <Eigen/Geometry>
 #include <algorithm>
+#include <map>
 #include <set>
 #include <thread>
 
 #include "fleet_processes.h"
+#include "fleetmap/common/graph.h"
 #include "fleetmap/common/graph_store.h"
 #include "fleetmap/common/version_store.h"
 #include "scratch_dir.h"
@@ -95,6 +99,73 @@ TYPED_TEST(FleetSyncTest, PushMergeDownloadEndToEnd) {
   std::unique_ptr<GraphStore> store = GraphStore::Open(uri);
   EXPECT_EQ(store->versions().HeadRevision(), 1);
   EXPECT_EQ(store->versions().ListSubmissions().size(), 1u);
+}
+
+// Landmarks with a stereo camera (issue 18) through the whole fleet: pushed by one robot,
+// merged by fleetmapd (which decodes every pushed node and localises it against the map) and
+// pulled by another robot, and what lands in the central store and in the other robot's map
+// decodes to exactly the landmarks pushed, camera included. Every other node carries no camera,
+// so a map mixing old and new landmarks travels too.
+TYPED_TEST(FleetSyncTest, StereoLandmarksArePushedMergedAndPulledIntact) {
+  const std::string uri = this->backend_.Uri();
+  const TestRobot alpha = RegisterRobot(uri, "alpha", this->dir_ / "alpha");
+  const TestRobot beta = RegisterRobot(uri, "beta", this->dir_ / "beta");
+  GraphBatch pushed = RandomRobotMap(alpha.id, 12, 3);
+  std::map<Uuid, Landmarks> landmarks;
+  for (std::size_t i = 0; i < pushed.nodes.size(); ++i) {
+    Node& node = pushed.nodes[i];
+    Landmarks view = DecodeLandmarks(node.landmarks_blob);
+    if (i % 2 == 0) {
+      const Eigen::Quaternionf q(Eigen::AngleAxisf(0.01f * static_cast<float>(i + 1),
+                                                   Eigen::Vector3f(0.1f, 1.f, 0.3f).normalized()));
+      view.stereo = StereoCamera{.focal_px = 718.856f + static_cast<float>(i),
+                                 .baseline_m = 0.5371657f,
+                                 .rect_q_camera = {q.w(), q.x(), q.y(), q.z()}};
+      node.landmarks_blob = EncodeLandmarks(view);
+    }
+    landmarks.emplace(node.id, std::move(view));
+  }
+  WriteLocalMap(alpha, pushed);
+  Fleetmapd server = StartFleetmapd(uri, this->dir_ / "fleetmapd.log");
+  ASSERT_FALSE(server.address.empty());
+
+  const auto alpha_log = this->dir_ / "alpha.log";
+  SyncOutcome push =
+      FinishSync(*StartSync(alpha, server.address, alpha_log, {"--wait-merge", "--policy", "copy"}),
+                 alpha_log);
+  ASSERT_EQ(push.exit, 0);
+  EXPECT_EQ(push.result["pushed_nodes"], 12);
+  EXPECT_EQ(push.result["merged_revision"], 1);
+  const auto beta_log = this->dir_ / "beta.log";
+  SyncOutcome pull =
+      FinishSync(*StartSync(beta, server.address, beta_log, {"--policy", "copy"}), beta_log);
+  ASSERT_EQ(pull.exit, 0);
+  EXPECT_EQ(pull.result["nodes"], 12);
+
+  const auto expect_pushed_landmarks = [&](const std::vector<Node>& nodes, const char* where) {
+    std::set<Uuid> seen;
+    int with_camera = 0;
+    for (const Node& node : nodes) {
+      SCOPED_TRACE(::testing::Message() << where << " " << node.id.ToString());
+      ASSERT_EQ(landmarks.count(node.id), 1u);
+      const Landmarks decoded = DecodeLandmarks(node.landmarks_blob);
+      EXPECT_EQ(decoded, landmarks.at(node.id));
+      EXPECT_EQ(decoded.stereo, landmarks.at(node.id).stereo);
+      if (decoded.stereo) ++with_camera;
+      seen.insert(node.id);
+    }
+    EXPECT_EQ(seen, NodeIds(pushed)) << where;
+    EXPECT_EQ(with_camera, 6) << where;
+  };
+  std::unique_ptr<GraphStore> central = GraphStore::Open(uri);
+  expect_pushed_landmarks(central->versions().NodesAt(central->versions().HeadRevision(), true),
+                          "central head");
+  expect_pushed_landmarks(
+      GraphStore::Open("sqlite:" + (beta.map_dir / "map.db").string())->ReadMap().nodes,
+      "beta's map");
+  expect_pushed_landmarks(
+      GraphStore::Open("sqlite:" + (alpha.map_dir / "map.db").string())->ReadMap().nodes,
+      "alpha's map after the pull");
 }
 
 TYPED_TEST(FleetSyncTest, TwentyAgentsAtOnceLoseAndDuplicateNothing) {

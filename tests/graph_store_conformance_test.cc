@@ -6,6 +6,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <chrono>
 #include <fstream>
@@ -14,6 +15,7 @@
 
 #include "expect_error.h"
 #include "fleetmap/common/error.h"
+#include "fleetmap/common/graph.h"
 #include "fleetmap/common/graph_store.h"
 #include "store_backends.h"
 
@@ -231,6 +233,46 @@ TYPED_TEST(GraphStoreConformance, LargeLandmarkBlobRoundTrips) {
   this->store_->PutNode(node);
   EXPECT_EQ(this->store_->GetNode(node.id).landmarks_blob, blob);
   EXPECT_EQ(this->store_->Stats().landmark_bytes, static_cast<std::int64_t>(blob.size()));
+}
+
+// Landmarks of a stereo camera (issue 18): the store keeps the blob's bytes, so the camera
+// comes back with the points, bit for bit, on every read path; a blob of landmarks without one
+// beside it comes back without one.
+TYPED_TEST(GraphStoreConformance, StereoLandmarksRoundTrip) {
+  Landmarks stereo;
+  for (int i = 0; i < 50; ++i) {
+    stereo.points_camera.emplace_back(0.25f * i - 6.f, 0.1f * i - 2.f, 3.f + 1.5f * i);
+    Descriptor256 d{};
+    for (std::size_t b = 0; b < d.size(); ++b) d[b] = static_cast<std::uint8_t>(i * 13 + b * 7);
+    stereo.descriptors.push_back(d);
+  }
+  const Eigen::Quaternionf q(
+      Eigen::AngleAxisf(0.02f, Eigen::Vector3f(0.3f, 1.f, -0.2f).normalized()));
+  stereo.stereo = StereoCamera{.focal_px = 718.856f,
+                               .baseline_m = 0.5371657f,
+                               .rect_q_camera = {q.w(), q.x(), q.y(), q.z()}};
+  Landmarks plain = stereo;
+  plain.stereo.reset();
+  const Uuid robot = Uuid::Generate(), outing = Uuid::Generate();
+  const Node with_camera = MakeNode(robot, outing, 10, EncodeLandmarks(stereo));
+  const Node without_camera = MakeNode(robot, outing, 11, EncodeLandmarks(plain));
+  GraphBatch batch;
+  batch.nodes = {with_camera, without_camera};
+  this->store_->Put(batch);
+
+  const auto expect_landmarks = [&](const Node& node) {
+    const Landmarks expected = node.id == with_camera.id ? stereo : plain;
+    const Landmarks decoded = DecodeLandmarks(node.landmarks_blob);
+    EXPECT_EQ(decoded, expected) << node.id.ToString();
+    EXPECT_EQ(decoded.stereo, expected.stereo) << node.id.ToString();
+  };
+  expect_landmarks(this->store_->GetNode(with_camera.id));
+  expect_landmarks(this->store_->GetNode(without_camera.id));
+  const std::vector<Uuid> ids = {with_camera.id, without_camera.id};
+  for (const Node& node : this->store_->GetNodes(ids)) expect_landmarks(node);
+  const GraphBatch map = this->Reopen()->ReadMap();
+  ASSERT_EQ(map.nodes.size(), 2u);
+  for (const Node& node : map.nodes) expect_landmarks(node);
 }
 
 TYPED_TEST(GraphStoreConformance, NilNodeIdIsInvalid) {

@@ -1,8 +1,9 @@
 // `fleetmap images ingest` (stereo_image_log.h, seed 000 §5.1): a synthetic EuRoC folder into a
 // record file and a SQLite sensor index, read back record by record (stamps, PNG bytes identical
 // to the source files) and found by time; every bad image leaves nothing under the root and
-// nothing indexed; ingesting twice is a conflict that harms the first log. Then the built
-// executable end to end: the summary line, and exit 1 with a message naming the culprit.
+// nothing indexed; ingesting twice is a conflict that harms the first log; a KITTI folder with
+// its calibration written as EuRoC yaml files that read back. Then the built executable end to
+// end: the summary line, --layout and --platform, and exit 1 with a message naming the culprit.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -15,9 +16,11 @@
 #include "fleetmap/common/graph_store.h"
 #include "fleetmap/common/record_file.h"
 #include "fleetmap/common/record_layout.h"
+#include "fleetmap/experiments/stereo_calibration.h"
 #include "fleetmap/experiments/stereo_image_log.h"
 #include "fleetmap/sensors.pb.h"
 #include "fleetmap_cli_run.h"
+#include "kitti_test_data.h"
 #include "scratch_dir.h"
 #include "synthetic_euroc.h"
 
@@ -29,6 +32,7 @@ using testing::kEurocHeightPx;
 using testing::kEurocWidthPx;
 using testing::ReadFileBytes;
 using testing::SyntheticEuroc;
+using testing::SyntheticKitti;
 
 constexpr int kPairs = 5;
 constexpr std::int64_t kMs = 1'000'000;
@@ -52,7 +56,7 @@ class ImageIngestTest : public ::testing::Test {
 
   StereoImageIngestResult Ingest(
       std::vector<std::pair<std::int64_t, std::int64_t>>* progress = nullptr) {
-    return IngestStereoImages(LoadEurocSequence(folder_.dir()), index(), root(), "euroc", "stereo",
+    return IngestStereoImages(LoadStereoSequence(folder_.dir()), index(), root(), "euroc", "stereo",
                               [&](std::int64_t done, std::int64_t total) {
                                 if (progress) progress->emplace_back(done, total);
                               });
@@ -60,7 +64,7 @@ class ImageIngestTest : public ::testing::Test {
 
   // The ingest fails with `code` naming `mention`, and leaves no trace.
   void ExpectIngestFailsCleanly(ErrorCode code, const std::string& mention) {
-    const EurocSequence sequence = LoadEurocSequence(folder_.dir());
+    const StereoSequence sequence = LoadStereoSequence(folder_.dir());
     ExpectError(
         code, [&] { IngestStereoImages(sequence, index(), root(), "euroc", "stereo"); }, mention);
     EXPECT_EQ(Contents(root()), std::vector<std::string>{});
@@ -179,7 +183,7 @@ TEST_F(ImageIngestTest, NonPngImageLeavesNothing) {
 }
 
 TEST_F(ImageIngestTest, ImageRemovedAfterLoadingLeavesNothing) {
-  const EurocSequence sequence = LoadEurocSequence(folder_.dir());
+  const StereoSequence sequence = LoadStereoSequence(folder_.dir());
   fs::remove(folder_.Image(0, 3));
   ExpectError(
       ErrorCode::kNotFound,
@@ -193,7 +197,7 @@ TEST_F(ImageIngestTest, ExistingRootKeepsItsOtherFiles) {
   fs::create_directories(root() / "euroc" / "stereo");
   testing::WriteFileBytes(root() / "euroc" / "stereo" / "notes.txt", "mine");
   testing::WriteFileBytes(folder_.Image(0, 0), "garbage");
-  const EurocSequence sequence = LoadEurocSequence(folder_.dir());
+  const StereoSequence sequence = LoadStereoSequence(folder_.dir());
   ExpectError(ErrorCode::kCorrupt,
               [&] { IngestStereoImages(sequence, index(), root(), "euroc", "stereo"); });
   // Only what the ingest created is gone (the date directory); what was there stays.
@@ -215,7 +219,7 @@ TEST_F(ImageIngestTest, IndexRefusalRemovesTheWrittenLog) {
 }
 
 TEST_F(ImageIngestTest, BadNamesAreRefusedBeforeWriting) {
-  const EurocSequence sequence = LoadEurocSequence(folder_.dir());
+  const StereoSequence sequence = LoadStereoSequence(folder_.dir());
   ExpectError(
       ErrorCode::kInvalidArgument,
       [&] { IngestStereoImages(sequence, index(), root(), "a/b", "stereo"); }, "platform");
@@ -224,6 +228,44 @@ TEST_F(ImageIngestTest, BadNamesAreRefusedBeforeWriting) {
       [&] { IngestStereoImages(sequence, index(), root(), "euroc", ".."); }, "sensor");
   EXPECT_FALSE(fs::exists(root()));
   EXPECT_EQ(index().CountData(), 0);
+}
+
+TEST_F(ImageIngestTest, KittiCalibrationIsWrittenAsEurocYamlThatReadsBack) {
+  const SyntheticKitti kitti(scratch_ / "kitti", 3);
+  const StereoSequence sequence = LoadStereoSequence(kitti.dir());
+  const StereoImageIngestResult r =
+      IngestStereoImages(sequence, index(), root(), "kitti", "stereo");
+  // No times.txt: the pairs count from 0, 1970-01-01 UTC.
+  EXPECT_EQ(r.record_file,
+            (fs::absolute(root()) / "kitti/stereo/1970-01-01/kitti-stereo-19700101-000000.rec")
+                .lexically_normal());
+  EXPECT_EQ(r.pairs, 3);
+  EXPECT_EQ(index().CountData(), 3);
+  RecordReader reader(r.record_file);
+  std::vector<Record> records;
+  while (std::optional<Record> record = reader.Next()) records.push_back(std::move(*record));
+  ASSERT_EQ(records.size(), 3u);
+  v1::StereoImagePair pair;
+  ASSERT_TRUE(pair.ParseFromString(records[2].payload));
+  EXPECT_EQ(pair.stamp_ns(), 200'000'000);
+  EXPECT_EQ(pair.width_px(), static_cast<std::uint32_t>(SyntheticKitti::kWidthPx));
+  EXPECT_EQ(pair.right_image(), ReadFileBytes(kitti.Image(1, 2)));
+
+  // The cameras made of calib.txt, as EuRoC sensor.yaml files: a StereoRectifier built from the
+  // copies is the one built from the folder.
+  const PinholeCamera left = LoadEurocCamera(r.left_calibration);
+  const PinholeCamera right = LoadEurocCamera(r.right_calibration);
+  for (const auto& [copy, original] :
+       {std::pair{&left, &sequence.left}, std::pair{&right, &sequence.right}}) {
+    EXPECT_EQ(copy->name, original->name);
+    EXPECT_EQ(copy->width_px, original->width_px);
+    EXPECT_DOUBLE_EQ(copy->fx, original->fx);
+    EXPECT_DOUBLE_EQ(copy->cy, original->cy);
+    EXPECT_EQ(copy->distortion, original->distortion);
+    EXPECT_TRUE(copy->body_T_sensor.isApprox(original->body_T_sensor, 1e-12));
+  }
+  EXPECT_NEAR(StereoRectifier(left, right).geometry().baseline_m, SyntheticKitti::kBaselineM,
+              1e-12);
 }
 
 // ---- The `fleetmap` executable ----
@@ -313,15 +355,87 @@ TEST_F(ImagesCommandTest, MissingFolderExitsOne) {
   const CliRun run = Ingest(missing);
   EXPECT_EQ(run.exit_code, 1);
   EXPECT_NE(
-      run.err.find("fleetmap: not-found: EuRoC sequence " + missing.string() + " does not exist"),
+      run.err.find("fleetmap: not-found: stereo sequence " + missing.string() + " does not exist"),
       std::string::npos)
       << run.err;
+}
+
+TEST_F(ImagesCommandTest, KittiFolderGoesUnderTheKittiPlatform) {
+  const SyntheticKitti kitti(scratch_ / "kitti", 3);
+  const CliRun run = Ingest(kitti.dir());
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const fs::path file = (root() / RecordFilePath("kitti", "stereo", 0)).lexically_normal();
+  EXPECT_NE(run.out.find("3 stereo pairs ("), std::string::npos) << run.out;
+  EXPECT_NE(run.out.find("ingested into " + file.string()), std::string::npos) << run.out;
+  EXPECT_NE(run.out.find("layout kitti-odometry, platform kitti; data: KITTI"), std::string::npos)
+      << run.out;
+  EXPECT_TRUE(fs::exists(StereoCalibrationPath(file, 1)));
+  // And the EuRoC folder under "euroc", as before (another sensor name: the index mounts a sensor
+  // on one platform at a time).
+  const CliRun euroc =
+      RunCli(scratch_, {"images", "ingest", folder_.dir().string(), "--root", root().string(),
+                        "--store", store_uri(), "--sensor", "vi-sensor"});
+  ASSERT_EQ(euroc.exit_code, 0) << euroc.err;
+  EXPECT_NE(euroc.out.find("layout euroc, platform euroc"), std::string::npos) << euroc.out;
+}
+
+TEST_F(ImagesCommandTest, PlatformNamingADatasetPicksItsLayout) {
+  // A folder with both kinds of folders: --platform kitti reads the KITTI one.
+  const SyntheticKitti kitti(folder_.dir(), 2);
+  const CliRun run =
+      RunCli(scratch_, {"images", "ingest", folder_.dir().string(), "--root", root().string(),
+                        "--store", store_uri(), "--platform", "kitti", "--sensor", "front"});
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_NE(run.out.find("2 stereo pairs ("), std::string::npos) << run.out;
+  EXPECT_NE(run.out.find("layout kitti-odometry, platform kitti"), std::string::npos) << run.out;
+  // Undetected, the same folder is EuRoC (tried first).
+  const CliRun detected = Ingest(folder_.dir());
+  ASSERT_EQ(detected.exit_code, 0) << detected.err;
+  EXPECT_NE(detected.out.find("5 stereo pairs ("), std::string::npos) << detected.out;
+
+  // --platform kitti on a folder that is only EuRoC: refused, saying what it is.
+  const SyntheticEuroc euroc(scratch_ / "only-euroc", 2);
+  const CliRun wrong =
+      RunCli(scratch_, {"images", "ingest", euroc.dir().string(), "--root", root().string(),
+                        "--store", store_uri(), "--platform", "kitti"});
+  EXPECT_EQ(wrong.exit_code, 1);
+  EXPECT_NE(wrong.err.find("is a euroc folder, but --platform kitti with --layout auto reads only "
+                           "kitti layouts; give --layout euroc"),
+            std::string::npos)
+      << wrong.err;
+  // An explicit --layout wins over the folder's look; one that does not fit names what is missing.
+  const CliRun forced =
+      RunCli(scratch_, {"images", "ingest", euroc.dir().string(), "--root", root().string(),
+                        "--store", store_uri(), "--layout", "kitti-raw", "--platform", "car"});
+  EXPECT_EQ(forced.exit_code, 1);
+  EXPECT_NE(forced.err.find("not-found: left image folder " +
+                            (euroc.dir() / "image_00" / "data").string()),
+            std::string::npos)
+      << forced.err;
+  const CliRun unknown = RunCli(scratch_, {"images", "ingest", euroc.dir().string(), "--root",
+                                           root().string(), "--layout", "kitti"});
+  EXPECT_NE(unknown.exit_code, 0);
+  EXPECT_NE(unknown.err.find("--layout"), std::string::npos) << unknown.err;
+}
+
+TEST_F(ImagesCommandTest, MalformedKittiCalibrationExitsOneNamingTheLine) {
+  const SyntheticKitti kitti(scratch_ / "kitti", 2);
+  testing::WriteTextFile(kitti.Calib(), SyntheticKitti::P0() + "\n1 2 3");
+  const CliRun run = Ingest(kitti.dir());
+  EXPECT_EQ(run.exit_code, 1);
+  EXPECT_NE(run.err.find("fleetmap: invalid-argument: " + kitti.Calib().string() +
+                         " line 2 (P1): expected 12 numbers, found 3"),
+            std::string::npos)
+      << run.err;
+  EXPECT_FALSE(fs::exists(root()));
 }
 
 TEST_F(ImagesCommandTest, HelpAndMissingArguments) {
   const CliRun help = RunCli(scratch_, {"images", "ingest", "--help"});
   EXPECT_EQ(help.exit_code, 0);
-  for (const char* text : {"--root", "--platform", "--sensor", "--store", "cam0/", "data.csv"}) {
+  for (const char* text :
+       {"--root", "--layout", "--platform", "--sensor", "--store", "cam0/", "data.csv",
+        "kitti-odometry", "image_l/", "calib.txt", "kitti-raw", "calib_cam_to_cam.txt"}) {
     EXPECT_NE(help.out.find(text), std::string::npos) << text << " not in:\n" << help.out;
   }
   // `images` alone needs a subcommand; `ingest` needs --root.

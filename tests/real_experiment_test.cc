@@ -13,6 +13,7 @@
 #include "fleetmap/common/graph_store.h"
 #include "fleetmap/common/uuid.h"
 #include "fleetmap_cli_run.h"
+#include "kitti_test_data.h"
 
 namespace fleetmap {
 namespace {
@@ -50,6 +51,8 @@ TEST_F(RealExperimentTest, EurocSequenceMeetsTheAcceptanceFigures) {
   EXPECT_EQ(r.vo_pairs, 94);
   EXPECT_GE(r.vo_pairs_with_30_inliers, 85) << "90 % of 94";
   EXPECT_LE(r.max_step_m, 0.3);
+  // The standing camera's VO ends within 2 cm of where it started (issue 18).
+  EXPECT_LE(r.end_point_m, 0.02);
   // The localised part overlaps the map's views (the drone stays in one corner of the room
   // for these 4.75 s) and localises there.
   EXPECT_EQ(r.localised_frames, 47);
@@ -71,6 +74,61 @@ TEST_F(RealExperimentTest, EurocSequenceMeetsTheAcceptanceFigures) {
   const auto store = GraphStore::Open("sqlite:" + (out_ / "real-map.db").string());
   EXPECT_EQ(static_cast<std::int64_t>(store->ReadMap().nodes.size()), r.map_nodes);
 }
+
+// Issue 18's acceptance on both KITTI drives, measured by running the experiment: VO tracks
+// >= 98 % of consecutive pairs, the odd frames localise against the even frames' map >= 95 %
+// with a median position error <= 0.3 m against the ground truth. Drift is printed, and held
+// to the issue's bounds on seq1; seq2's translational drift is over them (see the issue's
+// closing note), so here it is only held to what today's VO reaches, to catch a regression.
+struct KittiCase {
+  const char* sequence;
+  double max_translational_drift_percent;
+  double max_rotational_drift_deg_per_m;
+};
+
+class RealExperimentKittiTest : public RealExperimentTest,
+                                public ::testing::WithParamInterface<KittiCase> {};
+
+TEST_P(RealExperimentKittiTest, DriveMeetsTheAcceptanceFigures) {
+  testing::RequireKittiExcerpts();
+  RealExperimentOptions options;
+  options.dataset_dir = testing::KittiExcerptsDir() / GetParam().sequence;
+  options.out_dir = out_;
+  std::ostringstream log;
+  const RealExperimentResult r = RunRealExperiment(options, log);
+  ASSERT_EQ(r.frames.size(), 51u);
+  EXPECT_TRUE(r.has_ground_truth);
+  EXPECT_EQ(r.split, "interleaved");
+  EXPECT_EQ(r.map_frames, 26);
+  EXPECT_EQ(r.localised_frames, 25);
+  EXPECT_GE(r.vo_pairs_with_30_inliers * 100, 98 * r.vo_pairs);
+  EXPECT_GE(r.localised_ok * 100, 95 * r.localised_frames);
+  EXPECT_GE(r.localised_with_truth, r.localised_ok * 9 / 10);
+  EXPECT_LE(r.position_error_median_m, 0.3);
+  EXPECT_GT(r.accuracy.sub_paths, 0);
+  EXPECT_LE(r.accuracy.translational_drift_percent, GetParam().max_translational_drift_percent);
+  EXPECT_LE(r.accuracy.rotational_drift_deg_per_m, GetParam().max_rotational_drift_deg_per_m);
+  // The summary names the drive it ran on and keeps the rows scripts read.
+  std::ifstream in(r.summary);
+  std::stringstream summary;
+  summary << in.rdbuf();
+  EXPECT_NE(summary.str().find(GetParam().sequence), std::string::npos);
+  EXPECT_NE(summary.str().find("KITTI"), std::string::npos);
+  EXPECT_NE(summary.str().find("| consecutive pairs with a VO estimate of >= 30 inliers | " +
+                               std::to_string(r.vo_pairs_with_30_inliers) + " / " +
+                               std::to_string(r.vo_pairs) + " ("),
+            std::string::npos)
+      << summary.str();
+  EXPECT_NE(summary.str().find("| localised frames"), std::string::npos);
+  for (const NegativeControl& c : r.controls) EXPECT_FALSE(c.success) << c.what;
+}
+
+INSTANTIATE_TEST_SUITE_P(Kitti, RealExperimentKittiTest,
+                         ::testing::Values(KittiCase{"seq1", 3.0, 0.03},
+                                           KittiCase{"seq2", 20.0, 0.03}),
+                         [](const ::testing::TestParamInfo<KittiCase>& drive) {
+                           return std::string(drive.param.sequence);
+                         });
 
 TEST_F(RealExperimentTest, AMissingDatasetIsRefusedBeforeAnythingIsWritten) {
   RealExperimentOptions options;

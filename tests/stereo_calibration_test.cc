@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "euroc_test_data.h"
+#include "expect_error.h"
 #include "fleetmap/common/error.h"
 #include "fleetmap/common/uuid.h"
 #include "fleetmap/experiments/euroc_sequence.h"
@@ -35,8 +36,8 @@ PinholeCamera Cam1() {
 Eigen::Vector2d ProjectRaw(const PinholeCamera& camera, const Eigen::Vector3d& p) {
   const cv::Mat K =
       (cv::Mat_<double>(3, 3) << camera.fx, 0, camera.cx, 0, camera.fy, camera.cy, 0, 0, 1);
-  const cv::Mat D = (cv::Mat_<double>(1, 4) << camera.distortion[0], camera.distortion[1],
-                     camera.distortion[2], camera.distortion[3]);
+  const cv::Mat D = (cv::Mat_<double>(1, 5) << camera.distortion[0], camera.distortion[1],
+                     camera.distortion[2], camera.distortion[3], camera.distortion[4]);
   std::vector<cv::Point3d> in{{p.x(), p.y(), p.z()}};
   std::vector<cv::Point2d> out;
   cv::projectPoints(in, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), K, D, out);
@@ -54,6 +55,7 @@ TEST(StereoCalibrationTest, ReadsTheEurocYaml) {
   EXPECT_DOUBLE_EQ(cam0.cy, 248.375);
   EXPECT_DOUBLE_EQ(cam0.distortion[0], -0.28340811);
   EXPECT_DOUBLE_EQ(cam0.distortion[3], 1.76187114e-05);
+  EXPECT_EQ(cam0.distortion[4], 0.0);  // four terms in the yaml: k3 = 0
   EXPECT_DOUBLE_EQ(cam0.rate_hz, 20);
   EXPECT_NEAR(cam0.body_T_sensor.translation().x(), -0.0216401454975, 1e-12);
   EXPECT_NEAR(cam0.body_T_sensor.translation().y(), -0.064676986768, 1e-12);
@@ -95,6 +97,64 @@ TEST(StereoCalibrationTest, RectificationLinesUpRowsAndKeepsTheBaseline) {
     ++checked;
   }
   EXPECT_GT(checked, 100);
+}
+
+// Scene points through both raw cameras (with their distortion) land on one rectified row.
+void ExpectRowsAgree(const PinholeCamera& left, const PinholeCamera& right) {
+  const StereoRectifier rectifier(left, right);
+  const Eigen::Isometry3d right_T_left = right.body_T_sensor.inverse() * left.body_T_sensor;
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> lateral(-0.5, 0.5), depth(0.8, 9.0);
+  int checked = 0;
+  for (int i = 0; i < 200; ++i) {
+    const double z = depth(rng);
+    const Eigen::Vector3d p_left(lateral(rng) * z, lateral(rng) * 0.7 * z, z);
+    const Eigen::Vector2d raw_left = ProjectRaw(left, p_left);
+    const Eigen::Vector2d raw_right = ProjectRaw(right, right_T_left * p_left);
+    const auto inside = [](const Eigen::Vector2d& px) {
+      return px.x() > 5 && px.x() < 747 && px.y() > 5 && px.y() < 475;
+    };
+    if (!inside(raw_left) || !inside(raw_right)) continue;
+    ASSERT_NEAR(rectifier.RectifyLeftPixel(raw_left).y(),
+                rectifier.RectifyRightPixel(raw_right).y(), 0.01)
+        << "point " << p_left.transpose();
+    ++checked;
+  }
+  EXPECT_GT(checked, 100);
+}
+
+// OpenCV's fifth term, k3, reaches the rectification: with it in the projection but not in the
+// rectifier, rows near the image edges would part by pixels.
+TEST(StereoCalibrationTest, RectificationUsesTheFifthDistortionTerm) {
+  PinholeCamera left = Cam0(), right = Cam1();
+  left.distortion[4] = 0.08;
+  right.distortion[4] = -0.05;
+  ExpectRowsAgree(left, right);
+}
+
+TEST(StereoCalibrationTest, WrittenCalibrationReadsBack) {
+  PinholeCamera camera = Cam1();
+  camera.name = "KITTI odometry right (image_r, P1)";
+  camera.distortion[4] = 0.0123456789012345;
+  const fs::path file = fs::temp_directory_path() /
+                        ("fleetmap-written-" + Uuid::GenerateRandom().ToString() + ".yaml");
+  WriteEurocCamera(camera, file);
+  const PinholeCamera back = LoadEurocCamera(file);
+  fs::remove(file);
+  EXPECT_EQ(back.name, camera.name);
+  EXPECT_EQ(back.width_px, camera.width_px);
+  EXPECT_EQ(back.height_px, camera.height_px);
+  EXPECT_DOUBLE_EQ(back.fx, camera.fx);
+  EXPECT_DOUBLE_EQ(back.fy, camera.fy);
+  EXPECT_DOUBLE_EQ(back.cx, camera.cx);
+  EXPECT_DOUBLE_EQ(back.cy, camera.cy);
+  for (std::size_t i = 0; i < 5; ++i) EXPECT_DOUBLE_EQ(back.distortion[i], camera.distortion[i]);
+  EXPECT_DOUBLE_EQ(back.rate_hz, camera.rate_hz);
+  EXPECT_LE((back.body_T_sensor.matrix() - camera.body_T_sensor.matrix()).cwiseAbs().maxCoeff(),
+            1e-12);
+  ExpectError(
+      ErrorCode::kBackend, [&] { WriteEurocCamera(camera, "/nonexistent-dir/cam0.yaml"); },
+      "/nonexistent-dir/cam0.yaml");
 }
 
 TEST(StereoCalibrationTest, RectifyRefusesImagesOfTheWrongKind) {
@@ -167,12 +227,27 @@ TEST_F(BadCalibrationTest, EachBrokenFieldIsNamed) {
   ExpectRefused("camera_model: pinhole", "camera_model: omni", "camera_model");
   ExpectRefused("distortion_model: radial-tangential", "distortion_model: equidistant",
                 "distortion_model");
-  ExpectRefused("distortion_coefficients: [", "distortion_coefficients: [0.1, ",
-                "distortion_coefficients");
+  // Four or five terms (k1 k2 p1 p2 [k3]); three or six are refused.
+  ExpectRefused("distortion_coefficients: [", "distortion_coefficients: [0.1, 0.2, ",
+                "distortion_coefficients: expected 4 or 5 values, not 6");
+  ExpectRefused("distortion_coefficients: [-0.28340811, ", "distortion_coefficients: [",
+                "distortion_coefficients: expected 4 or 5 values, not 3");
   ExpectRefused("resolution: [752, 480]", "resolution: [752, -480]", "resolution");
   // A T_BS whose rotation is scaled is not a pose.
   ExpectRefused("data: [0.0148655429818, -0.999880929698",
                 "data: [0.0297310859636, -1.999761859396", "T_BS");
+}
+
+TEST_F(BadCalibrationTest, FiveDistortionTermsAreRead) {
+  std::string text = good_;
+  const std::string four = "1.76187114e-05]";
+  text.replace(text.find(four), four.size(), "1.76187114e-05, -0.0123]");
+  const fs::path file = dir_ / "five.yaml";
+  std::ofstream(file) << text;
+  const PinholeCamera camera = LoadEurocCamera(file);
+  EXPECT_DOUBLE_EQ(camera.distortion[0], -0.28340811);
+  EXPECT_DOUBLE_EQ(camera.distortion[3], 1.76187114e-05);
+  EXPECT_DOUBLE_EQ(camera.distortion[4], -0.0123);
 }
 
 TEST_F(BadCalibrationTest, MissingAndUnreadableFiles) {

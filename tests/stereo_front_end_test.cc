@@ -5,7 +5,9 @@
 
 #include <gtest/gtest.h>
 
+#include <Eigen/Geometry>
 #include <algorithm>
+#include <cmath>
 #include <opencv2/imgproc.hpp>
 #include <random>
 #include <vector>
@@ -90,7 +92,6 @@ TEST(StereoFrontEndTest, PlaneOfKnownDepthTriangulatesWithinOnePercent) {
 TEST(StereoFrontEndTest, DisparitiesOutsideTheRangeGiveNoLandmarks) {
   const RectifiedStereoGeometry g = SyntheticGeometry();
   StereoFrontEndOptions options;
-  options.max_depth_m = 0;
   // The plane at 1 m has disparity 48 px: outside [1, 40], inside [1, 60].
   cv::Mat left, right;
   PlanePair(g, 1.0, left, right);
@@ -98,9 +99,111 @@ TEST(StereoFrontEndTest, DisparitiesOutsideTheRangeGiveNoLandmarks) {
   EXPECT_LT(StereoFrontEnd(g, options).Process(0, left, right).frame.landmarks.size(), 5u);
   options.matching.max_disparity_px = 60;
   EXPECT_GT(StereoFrontEnd(g, options).Process(0, left, right).frame.landmarks.size(), 200u);
-  // And max_depth_m drops what lies beyond it.
-  options.max_depth_m = 0.9;
-  EXPECT_EQ(StereoFrontEnd(g, options).Process(0, left, right).frame.landmarks.size(), 0u);
+}
+
+// The depth cut is by disparity (sigma_z / z = disparity_sigma_px / d): with the defaults a
+// point needs d >= 0.5 / 0.2 = 2.5 px, here f B = 47.96 px m, so 19.2 m. Matches below it are
+// counted, not kept; the rest are kept whatever their depth in metres.
+TEST(StereoFrontEndTest, PointsWhoseDepthIsTooUncertainAreDroppedAndCounted) {
+  const RectifiedStereoGeometry g = SyntheticGeometry();
+  const double f_b = g.focal_px * g.baseline_m;
+  const StereoFrontEnd front_end(g, StereoFrontEndOptions{});
+  {
+    // 24 m: d = 2.0 px, inside the matcher's [1, 150] but below 2.5 px.
+    cv::Mat left, right;
+    PlanePair(g, f_b / 2.0, left, right);
+    const StereoFrontEndResult r = front_end.Process(0, left, right);
+    EXPECT_GT(r.matching.matched, 200) << "the far plane must match to test the cut";
+    EXPECT_LT(r.frame.landmarks.size(), 5u) << "only mismatches could pass";
+    EXPECT_EQ(r.dropped_uncertain_depth + static_cast<int>(r.frame.landmarks.size()),
+              r.matching.matched);
+    EXPECT_EQ(r.depths_m.size(), r.frame.landmarks.size());
+    EXPECT_EQ(r.left_pixels.size(), r.frame.landmarks.size());
+  }
+  {
+    // 12 m: d = 4.0 px, farther than the old 12 m cut allowed for, and kept.
+    cv::Mat left, right;
+    PlanePair(g, f_b / 4.0, left, right);
+    const StereoFrontEndResult r = front_end.Process(0, left, right);
+    EXPECT_GT(r.frame.landmarks.size(), 200u);
+    EXPECT_LT(r.dropped_uncertain_depth, 5);
+    EXPECT_EQ(r.dropped_uncertain_depth + static_cast<int>(r.frame.landmarks.size()),
+              r.matching.matched);
+  }
+  // The same 1 m plane (d = 48 px) on either side of the cut, moved by the options alone.
+  cv::Mat left, right;
+  PlanePair(g, 1.0, left, right);
+  StereoFrontEndOptions options;
+  options.disparity_sigma_px = 1.0;
+  options.max_relative_depth_sigma = 1.0 / 60;  // d >= 60 px
+  StereoFrontEndResult r = StereoFrontEnd(g, options).Process(0, left, right);
+  EXPECT_EQ(r.frame.landmarks.size(), 0u);
+  EXPECT_GT(r.dropped_uncertain_depth, 200);
+  EXPECT_EQ(r.dropped_uncertain_depth, r.matching.matched);
+  options.max_relative_depth_sigma = 1.0 / 40;  // d >= 40 px
+  r = StereoFrontEnd(g, options).Process(0, left, right);
+  EXPECT_GT(r.frame.landmarks.size(), 200u);
+  EXPECT_LT(r.dropped_uncertain_depth, 5);
+}
+
+TEST(StereoFrontEndTest, OptionsOutOfRangeAreRefused) {
+  const RectifiedStereoGeometry g = SyntheticGeometry();
+  EXPECT_NO_THROW(StereoFrontEnd(g, StereoFrontEndOptions{}));
+  const auto refused = [&](const char* what, auto change) {
+    StereoFrontEndOptions o;
+    change(o);
+    EXPECT_THROW(StereoFrontEnd(g, o), Error) << what;
+  };
+  refused("grid_columns 0", [](StereoFrontEndOptions& o) { o.grid_columns = 0; });
+  refused("grid_rows 0", [](StereoFrontEndOptions& o) { o.grid_rows = 0; });
+  refused("grid_rows -1", [](StereoFrontEndOptions& o) { o.grid_rows = -1; });
+  refused("oversampling 0.99", [](StereoFrontEndOptions& o) { o.detect_oversampling = 0.99; });
+  refused("oversampling NaN", [](StereoFrontEndOptions& o) { o.detect_oversampling = NAN; });
+  refused("disparity sigma 0", [](StereoFrontEndOptions& o) { o.disparity_sigma_px = 0; });
+  refused("disparity sigma -1", [](StereoFrontEndOptions& o) { o.disparity_sigma_px = -1; });
+  refused("relative depth sigma 0",
+          [](StereoFrontEndOptions& o) { o.max_relative_depth_sigma = 0; });
+  refused("relative depth sigma -0.2",
+          [](StereoFrontEndOptions& o) { o.max_relative_depth_sigma = -0.2; });
+  // The edges of the ranges are accepted: one cell, no oversampling is plain ORB.
+  StereoFrontEndOptions plain;
+  plain.grid_columns = 1;
+  plain.grid_rows = 1;
+  plain.detect_oversampling = 1.0;
+  EXPECT_NO_THROW(StereoFrontEnd(g, plain));
+}
+
+// The landmarks carry the camera that made them, so the localiser can weigh them by pixels:
+// focal length, baseline and the rectification rotation as a quaternion (w, x, y, z).
+TEST(StereoFrontEndTest, LandmarksCarryTheRectifiedStereoCamera) {
+  RectifiedStereoGeometry g = SyntheticGeometry();
+  const Eigen::Matrix3d rect_R_left =
+      Eigen::AngleAxisd(0.05, Eigen::Vector3d(0.2, 1.0, -0.3).normalized()).toRotationMatrix();
+  g.rect_R_left = rect_R_left;
+  const StereoFrontEnd front_end(g, StereoFrontEndOptions{});
+  cv::Mat left, right;
+  PlanePair(g, 2.5, left, right);
+  const StereoFrontEndResult r = front_end.Process(0, left, right);
+  ASSERT_GT(r.frame.landmarks.size(), 200u);
+  ASSERT_TRUE(r.frame.landmarks.stereo.has_value());
+  const StereoCamera& camera = *r.frame.landmarks.stereo;
+  EXPECT_FLOAT_EQ(camera.focal_px, static_cast<float>(g.focal_px));
+  EXPECT_FLOAT_EQ(camera.baseline_m, static_cast<float>(g.baseline_m));
+  const Eigen::Quaterniond expected(rect_R_left);
+  const Eigen::Quaterniond q(camera.rect_q_camera[0], camera.rect_q_camera[1],
+                             camera.rect_q_camera[2], camera.rect_q_camera[3]);
+  EXPECT_NEAR(q.norm(), 1.0, 1e-6);
+  // q and -q are the same rotation.
+  EXPECT_NEAR(std::abs(q.dot(expected)), 1.0, 1e-6);
+  EXPECT_TRUE(q.toRotationMatrix().isApprox(rect_R_left, 1e-6));
+  // The points are in the left camera's own frame: rotated into the rectified one, z is depth.
+  for (std::size_t i = 0; i < r.frame.landmarks.size(); i += 50) {
+    const Eigen::Vector3d p_rect = rect_R_left * r.frame.landmarks.points_camera[i].cast<double>();
+    EXPECT_NEAR(p_rect.z(), r.depths_m[i], 1e-4 * r.depths_m[i]) << "landmark " << i;
+  }
+  // Bucketing keeps at most orb_features left keypoints; the right image keeps all it found.
+  EXPECT_LE(r.left_keypoints, StereoFrontEndOptions{}.orb_features);
+  EXPECT_GT(r.right_keypoints, r.left_keypoints);
 }
 
 TEST(StereoFrontEndTest, BlankAndWrongImages) {
@@ -199,6 +302,159 @@ TEST_F(StereoRowMatchTest, BadArgumentsAreRefused) {
   EXPECT_THROW(MatchStereoRows(one, d, one, d, cv::Mat(), cv::Mat(), o), Error);
   // Refinement needs the images.
   EXPECT_THROW(MatchStereoRows(one, d, one, d, cv::Mat(), cv::Mat(), StereoMatchOptions{}), Error);
+}
+
+// ---- Grid bucketing (BucketKeypoints) ----
+
+cv::KeyPoint At(float x, float y, float response) {
+  cv::KeyPoint k(x, y, 31);
+  k.response = response;
+  return k;
+}
+
+// Which of a grid's cells a kept keypoint lies in, counted.
+std::vector<int> PerCell(const std::vector<cv::KeyPoint>& keypoints, const std::vector<int>& kept,
+                         int width, int height, int columns, int rows) {
+  std::vector<int> counts(static_cast<std::size_t>(columns * rows), 0);
+  for (const int i : kept) {
+    const cv::KeyPoint& k = keypoints[static_cast<std::size_t>(i)];
+    const int column = std::min(columns - 1, static_cast<int>(k.pt.x * columns / width));
+    const int row = std::min(rows - 1, static_cast<int>(k.pt.y * rows / height));
+    ++counts[static_cast<std::size_t>(row * columns + column)];
+  }
+  return counts;
+}
+
+// 800 x 400 in 4 x 2 cells of 200 x 200; keep 80, a share of 10 per cell. Cell 0 (top left) has
+// 100 keypoints all stronger than any elsewhere; cells 1-6 have 5 weak ones each; cell 7 none.
+class BucketKeypointsTest : public ::testing::Test {
+ protected:
+  static constexpr int kWidth = 800, kHeight = 400, kColumns = 4, kRows = 2, kKeep = 80;
+
+  void SetUp() override {
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<float> in_cell(1.0f, 199.0f);
+    for (int i = 0; i < 100; ++i) {
+      keypoints_.push_back(At(in_cell(rng), in_cell(rng), 100.0f + static_cast<float>(i)));
+    }
+    for (int cell = 1; cell <= 6; ++cell) {
+      const float x0 = static_cast<float>(200 * (cell % kColumns));
+      const float y0 = static_cast<float>(200 * (cell / kColumns));
+      for (int i = 0; i < 5; ++i) {
+        keypoints_.push_back(
+            At(x0 + in_cell(rng), y0 + in_cell(rng), 1.0f + static_cast<float>(i)));
+      }
+    }
+    // Shuffled, so the result cannot lean on the input's order.
+    std::shuffle(keypoints_.begin(), keypoints_.end(), rng);
+  }
+
+  std::vector<cv::KeyPoint> keypoints_;
+};
+
+TEST_F(BucketKeypointsTest, EveryCellKeepsItsShareAndLeftoversGoToTheStrongest) {
+  const std::vector<int> kept =
+      BucketKeypoints(keypoints_, kWidth, kHeight, kColumns, kRows, kKeep);
+  ASSERT_EQ(kept.size(), static_cast<std::size_t>(kKeep));
+  EXPECT_TRUE(std::is_sorted(kept.begin(), kept.end()));
+  EXPECT_EQ(std::adjacent_find(kept.begin(), kept.end()), kept.end()) << "no index twice";
+  // The sparse cells keep all they have (5 < their share of 10); cell 0 its share and the 40
+  // that the sparse and empty cells left unused.
+  EXPECT_EQ(PerCell(keypoints_, kept, kWidth, kHeight, kColumns, kRows),
+            (std::vector<int>{50, 5, 5, 5, 5, 5, 5, 0}));
+  // Cell 0's are its strongest 50 (responses 150..199).
+  for (const int i : kept) {
+    const cv::KeyPoint& k = keypoints_[static_cast<std::size_t>(i)];
+    if (k.response >= 100) {
+      EXPECT_GE(k.response, 150.0f);
+    }
+  }
+  // Plain top-N would have kept cell 0 only.
+  const std::vector<int> global = BucketKeypoints(keypoints_, kWidth, kHeight, 1, 1, kKeep);
+  EXPECT_EQ(PerCell(keypoints_, global, kWidth, kHeight, kColumns, kRows),
+            (std::vector<int>{80, 0, 0, 0, 0, 0, 0, 0}));
+}
+
+TEST_F(BucketKeypointsTest, WhenEveryCellIsFullEachKeepsExactlyItsShare) {
+  // 8 keypoints in each of the 8 cells, keep 32: a share of 4 each, nothing left over.
+  std::vector<cv::KeyPoint> keypoints;
+  for (int cell = 0; cell < 8; ++cell) {
+    for (int i = 0; i < 8; ++i) {
+      keypoints.push_back(At(static_cast<float>(200 * (cell % 4) + 20 * i + 5),
+                             static_cast<float>(200 * (cell / 4) + 100),
+                             static_cast<float>(cell * 100 + i)));
+    }
+  }
+  const std::vector<int> kept = BucketKeypoints(keypoints, kWidth, kHeight, 4, 2, 32);
+  EXPECT_EQ(PerCell(keypoints, kept, kWidth, kHeight, 4, 2), std::vector<int>(8, 4));
+  // Each cell's strongest 4: indices 4..7 of it.
+  for (const int i : kept) EXPECT_GE(i % 8, 4) << i;
+}
+
+TEST_F(BucketKeypointsTest, KeepsExactlyWhatIsAskedOrAllThereAre) {
+  const int n = static_cast<int>(keypoints_.size());  // 130
+  for (const int keep : {0, 1, 7, 8, 9, 79, 80, 81, 129}) {
+    EXPECT_EQ(BucketKeypoints(keypoints_, kWidth, kHeight, kColumns, kRows, keep).size(),
+              static_cast<std::size_t>(keep))
+        << "keep " << keep;
+  }
+  for (const int keep : {130, 131, 1000}) {
+    const std::vector<int> kept =
+        BucketKeypoints(keypoints_, kWidth, kHeight, kColumns, kRows, keep);
+    ASSERT_EQ(kept.size(), static_cast<std::size_t>(n)) << "keep " << keep;
+    for (int i = 0; i < n; ++i) EXPECT_EQ(kept[static_cast<std::size_t>(i)], i);
+  }
+  EXPECT_TRUE(BucketKeypoints({}, kWidth, kHeight, kColumns, kRows, 10).empty());
+}
+
+TEST_F(BucketKeypointsTest, TiesAreBrokenByIndexSoTheResultIsDeterministic) {
+  // Four cells of 2 x 2, every response equal, the cells' keypoints interleaved by index:
+  // index i lies in cell i % 4. A share of 2: each cell keeps its two lowest indices.
+  std::vector<cv::KeyPoint> keypoints;
+  for (int i = 0; i < 24; ++i) {
+    const int cell = i % 4;
+    keypoints.push_back(At(static_cast<float>(400 * (cell % 2) + 10 + i),
+                           static_cast<float>(200 * (cell / 2) + 10 + i), 5.0f));
+  }
+  const std::vector<int> kept = BucketKeypoints(keypoints, kWidth, kHeight, 2, 2, 8);
+  EXPECT_EQ(kept, (std::vector<int>{0, 1, 2, 3, 4, 5, 6, 7}));
+  for (int run = 0; run < 5; ++run) {
+    EXPECT_EQ(BucketKeypoints(keypoints, kWidth, kHeight, 2, 2, 8), kept);
+  }
+  // Leftovers among equals go to the lowest indices too: 9 kept, a share of 3 (ceil 9 / 4):
+  // the first pass fills cells in index order until 9 are kept.
+  EXPECT_EQ(BucketKeypoints(keypoints, kWidth, kHeight, 2, 2, 9),
+            (std::vector<int>{0, 1, 2, 3, 4, 5, 6, 7, 8}));
+  // One cell: the lowest indices.
+  EXPECT_EQ(BucketKeypoints(keypoints, kWidth, kHeight, 1, 1, 3), (std::vector<int>{0, 1, 2}));
+}
+
+TEST_F(BucketKeypointsTest, OneCellIsTheGlobalTopN) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> x(0.0f, kWidth), y(0.0f, kHeight), response(0.0f, 1.0f);
+  std::vector<cv::KeyPoint> keypoints;
+  for (int i = 0; i < 500; ++i) keypoints.push_back(At(x(rng), y(rng), response(rng)));
+  std::vector<int> by_response(keypoints.size());
+  for (std::size_t i = 0; i < by_response.size(); ++i) by_response[i] = static_cast<int>(i);
+  std::stable_sort(by_response.begin(), by_response.end(), [&](int a, int b) {
+    return keypoints[static_cast<std::size_t>(a)].response >
+           keypoints[static_cast<std::size_t>(b)].response;
+  });
+  for (const int keep : {1, 37, 250, 499}) {
+    std::vector<int> top(by_response.begin(), by_response.begin() + keep);
+    std::sort(top.begin(), top.end());
+    EXPECT_EQ(BucketKeypoints(keypoints, kWidth, kHeight, 1, 1, keep), top) << "keep " << keep;
+  }
+}
+
+TEST_F(BucketKeypointsTest, KeypointsOnTheFarEdgesBelongToTheLastCell) {
+  // x == width and y == height (ORB keeps keypoints inside, but the cell must not overflow):
+  // the bottom-right cell, with its neighbour inside it; a share of 1 (keep 2 of 8 cells) lets
+  // only the stronger of the two in, and the weak keypoint of cell 0 takes the other place.
+  const std::vector<cv::KeyPoint> keypoints{
+      At(kWidth, kHeight, 10.0f), At(kWidth - 1.0f, kHeight - 1.0f, 9.0f), At(0, 0, 1.0f)};
+  EXPECT_EQ(BucketKeypoints(keypoints, kWidth, kHeight, kColumns, kRows, 2),
+            (std::vector<int>{0, 2}));
 }
 
 // The real pairs: depths in the room's scale (a drone in a room of a few metres).

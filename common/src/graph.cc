@@ -1,5 +1,6 @@
 #include "fleetmap/common/graph.h"
 
+#include <cmath>
 #include <cstring>
 
 #include "fleetmap/common/error.h"
@@ -86,6 +87,24 @@ void Validate(const Annotation& annotation) {
   }
 }
 
+namespace {
+
+// What is wrong with a stereo camera description, or empty when nothing is.
+std::string StereoCameraFault(float focal_px, float baseline_m, const float* q, int q_size) {
+  if (!(std::isfinite(focal_px) && focal_px > 0)) return "focal length must be positive";
+  if (!(std::isfinite(baseline_m) && baseline_m > 0)) return "baseline must be positive";
+  if (q_size != 4) return "rotation needs 4 quaternion terms, has " + std::to_string(q_size);
+  double norm_sq = 0;
+  for (int k = 0; k < 4; ++k) {
+    if (!std::isfinite(q[k])) return "rotation is not finite";
+    norm_sq += static_cast<double>(q[k]) * q[k];
+  }
+  if (std::abs(norm_sq - 1.0) > 1e-3) return "rotation is not a unit quaternion";
+  return {};
+}
+
+}  // namespace
+
 std::string EncodeLandmarks(const Landmarks& landmarks) {
   if (landmarks.points_camera.size() != landmarks.descriptors.size()) {
     throw Error(ErrorCode::kInvalidArgument,
@@ -104,6 +123,17 @@ std::string EncodeLandmarks(const Landmarks& landmarks) {
   for (std::size_t i = 0; i < landmarks.size(); ++i) {
     std::memcpy(descriptors->data() + i * sizeof(Descriptor256), landmarks.descriptors[i].data(),
                 sizeof(Descriptor256));
+  }
+  if (landmarks.stereo) {
+    const StereoCamera& camera = *landmarks.stereo;
+    const std::string fault =
+        StereoCameraFault(camera.focal_px, camera.baseline_m, camera.rect_q_camera.data(), 4);
+    if (!fault.empty())
+      throw Error(ErrorCode::kInvalidArgument, "landmarks' stereo camera: " + fault);
+    v1::StereoCamera* stereo = proto.mutable_stereo();
+    stereo->set_focal_px(camera.focal_px);
+    stereo->set_baseline_m(camera.baseline_m);
+    for (float q : camera.rect_q_camera) stereo->add_rect_q_camera(q);
   }
   return proto.SerializeAsString();
 }
@@ -129,6 +159,19 @@ Landmarks DecodeLandmarks(const std::string& blob) {
     landmarks.points_camera.emplace_back(proto.xyz(k), proto.xyz(k + 1), proto.xyz(k + 2));
     std::memcpy(landmarks.descriptors[i].data(),
                 proto.descriptors().data() + i * sizeof(Descriptor256), sizeof(Descriptor256));
+  }
+  if (proto.has_stereo()) {
+    const v1::StereoCamera& stereo = proto.stereo();
+    const std::string fault =
+        StereoCameraFault(stereo.focal_px(), stereo.baseline_m(), stereo.rect_q_camera().data(),
+                          stereo.rect_q_camera_size());
+    if (!fault.empty()) throw Error(ErrorCode::kCorrupt, "landmark blob's stereo camera: " + fault);
+    StereoCamera camera;
+    camera.focal_px = stereo.focal_px();
+    camera.baseline_m = stereo.baseline_m();
+    for (int k = 0; k < 4; ++k)
+      camera.rect_q_camera[static_cast<std::size_t>(k)] = stereo.rect_q_camera(k);
+    landmarks.stereo = camera;
   }
   return landmarks;
 }

@@ -4,12 +4,14 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <random>
 #include <string>
 #include <vector>
 
 #include "fleetmap/common/descriptor_matcher.h"
 #include "fleetmap/common/error.h"
+#include "stereo_reprojection.h"
 
 namespace fleetmap {
 namespace {
@@ -113,6 +115,7 @@ Localiser::Localiser(const LocaliserOptions& options) : options_(options) {
     fail("ransac_confidence must be in [0, 1)");
   }
   if (!(options.inlier_threshold_m > 0.0)) fail("inlier_threshold_m must be > 0");
+  if (!(options.reprojection_threshold_px > 0.0)) fail("reprojection_threshold_px must be > 0");
   if (options.min_inliers < 3) fail("min_inliers must be >= 3");
 }
 
@@ -133,6 +136,17 @@ LocalisationResult Localiser::Localise(const Landmarks& frame, const Landmarks& 
     c.p_frame.col(k) = frame.points_camera[static_cast<std::size_t>(m.query_index)].cast<double>();
     c.p_node.col(k) = node.points_camera[static_cast<std::size_t>(m.train_index)].cast<double>();
   }
+
+  // Which residual judges a hypothesis (localiser.h): pixels when a stereo camera is known.
+  std::optional<StereoReprojection> stereo;
+  if (frame.stereo || node.stereo) {
+    stereo.emplace(c.p_frame, c.p_node, frame.stereo, node.stereo);
+    result.stereo_residuals = true;
+  }
+  const auto inliers_of = [&](const Se3& node_T_frame) {
+    return stereo ? stereo->Inliers(node_T_frame, options_.reprojection_threshold_px)
+                  : Inliers(c, node_T_frame, options_.inlier_threshold_m);
+  };
 
   // RANSAC: keep the first hypothesis with the most inliers.
   std::mt19937 rng(options_.seed);
@@ -162,7 +176,7 @@ LocalisationResult Localiser::Localise(const Landmarks& frame, const Landmarks& 
       continue;
     }
     const Se3 hypothesis = FitRigid(src, dst);
-    std::vector<int> inliers = Inliers(c, hypothesis, options_.inlier_threshold_m);
+    std::vector<int> inliers = inliers_of(hypothesis);
     if (inliers.size() > best_inliers.size()) {
       best = hypothesis;
       best_inliers = std::move(inliers);
@@ -173,12 +187,16 @@ LocalisationResult Localiser::Localise(const Landmarks& frame, const Landmarks& 
 
   // Refine: refit on all inliers and recount (options.least_squares_result says which refit
   // stands). The reported count is always that of the reported transform.
+  // In stereo mode the refinement is Gauss-Newton in pixels and always stands: it is the fit the
+  // noise model asks for, and the three-point hypothesis is only its starting point.
+  const bool keep_refit = stereo || options_.least_squares_result;
   for (int round = 0; round < kMaxRefinements && best_inliers.size() >= 3; ++round) {
-    const Se3 refined = FitInliers(c, best_inliers);
-    std::vector<int> inliers = Inliers(c, refined, options_.inlier_threshold_m);
-    if (!options_.least_squares_result && inliers.size() < best_inliers.size()) break;
-    const bool settled = options_.least_squares_result ? inliers == best_inliers
-                                                       : inliers.size() == best_inliers.size();
+    const Se3 refined = stereo ? stereo->Refine(best, best_inliers) : FitInliers(c, best_inliers);
+    std::vector<int> inliers = inliers_of(refined);
+    if (!keep_refit && inliers.size() < best_inliers.size()) break;
+    if (stereo && inliers.size() < 3) break;  // a refinement that ran away; keep the last
+    const bool settled =
+        keep_refit ? inliers == best_inliers : inliers.size() == best_inliers.size();
     best = refined;
     best_inliers = std::move(inliers);
     if (settled) break;

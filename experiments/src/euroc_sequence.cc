@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <charconv>
+#include <cmath>
 #include <fstream>
 #include <iterator>
 #include <limits>
@@ -11,6 +12,7 @@
 #include <string_view>
 #include <system_error>
 
+#include "dataset_files.h"
 #include "fleetmap/common/error.h"
 
 namespace fleetmap {
@@ -39,23 +41,8 @@ std::string_view Trim(std::string_view text) {
   return text.substr(first, last - first + 1);
 }
 
-void RequireDirectory(const fs::path& dir, const std::string& what) {
-  std::error_code ec;
-  if (!fs::is_directory(dir, ec)) {
-    throw Error(ErrorCode::kNotFound,
-                what + " " + dir.string() +
-                    (fs::exists(dir, ec) ? " is not a directory" : " does not exist"));
-  }
-}
-
-void RequireFile(const fs::path& file, const std::string& what) {
-  std::error_code ec;
-  if (!fs::is_regular_file(file, ec)) {
-    throw Error(ErrorCode::kNotFound,
-                what + " " + file.string() +
-                    (fs::exists(file, ec) ? " is not a regular file" : " does not exist"));
-  }
-}
+using dataset_files::RequireDirectory;
+using dataset_files::RequireFile;
 
 // Parses DIR/camN/data.csv: '#' lines are comments (the header), blank lines are skipped, every
 // other line is "timestamp_ns,filename" with stamps strictly increasing.
@@ -183,6 +170,97 @@ EurocSequence LoadEurocSequence(const fs::path& dir) {
     sequence.pairs.push_back({left_rows[i].stamp_ns, left_rows[i].image, right_rows[i].image});
   }
   return sequence;
+}
+
+std::vector<EurocBodyPose> ReadEurocGroundTruth(const fs::path& csv) {
+  RequireFile(csv, "ground truth");
+  std::ifstream in(csv);
+  if (!in) throw Error(ErrorCode::kNotFound, "cannot open ground truth " + csv.string());
+  const auto fail = [&](int line, const std::string& what) {
+    throw Error(ErrorCode::kInvalidArgument,
+                csv.string() + " line " + std::to_string(line) + ": " + what);
+  };
+  // The fields this reads, in the csv's order (the header's names, shortened).
+  static constexpr const char* kFields[] = {"timestamp", "p_RS_R_x", "p_RS_R_y", "p_RS_R_z",
+                                            "q_RS_w",    "q_RS_x",   "q_RS_y",   "q_RS_z"};
+  std::vector<EurocBodyPose> poses;
+  int previous_line = 0;
+  std::string text;
+  for (int line = 1; std::getline(in, text); ++line) {
+    std::string_view row = Trim(text);
+    if (row.empty() || row.front() == '#') continue;
+    std::vector<std::string_view> fields;
+    while (fields.size() < std::size(kFields)) {
+      const auto comma = row.find(',');
+      fields.push_back(Trim(row.substr(0, comma)));
+      if (comma == std::string_view::npos) break;
+      row.remove_prefix(comma + 1);
+    }
+    if (fields.size() < std::size(kFields)) {
+      fail(line,
+           "expected at least 8 comma-separated fields (timestamp, position, quaternion "
+           "w x y z), found " +
+               std::to_string(fields.size()));
+    }
+    EurocBodyPose pose;
+    const std::string_view stamp = fields[0];
+    const auto [stamp_end, stamp_error] =
+        std::from_chars(stamp.data(), stamp.data() + stamp.size(), pose.stamp_ns);
+    if (stamp.empty() || stamp_error != std::errc() || stamp_end != stamp.data() + stamp.size()) {
+      fail(line, "timestamp '" + std::string(stamp) + "' is not an integer number of nanoseconds");
+    }
+    double v[7];
+    for (std::size_t i = 1; i < std::size(kFields); ++i) {
+      const std::string_view f = fields[i];
+      const auto [end, error] = std::from_chars(f.data(), f.data() + f.size(), v[i - 1]);
+      if (f.empty() || error != std::errc() || end != f.data() + f.size() ||
+          !std::isfinite(v[i - 1])) {
+        fail(line, std::string(kFields[i]) + ": '" + std::string(f) + "' is not a number");
+      }
+    }
+    if (!poses.empty() && pose.stamp_ns <= poses.back().stamp_ns) {
+      fail(line, "timestamp " + std::to_string(pose.stamp_ns) + " does not come after line " +
+                     std::to_string(previous_line) + "'s " + std::to_string(poses.back().stamp_ns) +
+                     " (stamps must increase)");
+    }
+    const Eigen::Quaterniond q(v[3], v[4], v[5], v[6]);
+    // The dataset prints quaternions to 6 digits or more; a norm further from 1 is not a rotation.
+    if (std::abs(q.norm() - 1.0) > 1e-3) {
+      fail(line, "quaternion (q_RS_w, q_RS_x, q_RS_y, q_RS_z) has norm " +
+                     std::to_string(q.norm()) + ", not 1");
+    }
+    pose.world_T_body.linear() = q.normalized().toRotationMatrix();
+    pose.world_T_body.translation() = Eigen::Vector3d(v[0], v[1], v[2]);
+    poses.push_back(pose);
+    previous_line = line;
+  }
+  if (in.bad()) throw Error(ErrorCode::kBackend, "read error in " + csv.string());
+  if (poses.empty()) {
+    throw Error(ErrorCode::kInvalidArgument, csv.string() + ": no ground-truth rows");
+  }
+  return poses;
+}
+
+std::optional<Eigen::Isometry3d> InterpolateBodyPose(const std::vector<EurocBodyPose>& poses,
+                                                     std::int64_t stamp_ns) {
+  // The first row at or after the stamp.
+  const auto after = std::lower_bound(
+      poses.begin(), poses.end(), stamp_ns,
+      [](const EurocBodyPose& pose, std::int64_t stamp) { return pose.stamp_ns < stamp; });
+  if (after == poses.end()) return std::nullopt;
+  if (after->stamp_ns == stamp_ns) return after->world_T_body;
+  if (after == poses.begin()) return std::nullopt;
+  const EurocBodyPose& before = *std::prev(after);
+  const std::int64_t gap_ns = after->stamp_ns - before.stamp_ns;
+  if (gap_ns > kEurocGroundTruthMaxGapNs) return std::nullopt;
+  const double a = static_cast<double>(stamp_ns - before.stamp_ns) / static_cast<double>(gap_ns);
+  const Eigen::Quaterniond q0(before.world_T_body.linear());
+  const Eigen::Quaterniond q1(after->world_T_body.linear());
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.linear() = q0.slerp(a, q1).toRotationMatrix();
+  pose.translation() =
+      (1.0 - a) * before.world_T_body.translation() + a * after->world_T_body.translation();
+  return pose;
 }
 
 cv::Mat DecodeMonoImage(const std::string& bytes, const std::string& what, int expected_width_px,

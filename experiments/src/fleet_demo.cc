@@ -1,7 +1,5 @@
 #include "fleetmap/experiments/fleet_demo.h"
 
-#include <signal.h>
-
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -12,15 +10,15 @@
 #include <optional>
 #include <sstream>
 
-#include "fleetmap/common/child_process.h"
+#include "fleet_processes.h"
 #include "fleetmap/common/error.h"
 #include "fleetmap/common/experience_builder.h"
 #include "fleetmap/common/graph_store.h"
+#include "fleetmap/common/version_store.h"
 #include "fleetmap/experiments/gnuplot.h"
 #include "fleetmap/experiments/world.h"
 #include "fleetmap/experiments/world_runs.h"
 #include "fleetmap/policies/distance_ranking.h"
-#include "fleetmap/server/robot_registry.h"
 
 namespace fleetmap {
 
@@ -30,9 +28,7 @@ using Clock = std::chrono::steady_clock;
 using std::chrono::milliseconds;
 namespace fs = std::filesystem;
 
-constexpr auto kServerStartTimeout = milliseconds(30'000);
 constexpr auto kSyncTimeout = milliseconds(150'000);
-constexpr auto kDrainTimeout = milliseconds(20'000);
 
 std::string ClockText(double time_of_day_h) {
   const int minutes = static_cast<int>(std::lround(time_of_day_h * 60.0)) % 1440;
@@ -40,31 +36,6 @@ std::string ClockText(double time_of_day_h) {
   std::snprintf(text, sizeof text, "%02d:%02d", minutes / 60, minutes % 60);
   return text;
 }
-
-std::int64_t NowNs() {
-  return std::chrono::duration_cast<std::chrono::nanoseconds>(
-             std::chrono::system_clock::now().time_since_epoch())
-      .count();
-}
-
-// The last lines of a log, for an error message that says what the process said.
-std::string Tail(const fs::path& log, std::size_t lines) {
-  std::ifstream in(log);
-  std::vector<std::string> all;
-  for (std::string line; std::getline(in, line);) all.push_back(line);
-  std::string out;
-  for (std::size_t i = all.size() > lines ? all.size() - lines : 0; i < all.size(); ++i) {
-    out += "\n    " + all[i];
-  }
-  return out;
-}
-
-struct DemoRobot {
-  std::string name;
-  Uuid id;
-  std::string token;
-  fs::path dir;
-};
 
 struct Drive {
   int frames = 0;
@@ -74,7 +45,7 @@ struct Drive {
 
 // One foray of one robot: single-agent EBN over its outing on its own map, written to the map
 // the agent syncs (seed 002 §III; the robot is not docked, so the agent is not running).
-Drive DriveOuting(const World& world, Outing outing, const DemoRobot& robot,
+Drive DriveOuting(const World& world, Outing outing, const FleetRobot& robot,
                   const std::shared_ptr<const AppearanceVocabulary>& vocabulary) {
   std::unique_ptr<GraphStore> store = GraphStore::Open("sqlite:" + (robot.dir / "map.db").string());
   const GraphBatch held = store->ReadMap();
@@ -97,56 +68,8 @@ Drive DriveOuting(const World& world, Outing outing, const DemoRobot& robot,
   return drive;
 }
 
-// fleetmapd on loopback for the demo's lifetime: SIGTERM and a drain at the end.
-class DemoServer {
- public:
-  DemoServer(const FleetDemoOptions& options, const std::string& store_uri, const fs::path& log)
-      : log_(log),
-        process_({options.fleetmapd.string(), "--store", store_uri, "--listen", "127.0.0.1:0",
-                  "--http", "127.0.0.1:0"},
-                 {.stderr_file = log, .environment = {}}) {
-    const std::optional<std::string> line =
-        process_.ReadLineContaining("listening on", kServerStartTimeout);
-    if (!line) {
-      throw Error(ErrorCode::kBackend,
-                  "fleetmapd did not start (log " + log.string() + "):" + Tail(log, 10));
-    }
-    address_ = line->substr(line->rfind(' ') + 1);
-    if (std::optional<std::string> http =
-            process_.ReadLineContaining("http on", milliseconds(5000))) {
-      status_url_ = "http://" + http->substr(http->rfind(' ') + 1) + "/";
-    }
-  }
-  ~DemoServer() { Stop(); }
-
-  // Drains and reaps fleetmapd; its exit status.
-  std::optional<int> Stop() {
-    if (!stopped_) {
-      stopped_ = true;
-      process_.Signal(SIGTERM);
-      status_ = process_.Wait(kDrainTimeout);
-      if (!status_) {
-        process_.Signal(SIGKILL);
-        process_.Wait(milliseconds(5000));
-      }
-    }
-    return status_;
-  }
-
-  const std::string& address() const { return address_; }
-  const std::string& status_url() const { return status_url_; }
-
- private:
-  fs::path log_;
-  ChildProcess process_;
-  std::string address_;
-  std::string status_url_;
-  bool stopped_ = false;
-  std::optional<int> status_;
-};
-
 // Every robot docks and syncs at once, as real fleetmap-agent processes.
-void SyncAll(const FleetDemoOptions& options, const std::vector<DemoRobot>& robots,
+void SyncAll(const FleetDemoOptions& options, const std::vector<FleetRobot>& robots,
              const std::string& server, const std::vector<std::string>& next_missions,
              const fs::path& logs, int foray, std::vector<RobotForay>& rows) {
   std::vector<ChildProcess> agents;
@@ -154,24 +77,13 @@ void SyncAll(const FleetDemoOptions& options, const std::vector<DemoRobot>& robo
   for (std::size_t r = 0; r < robots.size(); ++r) {
     agent_logs.push_back(logs /
                          ("agent-" + robots[r].name + "-foray-" + std::to_string(foray) + ".log"));
-    agents.emplace_back(
-        std::vector<std::string>{options.agent.string(), "sync", "--server", server, "--robot",
-                                 robots[r].id.ToString(), "--map-dir", robots[r].dir.string(),
-                                 "--policy", options.policy, "--mission-start", next_missions[r],
-                                 "--wait-merge", "--json"},
-        ChildProcessOptions{.stderr_file = agent_logs.back(),
-                            .environment = {{"FLEETMAP_TOKEN", robots[r].token}}});
+    agents.push_back(StartAgentSync(
+        options.agent, robots[r], server,
+        {"--policy", options.policy, "--mission-start", next_missions[r]}, agent_logs.back()));
   }
   for (std::size_t r = 0; r < robots.size(); ++r) {
-    const std::string out = agents[r].ReadRest(kSyncTimeout);
-    const std::optional<int> status = agents[r].Wait(milliseconds(5000));
-    if (status != 0) {
-      throw Error(ErrorCode::kBackend, "fleetmap-agent of " + robots[r].name + " failed (exit " +
-                                           (status ? std::to_string(*status) : "timeout") +
-                                           ", log " + agent_logs[r].string() +
-                                           "):" + Tail(agent_logs[r], 8));
-    }
-    const nlohmann::json result = nlohmann::json::parse(out);
+    const nlohmann::json result =
+        FinishAgentSync(agents[r], robots[r], agent_logs[r], kSyncTimeout);
     RobotForay& row = rows[r];
     row.pushed_nodes = result.value("pushed_nodes", std::int64_t{0});
     row.nodes_held = result.value("nodes", std::int64_t{0});
@@ -245,12 +157,7 @@ FleetDemoResult RunFleetDemo(const FleetDemoOptions& options) {
   if (options.forays < 1 || options.forays > 20) {
     throw Error(ErrorCode::kInvalidArgument, "demo: forays must be in [1, 20]");
   }
-  for (const fs::path& program : {options.fleetmapd, options.agent}) {
-    if (!fs::is_regular_file(program)) {
-      throw Error(ErrorCode::kInvalidArgument,
-                  "demo: no executable at " + program.string() + " (build it: scripts/build)");
-    }
-  }
+  RequireExecutables("demo", {options.fleetmapd, options.agent});
   const auto say = [&](const std::string& line) {
     if (options.progress) options.progress(line);
   };
@@ -272,20 +179,14 @@ FleetDemoResult RunFleetDemo(const FleetDemoOptions& options) {
   const std::shared_ptr<const AppearanceVocabulary> vocabulary = TrainWorldVocabulary(world);
 
   // Robots are registered in the central store before the server opens it.
-  std::vector<DemoRobot> robots;
-  {
-    std::unique_ptr<GraphStore> central = GraphStore::Open(store_uri);
-    RobotRegistry registry(central->versions());
-    for (int r = 0; r < options.robots; ++r) {
-      const std::string name = "robot-" + std::string(1, static_cast<char>('a' + r));
-      NewRobot added = registry.Add(name, NowNs());
-      const fs::path dir = options.work_dir / "robots" / name;
-      fs::create_directories(dir);
-      robots.push_back({name, added.robot.id, added.token, dir});
-    }
+  std::vector<std::string> names;
+  for (int r = 0; r < options.robots; ++r) {
+    names.push_back("robot-" + std::string(1, static_cast<char>('a' + r)));
   }
+  const std::vector<FleetRobot> robots =
+      RegisterFleetRobots(store_uri, names, options.work_dir / "robots");
   say("registered " + std::to_string(robots.size()) + " robots in " + store_uri);
-  DemoServer server(options, store_uri, logs / "fleetmapd.log");
+  FleetServerProcess server(options.fleetmapd, store_uri, logs / "fleetmapd.log");
   say("fleetmapd listening on " + server.address() +
       (server.status_url().empty() ? "" : "; status page " + server.status_url()));
 

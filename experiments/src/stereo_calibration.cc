@@ -1,7 +1,9 @@
 // EuRoC calibration files and OpenCV's stereo rectification (stereo_calibration.h).
 #include "fleetmap/experiments/stereo_calibration.h"
 
+#include <algorithm>
 #include <cmath>
+#include <initializer_list>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/eigen.hpp>
 #include <opencv2/imgproc.hpp>
@@ -18,19 +20,21 @@ namespace {
   throw Error(ErrorCode::kInvalidArgument, file.string() + ": " + field + ": " + what);
 }
 
+// `expected` lists the sizes the field may have ("4" or "4 or 5").
 std::vector<double> ReadNumbers(const cv::FileNode& node, const std::filesystem::path& file,
-                                const std::string& field, std::size_t expected) {
+                                const std::string& field,
+                                std::initializer_list<std::size_t> expected) {
+  std::string sizes;
+  for (const std::size_t n : expected) sizes += (sizes.empty() ? "" : " or ") + std::to_string(n);
   if (node.empty()) Malformed(file, field, "missing");
-  if (!node.isSeq()) Malformed(file, field, "expected a list of " + std::to_string(expected));
+  if (!node.isSeq()) Malformed(file, field, "expected a list of " + sizes);
   std::vector<double> values;
   for (const cv::FileNode& item : node) {
     if (!item.isReal() && !item.isInt()) Malformed(file, field, "expected numbers");
     values.push_back(static_cast<double>(item));
   }
-  if (values.size() != expected) {
-    Malformed(
-        file, field,
-        "expected " + std::to_string(expected) + " values, not " + std::to_string(values.size()));
+  if (std::find(expected.begin(), expected.end(), values.size()) == expected.end()) {
+    Malformed(file, field, "expected " + sizes + " values, not " + std::to_string(values.size()));
   }
   return values;
 }
@@ -43,7 +47,7 @@ std::string ReadString(const cv::FileNode& node, const std::filesystem::path& fi
 
 Eigen::Isometry3d ReadBodyTSensor(const cv::FileNode& node, const std::filesystem::path& file) {
   if (node.empty() || !node.isMap()) Malformed(file, "T_BS", "missing");
-  const std::vector<double> data = ReadNumbers(node["data"], file, "T_BS.data", 16);
+  const std::vector<double> data = ReadNumbers(node["data"], file, "T_BS.data", {16});
   Eigen::Matrix4d m;
   for (int r = 0; r < 4; ++r) {
     for (int c = 0; c < 4; ++c) m(r, c) = data[static_cast<std::size_t>(4 * r + c)];
@@ -68,8 +72,8 @@ cv::Mat Intrinsics(const PinholeCamera& camera) {
 }
 
 cv::Mat Distortion(const PinholeCamera& camera) {
-  return (cv::Mat_<double>(1, 4) << camera.distortion[0], camera.distortion[1],
-          camera.distortion[2], camera.distortion[3]);
+  return (cv::Mat_<double>(1, 5) << camera.distortion[0], camera.distortion[1],
+          camera.distortion[2], camera.distortion[3], camera.distortion[4]);
 }
 
 Eigen::Vector2d RectifyPixel(const PinholeCamera& camera, const cv::Mat& rect_R, const cv::Mat& P,
@@ -118,26 +122,68 @@ PinholeCamera LoadEurocCamera(const std::filesystem::path& sensor_yaml) {
     Malformed(sensor_yaml, "distortion_model", "'" + distortion_model + "' unsupported");
   }
   const std::vector<double> resolution =
-      ReadNumbers(fs["resolution"], sensor_yaml, "resolution", 2);
+      ReadNumbers(fs["resolution"], sensor_yaml, "resolution", {2});
   camera.width_px = static_cast<int>(resolution[0]);
   camera.height_px = static_cast<int>(resolution[1]);
   if (camera.width_px <= 0 || camera.height_px <= 0) {
     Malformed(sensor_yaml, "resolution", "must be positive");
   }
-  const std::vector<double> k = ReadNumbers(fs["intrinsics"], sensor_yaml, "intrinsics", 4);
+  const std::vector<double> k = ReadNumbers(fs["intrinsics"], sensor_yaml, "intrinsics", {4});
   camera.fx = k[0];
   camera.fy = k[1];
   camera.cx = k[2];
   camera.cy = k[3];
   if (!(camera.fx > 0 && camera.fy > 0)) Malformed(sensor_yaml, "intrinsics", "focal <= 0");
+  // EuRoC gives four terms; OpenCV (and KITTI's D_0x) give a fifth radial term, k3.
   const std::vector<double> d =
-      ReadNumbers(fs["distortion_coefficients"], sensor_yaml, "distortion_coefficients", 4);
-  for (std::size_t i = 0; i < 4; ++i) camera.distortion[i] = d[i];
+      ReadNumbers(fs["distortion_coefficients"], sensor_yaml, "distortion_coefficients", {4, 5});
+  std::copy(d.begin(), d.end(), camera.distortion.begin());
   camera.body_T_sensor = ReadBodyTSensor(fs["T_BS"], sensor_yaml);
   if (fs["rate_hz"].isReal() || fs["rate_hz"].isInt()) {
     camera.rate_hz = static_cast<double>(fs["rate_hz"]);
   }
   return camera;
+}
+
+void WriteEurocCamera(const PinholeCamera& camera, const std::filesystem::path& sensor_yaml) {
+  try {
+    cv::FileStorage fs(sensor_yaml.string(), cv::FileStorage::WRITE | cv::FileStorage::FORMAT_YAML);
+    if (!fs.isOpened()) {
+      throw Error(ErrorCode::kBackend, "cannot write camera calibration " + sensor_yaml.string());
+    }
+    const auto list = [&fs](const std::string& key, const auto& values) {
+      fs << key << "[:";
+      for (const double v : values) fs << v;
+      fs << "]";
+    };
+    fs << "sensor_type"
+       << "camera";
+    fs << "comment" << camera.name;
+    // T_BS as EuRoC writes it: a map of cols, rows and the 16 numbers row-major.
+    const Eigen::Matrix4d m = camera.body_T_sensor.matrix();
+    std::vector<double> data;
+    for (int r = 0; r < 4; ++r) {
+      for (int c = 0; c < 4; ++c) data.push_back(m(r, c));
+    }
+    fs << "T_BS"
+       << "{"
+       << "cols" << 4 << "rows" << 4;
+    list("data", data);
+    fs << "}";
+    fs << "rate_hz" << camera.rate_hz;
+    fs << "resolution"
+       << "[:" << camera.width_px << camera.height_px << "]";
+    fs << "camera_model"
+       << "pinhole";
+    list("intrinsics", std::vector<double>{camera.fx, camera.fy, camera.cx, camera.cy});
+    fs << "distortion_model"
+       << "radial-tangential";
+    list("distortion_coefficients", camera.distortion);
+    fs.release();
+  } catch (const cv::Exception& e) {
+    throw Error(ErrorCode::kBackend,
+                "cannot write camera calibration " + sensor_yaml.string() + ": " + e.err);
+  }
 }
 
 StereoRectifier::StereoRectifier(const PinholeCamera& left, const PinholeCamera& right)

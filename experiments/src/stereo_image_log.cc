@@ -1,4 +1,4 @@
-// A EuRoC stereo sequence into one record file of the sensor-data repository
+// A stereo sequence (EuRoC or KITTI) into one record file of the sensor-data repository
 // (stereo_image_log.h, seed 000 §5.1).
 #include "fleetmap/experiments/stereo_image_log.h"
 
@@ -90,8 +90,9 @@ std::string CheckedImageBytes(const fs::path& file, const PinholeCamera& camera)
   DecodeMonoImage(bytes, file.string(), camera.width_px, camera.height_px);
   // Records say "png"; a JPEG or BMP that merely carries the name would be mislabelled.
   if (!std::string_view(bytes).starts_with(kPngSignature)) {
-    throw Error(ErrorCode::kInvalidArgument,
-                "image " + file.string() + " decodes but is not a PNG (EuRoC folders hold PNG)");
+    throw Error(
+        ErrorCode::kInvalidArgument,
+        "image " + file.string() + " decodes but is not a PNG (EuRoC and KITTI folders hold PNG)");
   }
   return bytes;
 }
@@ -107,6 +108,18 @@ void CopyCalibration(const fs::path& from, const fs::path& to, WrittenPaths& wri
   written.AddFile(to);
 }
 
+// The calibration of camera `index` (0 left, 1 right) beside the log: EuRoC's own sensor.yaml as
+// it is (comments and all), anything else written in that shape from the loaded camera.
+void StoreCalibration(const StereoSequence& sequence, int index, const fs::path& to,
+                      WrittenPaths& written) {
+  if (sequence.layout == StereoLayout::kEuroc) {
+    CopyCalibration(sequence.dir / ("cam" + std::to_string(index)) / "sensor.yaml", to, written);
+    return;
+  }
+  written.AddFile(to);
+  WriteEurocCamera(index == 0 ? sequence.left : sequence.right, to);
+}
+
 }  // namespace
 
 fs::path StereoCalibrationPath(const fs::path& record_file, int camera_index) {
@@ -115,24 +128,25 @@ fs::path StereoCalibrationPath(const fs::path& record_file, int camera_index) {
 }
 
 StereoImageIngestResult IngestStereoImages(
-    const EurocSequence& sequence, SensorIndex& index, const fs::path& root,
+    const StereoSequence& sequence, SensorIndex& index, const fs::path& root,
     const std::string& platform, const std::string& sensor,
     const std::function<void(std::int64_t done, std::int64_t total)>& progress) {
   CheckLayoutName(platform, "platform");
   CheckLayoutName(sensor, "sensor");
   if (sequence.pairs.empty()) {
-    throw Error(ErrorCode::kInvalidArgument,
-                "EuRoC sequence " + sequence.dir.string() + " has no stereo pairs to ingest");
+    throw Error(ErrorCode::kInvalidArgument, LayoutName(sequence.layout) + " sequence " +
+                                                 sequence.dir.string() +
+                                                 " has no stereo pairs to ingest");
   }
   const PinholeCamera& left = sequence.left;
   const PinholeCamera& right = sequence.right;
   if (left.width_px != right.width_px || left.height_px != right.height_px) {
-    throw Error(ErrorCode::kInvalidArgument, "EuRoC sequence " + sequence.dir.string() +
-                                                 ": cam0 is " + std::to_string(left.width_px) +
-                                                 "x" + std::to_string(left.height_px) +
-                                                 " px but cam1 " + std::to_string(right.width_px) +
-                                                 "x" + std::to_string(right.height_px) +
-                                                 "; a stereo pair record holds one image size");
+    throw Error(ErrorCode::kInvalidArgument,
+                LayoutName(sequence.layout) + " sequence " + sequence.dir.string() +
+                    ": the left camera is " + std::to_string(left.width_px) + "x" +
+                    std::to_string(left.height_px) + " px but the right " +
+                    std::to_string(right.width_px) + "x" + std::to_string(right.height_px) +
+                    "; a stereo pair record holds one image size");
   }
 
   StereoImageIngestResult result;
@@ -180,8 +194,8 @@ StereoImageIngestResult IngestStereoImages(
     }
     writer.Sync();
   }
-  CopyCalibration(sequence.dir / "cam0" / "sensor.yaml", result.left_calibration, written);
-  CopyCalibration(sequence.dir / "cam1" / "sensor.yaml", result.right_calibration, written);
+  StoreCalibration(sequence, 0, result.left_calibration, written);
+  StoreCalibration(sequence, 1, result.right_calibration, written);
 
   // Another ingest may have finished meanwhile; rename would silently replace its log.
   refuse_existing();

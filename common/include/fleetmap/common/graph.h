@@ -5,6 +5,7 @@
 #include <Eigen/Core>
 #include <array>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -16,11 +17,30 @@ namespace fleetmap {
 // A 256-bit binary feature descriptor (ORB-like), compared by Hamming distance.
 using Descriptor256 = std::array<std::uint8_t, 32>;
 
+// The rectified stereo pair a set of landmarks was triangulated from (seed 002 §III-A). With it
+// every point can be projected back to the pixels it was measured at, (u_left, v, u_right) =
+// f (x, y, x - b) / z + (cx, cy, cx) in the rectified left frame, which is where stereo noise is
+// even: a pixel of disparity error is centimetres at 5 m but metres at 40 m. The localiser
+// judges and refines residuals there when the landmarks carry it (localiser.h). The principal
+// point is not needed: it cancels in every residual.
+struct StereoCamera {
+  float focal_px = 0;    // rectified focal length, both axes, > 0
+  float baseline_m = 0;  // the right camera at (+baseline_m, 0, 0) in the rectified left frame, > 0
+  // The rotation from the frame the points are expressed in (the left camera's own) into the
+  // rectified left frame, as a unit quaternion w, x, y, z; identity for pre-rectified images.
+  std::array<float, 4> rect_q_camera{1, 0, 0, 0};
+
+  friend bool operator==(const StereoCamera&, const StereoCamera&) = default;
+};
+
 // The landmarks of one experience: 3-D points in the node's camera frame (metres, float32)
 // with one descriptor each. INVARIANT: points_camera.size() == descriptors.size().
+// `stereo` is set for landmarks triangulated by a stereo camera; landmarks without it (the
+// synthetic world, maps made before it existed) are localised by 3-D residuals.
 struct Landmarks {
   std::vector<Eigen::Vector3f> points_camera;
   std::vector<Descriptor256> descriptors;
+  std::optional<StereoCamera> stereo;
 
   std::size_t size() const { return points_camera.size(); }
   friend bool operator==(const Landmarks&, const Landmarks&) = default;
@@ -114,7 +134,9 @@ void Validate(const Path& path);
 void Validate(const Annotation& annotation);
 
 // Landmark blob codec (fleetmap.v1.Landmarks). Decode throws Error(kCorrupt) on bytes that do
-// not parse or whose point and descriptor counts disagree.
+// not parse, whose point and descriptor counts disagree, or whose stereo camera is malformed
+// (focal length or baseline not positive and finite, a rotation that is not a unit quaternion).
+// Encode throws Error(kInvalidArgument) for the same stereo camera faults.
 std::string EncodeLandmarks(const Landmarks& landmarks);
 Landmarks DecodeLandmarks(const std::string& blob);
 

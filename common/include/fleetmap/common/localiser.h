@@ -9,9 +9,22 @@
 //
 // Method: mutual-best descriptor matches with a ratio test, then RANSAC over minimal samples
 // of three matched point pairs (stopping adaptively), each fitted rigidly (Eigen::umeyama, no
-// scale); a match is an inlier when its residual |node_T_frame * p_frame - p_node| is below the
-// threshold. The best hypothesis is refitted on its inliers and recounted; what happens when a
-// refit loses inliers is an option (least_squares_result).
+// scale). Which matches a hypothesis explains, and how it is refined, depends on what the
+// landmarks carry:
+// - 3-D residuals (neither side has a StereoCamera: the synthetic world, older maps): a match is
+//   an inlier when |node_T_frame * p_frame - p_node| is below inlier_threshold_m. The best
+//   hypothesis is refitted on its inliers (umeyama) and recounted; what happens when a refit
+//   loses inliers is an option (least_squares_result).
+// - Stereo reprojection (either side has one; seed 002 §III-C's stereo match on real images):
+//   each point is carried into the other side's camera and projected to rectified pixels
+//   (u_left, v, u_right), where triangulation noise is about even, unlike in metres where the
+//   depth error grows as z^2 / (f b). A match is an inlier when, in every camera that is known,
+//   the projected point lies in front of the camera and within reprojection_threshold_px of
+//   the pixels the point was measured at (for the frame's own points: where its camera saw
+//   them). The best hypothesis is then refined by Gauss-Newton on the sum of those squared
+//   pixel residuals over its inliers, recounted, and refined again until the inlier set settles;
+//   the last refinement always stands. A near point and a far point thus weigh by how well
+//   stereo measured them, so far street structure (good for rotation) does not pull the pose.
 #pragma once
 
 #include <cstdint>
@@ -42,6 +55,11 @@ struct LocaliserOptions {
   //   gathers nearly every match within the threshold (visual odometry of a standing camera
   //   drifted 13 cm over the EuRoC excerpt without it; visual_odometry.h).
   bool least_squares_result = false;
+  // Stereo reprojection inlier test: the largest distance, in rectified pixels of one camera,
+  // between the projected (u_left, v, u_right) and the measured one, > 0. The default is the
+  // 95 % point of a chi-square with 3 degrees of freedom at 1 px noise per coordinate (as stereo
+  // SLAM front ends gate their matches): sqrt(7.815).
+  double reprojection_threshold_px = 2.8;
 };
 
 struct LocalisationResult {
@@ -49,6 +67,7 @@ struct LocalisationResult {
   Se3 node_T_frame = Se3::Identity();  // meaningful when success
   int inliers = 0;                     // inliers of the best hypothesis (0 if none was tried)
   int matches = 0;                     // descriptor matches RANSAC worked on
+  bool stereo_residuals = false;       // judged by stereo reprojection (see above)
 };
 
 class Localiser {

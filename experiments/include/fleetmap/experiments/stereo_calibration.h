@@ -4,7 +4,8 @@
 // Conventions:
 // - Camera frames as in OpenCV: x right, y down, z forward (the optical axis), metres.
 // - body_T_sensor is EuRoC's T_BS: p_body = body_T_sensor * p_sensor.
-// - Distortion is radial-tangential (OpenCV's plumb_bob) (k1, k2, p1, p2).
+// - Distortion is radial-tangential (OpenCV's plumb_bob) in OpenCV's order (k1, k2, p1, p2, k3);
+//   k3 is 0 for a four-term calibration (EuRoC's yaml files give four, KITTI's D_0x five).
 // - Pixels: (0, 0) is the centre of the top-left pixel.
 // - Rectification (OpenCV stereoRectify, zero disparity at infinity, no scaling alpha = 0)
 //   rotates both cameras about their centres so their image rows line up; a point p_left in the
@@ -25,17 +26,24 @@ struct PinholeCamera {
   int width_px = 0;
   int height_px = 0;
   double fx = 0, fy = 0, cx = 0, cy = 0;  // pixels
-  std::array<double, 4> distortion{};     // k1, k2, p1, p2
+  std::array<double, 5> distortion{};     // k1, k2, p1, p2, k3
   Eigen::Isometry3d body_T_sensor = Eigen::Isometry3d::Identity();
   double rate_hz = 0;  // 0 when the file does not say
 };
 
 // Reads a EuRoC camera `sensor.yaml` (%YAML:1.0: T_BS as rows/cols/data, resolution,
 // camera_model pinhole, intrinsics [fu, fv, cu, cv], distortion_model radial-tangential,
-// distortion_coefficients). Throws Error(kNotFound) for a missing file and
-// Error(kInvalidArgument) naming the file and the field for anything missing, of the wrong
-// size, or unsupported (another camera or distortion model, a T_BS that is not rigid).
+// distortion_coefficients: four (k1, k2, p1, p2; k3 = 0) or five (k1, k2, p1, p2, k3)).
+// Throws Error(kNotFound) for a missing file and Error(kInvalidArgument) naming the file and
+// the field for anything missing, of the wrong size, or unsupported (another camera or
+// distortion model, a T_BS that is not rigid).
 PinholeCamera LoadEurocCamera(const std::filesystem::path& sensor_yaml);
+
+// Writes `camera` as a EuRoC camera `sensor.yaml` (the fields LoadEurocCamera reads, through
+// OpenCV's FileStorage; distortion with all five terms), so a calibration that came from another
+// dataset's files (KITTI's calib.txt) reads back like a EuRoC one. Overwrites `sensor_yaml`.
+// Throws Error(kBackend) naming the file when it cannot be written.
+void WriteEurocCamera(const PinholeCamera& camera, const std::filesystem::path& sensor_yaml);
 
 // Throws Error(kInvalidArgument) unless `image` is single-channel 8-bit of width_px x height_px,
 // saying what it is instead; `what` names the image ("left image").

@@ -1,16 +1,20 @@
-// Stereo images as raw sensor data (seed 000 §5.1): `fleetmap images ingest DIR` copies a EuRoC
-// sequence (euroc_sequence.h) into one record file of fleetmap.v1.StereoImagePair records in the
-// repository's platform/sensor/date layout (record_layout.h), and indexes it (sensor_ingest.h)
-// so the pairs can be found by time like any other datum.
+// Stereo images as raw sensor data (seed 000 §5.1): `fleetmap images ingest DIR` copies a stereo
+// sequence (stereo_sequence.h: EuRoC, KITTI odometry or KITTI raw) into one record file of
+// fleetmap.v1.StereoImagePair records in the repository's platform/sensor/date layout
+// (record_layout.h), and indexes it (sensor_ingest.h) so the pairs can be found by time like any
+// other datum.
 //
 // The images are stored as the dataset holds them (PNG bytes, encoding "png"), each decoded
 // once on the way in so an unreadable or wrongly sized image is refused before the log appears.
 // Cameras are named "SENSOR/cam0" (left) and "SENSOR/cam1" (right) in the records, after the
-// EuRoC folders, as sensors.proto's "bumblebee/left". The two cameras' sensor.yaml files are
-// copied beside the record file, named after it (StereoCalibrationPath: FILE.cam0.yaml,
-// FILE.cam1.yaml), so each log keeps the calibration it was recorded with (a rig recalibrated
-// between sessions gets new files, not overwritten ones) and can be rectified without the
-// original folder. Reindexing (ReindexRoot) reads only *.rec files, so the copies are not data.
+// EuRoC folders, as sensors.proto's "bumblebee/left". The two cameras' calibrations are kept
+// beside the record file, named after it (StereoCalibrationPath: FILE.cam0.yaml, FILE.cam1.yaml),
+// as EuRoC sensor.yaml files that LoadEurocCamera reads: a EuRoC folder's own files copied byte
+// for byte, and for KITTI the cameras LoadStereoSequence made of calib.txt or
+// calib_cam_to_cam.txt written out (WriteEurocCamera). So each log keeps the calibration it was
+// recorded with (a rig recalibrated between sessions gets new files, not overwritten ones) and
+// can be rectified without the original folder. Reindexing (ReindexRoot) reads only *.rec files,
+// so the calibration files are not data. Ground truth is not stored.
 //
 // Writing is all or nothing for the files: records go to a hidden temporary file beside the
 // final one (".NAME.rec.partial-PID", never picked up as a log), which is fsynced and renamed
@@ -25,7 +29,7 @@
 
 #include "fleetmap/common/sensor_index.h"
 #include "fleetmap/common/sensor_ingest.h"
-#include "fleetmap/experiments/euroc_sequence.h"
+#include "fleetmap/experiments/stereo_sequence.h"
 
 namespace fleetmap {
 
@@ -36,7 +40,7 @@ std::filesystem::path StereoCalibrationPath(const std::filesystem::path& record_
 
 struct StereoImageIngestResult {
   std::filesystem::path record_file;                          // the written log, absolute
-  std::filesystem::path left_calibration, right_calibration;  // copies of camN/sensor.yaml
+  std::filesystem::path left_calibration, right_calibration;  // sensor.yaml of each camera
   std::int64_t pairs = 0;
   std::uint64_t bytes = 0;  // of the record file
   IngestResult index;       // what indexing the file added
@@ -53,7 +57,7 @@ struct StereoImageIngestResult {
 // of different sizes, or an image that decodes but is not a PNG. `progress` gets (pairs done,
 // pairs in all) while checking and writing.
 StereoImageIngestResult IngestStereoImages(
-    const EurocSequence& sequence, SensorIndex& index, const std::filesystem::path& root,
+    const StereoSequence& sequence, SensorIndex& index, const std::filesystem::path& root,
     const std::string& platform, const std::string& sensor,
     const std::function<void(std::int64_t done, std::int64_t total)>& progress = {});
 
