@@ -38,8 +38,8 @@ void AddBenchIndexCommand(CLI::App& app);
 // `fleetmap annotate bbox|rm` and `fleetmap query annotated`: annotations on raw sensor data
 // (annotation_commands.cc). Shares `query` with the sensor-index queries.
 void AddAnnotationCommands(CLI::App& app);
-// `fleetmap images ingest DIR`: a EuRoC stereo folder into a record-file log of image pairs in the
-// sensor-data repository (images_command.cc).
+// `fleetmap images ingest DIR`: a EuRoC or KITTI stereo folder into a record-file log of image
+// pairs in the sensor-data repository (images_command.cc).
 void AddImagesCommand(CLI::App& app);
 
 }  // namespace fleetmap::cli
