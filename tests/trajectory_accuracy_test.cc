@@ -175,3 +175,36 @@ TEST(TrajectoryAccuracyTest, DifferentNumbersOfPosesAreRefused) {
 
 }  // namespace
 }  // namespace fleetmap
+
+namespace fleetmap {
+namespace {
+
+// A drive of kilometres is measured as KITTI measures its sequences: 100, 200, ..., 800 m.
+TEST(TrajectoryAccuracyTest, LongDrivesUseKittisOwnLengths) {
+  EXPECT_EQ(SubPathLengths(800), (std::vector<double>{100, 200, 300, 400, 500, 600, 700, 800}));
+  EXPECT_EQ(SubPathLengths(3700), SubPathLengths(800));
+  EXPECT_EQ(SubPathLengths(799).size(), 79u);
+}
+
+// The lengths may come in any order, and a drive of thousands of frames is measured in one
+// forward scan per start frame (a 4000-frame drive here, as long as KITTI's sequence 00).
+TEST(TrajectoryAccuracyTest, ThousandsOfFramesAndUnsortedLengths) {
+  std::vector<Se3> truth, scaled;
+  for (int i = 0; i <= 4000; ++i) {
+    Se3 t = Se3::Identity();
+    t.translation() = Eigen::Vector3d(0, 0, i);
+    truth.push_back(t);
+    t.translation() *= 1.1;
+    scaled.push_back(t);
+  }
+  const std::vector<double> lengths = SubPathLengths(4000);
+  std::vector<double> reversed(lengths.rbegin(), lengths.rend());
+  const TrajectoryAccuracy a = MeasureTrajectory(scaled, truth, reversed);
+  const TrajectoryAccuracy b = MeasureTrajectory(scaled, truth, lengths);
+  EXPECT_NEAR(a.translational_drift_percent, 10.0, 1e-9);
+  EXPECT_EQ(a.sub_paths, b.sub_paths);
+  EXPECT_EQ(a.sub_paths, StraightSubPaths(4000, lengths));
+}
+
+}  // namespace
+}  // namespace fleetmap

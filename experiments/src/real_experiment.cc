@@ -154,7 +154,14 @@ void WriteSummary(const RealExperimentOptions& options, const RealExperimentResu
   if (r.has_ground_truth) {
     const TrajectoryAccuracy& a = r.accuracy;
     std::string lengths;
-    for (double l : a.lengths_m) lengths += (lengths.empty() ? "" : ", ") + Fixed(l, 0);
+    // A long drive has many lengths: the first two and the last say which.
+    for (std::size_t i = 0; i < a.lengths_m.size(); ++i) {
+      if (a.lengths_m.size() > 6 && i == 2) {
+        lengths += ", ...";
+        i = a.lengths_m.size() - 1;
+      }
+      lengths += (lengths.empty() ? "" : ", ") + Fixed(a.lengths_m[i], 0);
+    }
     md << "| ground-truth path length | " << Fixed(a.truth_length_m, 2) << " m |\n"
        << "| translational drift (KITTI metric, " << a.sub_paths << " sub-paths of "
        << (lengths.empty() ? std::string("-") : lengths) << " m) | "
@@ -370,9 +377,12 @@ RealExperimentResult RunRealExperiment(const RealExperimentOptions& options, std
     }
     for (const auto& [node, n] : node_pair) {
       const ProcessedStereoPair& made = pairs[static_cast<std::size_t>(n)];
+      const Se3 node_T_frame = made.first_T_camera_vo.inverse() * pair.first_T_camera_vo;
+      // Only nodes the builder could have searched (by VO), so a drive of thousands of frames
+      // does not localise every frame against every node.
+      if (node_T_frame.translation().norm() > options.builder.search_radius_m) continue;
       const LocalisationResult l = localiser.Localise(pair.frame.landmarks, made.frame.landmarks);
       if (l.success) row.best_node_inliers = std::max(row.best_node_inliers, l.inliers);
-      const Se3 node_T_frame = made.first_T_camera_vo.inverse() * pair.first_T_camera_vo;
       if (node_T_frame.translation().norm() <= options.overlap_distance_m &&
           RotationAngle(node_T_frame) <= max_angle_rad) {
         row.overlaps_map = true;

@@ -2,6 +2,7 @@
 #include "fleetmap/experiments/trajectory_accuracy.h"
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
 #include <string>
 
@@ -11,6 +12,10 @@ namespace fleetmap {
 
 std::vector<double> SubPathLengths(double truth_length_m, double step_m) {
   std::vector<double> lengths;
+  if (truth_length_m >= kKittiLongestSubPath_m) {
+    for (double l = 100; l <= kKittiLongestSubPath_m; l += 100) lengths.push_back(l);
+    return lengths;
+  }
   if (!(step_m > 0)) return lengths;
   for (double l = step_m; l <= truth_length_m + 1e-9; l += step_m) lengths.push_back(l);
   return lengths;
@@ -36,12 +41,16 @@ TrajectoryAccuracy MeasureTrajectory(const std::vector<Se3>& estimated,
   }
   a.truth_length_m = travelled.back();
 
+  // Lengths in increasing order, so each start frame scans forward once: O(n (n + lengths)),
+  // not O(n^2 lengths), for drives of thousands of frames.
+  std::vector<double> lengths = lengths_m;
+  std::sort(lengths.begin(), lengths.end());
   double t_sum = 0, r_sum = 0;
   for (std::size_t first = 0; first < n; ++first) {
-    for (double length : lengths_m) {
-      std::size_t last = first;
+    std::size_t last = first;
+    for (double length : lengths) {
       while (last < n && travelled[last] < travelled[first] + length) ++last;
-      if (last == n) continue;
+      if (last == n) break;
       const Se3 true_motion = truth[first].inverse() * truth[last];
       const Se3 estimated_motion = estimated[first].inverse() * estimated[last];
       const Se3 error = estimated_motion.inverse() * true_motion;

@@ -10,8 +10,9 @@
 // Reported per frame: keypoints, landmarks, median depth, the VO step and its inliers, the
 // front end's time, and for localised frames the builder's success, the node it localised
 // against and, with ground truth, the error of its pose relative to that node; plus the best
-// inliers of the frame against each map node (the localiser run directly). With ground truth
-// the VO trajectory is measured against it (trajectory_accuracy.h) and plotted over it.
+// inliers of the frame against each map node within the builder's search radius by VO (the
+// localiser run directly). With ground truth the VO trajectory is measured against it
+// (trajectory_accuracy.h) and plotted over it.
 //
 // Negative controls: the first frame localised against frames made from the same pair rotated
 // by 180 degrees and from a blank pair; both must fail without an exception.

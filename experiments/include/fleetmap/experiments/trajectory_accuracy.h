@@ -24,9 +24,11 @@ struct TrajectoryAccuracy {
   std::vector<double> lengths_m;  // the sub-path lengths used
 };
 
-// Sub-path lengths for a path of `truth_length_m`: KITTI uses 100, 200, ..., 800 m on drives of
-// kilometres; an excerpt gets the same idea at its own scale, every `step_m` up to its length
-// (10, 20, 30, ... m by default). Empty when the path is shorter than step_m.
+// Sub-path lengths for a path of `truth_length_m`: a path of at least 800 m gets KITTI's own
+// 100, 200, ..., 800 m; a shorter one (an excerpt) the same idea at its own scale, every
+// `step_m` up to its length (10, 20, 30, ... m by default). Empty when the path is shorter than
+// step_m.
+inline constexpr double kKittiLongestSubPath_m = 800.0;
 std::vector<double> SubPathLengths(double truth_length_m, double step_m = 10.0);
 
 // REQUIRES: estimated.size() == truth.size() (one pose per frame, the same frames), else
