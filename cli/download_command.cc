@@ -25,6 +25,7 @@ struct DownloadArgs {
   double epoch_min = 60.0;
   double percent = 50.0;
   std::optional<std::int64_t> budget_bytes;
+  CoverageOptions coverage;
   std::optional<RevisionNumber> revision;
   std::string out;
   bool json = false;
@@ -33,7 +34,7 @@ struct DownloadArgs {
 // The policy and its parameters, each checked against the option that set it.
 DownloadPolicy PolicyOf(const DownloadArgs& args) {
   DownloadPolicy policy = ParseDownloadPolicy(args.policy);
-  const bool copy = !policy.time_of_day && !policy.paths && !policy.budget_bytes;
+  const bool copy = !policy.time_of_day && !policy.paths && !policy.cover && !policy.budget_bytes;
   if (!args.mission_start.empty()) {
     policy.mission_start_min = ParseClockTime(args.mission_start, "--mission-start");
   } else if (!copy) {
@@ -60,6 +61,7 @@ DownloadPolicy PolicyOf(const DownloadArgs& args) {
   }
   policy.window_min = args.window_min;
   policy.epoch_min = args.epoch_min;
+  policy.coverage = args.coverage;
   policy.best_percent = args.percent;
   if (args.budget_bytes) {
     if (!policy.budget_bytes) {
@@ -108,6 +110,13 @@ void PrintReport(const Download& download, const DownloadPolicy& policy, const D
     json["epoch_min"] = policy.epoch_min;
     json["best_percent"] = policy.best_percent;
     if (policy.budget_bytes) json["budget_bytes"] = *policy.budget_bytes;
+    if (policy.cover) {
+      json["cover_k"] = policy.coverage.experiences;
+      json["cover_cap"] = policy.coverage.most_experiences;
+      json["cover_stretch_m"] = policy.coverage.stretch_m;
+      json["stretches"] = r.stretches;
+      json["stretches_reached_outside"] = r.stretches_reached_outside;
+    }
     json["map_nodes"] = r.map_nodes;
     json["picked_nodes"] = r.picked_nodes;
     json["bridging_nodes"] = integrity.bridging_nodes;
@@ -128,7 +137,7 @@ void PrintReport(const Download& download, const DownloadPolicy& policy, const D
   }
   std::printf("download \"%s\" of revision %lld of %s into %s\n", r.policy.c_str(),
               static_cast<long long>(download.revision), store_uri.c_str(), args.out.c_str());
-  if (policy.time_of_day || policy.paths || policy.budget_bytes) {
+  if (policy.time_of_day || policy.paths || policy.cover || policy.budget_bytes) {
     std::printf("  mission    starts %s UTC", ClockTime(policy.mission_start_min).c_str());
     if (policy.mission_end_min)
       std::printf(", ends %s", ClockTime(*policy.mission_end_min).c_str());
@@ -142,6 +151,13 @@ void PrintReport(const Download& download, const DownloadPolicy& policy, const D
     }
     std::printf("\n");
   }
+  if (policy.cover) {
+    std::printf(
+        "  coverage   %d experience(s) kept in each of %zu stretches of %.0f m; %zu reached "
+        "outside what the other parts allow\n",
+        policy.coverage.experiences, r.stretches, policy.coverage.stretch_m,
+        r.stretches_reached_outside);
+  }
   std::printf("  nodes      %zu picked + %zu bridging = %zu of %zu map nodes (%.1f %%)\n",
               r.picked_nodes, integrity.bridging_nodes, r.nodes, r.map_nodes,
               Percent(static_cast<double>(r.nodes), static_cast<double>(r.map_nodes)));
@@ -150,7 +166,8 @@ void PrintReport(const Download& download, const DownloadPolicy& policy, const D
               static_cast<long long>(bytes.download), static_cast<long long>(bytes.map),
               Percent(static_cast<double>(bytes.download), static_cast<double>(bytes.map)));
   if (policy.paths) {
-    std::printf("  P*         %s chosen by Algorithm 3",
+    std::printf(policy.cover ? "  P*         %s driven within the window, the best share"
+                             : "  P*         %s chosen by Algorithm 3",
                 Count(static_cast<std::int64_t>(r.paths_chosen), "path").c_str());
     if (r.epoch_start && r.epoch_end) {
       std::printf(" over epochs %d..%d%s\n", *r.epoch_start, *r.epoch_end,
@@ -197,8 +214,11 @@ void AddDownloadCommand(CLI::App& app) {
   AddStoreOption(*download, args->store);
   download
       ->add_option("--policy", args->policy,
-                   "copy, tod, paths, budget, or parts joined with '+' (tod+paths, tod+budget, "
-                   "tod+paths+budget, ...)")
+                   "copy, tod, paths, cover, budget, or parts joined with '+' (tod+paths, "
+                   "tod+cover, tod+paths+cover, tod+budget, ...). cover keeps in every stretch of "
+                   "the map its k experiences most likely to localise at the mission's time, "
+                   "even outside the window (issue 19); with it tod also keeps what robots used "
+                   "within the window")
       ->required();
   download->add_option("--mission-start", args->mission_start,
                        "Mission start, HH:MM UTC (t_foray); required unless the policy is copy");
@@ -213,6 +233,18 @@ void AddDownloadCommand(CLI::App& app) {
       ->capture_default_str();
   download->add_option("--budget-bytes", args->budget_bytes,
                        "Landmark byte budget for a policy with budget (default 256 MiB)");
+  download
+      ->add_option("--cover-k", args->coverage.experiences,
+                   "cover: experiences every stretch keeps")
+      ->capture_default_str();
+  download
+      ->add_option("--cover-cap", args->coverage.most_experiences,
+                   "cover: most experiences a stretch keeps (0: no cap)")
+      ->capture_default_str();
+  download
+      ->add_option("--cover-stretch-m", args->coverage.stretch_m,
+                   "cover: length of a stretch, metres")
+      ->capture_default_str();
   download->add_option("--revision", args->revision, "Revision (default: the head)");
   download->add_option("--out", args->out, "The new store for the robot (must hold no map yet)")
       ->required();

@@ -140,6 +140,91 @@ std::vector<int> WalkedEpochs(const PathWeights& weights, std::optional<int> k_s
   return walk;
 }
 
+// "tod" with "cover" also allows what a robot used within the window: a node on a path that
+// started within T_w of the mission's start on the clock (stretch_coverage.h: capture alone
+// misses every node EBN never had to capture again at that time). "paths" narrows it after.
+void AllowUsedWithinWindow(const DenseMap& map, std::span<const Path> paths,
+                           const DownloadPolicy& policy, std::vector<char>& allowed) {
+  std::unordered_set<Uuid> in_window;
+  for (const Path& path : paths) {
+    if (WithinTimeOfDayWindow(path.start_ns, policy.mission_start_min, policy.window_min)) {
+      in_window.insert(path.id);
+    }
+  }
+  std::vector<char> used(map.nodes.size(), 0);
+  for (PathMemory::PathIndex path = 0; path < map.memory.path_count(); ++path) {
+    if (!in_window.contains(map.memory.path_id(path))) continue;
+    for (const DenseNode node : map.path_nodes[path]) used[node] = 1;
+  }
+  for (std::size_t i = 0; i < allowed.size(); ++i) allowed[i] = allowed[i] || used[i];
+}
+
+// "paths" with "cover": Algorithm 3's per-epoch best p % unites nearly every path over a
+// window of several epochs (measured: 37-43 of 48), so it narrows nothing. Here the candidates
+// are the paths a robot drove within the window (every path without "tod"), ranked by their
+// weight over the mission's epochs (Σ_k PWM(P, k), Eq. 7), and the best p % of them are kept
+// (at least one; ties by lower index).
+std::vector<PathWeights::PathIndex> BestPathsUsedInWindow(const DenseMap& map,
+                                                          std::span<const Path> paths,
+                                                          const DownloadPolicy& policy,
+                                                          const PathWeights& weights,
+                                                          const std::vector<int>& walk) {
+  std::unordered_set<Uuid> in_window;
+  for (const Path& path : paths) {
+    if (!policy.time_of_day ||
+        WithinTimeOfDayWindow(path.start_ns, policy.mission_start_min, policy.window_min)) {
+      in_window.insert(path.id);
+    }
+  }
+  std::vector<std::pair<double, PathWeights::PathIndex>> ranked;
+  for (PathWeights::PathIndex path = 0; path < map.memory.path_count(); ++path) {
+    if (!in_window.contains(map.memory.path_id(path))) continue;
+    double weight = 0.0;
+    for (const int k : walk) weight += weights.Weight(path, k);
+    ranked.emplace_back(-weight, path);
+  }
+  std::sort(ranked.begin(), ranked.end());
+  const auto keep = static_cast<std::size_t>(
+      std::ceil(policy.best_percent / 100.0 * static_cast<double>(ranked.size())));
+  std::vector<PathWeights::PathIndex> best;
+  for (std::size_t i = 0; i < ranked.size() && i < std::max<std::size_t>(1, keep); ++i) {
+    best.push_back(ranked[i].second);
+  }
+  std::sort(best.begin(), best.end());
+  return best;
+}
+
+// "cover": the earlier parts' picks in `allowed` become each stretch's best k experiences plus
+// the allowed ones that fill it up to the cap (stretch_coverage.h).
+void Cover(const DenseMap& map, std::span<const Edge> edges, std::span<const Path> paths,
+           const DownloadPolicy& policy, std::vector<char>& allowed, DownloadReport& report) {
+  const MapStretches stretches = MapStretches::Cut(map.nodes, edges, policy.coverage.stretch_m);
+  std::unordered_map<Uuid, std::int64_t> path_start;
+  for (const Path& path : paths) path_start.emplace(path.id, path.start_ns);
+  std::vector<double> likelihood(map.nodes.size());
+  std::vector<std::int64_t> uses;
+  for (std::size_t i = 0; i < map.nodes.size(); ++i) {
+    uses.clear();
+    for (const PathMemory::PathIndex path : map.memory.PathsThrough(map.nodes[i]->id)) {
+      uses.push_back(path_start.at(map.memory.path_id(path)));
+    }
+    likelihood[i] = LocalisationLikelihood(map.nodes[i]->stamp_ns, uses, policy.mission_start_min,
+                                           policy.window_min);
+  }
+  const auto ranked = RankExperiences(map.nodes, stretches, likelihood);
+  std::vector<char> kept = CoverStretches(ranked, map.nodes.size(), allowed, policy.coverage);
+  report.stretches = stretches.stretch_count();
+  for (std::size_t s = 0; s < stretches.stretch_count(); ++s) {
+    for (const std::size_t node : stretches.members(s)) {
+      if (kept[node] && !allowed[node]) {
+        ++report.stretches_reached_outside;
+        break;
+      }
+    }
+  }
+  allowed = std::move(kept);
+}
+
 }  // namespace
 
 std::string DownloadPolicy::Name() const {
@@ -150,6 +235,7 @@ std::string DownloadPolicy::Name() const {
   };
   if (time_of_day) add("tod");
   if (paths) add("paths");
+  if (cover) add("cover");
   if (budget_bytes) add("budget");
   return name.empty() ? "copy" : name;
 }
@@ -157,7 +243,7 @@ std::string DownloadPolicy::Name() const {
 DownloadPolicy ParseDownloadPolicy(std::string_view name) {
   const std::string quoted = "\"" + std::string(name) + "\"";
   if (name.empty()) {
-    InvalidPolicy("empty name; expected copy, or tod, paths and budget joined with '+'");
+    InvalidPolicy("empty name; expected copy, or tod, paths, cover and budget joined with '+'");
   }
   std::vector<std::string_view> parts;
   for (std::size_t begin = 0;;) {
@@ -179,13 +265,15 @@ DownloadPolicy ParseDownloadPolicy(std::string_view name) {
       flag = &policy.time_of_day;
     } else if (part == "paths") {
       flag = &policy.paths;
+    } else if (part == "cover") {
+      flag = &policy.cover;
     } else if (part == "budget") {
       flag = &budget;
     } else if (part.empty()) {
       InvalidPolicy("empty part in " + quoted);
     } else {
       InvalidPolicy("unknown part \"" + std::string(part) + "\" in " + quoted +
-                    "; expected copy, tod, paths or budget");
+                    "; expected copy, tod, paths, cover or budget");
     }
     if (*flag) InvalidPolicy("\"" + std::string(part) + "\" repeated in " + quoted);
     *flag = true;
@@ -218,13 +306,18 @@ void ValidateDownloadPolicy(const DownloadPolicy& policy) {
   if (policy.budget_bytes && *policy.budget_bytes <= 0) {
     InvalidPolicy("budget_bytes must be > 0, not " + std::to_string(*policy.budget_bytes));
   }
+  try {
+    ValidateCoverageOptions(policy.coverage);
+  } catch (const Error& error) {
+    InvalidPolicy(error.message());
+  }
 }
 
 DownloadSelection SelectDownload(std::span<const Node> nodes, std::span<const Edge> edges,
                                  std::span<const Path> paths, const DownloadPolicy& policy) {
   ValidateDownloadPolicy(policy);
-  const DenseMap map =
-      IndexMap(nodes, edges, paths, policy.paths || policy.budget_bytes.has_value());
+  const DenseMap map = IndexMap(nodes, edges, paths,
+                                policy.paths || policy.cover || policy.budget_bytes.has_value());
   if (policy.budget_bytes) {
     for (const Node& node : nodes) {
       if (node.landmarks_blob.empty()) {
@@ -252,6 +345,7 @@ DownloadSelection SelectDownload(std::span<const Node> nodes, std::span<const Ed
       allowed[i] = WithinTimeOfDayWindow(map.nodes[i]->stamp_ns, policy.mission_start_min,
                                          policy.window_min);
     }
+    if (policy.cover) AllowUsedWithinWindow(map, paths, policy, allowed);
   }
   std::vector<PathWeights::PathIndex> weighed_paths;  // the paths a budget considers
   std::vector<int> walk;                              // the epochs Algorithm 3 walks
@@ -265,12 +359,15 @@ DownloadSelection SelectDownload(std::span<const Node> nodes, std::span<const Ed
       report.epoch_end = walk.back();
     }
     if (policy.paths) {
-      weighed_paths = weights->BestPaths(k_start, k_end, policy.best_percent);
+      weighed_paths = policy.cover ? BestPathsUsedInWindow(map, paths, policy, *weights, walk)
+                                   : weights->BestPaths(k_start, k_end, policy.best_percent);
       report.paths_chosen = weighed_paths.size();
       std::vector<char> on_best(node_count, 0);
       for (const PathWeights::PathIndex path : weighed_paths) {
         for (const DenseNode node : map.path_nodes[path]) on_best[node] = 1;
       }
+      report.nodes_on_chosen_paths =
+          static_cast<std::size_t>(std::count(on_best.begin(), on_best.end(), 1));
       for (std::size_t i = 0; i < node_count; ++i) allowed[i] = allowed[i] && on_best[i];
     } else {
       for (PathWeights::PathIndex path = 0; path < map.memory.path_count(); ++path) {
@@ -278,6 +375,8 @@ DownloadSelection SelectDownload(std::span<const Node> nodes, std::span<const Ed
       }
     }
   }
+
+  if (policy.cover) Cover(map, edges, paths, policy, allowed, report);
 
   std::vector<DenseNode> included;
   for (const Uuid& id : policy.include) {

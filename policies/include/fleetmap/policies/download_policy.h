@@ -5,6 +5,15 @@
 //   tod     nodes captured within T_w of the mission's start on the 24-hour clock (Eq. 4);
 //   paths   nodes on the best p % of the paths used in each epoch of the mission
 //           (Algorithms 2–3 over the path count / path weight matrices, Eq. 7);
+//   cover   the coverage guarantee (stretch_coverage.h, issue 19): every stretch of the map
+//           keeps its k experiences most likely to localise at the mission's time, from inside
+//           the window or not; then what tod and paths allow fills each stretch up to a cap
+//           (none by default), best first, and the rest of it is left out as redundant. With
+//           cover, tod also allows every node a robot *used* within the window (on a path that
+//           started within T_w), not only those captured there, and paths keeps the best p %
+//           of the paths driven within the window by their weight over the mission's epochs,
+//           instead of the best p % of every epoch (which unites nearly all paths over a
+//           window of several epochs). Without cover, tod and paths are the paper's, unchanged;
 //   budget  the selection so far, filled path by path in order of path weight (Σ_k PWM(P, k)
 //           over the mission's epochs, ties by path UUID), skipping a path that would pass a
 //           byte budget and trying the next; then the allowed nodes on no path, nearest the
@@ -13,7 +22,8 @@
 //           With "paths" it fills from P* only; without, from every path, each contributing
 //           only the nodes "tod" allows.
 // Names join with '+': "copy", "tod", "paths", "tod+paths", "budget", "tod+budget",
-// "paths+budget", "tod+paths+budget".
+// "paths+budget", "tod+paths+budget", and any of them but copy with "cover" ("tod+cover",
+// "tod+paths+cover", ...).
 //
 // The mission's epochs (Eq. 5), over which Algorithm 3 chooses P* and a budget weighs paths:
 // with "tod", the epochs of t_foray − T_w and t_foray + T_w on the 24-hour clock (every epoch
@@ -42,12 +52,14 @@
 
 #include "fleetmap/common/graph.h"
 #include "fleetmap/policies/integral_selection.h"
+#include "fleetmap/policies/stretch_coverage.h"
 
 namespace fleetmap {
 
 struct DownloadPolicy {
   bool time_of_day = false;                  // "tod"
   bool paths = false;                        // "paths"
+  bool cover = false;                        // "cover"
   std::optional<std::int64_t> budget_bytes;  // "budget": landmark bytes, > 0
 
   // The mission: its start, minutes since midnight UTC in [0, 1440), and for "paths" without
@@ -57,12 +69,13 @@ struct DownloadPolicy {
   double window_min = 180.0;   // T_w of Eq. 4, > 0
   double epoch_min = 60.0;     // Δt of Eq. 5, in (0, 1440]
   double best_percent = 50.0;  // p of Algorithm 3, in (0, 100]
+  CoverageOptions coverage;    // "cover": stretches, k and the cap (T_w is window_min)
   // Nodes every download holds whatever the policy picks (joined to the rest like any pick):
   // where the robot starts its mission, so that it starts in its own map. Under a budget they
   // are the first candidate, dropped only when they alone do not fit.
   std::vector<Uuid> include;
 
-  // "copy", "tod", "tod+paths", "tod+paths+budget", ...
+  // "copy", "tod", "tod+paths", "tod+cover", "tod+paths+budget", ...
   std::string Name() const;
 };
 
@@ -79,20 +92,25 @@ DownloadPolicy ParseDownloadPolicy(std::string_view name);
 void ValidateDownloadPolicy(const DownloadPolicy& policy);
 
 struct DownloadReport {
-  std::string policy;            // DownloadPolicy::Name()
-  std::size_t map_nodes = 0;     // in the map chosen from
-  std::size_t picked_nodes = 0;  // picked by the policy, before integrity
-  std::size_t nodes = 0;         // in the download (picked + bridging)
-  std::size_t edges = 0;         // metric and path
-  std::size_t paths = 0;         // with at least one edge in the download
-  std::int64_t map_bytes = 0;    // landmark bytes of the whole map
-  std::int64_t bytes = 0;        // landmark bytes of the download
-  std::size_t paths_chosen = 0;  // "paths": |P*| of Algorithm 3
+  std::string policy;                     // DownloadPolicy::Name()
+  std::size_t map_nodes = 0;              // in the map chosen from
+  std::size_t picked_nodes = 0;           // picked by the policy, before integrity
+  std::size_t nodes = 0;                  // in the download (picked + bridging)
+  std::size_t edges = 0;                  // metric and path
+  std::size_t paths = 0;                  // with at least one edge in the download
+  std::int64_t map_bytes = 0;             // landmark bytes of the whole map
+  std::int64_t bytes = 0;                 // landmark bytes of the download
+  std::size_t paths_chosen = 0;           // "paths": |P*| of Algorithm 3
+  std::size_t nodes_on_chosen_paths = 0;  // "paths": on any path of P*
   // "paths" or "budget": the epochs Algorithm 3 walks (and the budget weighs paths over),
   // k_start … k_end after its defaults; epoch_start > epoch_end runs across midnight. None
   // when it walks none: no path data, or a start after k_max with no end.
   std::optional<int> epoch_start;
   std::optional<int> epoch_end;
+  // "cover": stretches of the map, and those where the guarantee kept an experience the earlier
+  // parts did not allow (the window held none good enough there).
+  std::size_t stretches = 0;
+  std::size_t stretches_reached_outside = 0;
   // Components before and after, bridging nodes, always against the picked nodes (when a
   // budget sends its grown selection, the bridges counted are the growth's).
   IntegrityReport integrity;
