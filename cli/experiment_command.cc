@@ -1,7 +1,13 @@
 // `fleetmap experiment ...`: the papers' experiments on the synthetic world, reproducible from a
 // world file and a scale (`real`, on real images, is in real_experiment_command.cc).
+#include <algorithm>
+#include <charconv>
+#include <cstdint>
 #include <filesystem>
 #include <iostream>
+#include <string>
+#include <system_error>
+#include <vector>
 
 #include "commands.h"
 #include "fleetmap/common/error.h"
@@ -97,10 +103,55 @@ struct FleetArgs {
   std::string policy = "path";
   int threads = 2;
   int dream_folds = 1;
+  bool no_sharing = false;
+  CoverageOptions coverage;
   int seed = -1;
+  std::string seeds;  // "N" (N seeds from the world's) or "a,b,c"; empty: the world's seed
   double omit_fraction = MergeOptions{}.omit_localised_fraction;
   double stretch_m = MergeOptions{}.decision_length_m;
 };
+
+std::uint64_t ParseSeed(const std::string& text, const std::string& what) {
+  std::uint64_t value = 0;
+  const char* end = text.data() + text.size();
+  const auto [stop, error] = std::from_chars(text.data(), end, value);
+  if (text.empty() || error != std::errc() || stop != end) {
+    throw Error(ErrorCode::kInvalidArgument,
+                what + " must be a non-negative integer, not '" + text + "'");
+  }
+  return value;
+}
+
+// --seeds: a count N runs the world's seed and the N - 1 after it (issue 19 judges over seeds);
+// a comma list names them. Without --seeds, the world's seed alone.
+std::vector<std::uint64_t> FleetSeeds(const FleetArgs& args, std::uint64_t world_seed) {
+  if (args.seeds.empty()) return {world_seed};
+  std::vector<std::uint64_t> seeds;
+  if (args.seeds.find(',') == std::string::npos) {
+    const std::uint64_t count = ParseSeed(args.seeds, "--seeds");
+    if (count < 1 || count > 1000) {
+      throw Error(ErrorCode::kInvalidArgument, "--seeds N needs 1 <= N <= 1000");
+    }
+    for (std::uint64_t i = 0; i < count; ++i) seeds.push_back(world_seed + i);
+    return seeds;
+  }
+  if (args.seed >= 0) {
+    throw Error(ErrorCode::kInvalidArgument,
+                "--seed and a --seeds list both name the seeds: give one of them");
+  }
+  std::size_t start = 0;
+  while (start <= args.seeds.size()) {
+    const std::size_t comma = std::min(args.seeds.find(',', start), args.seeds.size());
+    const std::uint64_t seed =
+        ParseSeed(args.seeds.substr(start, comma - start), "each --seeds entry");
+    if (std::find(seeds.begin(), seeds.end(), seed) != seeds.end()) {
+      throw Error(ErrorCode::kInvalidArgument, "--seeds names " + std::to_string(seed) + " twice");
+    }
+    seeds.push_back(seed);
+    start = comma + 1;
+  }
+  return seeds;
+}
 
 void RunFleet(const FleetArgs& args) {
   FleetExperimentOptions options;
@@ -120,21 +171,46 @@ void RunFleet(const FleetArgs& args) {
   options.test_policy = args.policy;
   options.threads = args.threads;
   options.dream_folds = args.dream_folds;
+  options.sharing = !args.no_sharing;
+  options.coverage = args.coverage;
   options.merge.omit_localised_fraction = args.omit_fraction;
   options.merge.decision_length_m = args.stretch_m;
+  const std::vector<std::uint64_t> seeds = FleetSeeds(args, options.world.seed);
   const std::filesystem::path out = args.out_dir;
-  const ScratchWorkDir work("fleetmap-fleet-");
-  options.work_dir = work.path;
 
-  std::cerr << "fleet experiment: " << options.world.schedule.outings << " outings, "
-            << options.folds << " folds, " << options.folds - 1 << " groups each, dreaming on "
-            << options.dream_folds << " fold(s), Γ(" << options.test_policy << ") localiser, "
-            << options.threads << " threads; results in " << out.string() << "\n";
-  ProgressBar bar("fleet", std::cerr);
-  const FleetExperimentResult result = RunFleetExperiment(
-      options, [&bar](std::int64_t done, std::int64_t total) { bar.Update(done, total); });
-  bar.Finish();
-  std::cout << WriteFleetReport(result, options, out, std::cerr);
+  std::cerr << "fleet experiment: " << seeds.size() << " world seed(s), "
+            << options.world.schedule.outings << " outings, " << options.folds << " folds, "
+            << options.folds - 1 << " groups each, dreaming on " << options.dream_folds
+            << " fold(s), Γ(" << options.test_policy << ") localiser, " << options.threads
+            << " threads; results in " << out.string() << "\n";
+  std::vector<FleetSeedRun> runs;
+  for (std::size_t i = 0; i < seeds.size(); ++i) {
+    FleetExperimentOptions seed_options = options;
+    seed_options.world.seed = seeds[i];
+    // Each seed's stores are scratch of their own, removed as soon as the seed is done.
+    const ScratchWorkDir work("fleetmap-fleet-");
+    seed_options.work_dir = work.path;
+    const std::string label = "fleet seed " + std::to_string(i + 1) + "/" +
+                              std::to_string(seeds.size()) + " (" + std::to_string(seeds[i]) + ")";
+    ProgressBar bar(label, std::cerr);
+    runs.push_back(
+        {seeds[i], RunFleetExperiment(seed_options, [&bar](std::int64_t done, std::int64_t total) {
+           bar.Update(done, total);
+         })});
+    bar.Finish();
+  }
+  std::cout << WriteFleetReport(runs, options, out, std::cerr);
+
+  // The report shows the FAIL lines; the run itself succeeded, so the exit status stays 0.
+  std::vector<FleetVerdict> verdicts;
+  for (const FleetSeedRun& run : runs) verdicts.push_back(JudgeFleet(run.result));
+  const FleetAcceptance acceptance = JudgeFleetSeeds(verdicts);
+  if (!acceptance.all()) {
+    std::cerr << "note: acceptance lines failed (issue 19):\n";
+    for (const FleetLine& line : acceptance.lines) {
+      if (line.judged && !line.pass) std::cerr << "  " << line.name << ": " << line.why << "\n";
+    }
+  }
 }
 
 }  // namespace
@@ -199,6 +275,25 @@ void AddExperimentCommand(CLI::App& app) {
       ->capture_default_str()
       ->check(CLI::Range(0, 5));
   fleet
+      ->add_option("--cover-k", fleet_args->coverage.experiences,
+                   "tod+cover and tod+paths+cover: experiences every stretch keeps, from inside "
+                   "the window or not")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 100));
+  fleet
+      ->add_option("--cover-cap", fleet_args->coverage.most_experiences,
+                   "tod+cover and tod+paths+cover: most experiences a stretch keeps (0: no cap)")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 100));
+  fleet
+      ->add_option("--cover-stretch-m", fleet_args->coverage.stretch_m,
+                   "tod+cover and tod+paths+cover: length of a stretch (metres)")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  fleet->add_flag("--no-sharing", fleet_args->no_sharing,
+                  "Skip Fig. 8 (two robots sharing): a third less work when only MERGE and "
+                  "DOWNLOAD are of interest; nothing judged depends on it");
+  fleet
       ->add_option("--merge-omit", fleet_args->omit_fraction,
                    "MERGE omits a stretch when at least this share of its frames localise")
       ->capture_default_str()
@@ -213,6 +308,10 @@ void AddExperimentCommand(CLI::App& app) {
       ->check(CLI::Range(1, 256));
   fleet->add_option("--seed", fleet_args->seed, "Override the world file's seed")
       ->check(CLI::NonNegativeNumber);
+  fleet->add_option("--seeds", fleet_args->seeds,
+                    "World seeds to run and judge over: a count N (the world's seed and the "
+                    "N - 1 after it) or a comma list such as 1,2,7. Default: the world's seed "
+                    "alone. Each seed's CSVs go to --out/seed-<seed>/");
   fleet->callback([fleet_args] { RunFleet(*fleet_args); });
 
   AddRealExperimentCommand(*experiment);

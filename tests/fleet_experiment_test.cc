@@ -84,8 +84,10 @@ TEST_F(FleetExperimentTest, EveryFigureIsBuiltAndLocalisedOnTheHeldOutFrames) {
     EXPECT_EQ(static_cast<std::int64_t>(run.gaps_m.size()), run.frames);
     EXPECT_LE(run.localised_frames, run.frames);
   }
-  for (const std::string map :
-       {"single", "merged", "r1", "r2", "shared", "copy", "tod", "tod+paths"}) {
+  const std::vector<std::string> maps = {"single",    "merged",         "r1",  "r2",
+                                         "shared",    "copy",           "tod", "tod+paths",
+                                         "tod+cover", "tod+paths+cover"};
+  for (const std::string& map : maps) {
     EXPECT_EQ(runs_per_map[map], 4) << map;
   }
 
@@ -100,10 +102,39 @@ TEST_F(FleetExperimentTest, EveryFigureIsBuiltAndLocalisedOnTheHeldOutFrames) {
     if (d.nodes > 0) {
       EXPECT_GE(d.components_after, 1u);
     }
+    // The diagnosis: every held-out frame counted, a lost frame only where copy localised.
+    EXPECT_GT(d.frames, 0) << d.policy;
+    EXPECT_LE(d.frames_with_node_near, d.frames) << d.policy;
+    EXPECT_LE(d.lost_vs_copy_no_node_near, d.lost_vs_copy) << d.policy;
+    if (d.policy == "copy") {
+      EXPECT_EQ(d.lost_vs_copy, 0);
+      EXPECT_GT(d.frames_with_node_near, 0);
+    }
+    if (d.policy.find("cover") != std::string::npos) {
+      EXPECT_GT(d.stretches, 0u) << d.policy;
+    }
+    if (d.policy.find("paths") != std::string::npos) {
+      EXPECT_GT(d.map_paths, 0u) << d.policy;
+      EXPECT_LE(d.paths_chosen, d.map_paths) << d.policy;
+    }
   }
-  EXPECT_EQ(downloads["copy"], 8u);
-  EXPECT_EQ(downloads["tod"], 8u);
-  EXPECT_EQ(downloads["tod+paths"], 8u);
+  for (const std::string policy : {"copy", "tod", "tod+paths", "tod+cover", "tod+paths+cover"}) {
+    EXPECT_EQ(downloads[policy], 8u) << policy;
+  }
+
+  // The merge diagnosis per fold, and EBN's cost per frame per single-agent outing.
+  ASSERT_EQ(result.merge_diagnoses.size(), 4u);
+  for (const FleetMergeDiagnosis& d : result.merge_diagnoses) {
+    EXPECT_EQ(d.frames, frames_of_fold.at(d.fold));
+    EXPECT_GT(d.stretches, 0u);
+    EXPECT_LE(d.merged_only_lost, d.merged_lost);
+    EXPECT_LE(d.merged_only_lost_where_fewer, d.merged_only_lost);
+  }
+  EXPECT_EQ(result.frame_costs.size(), 4u * 6u);  // 4 folds, 6 training outings each
+  for (const FleetFrameCost& cost : result.frame_costs) {
+    EXPECT_GT(cost.frames, 0);
+    EXPECT_GT(cost.cpu_seconds, 0.0);
+  }
 
   // Fig. 10 on fold 0: every order once, timed on the prefix tree.
   std::set<std::vector<int>> orders;
@@ -120,15 +151,16 @@ TEST_F(FleetExperimentTest, EveryFigureIsBuiltAndLocalisedOnTheHeldOutFrames) {
   EXPECT_EQ(timing.merges, 12u);  // 3 x 2 + 6 merges into a parent's map
   EXPECT_GT(timing.predicted_ratio, 0.0);
   EXPECT_GT(timing.measured_ratio, 0.0);
-  EXPECT_EQ(runs_per_map.size(), 8u + 6u);
+  EXPECT_EQ(runs_per_map.size(), maps.size() + 6u);
 
   // The report.
   std::ostringstream log;
   const std::string summary = WriteFleetReport(result, options, dir_ / "out", log);
+  EXPECT_TRUE(std::filesystem::exists(dir_ / "out" / "summary.md"));
   for (const char* file :
-       {"summary.md", "fig7_builds.csv", "heldout_runs.csv", "fig7_p_gap.csv", "fig8_p_gap.csv",
-        "fig9_p_gap.csv", "fig9_downloads.csv", "fig10_orders.csv", "fig10_p_gap.csv"}) {
-    EXPECT_TRUE(std::filesystem::exists(dir_ / "out" / file)) << file;
+       {"fig7_builds.csv", "heldout_runs.csv", "fig7_p_gap.csv", "fig8_p_gap.csv", "fig9_p_gap.csv",
+        "fig9_downloads.csv", "fig10_orders.csv", "fig10_p_gap.csv"}) {
+    EXPECT_TRUE(std::filesystem::exists(dir_ / "out" / "seed-1" / file)) << file;  // world seed
   }
   EXPECT_NE(summary.find("## Acceptance"), std::string::npos);
   EXPECT_NE(summary.find("67.57 %"), std::string::npos) << "the paper's figure beside ours";

@@ -5,9 +5,14 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <numeric>
+#include <optional>
+#include <tuple>
+#include <unordered_map>
+#include <unordered_set>
 
 #include "fleetmap/common/error.h"
 #include "fleetmap/common/graph_store.h"
@@ -19,6 +24,7 @@
 #include "fleetmap/policies/dreaming.h"
 #include "fleetmap/policies/path_memory.h"
 #include "fleetmap/policies/path_ranking.h"
+#include "fleetmap/policies/time_of_day.h"
 #include "fleetmap/server/repository.h"
 
 namespace fleetmap {
@@ -80,6 +86,10 @@ struct FoldState {
   std::vector<std::vector<std::size_t>> groups;  // the training folds, each in time order
   std::vector<BuiltMap> group_maps;
   std::atomic<int> groups_left{0};
+  // For the merge diagnosis once every task is done: where each map's nodes were captured
+  // (ground truth) and which held-out frames each localised.
+  std::vector<Eigen::Vector3d> single_places, merged_places;
+  std::vector<char> single_localised, merged_localised;
 };
 
 class FleetRun {
@@ -102,9 +112,10 @@ class FleetRun {
           }
         });
       }
-      queue.Push([this, &fold] { Sharing(fold); });
+      if (options_.sharing) queue.Push([this, &fold] { Sharing(fold); });
     }
     queue.Run(options_.threads);
+    for (const FoldState& fold : folds_) DiagnoseMerge(fold);
 
     result_.outings = static_cast<int>(outings_.size());
     for (const auto& frames : frames_) {
@@ -125,6 +136,7 @@ class FleetRun {
       render.Push([this, i] { frames_[i] = world_.Frames(outings_[i]); });
     }
     render.Run(options_.threads);
+    for (std::size_t i = 0; i < outings_.size(); ++i) outing_index_.emplace(outings_[i].id, i);
 
     // Outings are in time order; dealt round-robin, every fold spans the whole period.
     const auto folds = static_cast<std::size_t>(options_.folds);
@@ -157,8 +169,8 @@ class FleetRun {
     for (const FoldState& fold : folds_) {
       const std::int64_t training = Frames(fold.training), test = Frames(fold.test);
       // single + groups + alone (both robots) + shared forays; held-out runs: single, merged,
-      // r1, r2, shared, three downloads, and the orders when dreaming.
-      total_work_ += 4 * training + 8 * test;
+      // r1, r2, shared, five downloads, and the orders when dreaming.
+      total_work_ += (options_.sharing ? 4 : 2) * training + (options_.sharing ? 10 : 7) * test;
       if (fold.number < options_.dream_folds) {
         std::int64_t orders = 1;
         for (std::size_t k = 2; k <= fold.groups.size(); ++k) {
@@ -194,7 +206,7 @@ class FleetRun {
   // Single-agent EBN (Γ(distance)) over `outings` in order, from `start` (a downloaded map) or
   // from nothing, in its own SQLite store.
   BuiltMap Build(const std::string& name, const std::vector<std::size_t>& outings,
-                 const GraphBatch* start = nullptr) {
+                 const GraphBatch* start = nullptr, int cost_fold = -1) {
     const Clock::time_point wall = Clock::now();
     const double cpu = ThreadCpuSeconds();
     std::unique_ptr<GraphStore> store =
@@ -211,9 +223,17 @@ class FleetRun {
     DistanceRanking policy;
     ExperienceBuilder builder(store.get(), *map, policy, Builder(false, options_.build_cores));
     for (std::size_t index : outings) {
+      const std::size_t map_nodes = map->size();
+      const double outing_cpu = ThreadCpuSeconds();
       builder.StartOuting(DepotStart(outings_[index], *map));
       for (const Frame& frame : frames_[index]) builder.Process(frame);
       builder.FinishOuting();
+      if (cost_fold >= 0) {
+        const std::lock_guard lock(result_mutex_);
+        result_.frame_costs.push_back({cost_fold, map_nodes,
+                                       static_cast<std::int64_t>(frames_[index].size()),
+                                       ThreadCpuSeconds() - outing_cpu});
+      }
       Advance(static_cast<std::int64_t>(frames_[index].size()));
     }
     BuiltMap built;
@@ -247,6 +267,8 @@ class FleetRun {
         ++run.frames;
         run.localised_frames += report.successes > 0 ? 1 : 0;
         run.gaps_m.push_back(static_cast<float>(report.distance_since_success_m));
+        run.localised.push_back(report.successes > 0 ? 1 : 0);
+        run.references.push_back(report.successes > 0 ? report.reference : Uuid());
       }
       localiser.FinishOuting();
       Advance(static_cast<std::int64_t>(frames_[index].size()));
@@ -275,9 +297,12 @@ class FleetRun {
 
   // Fig. 7, the baseline: single-agent EBN over every training outing in time order.
   void SingleAgent(FoldState& fold) {
-    BuiltMap single = Build(StorePath(fold, "single"), fold.training);
+    BuiltMap single = Build(StorePath(fold, "single"), fold.training, nullptr, fold.number);
     RecordBuild({"single", fold.number, single.nodes, single.cpu_seconds, single.wall_seconds});
-    RecordRun(LocaliseContent("single", fold.number, single.content, fold.test));
+    HeldOutRun run = LocaliseContent("single", fold.number, single.content, fold.test);
+    fold.single_places = Places(single.content);
+    fold.single_localised = run.localised;
+    RecordRun(std::move(run));
     // How much of it MERGE finds redundant: merged into an empty map, what does it keep? This
     // bounds how far below single-agent EBN's size a merged map can go on this world.
     const Clock::time_point wall = Clock::now();
@@ -324,13 +349,21 @@ class FleetRun {
       const Uuid submission = Uuid::Generate();
       repository->Push(submission, GroupRobot(g), "group " + std::to_string(g),
                        fold.group_maps[g].content);
-      repository->Merge(submission);
+      const double pushed = SecondsSince(wall);
+      const MergeOutcome outcome = repository->Merge(submission);
       const std::int64_t nodes = repository->versions().StatsAt(repository->Head()).nodes;
-      RecordBuild({"merge " + std::to_string(g), fold.number, static_cast<std::size_t>(nodes),
-                   ThreadCpuSeconds() - cpu, SecondsSince(wall)});
+      FleetBuild build{"merge " + std::to_string(g), fold.number, static_cast<std::size_t>(nodes),
+                       ThreadCpuSeconds() - cpu, SecondsSince(wall)};
+      build.push_seconds = pushed;
+      build.merge_algorithm_seconds = outcome.report.seconds;
+      build.merge_call_seconds = outcome.seconds;
+      RecordBuild(build);
     }
     const GraphBatch merged = repository->Checkout();
-    RecordRun(LocaliseContent("merged", fold.number, merged, fold.test));
+    HeldOutRun merged_run = LocaliseContent("merged", fold.number, merged, fold.test);
+    fold.merged_places = Places(merged);
+    fold.merged_localised = merged_run.localised;
+    RecordRun(std::move(merged_run));
 
     // Fig. 9: each held-out outing downloads for its own mission time, holding the depot node
     // it starts from (the merged map's earliest, see DepotStart).
@@ -344,11 +377,13 @@ class FleetRun {
                                        })
                           ->id);
     }
-    for (const std::string name : {"copy", "tod", "tod+paths"}) {
+    std::map<std::size_t, HeldOutRun> copy_runs;  // by held-out outing
+    for (const std::string name : {"copy", "tod", "tod+paths", "tod+cover", "tod+paths+cover"}) {
       DownloadPolicy policy = ParseDownloadPolicy(name);
       policy.window_min = options_.tod_window_min;
       policy.best_percent = options_.paths_percent;
       policy.epoch_min = options_.epoch_min;
+      policy.coverage = options_.coverage;
       policy.include = depot;
       HeldOutRun run;
       run.map = name;
@@ -361,7 +396,9 @@ class FleetRun {
         run.frames += one.frames;
         run.localised_frames += one.localised_frames;
         run.gaps_m.insert(run.gaps_m.end(), one.gaps_m.begin(), one.gaps_m.end());
+        run.localised.insert(run.localised.end(), one.localised.begin(), one.localised.end());
         node_sum += download.map.nodes.size();
+        if (name == "copy") copy_runs[index] = one;
         FleetDownload row;
         row.fold = fold.number;
         row.policy = name;
@@ -372,12 +409,161 @@ class FleetRun {
         row.bridging_nodes = download.report.integrity.bridging_nodes;
         row.components_before = download.report.integrity.fragments_before;
         row.components_after = download.report.integrity.components_after;
+        row.picked_nodes = download.report.picked_nodes;
+        row.paths_chosen = download.report.paths_chosen;
+        row.stretches = download.report.stretches;
+        row.stretches_reached_outside = download.report.stretches_reached_outside;
+        row.nodes_on_chosen_paths = download.report.nodes_on_chosen_paths;
+        row.map_paths = merged.paths.size();
+        DiagnoseDownload(index, merged, policy, download.map, one, copy_runs[index], row);
         const std::lock_guard lock(result_mutex_);
         result_.downloads.push_back(row);
       }
       run.map_nodes = node_sum / std::max<std::size_t>(1, fold.test.size());
       RecordRun(std::move(run));
     }
+  }
+
+  // Where a node was captured, from its outing's ground truth (none for a node of no rendered
+  // frame, which the experiment never makes).
+  std::optional<Eigen::Vector3d> TruePlace(const Node& node) const {
+    const auto outing = outing_index_.find(node.outing);
+    if (outing == outing_index_.end()) return std::nullopt;
+    const std::vector<Frame>& frames = frames_[outing->second];
+    const auto frame =
+        std::lower_bound(frames.begin(), frames.end(), node.stamp_ns,
+                         [](const Frame& f, std::int64_t stamp) { return f.stamp_ns < stamp; });
+    if (frame == frames.end() || frame->stamp_ns != node.stamp_ns || !frame->world_T_camera_truth) {
+      return std::nullopt;
+    }
+    return frame->world_T_camera_truth->translation();
+  }
+
+  std::vector<Eigen::Vector3d> Places(const GraphBatch& map) const {
+    std::vector<Eigen::Vector3d> places;
+    for (const Node& node : map.nodes) {
+      if (const auto place = TruePlace(node)) places.push_back(*place);
+    }
+    return places;
+  }
+
+  // The held-out frames of `outing` in order, with their true places.
+  std::vector<Eigen::Vector3d> FramePlaces(std::size_t outing) const {
+    std::vector<Eigen::Vector3d> places;
+    for (const Frame& frame : frames_[outing]) {
+      places.push_back(frame.world_T_camera_truth
+                           ? Eigen::Vector3d(frame.world_T_camera_truth->translation())
+                           : Eigen::Vector3d::Constant(1e9));
+    }
+    return places;
+  }
+
+  static bool AnyNear(const std::vector<Eigen::Vector3d>& places, const Eigen::Vector3d& at,
+                      double radius_m) {
+    for (const Eigen::Vector3d& p : places) {
+      if ((p - at).squaredNorm() <= radius_m * radius_m) return true;
+    }
+    return false;
+  }
+
+  // Per held-out frame of `outing`: does the download hold a node near it, and where it lost
+  // a frame copy localised, was the node copy localised in held, or where in time was it?
+  void DiagnoseDownload(std::size_t outing, const GraphBatch& merged, const DownloadPolicy& policy,
+                        const GraphBatch& download, const HeldOutRun& run, const HeldOutRun& copy,
+                        FleetDownload& row) const {
+    const std::vector<Eigen::Vector3d> nodes = Places(download);
+    const std::vector<Eigen::Vector3d> frames = FramePlaces(outing);
+    std::unordered_set<Uuid> held;
+    for (const Node& node : download.nodes) held.insert(node.id);
+    std::unordered_map<Uuid, std::int64_t> stamp_of;
+    for (const Node& node : merged.nodes) stamp_of.emplace(node.id, node.stamp_ns);
+    std::unordered_set<Uuid> window_paths, used_in_window;
+    for (const Path& path : merged.paths) {
+      if (WithinTimeOfDayWindow(path.start_ns, policy.mission_start_min, policy.window_min)) {
+        window_paths.insert(path.id);
+      }
+    }
+    for (const Edge& edge : merged.edges) {
+      if (edge.kind == EdgeKind::kPath && window_paths.contains(edge.path)) {
+        used_in_window.insert(edge.from);
+        used_in_window.insert(edge.to);
+      }
+    }
+    double hours_away = 0.0;
+    for (std::size_t i = 0; i < frames.size() && i < run.localised.size(); ++i) {
+      ++row.frames;
+      const bool near = AnyNear(nodes, frames[i], options_.place_radius_m);
+      row.frames_with_node_near += near ? 1 : 0;
+      if (i >= copy.localised.size() || !copy.localised[i] || run.localised[i]) continue;
+      ++row.lost_vs_copy;
+      row.lost_vs_copy_no_node_near += near ? 0 : 1;
+      const Uuid& used = copy.references[i];
+      const auto stamp = stamp_of.find(used);
+      if (stamp == stamp_of.end()) continue;  // copy is the merged map: never
+      if (held.contains(used)) {
+        ++row.lost_copy_node_held;
+      } else if (WithinTimeOfDayWindow(stamp->second, policy.mission_start_min,
+                                       policy.window_min) ||
+                 used_in_window.contains(used)) {
+        ++row.lost_copy_node_in_window;
+      } else {
+        ++row.lost_copy_node_outside_window;
+        hours_away +=
+            MinutesApartOnTheClock(MinuteOfDay(stamp->second), policy.mission_start_min) / 60.0;
+      }
+    }
+    row.lost_copy_node_hours_away =
+        row.lost_copy_node_outside_window == 0
+            ? 0.0
+            : hours_away / static_cast<double>(row.lost_copy_node_outside_window);
+  }
+
+  // Fig. 7's why: per ground-truth stretch, what single-agent's and the merged map hold, and
+  // where held-out frames fail in each.
+  void DiagnoseMerge(const FoldState& fold) {
+    const double side = options_.coverage.stretch_m;
+    using Cube = std::tuple<long, long, long>;
+    const auto cube = [side](const Eigen::Vector3d& p) {
+      return Cube(std::lround(std::floor(p.x() / side)), std::lround(std::floor(p.y() / side)),
+                  std::lround(std::floor(p.z() / side)));
+    };
+    std::map<Cube, std::pair<std::size_t, std::size_t>> held;  // single, merged
+    for (const Eigen::Vector3d& p : fold.single_places) ++held[cube(p)].first;
+    for (const Eigen::Vector3d& p : fold.merged_places) ++held[cube(p)].second;
+    FleetMergeDiagnosis d;
+    d.fold = fold.number;
+    d.stretches = held.size();
+    for (const auto& [at, counts] : held) {
+      if (counts.second > counts.first) {
+        ++d.stretches_more;
+        d.nodes_more += counts.second - counts.first;
+      } else if (counts.second < counts.first) {
+        ++d.stretches_fewer;
+        d.nodes_fewer += counts.first - counts.second;
+      }
+    }
+    std::size_t frame = 0;
+    for (std::size_t outing : fold.test) {
+      for (const Eigen::Vector3d& p : FramePlaces(outing)) {
+        if (frame >= fold.single_localised.size() || frame >= fold.merged_localised.size()) break;
+        const auto it = held.find(cube(p));
+        const bool fewer = it != held.end() && it->second.second < it->second.first;
+        const bool single_ok = fold.single_localised[frame],
+                   merged_ok = fold.merged_localised[frame];
+        ++d.frames;
+        d.single_lost += single_ok ? 0 : 1;
+        if (!merged_ok) {
+          ++d.merged_lost;
+          d.merged_lost_where_fewer += fewer ? 1 : 0;
+          if (single_ok) {
+            ++d.merged_only_lost;
+            d.merged_only_lost_where_fewer += fewer ? 1 : 0;
+          }
+        }
+        ++frame;
+      }
+    }
+    result_.merge_diagnoses.push_back(d);
   }
 
   // Fig. 8: two robots alone, and sharing through the server between their forays.
@@ -506,6 +692,7 @@ class FleetRun {
   std::vector<Outing> outings_;
   std::vector<std::vector<Frame>> frames_;
   std::shared_ptr<const AppearanceVocabulary> vocabulary_;
+  std::unordered_map<Uuid, std::size_t> outing_index_;  // outing id -> index in outings_
   std::vector<FoldState> folds_;
 
   std::mutex result_mutex_;

@@ -33,6 +33,7 @@
 #include "fleetmap/experiments/ranking_experiment.h"
 #include "fleetmap/experiments/world_config.h"
 #include "fleetmap/policies/merge.h"
+#include "fleetmap/policies/stretch_coverage.h"
 
 namespace fleetmap {
 
@@ -52,8 +53,16 @@ struct FleetExperimentOptions {
   double tod_window_min = 180.0;
   double paths_percent = 50.0;
   double epoch_min = 60.0;
+  // "tod+cover" and "tod+paths+cover": the coverage guarantee's stretches, k and cap.
+  CoverageOptions coverage = {};
+  // Ground-truth radius of the diagnoses: a held-out frame "has an experience" in a map when
+  // one of its nodes was captured within this distance of the frame.
+  double place_radius_m = 5.0;
   // Fig. 10 runs on this many folds (0 skips it), each in all k! orders of its groups.
   int dream_folds = 1;
+  // Fig. 8, two robots sharing: off for a quicker look at MERGE and DOWNLOAD (a third of the
+  // work), which nothing judged depends on.
+  bool sharing = true;
   int threads = 2;                 // >= 1
   std::filesystem::path work_dir;  // stores go here (created; removed by the caller)
 };
@@ -66,6 +75,8 @@ struct HeldOutRun {
   std::int64_t frames = 0;
   std::int64_t localised_frames = 0;
   std::vector<float> gaps_m;
+  std::vector<char> localised;   // per frame, as gaps_m
+  std::vector<Uuid> references;  // per frame: the node it localised in, nil when it did not
 };
 
 // One map built for Fig. 7, with its cost.
@@ -77,6 +88,12 @@ struct FleetBuild {
   std::size_t nodes = 0;  // of the map after this step
   double cpu_seconds = 0.0;
   double wall_seconds = 0.0;
+  // A merge's wall time in parts: the push (storing the submission), MERGE itself (the replay
+  // and its decisions), and the rest of Repository::Merge (reading the submission, the head's
+  // mirror, writing the revision).
+  double push_seconds = 0.0;
+  double merge_algorithm_seconds = 0.0;
+  double merge_call_seconds = 0.0;
 };
 
 // Fig. 9: one held-out outing's download.
@@ -89,6 +106,52 @@ struct FleetDownload {
   std::int64_t bytes = 0;
   std::size_t bridging_nodes = 0;
   std::size_t components_before = 0, components_after = 0;
+  std::size_t picked_nodes = 0;  // before bridging
+  std::size_t paths_chosen = 0;  // "paths": |P*|, the best paths over the mission's epochs
+  std::size_t map_paths = 0;     // paths recorded in the map
+  // Nodes on the chosen paths, and those of them the earlier parts allowed (tod+paths: inside
+  // the window).
+  std::size_t nodes_on_chosen_paths = 0;
+  std::size_t stretches = 0, stretches_reached_outside = 0;  // "cover"
+  // Why it localised worse than copy, per held-out frame (ground truth, place_radius_m):
+  std::int64_t frames = 0;
+  std::int64_t frames_with_node_near = 0;      // the mission's route the download covers
+  std::int64_t lost_vs_copy = 0;               // copy localised the frame, this download did not
+  std::int64_t lost_vs_copy_no_node_near = 0;  // ... and held no node near it
+  // Of the frames lost where copy localised, by the node copy localised in: held by this
+  // download too (lost by the localiser's search, not the selection); not held, but captured
+  // or used within the window; not held, and neither (so only outside the window); the mean
+  // clock distance in hours between those last nodes' capture and the mission's start.
+  std::int64_t lost_copy_node_held = 0;
+  std::int64_t lost_copy_node_in_window = 0;
+  std::int64_t lost_copy_node_outside_window = 0;
+  double lost_copy_node_hours_away = 0.0;
+};
+
+// Why a merged map holds what it holds, against single-agent EBN's (seed 004 Fig. 7), per
+// route stretch: ground-truth cubes of the coverage's stretch_m, fold by fold.
+struct FleetMergeDiagnosis {
+  int fold = 0;
+  std::size_t stretches = 0;                 // holding a node of either map
+  std::size_t stretches_more = 0;            // merged holds more nodes than single-agent there
+  std::size_t nodes_more = 0;                // the excess, summed
+  std::size_t stretches_fewer = 0;           // merged holds fewer
+  std::size_t nodes_fewer = 0;               // the shortfall, summed
+  std::int64_t frames = 0;                   // held-out frames
+  std::int64_t single_lost = 0;              // not localised in single-agent's map
+  std::int64_t merged_lost = 0;              // not localised in the merged map
+  std::int64_t merged_lost_where_fewer = 0;  // of those, in stretches where merged holds fewer
+  std::int64_t merged_only_lost = 0;         // lost in merged, localised in single-agent's
+  std::int64_t merged_only_lost_where_fewer = 0;
+};
+
+// EBN's cost per frame against the size of the map it localises in: one row per outing of the
+// single-agent builds (where the paper's time saving must come from, seed 004 §VI-B).
+struct FleetFrameCost {
+  int fold = 0;
+  std::size_t map_nodes = 0;  // when the outing started
+  std::int64_t frames = 0;
+  double cpu_seconds = 0.0;  // of the whole outing
 };
 
 // Fig. 10: one order of one fold.
@@ -118,6 +181,8 @@ struct FleetExperimentResult {
   std::vector<FleetDownload> downloads;
   std::vector<FleetDreamOrder> dream_orders;
   std::vector<FleetDreamTiming> dream_timings;
+  std::vector<FleetMergeDiagnosis> merge_diagnoses;
+  std::vector<FleetFrameCost> frame_costs;
   int outings = 0;
   std::int64_t frames_rendered = 0;
   double seconds = 0.0;

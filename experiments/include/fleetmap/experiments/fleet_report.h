@@ -1,47 +1,85 @@
-// What `fleetmap experiment fleet` leaves behind: CSVs of every figure, fleet.png in the layout
-// of seed 004 Figs. 7–10, and summary.md with the paper's numbers beside ours and the issue's
-// acceptance checks.
+// What `fleetmap experiment fleet` leaves behind: per world seed the CSVs of every figure and
+// fleet.png in the layout of seed 004 Figs. 7–10, and one summary.md with the paper's numbers
+// beside ours and issue 19's acceptance judged over the seeds.
+//
+// Every line is a ratio "ours / reference ≤ bound". Probabilities are compared by ratio, not by
+// points: 5 points around a probability of 0.003 is no test at all.
 #pragma once
 
+#include <cstdint>
 #include <filesystem>
 #include <ostream>
+#include <span>
 #include <string>
+#include <string_view>
+#include <vector>
 
 #include "fleetmap/experiments/fleet_experiment.h"
 
 namespace fleetmap {
 
-// The headline figures over all folds.
-struct FleetVerdict {
-  // Fig. 7
-  double merged_node_ratio = 0.0;     // merged nodes / single-agent nodes
-  double single_not_localised = 0.0;  // fraction of held-out frames
-  double merged_not_localised = 0.0;
-  double merge_time_ratio = 0.0;       // critical path (CPU) / single-agent EBN (CPU)
-  double merge_wall_time_ratio = 0.0;  // the same with wall clock seconds
-  // Fig. 9
-  double tod_node_ratio = 0.0;  // mean over held-out outings of nodes / copy's
-  double tod_paths_node_ratio = 0.0;
-  double copy_p10 = 0.0, tod_p10 = 0.0, tod_paths_p10 = 0.0;  // P(X > 10 m)
-
-  bool merged_small_enough = false;     // <= 75 % of single-agent's nodes
-  bool merged_localises_well = false;   // not localised <= single + 2 points
-  bool merged_fast_enough = false;      // <= 35 % of single-agent's time
-  bool tod_small_enough = false;        // <= 85 % of copy
-  bool tod_paths_small_enough = false;  // <= 75 % of copy
-  bool tod_localises_well = false;      // P(X > 10 m) within 5 points of copy
-  bool tod_paths_localises_well = false;
-
-  bool all() const {
-    return merged_small_enough && merged_localises_well && merged_fast_enough && tod_small_enough &&
-           tod_paths_small_enough && tod_localises_well && tod_paths_localises_well;
-  }
+// One line on one seed. NaN `value`: a side of the ratio was not run, which never passes.
+struct FleetRatio {
+  std::string name;     // the same on every seed: JudgeFleetSeeds joins the seeds by it
+  double value = 0.0;   // ours / reference
+  double bound = 0.0;   // a judged line passes at value <= bound
+  bool judged = false;  // false: reported beside the judged lines (the paper's own policies, CPU)
+  bool pass = false;    // judged and value <= bound
+  std::string detail;   // what the ratio is made of, for the report
 };
 
+// One seed's acceptance: issue 19's lines in a fixed order, then the reported ones.
+struct FleetVerdict {
+  std::vector<FleetRatio> lines;
+
+  // nullptr when no line has that name.
+  const FleetRatio* Find(std::string_view name) const;
+  bool all() const;  // every judged line passes
+};
+
+// Issue 19 on one seed. The probabilities (P(X > 10 m) over held-out frames, the fraction not
+// localised) enter as Laplace-smoothed ratios (k + 1) / (n + 2); see fleet_report.cc for why.
+// A policy or map with no runs (or no downloads, or no builds) fails its lines as "not run".
 FleetVerdict JudgeFleet(const FleetExperimentResult& result);
 
-// Writes the CSVs, fleet.png (skipped with a note on `log` without gnuplot) and summary.md
-// into `dir`; returns the summary's text. Throws Error(kBackend) for a file it cannot write.
+// A line over several world seeds.
+struct FleetLine {
+  std::string name;
+  double bound = 0.0;
+  bool judged = false;
+  std::vector<double> per_seed;  // in the order of the verdicts; NaN where not run
+  double mean = 0.0, min = 0.0, max = 0.0;
+  bool pass = false;
+  std::string why;  // when a judged line fails: "not run", the mean, or the seed too far out
+};
+
+struct FleetAcceptance {
+  std::vector<FleetLine> lines;
+  bool all() const;  // every judged line passes
+};
+
+// Issue 19's rule over seeds: a judged line passes only when the mean over seeds meets its bound
+// and no seed is worse than twice the bound (each value <= 2 bound). A seed somewhat over the
+// bound is the world's noise and the mean absorbs it; a seed beyond twice the bound is a failure
+// the other seeds must not average away. A line missing or NaN on any seed fails. Throws
+// Error(kInvalidArgument) for no verdicts.
+FleetAcceptance JudgeFleetSeeds(std::span<const FleetVerdict> per_seed);
+
+// One world seed's experiment.
+struct FleetSeedRun {
+  std::uint64_t seed = 0;
+  FleetExperimentResult result;
+};
+
+// Writes per seed the CSVs and fleet.png (skipped with a note on `log` without gnuplot) into
+// `dir`/seed-<seed>/, and summary.md over all seeds into `dir`; returns the summary's text.
+// `options` are the runs' options but for the world's seed. Throws Error(kBackend) for a file it
+// cannot write, Error(kInvalidArgument) for no seeds or a seed twice.
+std::string WriteFleetReport(std::span<const FleetSeedRun> seeds,
+                             const FleetExperimentOptions& options,
+                             const std::filesystem::path& dir, std::ostream& log);
+
+// The one-seed report (seed options.world.seed), laid out as above.
 std::string WriteFleetReport(const FleetExperimentResult& result,
                              const FleetExperimentOptions& options,
                              const std::filesystem::path& dir, std::ostream& log);
