@@ -140,20 +140,33 @@ std::vector<int> WalkedEpochs(const PathWeights& weights, std::optional<int> k_s
   return walk;
 }
 
+// Per path of the map's memory: did a robot drive it within T_w of the mission's start on the
+// clock (by its start)? Every path counts when `any_time`.
+std::vector<char> DrivenWithinWindow(const DenseMap& map, std::span<const Path> paths,
+                                     const DownloadPolicy& policy, bool any_time) {
+  std::unordered_set<Uuid> in_window;
+  for (const Path& path : paths) {
+    if (any_time ||
+        WithinTimeOfDayWindow(path.start_ns, policy.mission_start_min, policy.window_min)) {
+      in_window.insert(path.id);
+    }
+  }
+  std::vector<char> driven(map.memory.path_count(), 0);
+  for (PathMemory::PathIndex path = 0; path < map.memory.path_count(); ++path) {
+    driven[path] = in_window.contains(map.memory.path_id(path));
+  }
+  return driven;
+}
+
 // "tod" with "cover" also allows what a robot used within the window: a node on a path that
 // started within T_w of the mission's start on the clock (stretch_coverage.h: capture alone
 // misses every node EBN never had to capture again at that time). "paths" narrows it after.
 void AllowUsedWithinWindow(const DenseMap& map, std::span<const Path> paths,
                            const DownloadPolicy& policy, std::vector<char>& allowed) {
-  std::unordered_set<Uuid> in_window;
-  for (const Path& path : paths) {
-    if (WithinTimeOfDayWindow(path.start_ns, policy.mission_start_min, policy.window_min)) {
-      in_window.insert(path.id);
-    }
-  }
+  const std::vector<char> driven = DrivenWithinWindow(map, paths, policy, false);
   std::vector<char> used(map.nodes.size(), 0);
   for (PathMemory::PathIndex path = 0; path < map.memory.path_count(); ++path) {
-    if (!in_window.contains(map.memory.path_id(path))) continue;
+    if (!driven[path]) continue;
     for (const DenseNode node : map.path_nodes[path]) used[node] = 1;
   }
   for (std::size_t i = 0; i < allowed.size(); ++i) allowed[i] = allowed[i] || used[i];
@@ -169,16 +182,10 @@ std::vector<PathWeights::PathIndex> BestPathsUsedInWindow(const DenseMap& map,
                                                           const DownloadPolicy& policy,
                                                           const PathWeights& weights,
                                                           const std::vector<int>& walk) {
-  std::unordered_set<Uuid> in_window;
-  for (const Path& path : paths) {
-    if (!policy.time_of_day ||
-        WithinTimeOfDayWindow(path.start_ns, policy.mission_start_min, policy.window_min)) {
-      in_window.insert(path.id);
-    }
-  }
+  const std::vector<char> driven = DrivenWithinWindow(map, paths, policy, !policy.time_of_day);
   std::vector<std::pair<double, PathWeights::PathIndex>> ranked;
   for (PathWeights::PathIndex path = 0; path < map.memory.path_count(); ++path) {
-    if (!in_window.contains(map.memory.path_id(path))) continue;
+    if (!driven[path]) continue;
     double weight = 0.0;
     for (const int k : walk) weight += weights.Weight(path, k);
     ranked.emplace_back(-weight, path);
