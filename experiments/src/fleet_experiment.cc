@@ -377,7 +377,9 @@ class FleetRun {
                                        })
                           ->id);
     }
-    std::map<std::size_t, HeldOutRun> copy_runs;  // by held-out outing
+    std::map<std::size_t, HeldOutRun> copy_runs;      // by held-out outing
+    std::unordered_map<Uuid, std::int64_t> stamp_of;  // the merged map's capture times
+    for (const Node& node : merged.nodes) stamp_of.emplace(node.id, node.stamp_ns);
     for (const std::string name : {"copy", "tod", "tod+paths", "tod+cover", "tod+paths+cover"}) {
       DownloadPolicy policy = ParseDownloadPolicy(name);
       policy.window_min = options_.tod_window_min;
@@ -415,7 +417,7 @@ class FleetRun {
         row.stretches_reached_outside = download.report.stretches_reached_outside;
         row.nodes_on_chosen_paths = download.report.nodes_on_chosen_paths;
         row.map_paths = merged.paths.size();
-        DiagnoseDownload(index, merged, policy, download.map, one, copy_runs[index], row);
+        DiagnoseDownload(index, merged, stamp_of, policy, download.map, one, copy_runs[index], row);
         const std::lock_guard lock(result_mutex_);
         result_.downloads.push_back(row);
       }
@@ -468,15 +470,14 @@ class FleetRun {
 
   // Per held-out frame of `outing`: does the download hold a node near it, and where it lost
   // a frame copy localised, was the node copy localised in held, or where in time was it?
-  void DiagnoseDownload(std::size_t outing, const GraphBatch& merged, const DownloadPolicy& policy,
-                        const GraphBatch& download, const HeldOutRun& run, const HeldOutRun& copy,
-                        FleetDownload& row) const {
+  void DiagnoseDownload(std::size_t outing, const GraphBatch& merged,
+                        const std::unordered_map<Uuid, std::int64_t>& stamp_of,
+                        const DownloadPolicy& policy, const GraphBatch& download,
+                        const HeldOutRun& run, const HeldOutRun& copy, FleetDownload& row) const {
     const std::vector<Eigen::Vector3d> nodes = Places(download);
     const std::vector<Eigen::Vector3d> frames = FramePlaces(outing);
     std::unordered_set<Uuid> held;
     for (const Node& node : download.nodes) held.insert(node.id);
-    std::unordered_map<Uuid, std::int64_t> stamp_of;
-    for (const Node& node : merged.nodes) stamp_of.emplace(node.id, node.stamp_ns);
     std::unordered_set<Uuid> window_paths, used_in_window;
     for (const Path& path : merged.paths) {
       if (WithinTimeOfDayWindow(path.start_ns, policy.mission_start_min, policy.window_min)) {

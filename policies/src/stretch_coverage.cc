@@ -12,10 +12,18 @@
 
 namespace fleetmap {
 
-void ValidateCoverageOptions(const CoverageOptions& options) {
-  if (!(options.stretch_m > 0.0 && std::isfinite(options.stretch_m))) {
+namespace {
+
+void CheckStretchLength(double stretch_m) {
+  if (!(stretch_m > 0.0 && std::isfinite(stretch_m))) {
     throw Error(ErrorCode::kInvalidArgument, "coverage: stretch_m must be finite and > 0");
   }
+}
+
+}  // namespace
+
+void ValidateCoverageOptions(const CoverageOptions& options) {
+  CheckStretchLength(options.stretch_m);
   if (options.experiences < 1) {
     throw Error(ErrorCode::kInvalidArgument, "coverage: experiences (k) must be >= 1");
   }
@@ -27,9 +35,7 @@ void ValidateCoverageOptions(const CoverageOptions& options) {
 
 MapStretches MapStretches::Cut(std::span<const Node* const> nodes, std::span<const Edge> edges,
                                double stretch_m) {
-  if (!(stretch_m > 0.0 && std::isfinite(stretch_m))) {
-    throw Error(ErrorCode::kInvalidArgument, "coverage: stretch_m must be finite and > 0");
-  }
+  CheckStretchLength(stretch_m);
   std::unordered_map<Uuid, std::size_t> position;
   position.reserve(nodes.size());
   for (std::size_t i = 0; i < nodes.size(); ++i) position.emplace(nodes[i]->id, i);
