@@ -22,9 +22,9 @@
 #include "fleetmap/agent/agent_sync.h"
 #include "fleetmap/agent/local_map.h"
 #include "fleetmap/agent/sync_client.h"
-#include "fleetmap/common/error.h"
-#include "fleetmap/common/graph_store.h"
+#include "fleetmap/core/error.h"
 #include "fleetmap/policies/download_policy.h"
+#include "fleetmap/store/graph_store.h"
 
 namespace fleetmap {
 namespace {

@@ -9,9 +9,9 @@
 #include <string>
 
 #include "commands.h"
-#include "fleetmap/common/annotation_store.h"
-#include "fleetmap/common/graph_store.h"
-#include "fleetmap/common/sensor_index.h"
+#include "fleetmap/store/annotation_store.h"
+#include "fleetmap/store/graph_store.h"
+#include "fleetmap/store/sensor_index.h"
 #include "repository_arguments.h"
 
 namespace fleetmap::cli {

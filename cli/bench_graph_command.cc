@@ -24,8 +24,8 @@
 #include "bench_report.h"
 #include "chain_workload.h"
 #include "commands.h"
-#include "fleetmap/common/error.h"
-#include "fleetmap/common/graph_store.h"
+#include "fleetmap/core/error.h"
+#include "fleetmap/store/graph_store.h"
 #include "raw_baseline.h"
 
 namespace fleetmap::cli {

@@ -23,10 +23,10 @@
 #include <vector>
 
 #include "commands.h"
-#include "fleetmap/common/error.h"
-#include "fleetmap/common/graph_store.h"
-#include "fleetmap/common/sensor_index.h"
-#include "fleetmap/common/uuid.h"
+#include "fleetmap/core/error.h"
+#include "fleetmap/core/uuid.h"
+#include "fleetmap/store/graph_store.h"
+#include "fleetmap/store/sensor_index.h"
 #include "raw_baseline.h"
 
 namespace fleetmap::cli {

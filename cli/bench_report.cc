@@ -8,7 +8,7 @@
 #include <set>
 #include <tuple>
 
-#include "fleetmap/common/error.h"
+#include "fleetmap/core/error.h"
 #include "fleetmap/experiments/gnuplot.h"
 
 namespace fleetmap::cli {

@@ -10,8 +10,8 @@
 
 #include <cstddef>
 
-#include "fleetmap/common/graph.h"
-#include "fleetmap/common/uuid.h"
+#include "fleetmap/core/graph.h"
+#include "fleetmap/core/uuid.h"
 
 namespace fleetmap::cli {
 

@@ -10,8 +10,8 @@
 #include <memory>
 
 #include "commands.h"
-#include "fleetmap/common/error.h"
-#include "fleetmap/common/uuid.h"
+#include "fleetmap/core/error.h"
+#include "fleetmap/core/uuid.h"
 #include "fleetmap/experiments/fleet_demo.h"
 
 namespace fleetmap::cli {

@@ -8,7 +8,7 @@
 #include <optional>
 
 #include "commands.h"
-#include "fleetmap/common/error.h"
+#include "fleetmap/core/error.h"
 #include "fleetmap/policies/download_policy.h"
 #include "new_store.h"
 #include "repository_arguments.h"

@@ -10,7 +10,7 @@
 #include <set>
 
 #include "commands.h"
-#include "fleetmap/common/error.h"
+#include "fleetmap/core/error.h"
 #include "fleetmap/policies/dream_plan.h"
 #include "fleetmap/policies/dreaming.h"
 #include "fleetmap/policies/held_out_replay.h"

@@ -10,13 +10,13 @@
 #include <vector>
 
 #include "commands.h"
-#include "fleetmap/common/error.h"
-#include "fleetmap/common/uuid.h"
+#include "fleetmap/core/error.h"
+#include "fleetmap/core/uuid.h"
 #include "fleetmap/experiments/fleet_experiment.h"
 #include "fleetmap/experiments/fleet_report.h"
 #include "fleetmap/experiments/ranking_experiment.h"
 #include "fleetmap/experiments/ranking_report.h"
-#include "fleetmap/experiments/world_config.h"
+#include "fleetmap/world/world_config.h"
 #include "progress_bar.h"
 
 namespace fleetmap::cli {

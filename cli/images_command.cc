@@ -11,10 +11,10 @@
 #include <string>
 
 #include "commands.h"
-#include "fleetmap/common/error.h"
-#include "fleetmap/common/graph_store.h"
-#include "fleetmap/experiments/stereo_image_log.h"
-#include "fleetmap/experiments/stereo_sequence.h"
+#include "fleetmap/core/error.h"
+#include "fleetmap/stereo/stereo_image_log.h"
+#include "fleetmap/stereo/stereo_sequence.h"
+#include "fleetmap/store/graph_store.h"
 #include "progress_bar.h"
 #include "repository_arguments.h"
 

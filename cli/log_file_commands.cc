@@ -11,8 +11,8 @@
 #include <vector>
 
 #include "commands.h"
-#include "fleetmap/common/error.h"
-#include "fleetmap/common/record_file.h"
+#include "fleetmap/core/error.h"
+#include "fleetmap/records/record_file.h"
 
 namespace fleetmap::cli {
 namespace {

@@ -10,9 +10,9 @@
 #include <vector>
 
 #include "commands.h"
-#include "fleetmap/common/error.h"
-#include "fleetmap/common/graph_store.h"
-#include "fleetmap/common/sensor_ingest.h"
+#include "fleetmap/core/error.h"
+#include "fleetmap/records/sensor_ingest.h"
+#include "fleetmap/store/graph_store.h"
 #include "progress_bar.h"
 #include "repository_arguments.h"
 

@@ -3,7 +3,7 @@
 #include <iostream>
 
 #include "commands.h"
-#include "fleetmap/common/error.h"
+#include "fleetmap/core/error.h"
 
 int main(int argc, char** argv) {
   CLI::App app{

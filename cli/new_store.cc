@@ -2,7 +2,7 @@
 
 #include <filesystem>
 
-#include "fleetmap/common/error.h"
+#include "fleetmap/core/error.h"
 #include "repository_arguments.h"
 
 namespace fleetmap::cli {

@@ -4,8 +4,8 @@
 
 #include <string>
 
-#include "fleetmap/common/graph.h"
-#include "fleetmap/common/graph_store.h"
+#include "fleetmap/core/graph.h"
+#include "fleetmap/store/graph_store.h"
 
 namespace fleetmap::cli {
 

@@ -18,9 +18,9 @@
 #include <vector>
 
 #include "commands.h"
-#include "fleetmap/common/error.h"
-#include "fleetmap/common/graph_store.h"
-#include "fleetmap/common/sensor_index.h"
+#include "fleetmap/core/error.h"
+#include "fleetmap/store/graph_store.h"
+#include "fleetmap/store/sensor_index.h"
 #include "repository_arguments.h"
 
 namespace fleetmap::cli {

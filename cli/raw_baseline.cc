@@ -12,7 +12,7 @@
 #include <utility>
 #include <vector>
 
-#include "fleetmap/common/error.h"
+#include "fleetmap/core/error.h"
 
 namespace fleetmap::cli {
 

@@ -10,7 +10,7 @@
 #include <string>
 
 #include "chain_workload.h"
-#include "fleetmap/common/graph_store.h"
+#include "fleetmap/store/graph_store.h"
 
 namespace fleetmap::cli {
 

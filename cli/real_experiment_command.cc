@@ -8,7 +8,7 @@
 #include <string>
 
 #include "commands.h"
-#include "fleetmap/common/error.h"
+#include "fleetmap/core/error.h"
 #include "fleetmap/experiments/real_experiment.h"
 #include "progress_bar.h"
 

@@ -9,7 +9,7 @@
 #include <tuple>
 
 #include "commands.h"
-#include "fleetmap/common/error.h"
+#include "fleetmap/core/error.h"
 #include "fleetmap/experiments/real_merge_experiment.h"
 #include "progress_bar.h"
 

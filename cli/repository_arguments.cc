@@ -5,7 +5,7 @@
 #include <ctime>
 #include <filesystem>
 
-#include "fleetmap/common/error.h"
+#include "fleetmap/core/error.h"
 
 namespace fleetmap::cli {
 

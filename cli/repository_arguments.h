@@ -10,10 +10,10 @@
 #include <string>
 #include <string_view>
 
-#include "fleetmap/common/error.h"
-#include "fleetmap/common/uuid.h"
-#include "fleetmap/common/version_store.h"
+#include "fleetmap/core/error.h"
+#include "fleetmap/core/uuid.h"
 #include "fleetmap/server/repository.h"
+#include "fleetmap/store/version_store.h"
 
 namespace fleetmap::cli {
 

@@ -7,7 +7,7 @@
 #include <optional>
 
 #include "commands.h"
-#include "fleetmap/common/error.h"
+#include "fleetmap/core/error.h"
 #include "new_store.h"
 #include "repository_arguments.h"
 

@@ -8,8 +8,8 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.h"
-#include "fleetmap/common/error.h"
-#include "fleetmap/common/graph_store.h"
+#include "fleetmap/core/error.h"
+#include "fleetmap/store/graph_store.h"
 #include "progress_bar.h"
 #include "repository_arguments.h"
 

@@ -1,17 +1,33 @@
 # Helpers shared by every folder: one warning set, one way to declare a library and a test.
+include(GNUInstallDirs)
 
 set(FLEETMAP_WARNINGS -Wall -Wextra -Wpedantic -Wshadow -Wnon-virtual-dtor -Wold-style-cast
                       -Wcast-align -Wunused -Woverloaded-virtual)
 
-# fleetmap_library(NAME SOURCES ... DEPS ...): a library with public headers in include/
-# and private implementation in src/ (LevelDB's split).
+# fleetmap_library(NAME SOURCES ... PUBLIC_DEPS ... PRIVATE_DEPS ...): a library with public
+# headers in include/ and private implementation in src/ (LevelDB's split). NAME is
+# fleetmap_<concern>; the library is also fleetmap::<concern>, the name another project links
+# after find_package(fleetmap). The deps are what the library may include: scripts/check-layering
+# fails when its sources include a header of a library not listed here.
 function(fleetmap_library name)
   cmake_parse_arguments(ARG "" "" "SOURCES;PUBLIC_DEPS;PRIVATE_DEPS" ${ARGN})
   add_library(${name} ${ARG_SOURCES})
-  target_include_directories(${name} PUBLIC ${CMAKE_CURRENT_SOURCE_DIR}/include
+  string(REGEX REPLACE "^fleetmap_" "" concern ${name})
+  add_library(fleetmap::${concern} ALIAS ${name})
+  set_target_properties(${name} PROPERTIES EXPORT_NAME ${concern})
+  target_include_directories(${name} PUBLIC $<BUILD_INTERFACE:${CMAKE_CURRENT_SOURCE_DIR}/include>
+                                            $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}>
                                      PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/src)
   target_link_libraries(${name} PUBLIC ${ARG_PUBLIC_DEPS} PRIVATE ${ARG_PRIVATE_DEPS})
   target_compile_options(${name} PRIVATE ${FLEETMAP_WARNINGS})
+  # The public headers are C++20 (operator<=>, std::span): said on the interface, so a project
+  # that links an installed fleetmap library needs no CMAKE_CXX_STANDARD of its own.
+  target_compile_features(${name} INTERFACE cxx_std_20)
+  set_property(GLOBAL APPEND PROPERTY FLEETMAP_LIBRARIES ${name})
+  string(REPLACE ";" " " public_deps "${ARG_PUBLIC_DEPS}")
+  string(REPLACE ";" " " private_deps "${ARG_PRIVATE_DEPS}")
+  set_property(GLOBAL APPEND PROPERTY FLEETMAP_LAYERING
+    "${name}|${CMAKE_CURRENT_SOURCE_DIR}|${public_deps}|${private_deps}")
 endfunction()
 
 # fleetmap_warnings(TARGET): the project warning set on an executable.
@@ -51,3 +67,16 @@ ${body}  };
   configure_file(${gen}.tmp ${gen} COPYONLY)
   set(${out_var} ${gen} PARENT_SCOPE)
 endfunction()
+
+# Writes build/fleetmap-layering.txt once every library is declared: one line per library,
+# NAME|SOURCE_DIR|PUBLIC DEPS|PRIVATE DEPS, which scripts/check-layering reads to compare each
+# library's includes with what it links.
+function(fleetmap_write_layering)
+  get_property(lines GLOBAL PROPERTY FLEETMAP_LAYERING)
+  list(APPEND lines "fleetmap_proto|${PROJECT_SOURCE_DIR}/proto|protobuf::libprotobuf|")
+  string(REPLACE ";" "\n" text "${lines}")
+  file(WRITE ${CMAKE_BINARY_DIR}/fleetmap-layering.txt.tmp "${text}\n")
+  configure_file(${CMAKE_BINARY_DIR}/fleetmap-layering.txt.tmp
+                 ${CMAKE_BINARY_DIR}/fleetmap-layering.txt COPYONLY)
+endfunction()
+cmake_language(DEFER DIRECTORY ${CMAKE_SOURCE_DIR} CALL fleetmap_write_layering)

@@ -18,7 +18,7 @@
 #include <iostream>
 #include <memory>
 
-#include "fleetmap/common/error.h"
+#include "fleetmap/core/error.h"
 #include "fleetmap/server/status_http.h"
 #include "fleetmap/server/sync_server.h"
 

@@ -7,7 +7,7 @@
 #include <utility>
 #include <vector>
 
-#include "fleetmap/common/map_chunks.h"
+#include "fleetmap/core/map_chunks.h"
 
 namespace fleetmap {
 

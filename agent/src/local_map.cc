@@ -11,8 +11,8 @@
 #include <memory>
 #include <utility>
 
-#include "fleetmap/common/error.h"
-#include "fleetmap/common/graph_store.h"
+#include "fleetmap/core/error.h"
+#include "fleetmap/store/graph_store.h"
 #include "sync_state_file.h"
 
 namespace fleetmap {

@@ -1,6 +1,6 @@
 #include "connection_admission.h"
 
-#include "fleetmap/common/error.h"
+#include "fleetmap/core/error.h"
 
 namespace fleetmap::server {
 

@@ -3,9 +3,9 @@
 #include <algorithm>
 #include <unordered_set>
 
-#include "fleetmap/common/error.h"
-#include "fleetmap/common/map_chunks.h"
-#include "fleetmap/common/sync_frame.h"
+#include "fleetmap/core/error.h"
+#include "fleetmap/core/map_chunks.h"
+#include "fleetmap/wire/sync_frame.h"
 
 namespace fleetmap::server {
 namespace {

@@ -5,7 +5,7 @@
 #include <algorithm>
 #include <tuple>
 
-#include "fleetmap/common/error.h"
+#include "fleetmap/core/error.h"
 
 namespace fleetmap::server {
 namespace {

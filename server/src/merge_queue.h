@@ -35,7 +35,7 @@
 #include <unordered_map>
 #include <vector>
 
-#include "fleetmap/common/uuid.h"
+#include "fleetmap/core/uuid.h"
 #include "fleetmap/server/repository.h"
 
 namespace fleetmap::server {

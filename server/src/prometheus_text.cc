@@ -4,7 +4,7 @@
 #include <cmath>
 #include <string>
 
-#include "fleetmap/common/error.h"
+#include "fleetmap/core/error.h"
 
 namespace fleetmap {
 namespace {

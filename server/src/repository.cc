@@ -5,8 +5,8 @@
 #include <unordered_map>
 #include <unordered_set>
 
-#include "fleetmap/common/error.h"
-#include "fleetmap/common/map_chunks.h"
+#include "fleetmap/core/error.h"
+#include "fleetmap/core/map_chunks.h"
 #include "merge_report_json.h"
 
 namespace fleetmap {

@@ -8,7 +8,7 @@
 #include <array>
 #include <nlohmann/json.hpp>
 
-#include "fleetmap/common/error.h"
+#include "fleetmap/core/error.h"
 
 namespace fleetmap {
 namespace {

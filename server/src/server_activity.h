@@ -12,11 +12,11 @@
 #include <string>
 #include <vector>
 
-#include "fleetmap/common/graph_store.h"
-#include "fleetmap/common/uuid.h"
-#include "fleetmap/common/version_store.h"
+#include "fleetmap/core/uuid.h"
 #include "fleetmap/server/fleet_status.h"
 #include "fleetmap/server/robot_registry.h"
+#include "fleetmap/store/graph_store.h"
+#include "fleetmap/store/version_store.h"
 
 namespace fleetmap::server {
 

@@ -29,7 +29,7 @@
 #include <utility>
 #include <vector>
 
-#include "fleetmap/common/error.h"
+#include "fleetmap/core/error.h"
 #include "status_routes.h"
 
 namespace fleetmap {

@@ -2,7 +2,7 @@
 
 #include <spdlog/spdlog.h>
 
-#include "fleetmap/common/error.h"
+#include "fleetmap/core/error.h"
 
 namespace fleetmap::server {
 

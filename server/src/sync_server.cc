@@ -14,7 +14,7 @@
 
 #include "connection_admission.h"
 #include "download_cache.h"
-#include "fleetmap/common/error.h"
+#include "fleetmap/core/error.h"
 #include "fleetmap/server/robot_registry.h"
 #include "merge_queue.h"
 #include "server_activity.h"

@@ -10,10 +10,10 @@
 #include <thread>
 #include <type_traits>
 
-#include "fleetmap/common/error.h"
-#include "fleetmap/common/map_chunks.h"
-#include "fleetmap/common/sync_frame.h"
+#include "fleetmap/core/error.h"
+#include "fleetmap/core/map_chunks.h"
 #include "fleetmap/server/robot_registry.h"
+#include "fleetmap/wire/sync_frame.h"
 
 namespace fleetmap::server {
 namespace {

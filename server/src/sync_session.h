@@ -29,8 +29,8 @@
 
 #include "connection_admission.h"
 #include "download_cache.h"
-#include "fleetmap/common/error.h"
-#include "fleetmap/common/uuid.h"
+#include "fleetmap/core/error.h"
+#include "fleetmap/core/uuid.h"
 #include "fleetmap/server/sync_server.h"
 #include "fleetmap/sync.pb.h"
 #include "merge_queue.h"

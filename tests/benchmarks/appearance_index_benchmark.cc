@@ -11,7 +11,7 @@
 #include <random>
 #include <vector>
 
-#include "fleetmap/common/appearance_index.h"
+#include "fleetmap/ebn/appearance_index.h"
 #include "landmark_scene.h"
 
 namespace fleetmap {

@@ -13,8 +13,8 @@
 #include <opencv2/features2d.hpp>
 #include <vector>
 
-#include "fleetmap/common/descriptor_matcher.h"
-#include "fleetmap/common/localiser.h"
+#include "fleetmap/ebn/descriptor_matcher.h"
+#include "fleetmap/ebn/localiser.h"
 #include "landmark_scene.h"
 
 namespace fleetmap {

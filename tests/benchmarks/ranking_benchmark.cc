@@ -7,8 +7,8 @@
 #include <random>
 #include <vector>
 
-#include "fleetmap/policies/distance_ranking.h"
-#include "fleetmap/policies/path_ranking.h"
+#include "fleetmap/ranking/distance_ranking.h"
+#include "fleetmap/ranking/path_ranking.h"
 
 namespace fleetmap {
 namespace {

@@ -26,10 +26,10 @@
 #include <utility>
 #include <vector>
 
-#include "fleetmap/experiments/euroc_sequence.h"
-#include "fleetmap/experiments/stereo_front_end.h"
-#include "fleetmap/experiments/stereo_sequence.h"
-#include "fleetmap/experiments/visual_odometry.h"
+#include "fleetmap/stereo/euroc_sequence.h"
+#include "fleetmap/stereo/stereo_front_end.h"
+#include "fleetmap/stereo/stereo_sequence.h"
+#include "fleetmap/stereo/visual_odometry.h"
 
 namespace fleetmap {
 namespace {

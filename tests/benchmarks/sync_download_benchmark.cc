@@ -23,7 +23,7 @@
 #include <thread>
 
 #include "fleet_processes.h"
-#include "fleetmap/common/sync_frame.h"
+#include "fleetmap/wire/sync_frame.h"
 #include "raw_sync_client.h"
 #include "scratch_dir.h"
 

@@ -10,8 +10,8 @@
 #include <cstdlib>
 #include <string_view>
 
-#include "fleetmap/common/error.h"
-#include "fleetmap/common/sync_frame.h"
+#include "fleetmap/core/error.h"
+#include "fleetmap/wire/sync_frame.h"
 
 namespace {
 

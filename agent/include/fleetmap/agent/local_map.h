@@ -34,8 +34,8 @@
 #include <string>
 #include <vector>
 
-#include "fleetmap/common/graph.h"
-#include "fleetmap/common/uuid.h"
+#include "fleetmap/core/graph.h"
+#include "fleetmap/core/uuid.h"
 
 namespace fleetmap {
 

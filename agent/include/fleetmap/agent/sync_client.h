@@ -1,5 +1,5 @@
 // A blocking client for the sync protocol (proto/fleetmap/sync.proto; framing in
-// common/include/fleetmap/common/sync_frame.h): one TCP connection to fleetmapd, optionally
+// common/wire/include/fleetmap/wire/sync_frame.h): one TCP connection to fleetmapd, optionally
 // over TLS, sending and receiving whole SyncFrames.
 //
 // Every connect, handshake, read and write has a deadline (async operations driven by
@@ -26,8 +26,8 @@
 #include <string>
 #include <string_view>
 
-#include "fleetmap/common/error.h"
-#include "fleetmap/common/sync_frame.h"
+#include "fleetmap/core/error.h"
+#include "fleetmap/wire/sync_frame.h"
 
 namespace fleetmap {
 

@@ -22,12 +22,12 @@
 #include <string_view>
 #include <vector>
 
-#include "fleetmap/common/appearance_index.h"
-#include "fleetmap/common/experience_map.h"
-#include "fleetmap/common/graph_store.h"
-#include "fleetmap/common/version_store.h"
+#include "fleetmap/ebn/appearance_index.h"
+#include "fleetmap/ebn/experience_map.h"
 #include "fleetmap/policies/download_policy.h"
 #include "fleetmap/policies/merge.h"
+#include "fleetmap/store/graph_store.h"
+#include "fleetmap/store/version_store.h"
 
 namespace fleetmap {
 

@@ -19,8 +19,8 @@
 #include <string_view>
 #include <vector>
 
-#include "fleetmap/common/uuid.h"
-#include "fleetmap/common/version_store.h"
+#include "fleetmap/core/uuid.h"
+#include "fleetmap/store/version_store.h"
 
 namespace fleetmap {
 

@@ -1,0 +1,81 @@
+// The experience graph as the localiser works on it (seed 002 §III-B): every node's landmarks
+// decoded, metric edges as an adjacency list, and the appearance index for relocalisation.
+// The store (a GraphReader, graph_io.h) is the durable copy; this is the in-memory working set the
+// builder reads per frame (a store round trip per candidate would cost more than the localisation
+// itself).
+//
+// Threading: reads are safe from many threads while nobody writes; the builder that writes
+// must be the only user. Localise-only runs share one map read-only.
+#pragma once
+
+#include <memory>
+#include <span>
+#include <unordered_map>
+#include <vector>
+
+#include "fleetmap/core/graph.h"
+#include "fleetmap/core/graph_io.h"
+#include "fleetmap/ebn/appearance_index.h"
+
+namespace fleetmap {
+
+class ExperienceMap {
+ public:
+  using NodeIndex = std::uint32_t;
+
+  struct MetricLink {
+    NodeIndex to = 0;
+    Se3 from_T_to = Se3::Identity();
+  };
+
+  struct Experience {
+    Node node;  // landmarks_blob left empty: the decoded landmarks are below
+    Landmarks landmarks;
+    std::vector<MetricLink> links;  // both directions of every metric edge touching the node
+  };
+
+  explicit ExperienceMap(std::shared_ptr<const AppearanceVocabulary> vocabulary);
+
+  // Every node and metric edge of the store (path edges belong to path memory, not here).
+  static ExperienceMap Load(GraphReader& store,
+                            std::shared_ptr<const AppearanceVocabulary> vocabulary);
+  // The nodes (landmarks decoded from their blobs) and the metric edges among `edges`, e.g. a
+  // map checked out at a revision; of several edges between one pair of nodes, the first. Throws
+  // Error(kCorrupt) for landmarks that do not decode and Error(kIntegrity) for a metric edge with
+  // an end outside `nodes`.
+  static ExperienceMap FromGraph(std::span<const Node> nodes, std::span<const Edge> edges,
+                                 std::shared_ptr<const AppearanceVocabulary> vocabulary);
+
+  // Adds a node (landmarks decoded from node.landmarks_blob unless given) and indexes its
+  // appearance. Re-adding a known id throws Error(kConflict).
+  NodeIndex AddNode(const Node& node, Landmarks landmarks);
+  // Adds a metric edge; both endpoints must be known (Error(kIntegrity) otherwise).
+  void AddMetricEdge(const Uuid& from, const Uuid& to, const Se3& from_T_to);
+
+  std::optional<NodeIndex> Find(const Uuid& id) const;
+  const Experience& at(NodeIndex index) const { return experiences_[index]; }
+  std::size_t size() const { return experiences_.size(); }
+  std::size_t metric_edge_count() const { return metric_edges_; }
+  const AppearanceIndex& appearance() const { return appearance_; }
+
+  // Nodes within `radius_m` of a position given in the frame of `origin`, found by
+  // breadth-first search over metric edges (seed 002 §III-C: the local neighbourhood of the
+  // position estimate). Each node's pose comes from the first path that reaches it; nodes
+  // further than `search_radius_m` from the origin are not expanded, which bounds the search
+  // in a dense map. Returns (node, origin_T_node, distance from the position), unsorted.
+  struct Nearby {
+    NodeIndex node = 0;
+    Se3 origin_T_node = Se3::Identity();
+    double distance_m = 0.0;
+  };
+  std::vector<Nearby> Neighbourhood(NodeIndex origin, const Eigen::Vector3d& position_in_origin,
+                                    double radius_m, double search_radius_m) const;
+
+ private:
+  std::vector<Experience> experiences_;
+  std::unordered_map<Uuid, NodeIndex> index_of_;
+  std::size_t metric_edges_ = 0;
+  AppearanceIndex appearance_;
+};
+
+}  // namespace fleetmap

@@ -1,0 +1,94 @@
+#include "fleetmap/ebn/experience_map.h"
+
+#include <deque>
+
+#include "fleetmap/core/error.h"
+
+namespace fleetmap {
+
+ExperienceMap::ExperienceMap(std::shared_ptr<const AppearanceVocabulary> vocabulary)
+    : appearance_(std::move(vocabulary)) {}
+
+ExperienceMap ExperienceMap::Load(GraphReader& store,
+                                  std::shared_ptr<const AppearanceVocabulary> vocabulary) {
+  const GraphBatch map = store.ReadMap();
+  return FromGraph(map.nodes, map.edges, std::move(vocabulary));
+}
+
+ExperienceMap ExperienceMap::FromGraph(std::span<const Node> nodes, std::span<const Edge> edges,
+                                       std::shared_ptr<const AppearanceVocabulary> vocabulary) {
+  ExperienceMap map(std::move(vocabulary));
+  for (const Node& node : nodes) map.AddNode(node, DecodeLandmarks(node.landmarks_blob));
+  for (const Edge& edge : edges) {
+    if (edge.kind != EdgeKind::kMetric) continue;
+    const std::optional<NodeIndex> from = map.Find(edge.from), to = map.Find(edge.to);
+    if (!from || !to) {
+      throw Error(ErrorCode::kIntegrity, "experience map: metric edge " + edge.id.ToString() +
+                                             " has an end outside the map");
+    }
+    // One relative pose per pair of nodes: a second edge between them (either way round)
+    // would only give the search a second, disagreeing estimate.
+    bool linked = false;
+    for (const MetricLink& link : map.experiences_[*from].links) linked |= link.to == *to;
+    if (!linked) map.AddMetricEdge(edge.from, edge.to, edge.from_T_to);
+  }
+  return map;
+}
+
+ExperienceMap::NodeIndex ExperienceMap::AddNode(const Node& node, Landmarks landmarks) {
+  const auto index = static_cast<NodeIndex>(experiences_.size());
+  if (!index_of_.try_emplace(node.id, index).second) {
+    throw Error(ErrorCode::kConflict, "experience map: node " + node.id.ToString() + " twice");
+  }
+  Experience& experience = experiences_.emplace_back();
+  experience.node = node;
+  experience.node.landmarks_blob.clear();
+  experience.landmarks = std::move(landmarks);
+  appearance_.Add(node.id, experience.landmarks.descriptors);
+  return index;
+}
+
+void ExperienceMap::AddMetricEdge(const Uuid& from, const Uuid& to, const Se3& from_T_to) {
+  const std::optional<NodeIndex> a = Find(from), b = Find(to);
+  if (!a || !b) {
+    throw Error(ErrorCode::kIntegrity, "experience map: metric edge " + from.ToString() + " -> " +
+                                           to.ToString() + " names an unknown node");
+  }
+  experiences_[*a].links.push_back({*b, from_T_to});
+  experiences_[*b].links.push_back({*a, from_T_to.inverse()});
+  ++metric_edges_;
+}
+
+std::optional<ExperienceMap::NodeIndex> ExperienceMap::Find(const Uuid& id) const {
+  const auto it = index_of_.find(id);
+  if (it == index_of_.end()) return std::nullopt;
+  return it->second;
+}
+
+std::vector<ExperienceMap::Nearby> ExperienceMap::Neighbourhood(
+    NodeIndex origin, const Eigen::Vector3d& position_in_origin, double radius_m,
+    double search_radius_m) const {
+  // Visited marks live in a local hash set rather than in the nodes, so concurrent
+  // read-only searches on one map do not interfere.
+  std::unordered_map<NodeIndex, Se3> pose_of;
+  std::deque<NodeIndex> queue;
+  std::vector<Nearby> nearby;
+  pose_of.emplace(origin, Se3::Identity());
+  queue.push_back(origin);
+  while (!queue.empty()) {
+    const NodeIndex current = queue.front();
+    queue.pop_front();
+    const Se3 origin_T_current = pose_of.at(current);
+    const double distance = (origin_T_current.translation() - position_in_origin).norm();
+    if (distance <= radius_m) nearby.push_back({current, origin_T_current, distance});
+    if (origin_T_current.translation().norm() > search_radius_m) continue;
+    for (const MetricLink& link : experiences_[current].links) {
+      if (pose_of.contains(link.to)) continue;
+      pose_of.emplace(link.to, origin_T_current * link.from_T_to);
+      queue.push_back(link.to);
+    }
+  }
+  return nearby;
+}
+
+}  // namespace fleetmap

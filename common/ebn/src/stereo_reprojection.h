@@ -1,0 +1,47 @@
+// Residuals of matched landmarks in rectified stereo pixels, for the localiser's stereo mode
+// (localiser.h): the inlier test and the Gauss-Newton refinement of node_T_frame.
+//
+// Conventions: a camera projects a point q of its rectified left frame to
+// (u_left, v, u_right) = f (q.x, q.y, q.x - b) / q.z, without the principal point, which
+// cancels in every residual. The pose is perturbed on the left, node_T_frame <- exp(xi) *
+// node_T_frame with xi = (omega, v) (rotation vector, translation), as in Sophus.
+#pragma once
+
+#include <Eigen/Core>
+#include <optional>
+#include <vector>
+
+#include "fleetmap/core/graph.h"
+#include "fleetmap/core/se3.h"
+
+namespace fleetmap {
+
+class StereoReprojection {
+ public:
+  // Column k of p_frame and p_node is match k. At least one camera is set.
+  StereoReprojection(const Eigen::Matrix3Xd& p_frame, const Eigen::Matrix3Xd& p_node,
+                     const std::optional<StereoCamera>& frame_camera,
+                     const std::optional<StereoCamera>& node_camera);
+
+  // The matches node_T_frame explains: in every known camera the point lies in front and
+  // projects within threshold_px (Euclidean over u_left, v, u_right) of its measurement.
+  std::vector<int> Inliers(const Se3& node_T_frame, double threshold_px) const;
+
+  // Gauss-Newton from node_T_frame on the summed squared pixel residuals of `inliers` (at
+  // least three); returns the refined pose, or node_T_frame when the system is singular.
+  Se3 Refine(const Se3& node_T_frame, const std::vector<int>& inliers) const;
+
+ private:
+  struct View {
+    Eigen::Matrix3d rect_R_points;
+    double focal_px = 0, baseline_m = 0;
+    Eigen::Matrix3Xd measured;  // (u_left, v, u_right) of each match's own point
+  };
+  static View MakeView(const StereoCamera& camera, const Eigen::Matrix3Xd& points);
+
+  const Eigen::Matrix3Xd& p_frame_;
+  const Eigen::Matrix3Xd& p_node_;
+  std::optional<View> frame_view_, node_view_;
+};
+
+}  // namespace fleetmap

@@ -1,0 +1,615 @@
+// PostgreSQL VersionStore (version_store.h; schema in migrations/0002_versions.sql).
+//
+// - It shares its GraphStore's PgSession: every call runs in the open explicit Transaction if
+//   there is one, so it lands or rolls back with it.
+// - Writes of more than one statement run through PgSession::Atomically: under a savepoint
+//   inside a Transaction, else in a transaction of their own.
+// - Concurrent writers are many connections (seed 000 §5.2). The database arbitrates: the
+//   primary key on revisions.number makes two writers racing for head + 1 end in one
+//   revision and one Error(kConflict), and a submission's row is locked (FOR UPDATE) while one
+//   writer decides what a chunk, a completion or a state change does to it.
+// - Additions are checked and versioned set-wise (uuid[] parameters), a few statements per
+//   revision however large it is.
+#include "postgres/postgres_version_store.h"
+
+#include <bit>
+#include <string>
+#include <vector>
+
+#include "fleetmap/core/error.h"
+#include "postgres/element_rows.h"
+#include "version_rules.h"
+
+namespace fleetmap::internal {
+
+namespace {
+
+constexpr const char* kSubmissionColumns =
+    "id, robot, author, received_ns, chunk_count, bytes, digest, state, revision, error";
+constexpr const char* kRevisionColumns =
+    "number, created_ns, author, kind, submission, coalesce(reverted, 0), nodes_added,"
+    " edges_added, paths_added, nodes_hidden, edges_hidden, paths_hidden, report";
+
+// The visibility rule of 0002_versions.sql for alias v of a LEFT JOIN on element_versions
+// (no row: revision 0, never hidden), at revision $1.
+constexpr const char* kVisibleAtParam1 =
+    "coalesce(v.added_rev, 0) <= $1 AND (v.hidden_rev IS NULL OR v.hidden_rev > $1)";
+
+// True when the element of element_versions row v is stored (a row whose element the
+// caller never Put stays invisible).
+constexpr const char* kElementStored =
+    "CASE v.kind WHEN 1 THEN EXISTS (SELECT 1 FROM nodes x WHERE x.id = v.id)"
+    " WHEN 2 THEN EXISTS (SELECT 1 FROM edges x WHERE x.id = v.id)"
+    " ELSE EXISTS (SELECT 1 FROM paths x WHERE x.id = v.id) END";
+
+// Edges with an end among the nodes, or on a path, that revision $1 hid.
+constexpr const char* kEdgesTouchingHiddenAt1 =
+    "WITH hidden AS (SELECT id, kind FROM element_versions WHERE hidden_rev = $1 AND kind <> 2),"
+    " touching AS (SELECT e.id FROM hidden h JOIN edges e ON e.from_id = h.id WHERE h.kind = 1"
+    " UNION SELECT e.id FROM hidden h JOIN edges e ON e.to_id = h.id WHERE h.kind = 1"
+    " UNION SELECT e.id FROM hidden h JOIN edges e ON e.path_id = h.id WHERE h.kind = 3) ";
+
+std::string Str(std::int64_t value) {
+  return std::to_string(value);
+}
+
+std::string RevisionName(RevisionNumber number) {
+  return "revision " + std::to_string(number);
+}
+
+Submission ReadSubmission(const pqxx::row& r) {
+  Submission s;
+  s.id = UuidField(r[0]);
+  s.robot = UuidField(r[1]);
+  s.author = r[2].c_str();
+  s.received_ns = r[3].as<std::int64_t>();
+  s.chunk_count = r[4].as<std::int64_t>();
+  s.bytes = r[5].as<std::int64_t>();
+  s.digest = std::bit_cast<std::uint64_t>(r[6].as<std::int64_t>());
+  s.state = static_cast<SubmissionState>(r[7].as<int>());
+  s.revision = r[8].as<std::int64_t>();
+  s.error = r[9].c_str();
+  return s;
+}
+
+Revision ReadRevision(const pqxx::row& r) {
+  Revision v;
+  v.number = r[0].as<std::int64_t>();
+  v.created_ns = r[1].as<std::int64_t>();
+  v.author = r[2].c_str();
+  v.kind = static_cast<RevisionKind>(r[3].as<int>());
+  v.submission = UuidField(r[4]);
+  v.reverted = r[5].as<std::int64_t>();
+  v.nodes_added = r[6].as<std::int64_t>();
+  v.edges_added = r[7].as<std::int64_t>();
+  v.paths_added = r[8].as<std::int64_t>();
+  v.nodes_hidden = r[9].as<std::int64_t>();
+  v.edges_hidden = r[10].as<std::int64_t>();
+  v.paths_hidden = r[11].as<std::int64_t>();
+  v.report = r[12].c_str();
+  return v;
+}
+
+class PostgresVersionStore final : public VersionStore {
+ public:
+  explicit PostgresVersionStore(PgSession& session) : session_(session) {
+    session_.Translate("prepare version statements", [&] { Prepare(); });
+  }
+
+  // ---- Submissions ----
+
+  Submission BeginSubmission(const Submission& header) override {
+    if (header.id.IsNil()) {
+      throw Error(ErrorCode::kInvalidArgument, "a submission needs a non-nil id");
+    }
+    const std::string id = header.id.ToString();
+    const Submission stored =
+        session_.Atomically("begin submission " + id, [&](pqxx::transaction_base& t) {
+          t.exec_prepared("version_begin_submission", id, header.robot.ToString(), header.author,
+                          header.received_ns);
+          return ReadSubmission(t.exec_prepared1("version_find_submission", id));
+        });
+    RequireSameRobot(stored, header);
+    return stored;
+  }
+
+  void PutSubmissionChunk(const Uuid& id, std::int64_t seq, std::string_view data) override {
+    const pqxx::binarystring bytes(data.data(), data.size());
+    session_.Atomically(
+        "chunk " + Str(seq) + " of submission " + id.ToString(), [&](pqxx::transaction_base& t) {
+          const Submission stored = LockSubmission(t, id);
+          if (ChunkIsStored(stored, seq)) {
+            // Compared in the server: a retried chunk does not travel back.
+            if (!t.exec_prepared1("version_chunk_equals", id.ToString(), seq, bytes)[0]
+                     .as<bool>()) {
+              throw ChunkConflict(id, seq);
+            }
+            return;
+          }
+          t.exec_prepared("version_insert_chunk", id.ToString(), seq, bytes);
+          t.exec_prepared("version_count_chunk", id.ToString(),
+                          static_cast<std::int64_t>(data.size()));
+        });
+  }
+
+  void CompleteSubmission(const Uuid& id, std::uint64_t digest) override {
+    session_.Atomically("complete submission " + id.ToString(), [&](pqxx::transaction_base& t) {
+      if (CompleteAlready(LockSubmission(t, id), digest)) return;
+      t.exec_prepared("version_complete_submission", id.ToString(),
+                      std::bit_cast<std::int64_t>(digest));
+    });
+  }
+
+  void SetSubmissionState(const Uuid& id, SubmissionState state, RevisionNumber revision,
+                          const std::string& error) override {
+    session_.Atomically("set state of submission " + id.ToString(), [&](pqxx::transaction_base& t) {
+      const Submission next = WithState(LockSubmission(t, id), state, revision, error);
+      t.exec_prepared("version_set_submission_state", id.ToString(), static_cast<int>(next.state),
+                      next.revision, next.error);
+    });
+  }
+
+  std::optional<Submission> FindSubmission(const Uuid& id) override {
+    return session_.Autocommit("find submission " + id.ToString(),
+                               [&](pqxx::transaction_base& t) -> std::optional<Submission> {
+                                 const pqxx::result r =
+                                     t.exec_prepared("version_find_submission", id.ToString());
+                                 if (r.empty()) return std::nullopt;
+                                 return ReadSubmission(r[0]);
+                               });
+  }
+
+  std::vector<Submission> ListSubmissions() override {
+    return session_.Autocommit("list submissions", [&](pqxx::transaction_base& t) {
+      std::vector<Submission> submissions;
+      for (const pqxx::row& row : t.exec_prepared("version_list_submissions")) {
+        submissions.push_back(ReadSubmission(row));
+      }
+      return submissions;
+    });
+  }
+
+  std::string SubmissionChunk(const Uuid& id, std::int64_t seq) override {
+    const std::string name = "chunk " + Str(seq) + " of submission " + id.ToString();
+    return session_.Autocommit(name, [&](pqxx::transaction_base& t) {
+      const pqxx::result r = t.exec_prepared("version_chunk", id.ToString(), seq);
+      if (!r.empty()) return BytesField(r[0][0]);
+      if (t.exec_prepared("version_find_submission", id.ToString()).empty()) {
+        throw NoSubmission(id);
+      }
+      throw Error(ErrorCode::kNotFound, "no " + name);
+    });
+  }
+
+  // ---- Revisions ----
+
+  RevisionNumber HeadRevision() override {
+    return session_.Autocommit("head revision", [&](pqxx::transaction_base& t) { return Head(t); });
+  }
+
+  std::optional<Revision> FindRevision(RevisionNumber number) override {
+    return session_.Autocommit("find " + RevisionName(number),
+                               [&](pqxx::transaction_base& t) { return Find(t, number); });
+  }
+
+  std::vector<Revision> ListRevisions() override {
+    return session_.Autocommit("list revisions", [&](pqxx::transaction_base& t) {
+      std::vector<Revision> revisions;
+      for (const pqxx::row& row : t.exec_prepared("version_list_revisions")) {
+        revisions.push_back(ReadRevision(row));
+      }
+      return revisions;
+    });
+  }
+
+  Revision AppendRevision(const Revision& revision, const GraphBatch& additions) override {
+    RequireMergeInTransaction(revision, session_.transaction() != nullptr);
+    Revision recorded = revision;
+    recorded.reverted = 0;
+    recorded.nodes_hidden = recorded.edges_hidden = recorded.paths_hidden = 0;
+    const std::vector<VersionedElement> elements = VersionedElementsOf(additions, recorded);
+    std::vector<Uuid> ids;
+    std::string kinds = "{";
+    ids.reserve(elements.size());
+    for (const VersionedElement& e : elements) {
+      ids.push_back(e.id);
+      if (kinds.size() > 1) kinds += ',';
+      kinds += static_cast<char>('0' + static_cast<int>(e.kind));
+    }
+    kinds += '}';
+    const std::string id_array = UuidArray(ids);
+    session_.Atomically("append " + RevisionName(revision.number), [&](pqxx::transaction_base& t) {
+      RequireNextRevision(revision.number, Head(t));
+      // First, so that a writer racing for the same number waits here and then fails.
+      InsertRevision(t, recorded);
+      if (!ids.empty()) {
+        const pqxx::result stored = t.exec_prepared("version_stored_among", id_array);
+        if (!stored.empty()) {
+          throw AlreadyStored(StoredVersionedKind(stored[0][0].as<int>(), UuidField(stored[0][1])),
+                              UuidField(stored[0][1]), revision.number);
+        }
+        t.exec_prepared("version_add_elements", id_array, kinds, revision.number);
+      }
+    });
+    return recorded;
+  }
+
+  Revision AppendRevert(const Revision& revision) override {
+    const RevisionNumber number = revision.number;
+    Revision recorded = RevertAsRecorded(revision);
+    session_.Atomically(
+        "append " + RevisionName(number) + " reverting " + RevisionName(revision.reverted),
+        [&](pqxx::transaction_base& t) {
+          RequireNextRevision(number, Head(t));
+          std::optional<RevisionNumber> reverted_by;
+          const pqxx::result by = t.exec_prepared("version_reverted_by", revision.reverted);
+          if (!by.empty()) reverted_by = by[0][0].as<std::int64_t>();
+          RequireRevertable(revision.reverted, Find(t, revision.reverted), reverted_by);
+          InsertRevision(t, recorded);
+          t.exec_prepared("version_hide_added", number, revision.reverted);
+          t.exec_prepared("version_hide_touching_versioned", number);
+          t.exec_prepared("version_hide_touching_unversioned", number);
+          for (const pqxx::row& row : t.exec_prepared("version_hidden_counts", number)) {
+            const std::int64_t count = row[1].as<std::int64_t>();
+            switch (StoredVersionedKind(row[0].as<int>(), Uuid())) {
+              case VersionedKind::kNode:
+                recorded.nodes_hidden = count;
+                break;
+              case VersionedKind::kEdge:
+                recorded.edges_hidden = count;
+                break;
+              case VersionedKind::kPath:
+                recorded.paths_hidden = count;
+                break;
+            }
+          }
+          t.exec_prepared("version_set_hidden_counts", number, recorded.nodes_hidden,
+                          recorded.edges_hidden, recorded.paths_hidden);
+        });
+    return recorded;
+  }
+
+  // ---- The map at a revision ----
+
+  std::vector<Node> NodesAt(RevisionNumber r, bool with_landmarks) override {
+    return session_.Autocommit("nodes at " + RevisionName(r), [&](pqxx::transaction_base& t) {
+      RequireInHistory(r, Head(t));
+      std::vector<Node> nodes;
+      const pqxx::result rows =
+          t.exec_prepared(with_landmarks ? "version_nodes_at" : "version_nodes_at_bare", r);
+      nodes.reserve(rows.size());
+      for (const pqxx::row& row : rows) nodes.push_back(ReadNode(row, with_landmarks));
+      OrderNodesAt(nodes);
+      return nodes;
+    });
+  }
+
+  std::vector<Edge> EdgesAt(RevisionNumber r) override {
+    return session_.Autocommit("edges at " + RevisionName(r), [&](pqxx::transaction_base& t) {
+      RequireInHistory(r, Head(t));
+      std::vector<Edge> edges;
+      const pqxx::result rows = t.exec_prepared("version_edges_at", r);
+      edges.reserve(rows.size());
+      for (const pqxx::row& row : rows) edges.push_back(ReadEdge(row, 0));
+      return edges;
+    });
+  }
+
+  std::vector<Path> PathsAt(RevisionNumber r) override {
+    return session_.Autocommit("paths at " + RevisionName(r), [&](pqxx::transaction_base& t) {
+      RequireInHistory(r, Head(t));
+      std::vector<Path> paths;
+      for (const pqxx::row& row : t.exec_prepared("version_paths_at", r)) {
+        paths.push_back(ReadPath(row));
+      }
+      return paths;
+    });
+  }
+
+  StoreStats StatsAt(RevisionNumber r) override {
+    return session_.Autocommit("stats at " + RevisionName(r), [&](pqxx::transaction_base& t) {
+      RequireInHistory(r, Head(t));
+      const pqxx::row row = t.exec_prepared1("version_stats_at", r);
+      StoreStats stats;
+      stats.nodes = row[0].as<std::int64_t>();
+      stats.landmark_bytes = row[1].as<std::int64_t>();
+      stats.edges = row[2].as<std::int64_t>();
+      stats.paths = row[3].as<std::int64_t>();
+      return stats;
+    });
+  }
+
+  RevisionChanges Changes(RevisionNumber from, RevisionNumber to) override {
+    return session_.Autocommit(
+        "changes from " + RevisionName(from) + " to " + Str(to), [&](pqxx::transaction_base& t) {
+          const RevisionNumber head = Head(t);
+          RequireInHistory(from, head);
+          RequireInHistory(to, head);
+          std::vector<ElementVersionRow> rows;
+          for (const pqxx::row& row :
+               t.exec_prepared("version_changed_between", std::min(from, to), std::max(from, to))) {
+            const Uuid id = UuidField(row[0]);
+            std::optional<RevisionNumber> hidden;
+            if (!row[3].is_null()) hidden = row[3].as<std::int64_t>();
+            rows.push_back(
+                {id, StoredVersionedKind(row[1].as<int>(), id), row[2].as<std::int64_t>(), hidden});
+          }
+          return ChangesFromRows(from, to, rows);
+        });
+  }
+
+  std::optional<ElementVersion> VersionOf(const Uuid& id) override {
+    return session_.Autocommit("version of " + id.ToString(),
+                               [&](pqxx::transaction_base& t) -> std::optional<ElementVersion> {
+                                 const pqxx::result r =
+                                     t.exec_prepared("version_of", id.ToString());
+                                 if (r.empty()) return std::nullopt;
+                                 ElementVersion v;
+                                 v.added = r[0][0].as<std::int64_t>();
+                                 if (!r[0][1].is_null()) v.hidden = r[0][1].as<std::int64_t>();
+                                 return v;
+                               });
+  }
+
+  // ---- What the server has seen of each node ----
+
+  void PutSubmissionNodes(const Uuid& id, const std::vector<Uuid>& nodes) override {
+    session_.Atomically("nodes of submission " + id.ToString(), [&](pqxx::transaction_base& t) {
+      LockSubmission(t, id);
+      t.exec_prepared("version_put_submission_nodes", UuidArray(nodes), id.ToString());
+    });
+  }
+
+  std::vector<Submission> SubmissionsWithNode(const Uuid& node) override {
+    return session_.Autocommit(
+        "submissions with node " + node.ToString(), [&](pqxx::transaction_base& t) {
+          std::vector<Submission> submissions;
+          for (const auto& row :
+               t.exec_prepared("version_submissions_with_node", node.ToString())) {
+            submissions.push_back(ReadSubmission(row));
+          }
+          return submissions;
+        });
+  }
+
+  void PutStandIns(const std::vector<NodeStandIn>& stand_ins) override {
+    session_.Atomically("stand-ins", [&](pqxx::transaction_base& t) {
+      for (const NodeStandIn& stand_in : stand_ins) {
+        const Eigen::Vector3d p = stand_in.stand_in_T_node.translation();
+        const Eigen::Quaterniond q = RotationQuaternion(stand_in.stand_in_T_node);
+        t.exec_prepared("version_put_stand_in", stand_in.node.ToString(),
+                        stand_in.stand_in.ToString(), p.x(), p.y(), p.z(), q.w(), q.x(), q.y(),
+                        q.z(), stand_in.revision);
+      }
+    });
+  }
+
+  std::optional<NodeStandIn> FindStandIn(const Uuid& node) override {
+    return session_.Autocommit(
+        "stand-in of " + node.ToString(),
+        [&](pqxx::transaction_base& t) -> std::optional<NodeStandIn> {
+          const pqxx::result r = t.exec_prepared("version_find_stand_in", node.ToString());
+          if (r.empty()) return std::nullopt;
+          NodeStandIn found;
+          found.node = node;
+          found.stand_in = UuidField(r[0][0]);
+          found.stand_in_T_node = Se3FromTranslationQuaternion(
+              Eigen::Vector3d(r[0][1].as<double>(), r[0][2].as<double>(), r[0][3].as<double>()),
+              Eigen::Quaterniond(r[0][4].as<double>(), r[0][5].as<double>(), r[0][6].as<double>(),
+                                 r[0][7].as<double>()));
+          found.revision = r[0][8].as<std::int64_t>();
+          return found;
+        });
+  }
+
+  // ---- Settings ----
+
+  std::optional<std::string> FindSetting(std::string_view key) override {
+    const std::string k(key);
+    return session_.Autocommit("find setting " + k,
+                               [&](pqxx::transaction_base& t) -> std::optional<std::string> {
+                                 const pqxx::result r = t.exec_prepared("version_find_setting", k);
+                                 if (r.empty()) return std::nullopt;
+                                 return BytesField(r[0][0]);
+                               });
+  }
+
+  void PutSetting(std::string_view key, std::string_view value) override {
+    const std::string k(key);
+    const pqxx::binarystring bytes(value.data(), value.size());
+    session_.Autocommit("put setting " + k, [&](pqxx::transaction_base& t) {
+      t.exec_prepared("version_put_setting", k, bytes);
+    });
+  }
+
+  std::vector<std::pair<std::string, std::string>> ListSettings(std::string_view prefix) override {
+    const std::string p(prefix);
+    return session_.Autocommit(
+        "list settings " + p,
+        [&](pqxx::transaction_base& t) -> std::vector<std::pair<std::string, std::string>> {
+          std::vector<std::pair<std::string, std::string>> settings;
+          for (const auto& row : t.exec_prepared("version_list_settings", p)) {
+            settings.emplace_back(row[0].as<std::string>(), BytesField(row[1]));
+          }
+          return settings;
+        });
+  }
+
+ private:
+  static RevisionNumber Head(pqxx::transaction_base& t) {
+    return t.exec_prepared1("version_head")[0].as<std::int64_t>();
+  }
+
+  static std::optional<Revision> Find(pqxx::transaction_base& t, RevisionNumber number) {
+    const pqxx::result r = t.exec_prepared("version_find_revision", number);
+    if (r.empty()) return std::nullopt;
+    return ReadRevision(r[0]);
+  }
+
+  // The stored submission, its row locked until the (sub)transaction ends.
+  static Submission LockSubmission(pqxx::transaction_base& t, const Uuid& id) {
+    const pqxx::result r = t.exec_prepared("version_lock_submission", id.ToString());
+    if (r.empty()) throw NoSubmission(id);
+    return ReadSubmission(r[0]);
+  }
+
+  // Inserts the revision row. A writer that took the same number first makes this a
+  // conflict (the primary key), as does one that reverted the same revision (the unique
+  // index on reverted).
+  static void InsertRevision(pqxx::transaction_base& t, const Revision& v) {
+    try {
+      t.exec_prepared(
+          "version_insert_revision", v.number, v.created_ns, v.author, static_cast<int>(v.kind),
+          v.submission.IsNil() ? std::string() : v.submission.ToString(), v.reverted, v.nodes_added,
+          v.edges_added, v.paths_added, v.nodes_hidden, v.edges_hidden, v.paths_hidden, v.report);
+    } catch (const pqxx::unique_violation& e) {
+      if (std::string(e.what()).find("revisions_by_reverted") != std::string::npos) {
+        throw Error(ErrorCode::kConflict,
+                    RevisionName(v.reverted) + " was reverted by another writer first");
+      }
+      throw Error(ErrorCode::kConflict,
+                  RevisionName(v.number) + " was appended by another writer first");
+    }
+  }
+
+  void Prepare() {
+    pqxx::connection& c = session_.connection();
+    // Submissions.
+    c.prepare("version_begin_submission",
+              "INSERT INTO submissions (id, robot, author, received_ns) VALUES ($1, $2, $3, $4)"
+              " ON CONFLICT (id) DO NOTHING");
+    c.prepare("version_find_submission",
+              Cat({"SELECT ", kSubmissionColumns, " FROM submissions WHERE id = $1"}));
+    c.prepare("version_lock_submission",
+              Cat({"SELECT ", kSubmissionColumns, " FROM submissions WHERE id = $1 FOR UPDATE"}));
+    c.prepare("version_list_submissions",
+              Cat({"SELECT ", kSubmissionColumns, " FROM submissions ORDER BY received_ns, id"}));
+    c.prepare("version_chunk_equals",
+              "SELECT data = $3 FROM submission_chunks WHERE submission = $1 AND seq = $2");
+    c.prepare("version_insert_chunk",
+              "INSERT INTO submission_chunks (submission, seq, data) VALUES ($1, $2, $3)");
+    c.prepare("version_count_chunk",
+              "UPDATE submissions SET chunk_count = chunk_count + 1, bytes = bytes + $2"
+              " WHERE id = $1");
+    c.prepare("version_chunk",
+              "SELECT data FROM submission_chunks WHERE submission = $1 AND seq = $2");
+    c.prepare("version_complete_submission",
+              "UPDATE submissions SET state = 1, digest = $2 WHERE id = $1");
+    c.prepare("version_set_submission_state",
+              "UPDATE submissions SET state = $2, revision = $3, error = $4 WHERE id = $1");
+    // Revisions.
+    c.prepare("version_head", "SELECT coalesce(max(number), 0) FROM revisions");
+    c.prepare("version_find_revision",
+              Cat({"SELECT ", kRevisionColumns, " FROM revisions WHERE number = $1"}));
+    c.prepare("version_list_revisions",
+              Cat({"SELECT ", kRevisionColumns, " FROM revisions ORDER BY number"}));
+    c.prepare("version_reverted_by", "SELECT number FROM revisions WHERE reverted = $1");
+    c.prepare("version_insert_revision",
+              "INSERT INTO revisions (number, created_ns, author, kind, submission, reverted,"
+              " nodes_added, edges_added, paths_added, nodes_hidden, edges_hidden, paths_hidden,"
+              " report) VALUES ($1, $2, $3, $4, NULLIF($5, '')::uuid, NULLIF($6::bigint, 0),"
+              " $7, $8, $9, $10, $11, $12, $13)");
+    c.prepare("version_set_hidden_counts",
+              "UPDATE revisions SET nodes_hidden = $2, edges_hidden = $3, paths_hidden = $4"
+              " WHERE number = $1");
+    // Which of the ids is stored already, as any kind of element (one probe of each table's
+    // primary key per id).
+    c.prepare("version_stored_among",
+              "SELECT 1, id FROM nodes WHERE id = ANY($1::uuid[])"
+              " UNION ALL SELECT 2, id FROM edges WHERE id = ANY($1::uuid[])"
+              " UNION ALL SELECT 3, id FROM paths WHERE id = ANY($1::uuid[]) LIMIT 1");
+    // A row left by a revision whose elements were never Put (they are not stored: checked
+    // just before) is replaced.
+    c.prepare(
+        "version_add_elements",
+        "INSERT INTO element_versions (id, kind, added_rev)"
+        " SELECT a.id, a.kind, $3 FROM unnest($1::uuid[], $2::smallint[]) AS a (id, kind)"
+        " ON CONFLICT (id) DO UPDATE SET kind = excluded.kind, added_rev = excluded.added_rev,"
+        " hidden_rev = NULL");
+    c.prepare("version_hide_added",
+              Cat({"UPDATE element_versions v SET hidden_rev = $1 WHERE v.added_rev = $2"
+                   " AND v.hidden_rev IS NULL AND ",
+                   kElementStored}));
+    c.prepare("version_hide_touching_versioned",
+              Cat({kEdgesTouchingHiddenAt1,
+                   "UPDATE element_versions SET hidden_rev = $1 WHERE hidden_rev IS NULL"
+                   " AND id IN (SELECT id FROM touching)"}));
+    // Edges from outside version control (revision 0) get their row when first hidden.
+    c.prepare("version_hide_touching_unversioned",
+              Cat({kEdgesTouchingHiddenAt1,
+                   "INSERT INTO element_versions (id, kind, added_rev, hidden_rev)"
+                   " SELECT t.id, 2, 0, $1 FROM touching t WHERE NOT EXISTS"
+                   " (SELECT 1 FROM element_versions v WHERE v.id = t.id)"}));
+    c.prepare("version_hidden_counts",
+              "SELECT kind, count(*) FROM element_versions WHERE hidden_rev = $1 GROUP BY kind");
+    // The map at a revision.
+    const std::string visible_nodes =
+        Cat({" FROM nodes n LEFT JOIN element_versions v ON v.id = n.id WHERE ", kVisibleAtParam1});
+    c.prepare("version_nodes_at",
+              Cat({"SELECT n.id, n.stamp_ns, n.robot, n.outing, n.landmarks", visible_nodes}));
+    c.prepare("version_nodes_at_bare",
+              Cat({"SELECT n.id, n.stamp_ns, n.robot, n.outing, NULL", visible_nodes}));
+    c.prepare("version_edges_at",
+              Cat({"SELECT e.id, e.from_id, e.to_id, e.kind, e.tx, e.ty, e.tz, e.qw, e.qx, e.qy,"
+                   " e.qz, e.path_id FROM edges e LEFT JOIN element_versions v ON v.id = e.id"
+                   " WHERE ",
+                   kVisibleAtParam1, " ORDER BY e.id"}));
+    c.prepare("version_paths_at",
+              Cat({"SELECT p.id, p.robot, p.outing, p.start_ns, p.end_ns FROM paths p"
+                   " LEFT JOIN element_versions v ON v.id = p.id WHERE ",
+                   kVisibleAtParam1, " ORDER BY p.start_ns, p.id"}));
+    c.prepare("version_stats_at",
+              Cat({"SELECT count(*), coalesce(sum(octet_length(n.landmarks)), 0),"
+                   " (SELECT count(*) FROM edges e LEFT JOIN element_versions v ON v.id = e.id"
+                   " WHERE ",
+                   kVisibleAtParam1,
+                   "), (SELECT count(*) FROM paths p LEFT JOIN element_versions v"
+                   " ON v.id = p.id WHERE ",
+                   kVisibleAtParam1, ")", visible_nodes}));
+    // Only elements some revision in ($1, $2] added or hid can differ between $1 and $2.
+    c.prepare("version_changed_between",
+              Cat({"SELECT v.id, v.kind, v.added_rev, v.hidden_rev FROM element_versions v"
+                   " WHERE ((v.added_rev > $1 AND v.added_rev <= $2)"
+                   " OR (v.hidden_rev > $1 AND v.hidden_rev <= $2)) AND ",
+                   kElementStored, " ORDER BY v.id"}));
+    c.prepare("version_of",
+              "SELECT coalesce(v.added_rev, 0), v.hidden_rev FROM (SELECT id FROM nodes"
+              " WHERE id = $1 UNION ALL SELECT id FROM edges WHERE id = $1 UNION ALL"
+              " SELECT id FROM paths WHERE id = $1) s LEFT JOIN element_versions v"
+              " ON v.id = s.id LIMIT 1");
+    // Settings.
+    // What the server has seen of each node (0005_submission_nodes.sql).
+    c.prepare("version_put_submission_nodes",
+              "INSERT INTO submission_nodes (node, submission) SELECT unnest($1::uuid[]), $2"
+              " ON CONFLICT DO NOTHING");
+    c.prepare("version_submissions_with_node",
+              std::string("SELECT ") + kSubmissionColumns +
+                  " FROM submissions WHERE id IN (SELECT submission FROM submission_nodes"
+                  " WHERE node = $1) ORDER BY received_ns, id");
+    c.prepare("version_put_stand_in",
+              "INSERT INTO stand_ins (node, stand_in, tx, ty, tz, qw, qx, qy, qz, revision)"
+              " VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10) ON CONFLICT (node) DO NOTHING");
+    c.prepare("version_find_stand_in",
+              "SELECT stand_in, tx, ty, tz, qw, qx, qy, qz, revision FROM stand_ins"
+              " WHERE node = $1");
+    c.prepare("version_find_setting", "SELECT value FROM settings WHERE key = $1");
+    c.prepare("version_put_setting",
+              "INSERT INTO settings (key, value) VALUES ($1, $2)"
+              " ON CONFLICT (key) DO UPDATE SET value = excluded.value");
+    // left() rather than LIKE: a prefix may hold '%' or '_'. COLLATE "C" orders bytewise, as
+    // SQLite does.
+    c.prepare("version_list_settings",
+              "SELECT key, value FROM settings WHERE left(key, length($1)) = $1"
+              " ORDER BY key COLLATE \"C\"");
+  }
+
+  PgSession& session_;
+};
+
+}  // namespace
+
+std::unique_ptr<VersionStore> NewPostgresVersionStore(PgSession& session) {
+  return std::make_unique<PostgresVersionStore>(session);
+}
+
+}  // namespace fleetmap::internal

@@ -1,0 +1,125 @@
+#include "fleet_processes.h"
+
+#include <signal.h>
+
+#include <fstream>
+#include <memory>
+
+#include "fleetmap/core/error.h"
+#include "fleetmap/server/robot_registry.h"
+#include "fleetmap/store/graph_store.h"
+
+namespace fleetmap {
+
+namespace {
+
+namespace fs = std::filesystem;
+using std::chrono::milliseconds;
+
+constexpr auto kServerStartTimeout = milliseconds(30'000);
+constexpr auto kDrainTimeout = milliseconds(20'000);
+
+std::int64_t NowNs() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(
+             std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+}  // namespace
+
+std::vector<FleetRobot> RegisterFleetRobots(const std::string& store_uri,
+                                            const std::vector<std::string>& names,
+                                            const fs::path& robots_dir) {
+  std::unique_ptr<GraphStore> central = GraphStore::Open(store_uri);
+  RobotRegistry registry(central->versions());
+  std::vector<FleetRobot> robots;
+  for (const std::string& name : names) {
+    NewRobot added = registry.Add(name, NowNs());
+    const fs::path dir = robots_dir / name;
+    fs::create_directories(dir);
+    robots.push_back({name, added.robot.id, added.token, dir});
+  }
+  return robots;
+}
+
+void RequireExecutables(const std::string& what, const std::vector<fs::path>& programs) {
+  for (const fs::path& program : programs) {
+    if (!fs::is_regular_file(program)) {
+      throw Error(ErrorCode::kInvalidArgument,
+                  what + ": no executable at " + program.string() + " (build it: scripts/build)");
+    }
+  }
+}
+
+std::string LogTail(const fs::path& log, std::size_t lines) {
+  std::ifstream in(log);
+  std::vector<std::string> all;
+  for (std::string line; std::getline(in, line);) all.push_back(line);
+  std::string out;
+  for (std::size_t i = all.size() > lines ? all.size() - lines : 0; i < all.size(); ++i) {
+    out += "\n    " + all[i];
+  }
+  return out;
+}
+
+FleetServerProcess::FleetServerProcess(const fs::path& fleetmapd, const std::string& store_uri,
+                                       const fs::path& log)
+    : process_({fleetmapd.string(), "--store", store_uri, "--listen", "127.0.0.1:0", "--http",
+                "127.0.0.1:0"},
+               {.stderr_file = log, .environment = {}}) {
+  const std::optional<std::string> line =
+      process_.ReadLineContaining("listening on", kServerStartTimeout);
+  if (!line) {
+    throw Error(ErrorCode::kBackend,
+                "fleetmapd did not start (log " + log.string() + "):" + LogTail(log, 10));
+  }
+  address_ = line->substr(line->rfind(' ') + 1);
+  if (std::optional<std::string> http =
+          process_.ReadLineContaining("http on", milliseconds(5000))) {
+    status_url_ = "http://" + http->substr(http->rfind(' ') + 1) + "/";
+  }
+}
+
+std::optional<int> FleetServerProcess::Stop() {
+  if (!stopped_) {
+    stopped_ = true;
+    process_.Signal(SIGTERM);
+    status_ = process_.Wait(kDrainTimeout);
+    if (!status_) {
+      process_.Signal(SIGKILL);
+      process_.Wait(milliseconds(5000));
+    }
+  }
+  return status_;
+}
+
+ChildProcess StartAgentSync(const fs::path& agent, const FleetRobot& robot,
+                            const std::string& server, const std::vector<std::string>& extra,
+                            const fs::path& log) {
+  std::vector<std::string> argv{
+      agent.string(),      "sync",      "--server",         server,         "--robot",
+      robot.id.ToString(), "--map-dir", robot.dir.string(), "--wait-merge", "--json"};
+  argv.insert(argv.end(), extra.begin(), extra.end());
+  return ChildProcess(argv, ChildProcessOptions{.stderr_file = log,
+                                                .environment = {{"FLEETMAP_TOKEN", robot.token}}});
+}
+
+nlohmann::json FinishAgentSync(ChildProcess& sync, const FleetRobot& robot, const fs::path& log,
+                               milliseconds timeout) {
+  const std::string out = sync.ReadRest(timeout);
+  const std::optional<int> status = sync.Wait(milliseconds(5000));
+  if (status != 0) {
+    throw Error(ErrorCode::kBackend, "fleetmap-agent of " + robot.name + " failed (exit " +
+                                         (status ? std::to_string(*status) : "timeout") + ", log " +
+                                         log.string() + "):" + LogTail(log, 8));
+  }
+  try {
+    return nlohmann::json::parse(out);
+  } catch (const nlohmann::json::exception& e) {
+    throw Error(ErrorCode::kBackend, "fleetmap-agent of " + robot.name +
+                                         " printed no JSON result (log " + log.string() +
+                                         "): " + e.what());
+  }
+}
+
+}  // namespace fleetmap

@@ -1,0 +1,467 @@
+#include "fleetmap/policies/download_policy.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <sstream>
+#include <unordered_map>
+#include <unordered_set>
+#include <utility>
+
+#include "download_policy_budget.h"
+#include "fleetmap/core/error.h"
+#include "fleetmap/ranking/path_memory.h"
+#include "fleetmap/ranking/path_weights.h"
+#include "fleetmap/ranking/time_of_day.h"
+
+namespace fleetmap {
+namespace {
+
+using internal::DenseNode;
+
+// What "budget" alone means once parsed; callers set their own (download_policy.h).
+constexpr std::int64_t kParsedBudgetBytes = std::int64_t{256} << 20;
+
+[[noreturn]] void InvalidPolicy(const std::string& message) {
+  throw Error(ErrorCode::kInvalidArgument, "download policy: " + message);
+}
+
+std::string Show(double value) {
+  std::ostringstream text;
+  text << value;
+  return text.str();
+}
+
+// The map as dense indexes in ascending UUID order (MakeIntegral's order, so ties break the
+// same way everywhere), its edges between them, and, when asked for, the path memory and the
+// nodes of each recorded path.
+struct DenseMap {
+  std::vector<const Node*> nodes;
+  std::unordered_map<Uuid, DenseNode> index;
+  std::vector<std::pair<DenseNode, DenseNode>> edge_ends;  // by position in `edges`
+  std::vector<std::pair<DenseNode, DenseNode>> metric_edges;
+  PathMemory memory;                               // from the path edges (Eq. 6)
+  std::vector<std::vector<DenseNode>> path_nodes;  // by PathMemory::PathIndex, ascending
+};
+
+DenseMap IndexMap(std::span<const Node> nodes, std::span<const Edge> edges,
+                  std::span<const Path> paths, bool with_path_memory) {
+  DenseMap map;
+  map.nodes.reserve(nodes.size());
+  for (const Node& node : nodes) map.nodes.push_back(&node);
+  std::sort(map.nodes.begin(), map.nodes.end(),
+            [](const Node* a, const Node* b) { return a->id < b->id; });
+  const auto repeat =
+      std::adjacent_find(map.nodes.begin(), map.nodes.end(),
+                         [](const Node* a, const Node* b) { return a->id == b->id; });
+  if (repeat != map.nodes.end()) {
+    throw Error(ErrorCode::kInvalidArgument,
+                "download: node " + (*repeat)->id.ToString() + " is listed twice");
+  }
+  map.index.reserve(map.nodes.size());
+  for (std::size_t i = 0; i < map.nodes.size(); ++i) {
+    map.index.emplace(map.nodes[i]->id, static_cast<DenseNode>(i));
+  }
+
+  std::unordered_set<Uuid> path_ids;
+  for (const Path& path : paths) path_ids.insert(path.id);
+  map.edge_ends.reserve(edges.size());
+  for (const Edge& edge : edges) {
+    DenseNode ends[2];
+    for (int e = 0; e < 2; ++e) {
+      const Uuid& end = e == 0 ? edge.from : edge.to;
+      const auto it = map.index.find(end);
+      if (it == map.index.end()) {
+        throw Error(ErrorCode::kIntegrity, "download: edge " + edge.id.ToString() + " ends at " +
+                                               end.ToString() + ", which is not among the nodes");
+      }
+      ends[e] = it->second;
+    }
+    map.edge_ends.emplace_back(ends[0], ends[1]);
+    if (edge.kind != EdgeKind::kPath) {
+      map.metric_edges.emplace_back(ends[0], ends[1]);
+      continue;
+    }
+    if (!path_ids.contains(edge.path)) {
+      throw Error(ErrorCode::kIntegrity, "download: path edge " + edge.id.ToString() +
+                                             " belongs to path " + edge.path.ToString() +
+                                             ", which is not among the paths");
+    }
+    if (!with_path_memory) continue;
+    const PathMemory::PathIndex path = map.memory.AddPathEdge(edge.path, edge.from, edge.to);
+    if (path >= map.path_nodes.size()) map.path_nodes.resize(path + 1);
+    map.path_nodes[path].push_back(ends[0]);
+    map.path_nodes[path].push_back(ends[1]);
+  }
+  for (std::vector<DenseNode>& members : map.path_nodes) {
+    std::sort(members.begin(), members.end());
+    members.erase(std::unique(members.begin(), members.end()), members.end());
+  }
+  return map;
+}
+
+// The mission as epochs (Eq. 5), before Algorithm 3's defaults: with "tod" the epochs of
+// t_foray ∓ T_w on the 24-hour clock (every epoch once the window spans the day, 2 T_w >= 24 h);
+// else with "paths" the epochs of the mission's start and, when known, its end; else (a budget
+// alone) every epoch.
+std::pair<std::optional<int>, std::optional<int>> MissionEpochs(const DownloadPolicy& policy,
+                                                                const PathWeights& weights) {
+  if (policy.time_of_day) {
+    if (2.0 * policy.window_min >= kMinutesPerDay) return {0, weights.epochs() - 1};
+    const double from_min =
+        std::fmod(policy.mission_start_min - policy.window_min + kMinutesPerDay, kMinutesPerDay);
+    const double to_min = std::fmod(policy.mission_start_min + policy.window_min, kMinutesPerDay);
+    return {weights.EpochOf(from_min), weights.EpochOf(to_min)};
+  }
+  if (policy.paths) {
+    std::optional<int> end;
+    if (policy.mission_end_min) end = weights.EpochOf(*policy.mission_end_min);
+    return {weights.EpochOf(policy.mission_start_min), end};
+  }
+  return {0, weights.epochs() - 1};
+}
+
+// The epochs Algorithm 3 walks for k_start, k_end, in order, after its lines 1–6 and across
+// midnight when both are given with k_start > k_end: the same walk as PathWeights::BestPaths,
+// so a budget weighs paths over exactly the epochs "paths" chose them from.
+std::vector<int> WalkedEpochs(const PathWeights& weights, std::optional<int> k_start,
+                              std::optional<int> k_end) {
+  std::vector<int> walk;
+  if (!weights.first_epoch()) return walk;
+  if (k_start && k_end && *k_start > *k_end) {
+    for (int k = *k_start; k < weights.epochs(); ++k) walk.push_back(k);
+    for (int k = 0; k <= *k_end; ++k) walk.push_back(k);
+    return walk;
+  }
+  const int k_min = *weights.first_epoch(), k_max = *weights.last_epoch();
+  const int start = !k_start || *k_start < k_min ? k_min : *k_start;
+  const int end = !k_end || *k_end > k_max ? k_max : *k_end;
+  for (int k = start; k <= end; ++k) walk.push_back(k);
+  return walk;
+}
+
+// Per path of the map's memory: did a robot drive it within T_w of the mission's start on the
+// clock (by its start)? Every path counts when `any_time`.
+std::vector<char> DrivenWithinWindow(const DenseMap& map, std::span<const Path> paths,
+                                     const DownloadPolicy& policy, bool any_time) {
+  std::unordered_set<Uuid> in_window;
+  for (const Path& path : paths) {
+    if (any_time ||
+        WithinTimeOfDayWindow(path.start_ns, policy.mission_start_min, policy.window_min)) {
+      in_window.insert(path.id);
+    }
+  }
+  std::vector<char> driven(map.memory.path_count(), 0);
+  for (PathMemory::PathIndex path = 0; path < map.memory.path_count(); ++path) {
+    driven[path] = in_window.contains(map.memory.path_id(path));
+  }
+  return driven;
+}
+
+// "tod" with "cover" also allows what a robot used within the window: a node on a path that
+// started within T_w of the mission's start on the clock (stretch_coverage.h: capture alone
+// misses every node EBN never had to capture again at that time). "paths" narrows it after.
+void AllowUsedWithinWindow(const DenseMap& map, std::span<const Path> paths,
+                           const DownloadPolicy& policy, std::vector<char>& allowed) {
+  const std::vector<char> driven = DrivenWithinWindow(map, paths, policy, false);
+  std::vector<char> used(map.nodes.size(), 0);
+  for (PathMemory::PathIndex path = 0; path < map.memory.path_count(); ++path) {
+    if (!driven[path]) continue;
+    for (const DenseNode node : map.path_nodes[path]) used[node] = 1;
+  }
+  for (std::size_t i = 0; i < allowed.size(); ++i) allowed[i] = allowed[i] || used[i];
+}
+
+// "paths" with "cover": Algorithm 3's per-epoch best p % unites nearly every path over a
+// window of several epochs (measured: 37-43 of 48), so it narrows nothing. Here the candidates
+// are the paths a robot drove within the window (every path without "tod"), ranked by their
+// weight over the mission's epochs (Σ_k PWM(P, k), Eq. 7), and the best p % of them are kept
+// (at least one; ties by lower index).
+std::vector<PathWeights::PathIndex> BestPathsUsedInWindow(const DenseMap& map,
+                                                          std::span<const Path> paths,
+                                                          const DownloadPolicy& policy,
+                                                          const PathWeights& weights,
+                                                          const std::vector<int>& walk) {
+  const std::vector<char> driven = DrivenWithinWindow(map, paths, policy, !policy.time_of_day);
+  std::vector<std::pair<double, PathWeights::PathIndex>> ranked;
+  for (PathWeights::PathIndex path = 0; path < map.memory.path_count(); ++path) {
+    if (!driven[path]) continue;
+    double weight = 0.0;
+    for (const int k : walk) weight += weights.Weight(path, k);
+    ranked.emplace_back(-weight, path);
+  }
+  std::sort(ranked.begin(), ranked.end());
+  const auto keep = static_cast<std::size_t>(
+      std::ceil(policy.best_percent / 100.0 * static_cast<double>(ranked.size())));
+  std::vector<PathWeights::PathIndex> best;
+  for (std::size_t i = 0; i < ranked.size() && i < std::max<std::size_t>(1, keep); ++i) {
+    best.push_back(ranked[i].second);
+  }
+  std::sort(best.begin(), best.end());
+  return best;
+}
+
+// "cover": the earlier parts' picks in `allowed` become each stretch's best k experiences plus
+// the allowed ones that fill it up to the cap (stretch_coverage.h).
+void Cover(const DenseMap& map, std::span<const Edge> edges, std::span<const Path> paths,
+           const DownloadPolicy& policy, std::vector<char>& allowed, DownloadReport& report) {
+  const MapStretches stretches = MapStretches::Cut(map.nodes, edges, policy.coverage.stretch_m);
+  std::unordered_map<Uuid, std::int64_t> path_start;
+  for (const Path& path : paths) path_start.emplace(path.id, path.start_ns);
+  std::vector<double> likelihood(map.nodes.size());
+  std::vector<std::int64_t> uses;
+  for (std::size_t i = 0; i < map.nodes.size(); ++i) {
+    uses.clear();
+    for (const PathMemory::PathIndex path : map.memory.PathsThrough(map.nodes[i]->id)) {
+      uses.push_back(path_start.at(map.memory.path_id(path)));
+    }
+    likelihood[i] = LocalisationLikelihood(map.nodes[i]->stamp_ns, uses, policy.mission_start_min,
+                                           policy.window_min);
+  }
+  const auto ranked = RankExperiences(map.nodes, stretches, likelihood);
+  std::vector<char> kept = CoverStretches(ranked, map.nodes.size(), allowed, policy.coverage);
+  report.stretches = stretches.stretch_count();
+  for (std::size_t s = 0; s < stretches.stretch_count(); ++s) {
+    for (const std::size_t node : stretches.members(s)) {
+      if (kept[node] && !allowed[node]) {
+        ++report.stretches_reached_outside;
+        break;
+      }
+    }
+  }
+  allowed = std::move(kept);
+}
+
+}  // namespace
+
+std::string DownloadPolicy::Name() const {
+  std::string name;
+  const auto add = [&name](std::string_view part) {
+    if (!name.empty()) name += '+';
+    name += part;
+  };
+  if (time_of_day) add("tod");
+  if (paths) add("paths");
+  if (cover) add("cover");
+  if (budget_bytes) add("budget");
+  return name.empty() ? "copy" : name;
+}
+
+DownloadPolicy ParseDownloadPolicy(std::string_view name) {
+  const std::string quoted = "\"" + std::string(name) + "\"";
+  if (name.empty()) {
+    InvalidPolicy("empty name; expected copy, or tod, paths, cover and budget joined with '+'");
+  }
+  std::vector<std::string_view> parts;
+  for (std::size_t begin = 0;;) {
+    const std::size_t plus = name.find('+', begin);
+    if (plus == std::string_view::npos) {
+      parts.push_back(name.substr(begin));
+      break;
+    }
+    parts.push_back(name.substr(begin, plus - begin));
+    begin = plus + 1;
+  }
+  DownloadPolicy policy;
+  bool copy = false, budget = false;
+  for (const std::string_view part : parts) {
+    bool* flag = nullptr;
+    if (part == "copy") {
+      flag = &copy;
+    } else if (part == "tod") {
+      flag = &policy.time_of_day;
+    } else if (part == "paths") {
+      flag = &policy.paths;
+    } else if (part == "cover") {
+      flag = &policy.cover;
+    } else if (part == "budget") {
+      flag = &budget;
+    } else if (part.empty()) {
+      InvalidPolicy("empty part in " + quoted);
+    } else {
+      InvalidPolicy("unknown part \"" + std::string(part) + "\" in " + quoted +
+                    "; expected copy, tod, paths, cover or budget");
+    }
+    if (*flag) InvalidPolicy("\"" + std::string(part) + "\" repeated in " + quoted);
+    *flag = true;
+  }
+  // "copy" is the whole map (Eq. 3); joined with another part it would mean only that part.
+  if (copy && parts.size() > 1) InvalidPolicy("\"copy\" stands alone, not in " + quoted);
+  if (budget) policy.budget_bytes = kParsedBudgetBytes;
+  return policy;
+}
+
+void ValidateDownloadPolicy(const DownloadPolicy& policy) {
+  const auto is_time_of_day = [](double minutes) {
+    return minutes >= 0.0 && minutes < kMinutesPerDay;
+  };
+  if (!is_time_of_day(policy.mission_start_min)) {
+    InvalidPolicy("mission_start_min must be in [0, 1440), not " + Show(policy.mission_start_min));
+  }
+  if (policy.mission_end_min && !is_time_of_day(*policy.mission_end_min)) {
+    InvalidPolicy("mission_end_min must be in [0, 1440), not " + Show(*policy.mission_end_min));
+  }
+  if (!(policy.window_min > 0.0 && std::isfinite(policy.window_min))) {
+    InvalidPolicy("window_min (T_w) must be finite and > 0, not " + Show(policy.window_min));
+  }
+  if (!(policy.epoch_min > 0.0 && policy.epoch_min <= kMinutesPerDay)) {
+    InvalidPolicy("epoch_min (Δt) must be in (0, 1440], not " + Show(policy.epoch_min));
+  }
+  if (!(policy.best_percent > 0.0 && policy.best_percent <= 100.0)) {
+    InvalidPolicy("best_percent (p) must be in (0, 100], not " + Show(policy.best_percent));
+  }
+  if (policy.budget_bytes && *policy.budget_bytes <= 0) {
+    InvalidPolicy("budget_bytes must be > 0, not " + std::to_string(*policy.budget_bytes));
+  }
+  try {
+    ValidateCoverageOptions(policy.coverage);
+  } catch (const Error& error) {
+    InvalidPolicy(error.message());
+  }
+}
+
+DownloadSelection SelectDownload(std::span<const Node> nodes, std::span<const Edge> edges,
+                                 std::span<const Path> paths, const DownloadPolicy& policy) {
+  ValidateDownloadPolicy(policy);
+  const DenseMap map = IndexMap(nodes, edges, paths,
+                                policy.paths || policy.cover || policy.budget_bytes.has_value());
+  if (policy.budget_bytes) {
+    for (const Node& node : nodes) {
+      if (node.landmarks_blob.empty()) {
+        throw Error(ErrorCode::kInvalidArgument, "download: a budget weighs landmarks, but node " +
+                                                     node.id.ToString() +
+                                                     " came without them (empty landmarks_blob)");
+      }
+    }
+  }
+  const std::size_t node_count = map.nodes.size();
+
+  DownloadSelection selection;
+  DownloadReport& report = selection.report;
+  report.policy = policy.Name();
+  report.map_nodes = node_count;
+  for (const Node* node : map.nodes) {
+    report.map_bytes += static_cast<std::int64_t>(node->landmarks_blob.size());
+  }
+
+  // What the earlier parts allow: everything (Eq. 3), narrowed by time of day (Eq. 4) and
+  // by the best paths (Algorithm 3).
+  std::vector<char> allowed(node_count, 1);
+  if (policy.time_of_day) {
+    for (std::size_t i = 0; i < node_count; ++i) {
+      allowed[i] = WithinTimeOfDayWindow(map.nodes[i]->stamp_ns, policy.mission_start_min,
+                                         policy.window_min);
+    }
+    if (policy.cover) AllowUsedWithinWindow(map, paths, policy, allowed);
+  }
+  std::vector<PathWeights::PathIndex> weighed_paths;  // the paths a budget considers
+  std::vector<int> walk;                              // the epochs Algorithm 3 walks
+  std::optional<PathWeights> weights;
+  if (policy.paths || policy.budget_bytes) {
+    weights = PathWeights::Count(map.memory, nodes, policy.epoch_min);  // Algorithm 2
+    const auto [k_start, k_end] = MissionEpochs(policy, *weights);
+    walk = WalkedEpochs(*weights, k_start, k_end);
+    if (!walk.empty()) {
+      report.epoch_start = walk.front();
+      report.epoch_end = walk.back();
+    }
+    if (policy.paths) {
+      weighed_paths = policy.cover ? BestPathsUsedInWindow(map, paths, policy, *weights, walk)
+                                   : weights->BestPaths(k_start, k_end, policy.best_percent);
+      report.paths_chosen = weighed_paths.size();
+      std::vector<char> on_best(node_count, 0);
+      for (const PathWeights::PathIndex path : weighed_paths) {
+        for (const DenseNode node : map.path_nodes[path]) on_best[node] = 1;
+      }
+      report.nodes_on_chosen_paths =
+          static_cast<std::size_t>(std::count(on_best.begin(), on_best.end(), 1));
+      for (std::size_t i = 0; i < node_count; ++i) allowed[i] = allowed[i] && on_best[i];
+    } else {
+      for (PathWeights::PathIndex path = 0; path < map.memory.path_count(); ++path) {
+        weighed_paths.push_back(path);
+      }
+    }
+  }
+
+  if (policy.cover) Cover(map, edges, paths, policy, allowed, report);
+
+  std::vector<DenseNode> included;
+  for (const Uuid& id : policy.include) {
+    const auto it = map.index.find(id);
+    if (it == map.index.end()) {
+      throw Error(ErrorCode::kNotFound,
+                  "download: node " + id.ToString() + " to include is not in the map");
+    }
+    included.push_back(it->second);
+  }
+
+  std::vector<Uuid> map_ids;
+  map_ids.reserve(node_count);
+  for (const Node* node : map.nodes) map_ids.push_back(node->id);
+  IntegralSelection integral;
+  if (policy.budget_bytes) {
+    internal::BudgetRequest request;
+    request.nodes = map.nodes;
+    request.edges = edges;
+    request.metric_edges = map.metric_edges;
+    request.mission_start_min = policy.mission_start_min;
+    request.budget_bytes = *policy.budget_bytes;
+    if (!included.empty()) {
+      // Before any path: nothing outweighs where the robot starts.
+      internal::BudgetPath& start = request.paths.emplace_back();
+      start.weight = std::numeric_limits<double>::infinity();
+      start.nodes = included;
+      std::sort(start.nodes.begin(), start.nodes.end());
+      start.nodes.erase(std::unique(start.nodes.begin(), start.nodes.end()), start.nodes.end());
+    }
+    for (const PathWeights::PathIndex path : weighed_paths) {
+      internal::BudgetPath& candidate = request.paths.emplace_back();
+      candidate.id = map.memory.path_id(path);
+      for (const int k : walk) candidate.weight += weights->Weight(path, k);  // Eq. 7
+      for (const DenseNode node : map.path_nodes[path]) {
+        if (allowed[node]) candidate.nodes.push_back(node);
+      }
+    }
+    for (DenseNode i = 0; i < node_count; ++i) {
+      if (allowed[i] && !map.memory.Find(map.nodes[i]->id)) request.bare_nodes.push_back(i);
+    }
+    internal::BudgetDownload fill = internal::FillBudget(request);
+    report.picked_nodes = fill.picked;
+    integral = std::move(fill.integral);
+  } else {
+    std::vector<Uuid> picked;
+    for (const DenseNode node : included) allowed[node] = 1;
+    for (std::size_t i = 0; i < node_count; ++i) {
+      if (allowed[i]) picked.push_back(map_ids[i]);
+    }
+    report.picked_nodes = picked.size();
+    integral = MakeIntegral(map_ids, edges, picked);
+  }
+  report.integrity = integral.report;
+
+  std::vector<char> sent(node_count, 0);
+  for (const Uuid& id : integral.nodes) {
+    const DenseNode node = map.index.at(id);
+    sent[node] = 1;
+    report.bytes += static_cast<std::int64_t>(map.nodes[node]->landmarks_blob.size());
+  }
+  // MakeIntegral keeps exactly the edges with both ends sent; the paths of those that are path
+  // edges come along.
+  std::unordered_set<Uuid> kept_paths;
+  for (std::size_t e = 0; e < edges.size(); ++e) {
+    const auto [from, to] = map.edge_ends[e];
+    if (edges[e].kind == EdgeKind::kPath && sent[from] && sent[to]) {
+      kept_paths.insert(edges[e].path);
+    }
+  }
+  selection.paths.assign(kept_paths.begin(), kept_paths.end());
+  std::sort(selection.paths.begin(), selection.paths.end());
+  selection.nodes = std::move(integral.nodes);
+  selection.edges = std::move(integral.edges);
+  report.nodes = selection.nodes.size();
+  report.edges = selection.edges.size();
+  report.paths = selection.paths.size();
+  return selection;
+}
+
+}  // namespace fleetmap

@@ -1,0 +1,480 @@
+#include "fleetmap/policies/merge.h"
+
+#include <algorithm>
+#include <chrono>
+#include <deque>
+#include <optional>
+#include <span>
+#include <unordered_map>
+#include <unordered_set>
+
+#include "fleetmap/core/error.h"
+#include "fleetmap/policies/segment_discovery.h"
+#include "fleetmap/ranking/distance_ranking.h"
+
+namespace fleetmap {
+namespace {
+
+// A UUID fixed by what it names (a link between two nodes, a path edge moved onto other
+// nodes), so merging the same input twice writes the same rows. Version 8 ("custom") with the
+// RFC 9562 variant; the bytes mix the inputs with a 64-bit FNV-1a over both halves.
+Uuid DerivedUuid(std::initializer_list<const Uuid*> parts, std::uint8_t salt) {
+  std::uint64_t lo = 0xcbf29ce484222325ULL ^ salt, hi = 0x84222325cbf29ce4ULL ^ salt;
+  for (const Uuid* part : parts) {
+    for (const std::uint8_t byte : part->bytes()) {
+      lo = (lo ^ byte) * 0x100000001b3ULL;
+      hi = (hi ^ lo ^ byte) * 0x100000001b3ULL;
+    }
+  }
+  Uuid::Bytes bytes{};
+  for (int i = 0; i < 8; ++i) {
+    bytes[static_cast<std::size_t>(i)] = static_cast<std::uint8_t>(hi >> (8 * i));
+    bytes[static_cast<std::size_t>(i + 8)] = static_cast<std::uint8_t>(lo >> (8 * i));
+  }
+  bytes[6] = static_cast<std::uint8_t>((bytes[6] & 0x0F) | 0x80);
+  bytes[8] = static_cast<std::uint8_t>((bytes[8] & 0x3F) | 0x80);
+  return Uuid(bytes);
+}
+
+constexpr std::uint8_t kLinkSalt = 1, kPathEdgeSalt = 2, kMetricEdgeSalt = 3;
+
+class Merger {
+ public:
+  Merger(ExperienceMap& server, const GraphBatch& submission, const ServerCatalogue& catalogue,
+         const MergeOptions& options)
+      : server_(server), submission_(submission), catalogue_(catalogue), options_(options) {}
+
+  MergeResult Run(const MergeProgress& progress) {
+    const auto start = std::chrono::steady_clock::now();
+    Prepare();
+    const std::vector<std::vector<Uuid>> segments = DiscoverSegments();
+    result_.report.segments = segments.size();
+    DistanceRanking ranking;
+    BuilderOptions builder_options = options_.localiser;
+    builder_options.localise_only = true;
+    ExperienceBuilder localiser(nullptr, server_, ranking, builder_options);
+    for (std::size_t i = 0; i < segments.size(); ++i) {
+      MergeSegment(localiser, segments[i]);
+      if (progress) progress(i + 1, segments.size());
+    }
+    // Edges from a segment to one omitted after it could not be placed when it was added.
+    for (const Edge& edge : submission_.edges) {
+      if (edge.kind == EdgeKind::kMetric && !unresolved_.contains(edge.id)) CarryMetric(edge);
+    }
+    CarryPathMemory();
+    // Every omitted node of this submission with the server node that stands in for it
+    // (stands_in_for_ also holds earlier merges' stand-ins, which are recorded already).
+    for (const auto& [node, at] : stands_in_for_) {
+      if (!fresh_.contains(node) || server_.Find(node)) continue;
+      result_.stand_ins.push_back(NodeStandIn{node, at.node, at.node_T_omitted, 0});
+    }
+    std::sort(result_.stand_ins.begin(), result_.stand_ins.end(),
+              [](const NodeStandIn& a, const NodeStandIn& b) { return a.node < b.node; });
+    result_.report.stand_ins = result_.stand_ins.size();
+    result_.report.seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    return std::move(result_);
+  }
+
+ private:
+  // An omitted node that localised: the server node it localised in, and its pose there.
+  struct StandIn {
+    Uuid node;
+    Se3 node_T_omitted = Se3::Identity();
+  };
+
+  // Everything that can be wrong with the input is found here, before the mirror changes.
+  void Prepare() {
+    if (!(options_.omit_localised_fraction > 0.0 && options_.omit_localised_fraction <= 1.0)) {
+      throw Error(ErrorCode::kInvalidArgument, "merge: omit_localised_fraction must be in (0, 1]");
+    }
+    if (!(options_.decision_length_m > 0.0)) {
+      throw Error(ErrorCode::kInvalidArgument, "merge: decision_length_m must be > 0");
+    }
+    result_.report.submitted_nodes = submission_.nodes.size();
+    for (const Node& node : submission_.nodes) {
+      if (server_.Find(node.id)) {
+        ++result_.report.duplicate_nodes;
+        continue;
+      }
+      if (catalogue_.has_hidden_node && catalogue_.has_hidden_node(node.id)) {
+        ++result_.report.duplicate_nodes;
+        hidden_.insert(node.id);
+        continue;
+      }
+      if (!fresh_.emplace(node.id, &node).second) continue;  // repeated in the submission
+      try {
+        landmarks_.emplace(node.id, DecodeLandmarks(node.landmarks_blob));
+      } catch (const Error& error) {
+        throw Error(ErrorCode::kCorrupt,
+                    "merge: node " + node.id.ToString() +
+                        " has landmarks that do not decode: " + error.message());
+      }
+    }
+    for (const Edge& edge : submission_.edges) {
+      bool resolved = true;
+      for (const Uuid& end : {edge.from, edge.to}) {
+        if (fresh_.contains(end) || server_.Find(end) || hidden_.contains(end) ||
+            stands_in_for_.contains(end) ||
+            (catalogue_.has_hidden_node && catalogue_.has_hidden_node(end))) {
+          continue;
+        }
+        // Omitted by an earlier merge: its stand-in takes the edge (if it is still visible).
+        if (catalogue_.stand_in) {
+          if (const std::optional<NodeStandIn> earlier = catalogue_.stand_in(end);
+              earlier && server_.Find(earlier->stand_in)) {
+            stands_in_for_.emplace(end, StandIn{earlier->stand_in, earlier->stand_in_T_node});
+            continue;
+          }
+        }
+        if (catalogue_.seen_elsewhere && catalogue_.seen_elsewhere(end)) {
+          resolved = false;
+          continue;
+        }
+        throw Error(ErrorCode::kIntegrity, "merge: edge " + edge.id.ToString() + " ends at " +
+                                               end.ToString() +
+                                               ", in neither the submission nor the server");
+      }
+      if (!resolved) {
+        unresolved_.insert(edge.id);
+        ++result_.report.edges_unresolved;
+        continue;
+      }
+      if (edge.kind != EdgeKind::kMetric) continue;
+      metric_of_[edge.from].push_back(&edge);
+      metric_of_[edge.to].push_back(&edge);
+    }
+  }
+
+  // Algorithm 1 over the egomotion among nodes new to the server, in capture order. Egomotion
+  // (seed 004 §V-A: T_k between frames at t_{k-1} and t_k) is a metric edge between two nodes
+  // of one outing; an edge between outings is where one robot localised in another's
+  // experience, and following it would fuse a whole EBN map, whose chains all hang off each
+  // other, into one segment to be added or omitted whole.
+  std::vector<std::vector<Uuid>> DiscoverSegments() {
+    std::vector<const Edge*> edges;
+    for (const Edge& edge : submission_.edges) {
+      if (edge.kind == EdgeKind::kMetric && fresh_.contains(edge.from) &&
+          fresh_.contains(edge.to) && IsEgomotion(edge)) {
+        edges.push_back(&edge);
+      }
+    }
+    const auto stamp = [&](const Uuid& id) { return fresh_.at(id)->stamp_ns; };
+    std::sort(edges.begin(), edges.end(), [&](const Edge* a, const Edge* b) {
+      return std::pair(stamp(a->from), a->id) < std::pair(stamp(b->from), b->id);
+    });
+    SegmentDiscovery discovery;
+    for (const Edge* edge : edges) discovery.Add(edge->from, edge->to);
+    std::vector<const Node*> alone;
+    for (const Node& node : submission_.nodes) {
+      if (fresh_.contains(node.id) && !discovery.SegmentOf(node.id)) alone.push_back(&node);
+    }
+    std::sort(alone.begin(), alone.end(), [](const Node* a, const Node* b) {
+      return std::pair(a->stamp_ns, a->id) < std::pair(b->stamp_ns, b->id);
+    });
+    for (const Node* node : alone) {
+      if (!discovery.SegmentOf(node->id)) discovery.Add(node->id, node->id);
+    }
+    return discovery.Segments();
+  }
+
+  bool IsEgomotion(const Edge& edge) const {
+    const Node& from = *fresh_.at(edge.from);
+    const Node& to = *fresh_.at(edge.to);
+    return from.robot == to.robot && from.outing == to.outing;
+  }
+
+  // The pose of `to` in `from`'s frame through the submission's metric edges among `members`
+  // (directly when an edge joins them; otherwise breadth-first, for a branching segment).
+  std::optional<Se3> RelativePose(const Uuid& from, const Uuid& to,
+                                  const std::unordered_set<Uuid>& members) const {
+    std::unordered_map<Uuid, Se3> from_T;
+    from_T.emplace(from, Se3::Identity());
+    std::deque<Uuid> queue{from};
+    while (!queue.empty()) {
+      const Uuid at = queue.front();
+      queue.pop_front();
+      const auto edges = metric_of_.find(at);
+      if (edges == metric_of_.end()) continue;
+      for (const Edge* edge : edges->second) {
+        const bool forward = edge->from == at;
+        const Uuid& next = forward ? edge->to : edge->from;
+        if (!members.contains(next) || from_T.contains(next)) continue;
+        const Se3 pose = from_T.at(at) * (forward ? edge->from_T_to : edge->from_T_to.inverse());
+        if (next == to) return pose;
+        from_T.emplace(next, pose);
+        queue.push_back(next);
+      }
+    }
+    return std::nullopt;
+  }
+
+  // One replayed frame of a segment.
+  struct Replayed {
+    Uuid node;
+    bool localised = false;
+    std::optional<StandIn> placed;      // where it localised, else where dead reckoning put it
+    Se3 prev_T_this = Se3::Identity();  // egomotion from the segment's previous frame
+    double travel_m = 0.0;
+  };
+
+  void MergeSegment(ExperienceBuilder& localiser, const std::vector<Uuid>& segment) {
+    std::vector<Replayed> frames = Replay(localiser, segment);
+    PlaceThroughLocalisedNeighbours(frames);
+    // Inclusion is decided stretch by stretch: a long segment (a fresh map's first outing is
+    // one chain end to end) that localises well overall still has stretches the server lacks,
+    // and omitting it whole would lose exactly those.
+    std::size_t begin = 0;
+    double length_m = 0.0;
+    for (std::size_t i = 0; i < frames.size(); ++i) {
+      if (i > begin && length_m + frames[i].travel_m > options_.decision_length_m) {
+        Decide(std::span(frames).subspan(begin, i - begin));
+        begin = i;
+        length_m = 0.0;
+      } else if (i > begin) {
+        length_m += frames[i].travel_m;
+      }
+    }
+    Decide(std::span(frames).subspan(begin));
+  }
+
+  // A frame that did not localise is placed on the server through the nearest frame of its
+  // segment that did, composed with the robot's own egomotion between the two: over a few
+  // metres that is far more accurate than the replay's dead reckoning, which also re-expresses
+  // the estimate on graph poses as it goes (measured on the default world: stand-in edges 0.29
+  // m median error through dead reckoning). Without any localised frame the dead-reckoned place
+  // stays.
+  static void PlaceThroughLocalisedNeighbours(std::vector<Replayed>& frames) {
+    std::vector<Se3> segment_T_frame(frames.size(), Se3::Identity());
+    for (std::size_t i = 1; i < frames.size(); ++i) {
+      segment_T_frame[i] = segment_T_frame[i - 1] * frames[i].prev_T_this;
+    }
+    std::optional<std::size_t> last;  // nearest localised frame before, then after
+    std::vector<std::optional<std::size_t>> before(frames.size()), after(frames.size());
+    for (std::size_t i = 0; i < frames.size(); ++i) {
+      if (frames[i].localised) last = i;
+      before[i] = last;
+    }
+    last.reset();
+    for (std::size_t i = frames.size(); i-- > 0;) {
+      if (frames[i].localised) last = i;
+      after[i] = last;
+    }
+    for (std::size_t i = 0; i < frames.size(); ++i) {
+      if (frames[i].localised) continue;
+      std::optional<std::size_t> l = before[i];
+      if (after[i] && (!l || *after[i] - i < i - *l)) l = after[i];
+      if (!l) continue;
+      const StandIn& at = *frames[*l].placed;
+      frames[i].placed =
+          StandIn{at.node, at.node_T_omitted * segment_T_frame[*l].inverse() * segment_T_frame[i]};
+    }
+  }
+
+  // Replays a segment as a stream of live frames, localise-only, against the server map.
+  std::vector<Replayed> Replay(ExperienceBuilder& localiser, const std::vector<Uuid>& segment) {
+    const std::unordered_set<Uuid> members(segment.begin(), segment.end());
+    const Node& first = *fresh_.at(segment.front());
+    // Where the robot's own edges put the segment's first node on the server, the replay starts
+    // there, as a docked robot would; otherwise lost, and the appearance index finds it.
+    OutingStart start;
+    start.robot = first.robot;
+    start.outing = first.outing;
+    if (const std::optional<StandIn> prior = PriorPose(segment.front(), members)) {
+      start.start_node = prior->node;
+      start.start_node_T_camera = prior->node_T_omitted;
+    }
+    localiser.StartOuting(start);
+    std::vector<Replayed> frames(segment.size());
+    for (std::size_t i = 0; i < segment.size(); ++i) {
+      Frame frame;
+      frame.stamp_ns = fresh_.at(segment[i])->stamp_ns;
+      frame.landmarks = landmarks_.at(segment[i]);
+      if (i > 0) {
+        // No pose between two nodes of one segment only if its edges were inconsistent; then
+        // the localiser just runs on without motion.
+        frame.prev_T_this =
+            RelativePose(segment[i - 1], segment[i], members).value_or(Se3::Identity());
+      }
+      const FrameReport report = localiser.Process(frame);
+      frames[i].node = segment[i];
+      frames[i].localised = report.successes > 0;
+      frames[i].prev_T_this = frame.prev_T_this;
+      frames[i].travel_m = frame.prev_T_this.translation().norm();
+      if (!report.reference.IsNil()) {
+        frames[i].placed = StandIn{report.reference, report.reference_T_camera};
+      }
+    }
+    localiser.FinishOuting();
+    return frames;
+  }
+
+  // Omits a stretch that localises well enough, else adds it to the server map.
+  void Decide(std::span<const Replayed> stretch) {
+    ++result_.report.stretches;
+    std::vector<const Replayed*> localised;
+    for (const Replayed& frame : stretch) {
+      if (frame.localised) localised.push_back(&frame);
+    }
+    const double fraction =
+        static_cast<double>(localised.size()) / static_cast<double>(stretch.size());
+    if (fraction >= options_.omit_localised_fraction) {
+      ++result_.report.stretches_omitted;
+      // The frames that did not localise stand in by their dead-reckoned place, so the robot's
+      // edges through them still join what it adds to the server map at both ends.
+      for (const Replayed& frame : stretch) {
+        if (frame.placed) stands_in_for_.emplace(frame.node, *frame.placed);
+      }
+      return;
+    }
+    ++result_.report.stretches_added;
+    for (const Replayed& frame : stretch) {
+      const Node& node = *fresh_.at(frame.node);
+      server_.AddNode(node, landmarks_.at(frame.node));
+      result_.additions.nodes.push_back(node);
+      ++result_.report.nodes_added;
+    }
+    // The robot's metric edges into the stretch: from inside it, from the server map, or from
+    // an omitted node through the server node it stands in by.
+    for (const Replayed& frame : stretch) {
+      for (const Edge* edge : metric_of_[frame.node]) CarryMetric(*edge);
+    }
+    // Links where the stretch localised, at its first and last such frames. (Linking every
+    // localised frame, or the stretch's ends through their placements, measured worse on the
+    // default world: more links shift where the localiser recentres.)
+    if (!localised.empty()) {
+      for (const Replayed* l : {localised.front(), localised.back()}) {
+        if (l == localised.back() && localised.size() == 1) break;
+        Edge link;
+        link.id = DerivedUuid({&l->placed->node, &l->node}, kLinkSalt);
+        link.from = l->placed->node;
+        link.to = l->node;
+        link.kind = EdgeKind::kMetric;
+        link.from_T_to = l->placed->node_T_omitted;
+        if (written_edges_.contains(link.id) || catalogue_.has_edge(link.id)) continue;
+        AddMetric(link);
+        ++result_.report.links_added;
+      }
+    }
+  }
+
+  // A server node and the pose of `node` in it, through one of the robot's metric edges from
+  // outside `members` to `node` whose other end is on the server or stands in by one.
+  std::optional<StandIn> PriorPose(const Uuid& node,
+                                   const std::unordered_set<Uuid>& members) const {
+    const auto edges = metric_of_.find(node);
+    if (edges == metric_of_.end()) return std::nullopt;
+    for (const Edge* edge : edges->second) {
+      const bool incoming = edge->to == node;
+      const Uuid& other = incoming ? edge->from : edge->to;
+      if (members.contains(other)) continue;
+      const Se3 other_T_node = incoming ? edge->from_T_to : edge->from_T_to.inverse();
+      if (server_.Find(other)) return StandIn{other, other_T_node};
+      const auto it = stands_in_for_.find(other);
+      if (it != stands_in_for_.end()) {
+        return StandIn{it->second.node, it->second.node_T_omitted * other_T_node};
+      }
+    }
+    return std::nullopt;
+  }
+
+  // Adds a robot metric edge once both its ends are on the server, moved onto the stand-in of
+  // an omitted end (s_T_to = s_T_from * from_T_to). Edges whose ends are not both there yet
+  // wait: the segment of the other end adds them, or nothing does.
+  // Only edges touching an added node are carried: two omitted ends would only duplicate, on
+  // the server's own nodes, what the server already relates.
+  void CarryMetric(const Edge& edge) {
+    if (written_edges_.contains(edge.id) || catalogue_.has_edge(edge.id)) return;
+    const auto added = [&](const Uuid& id) { return fresh_.contains(id) && server_.Find(id); };
+    if (!added(edge.from) && !added(edge.to)) return;
+    Edge carried = edge;
+    for (const bool is_from : {true, false}) {
+      Uuid& end = is_from ? carried.from : carried.to;
+      if (server_.Find(end)) continue;
+      const auto it = stands_in_for_.find(end);
+      if (it == stands_in_for_.end()) return;
+      end = it->second.node;
+      carried.from_T_to = is_from ? it->second.node_T_omitted * carried.from_T_to
+                                  : carried.from_T_to * it->second.node_T_omitted.inverse();
+    }
+    if (carried.from == carried.to) return;
+    if (carried.from != edge.from || carried.to != edge.to) {
+      carried.id = DerivedUuid({&edge.id, &carried.from, &carried.to}, kMetricEdgeSalt);
+      if (written_edges_.contains(carried.id) || catalogue_.has_edge(carried.id)) return;
+      written_edges_.insert(edge.id);  // the original is settled too
+    }
+    AddMetric(carried);
+  }
+
+  void AddMetric(const Edge& edge) {
+    server_.AddMetricEdge(edge.from, edge.to, edge.from_T_to);
+    result_.additions.edges.push_back(edge);
+    written_edges_.insert(edge.id);
+    ++result_.report.metric_edges_added;
+  }
+
+  // Path edges onto whatever now stands for their ends on the server.
+  void CarryPathMemory() {
+    std::unordered_set<Uuid> paths_used;
+    for (const Edge& edge : submission_.edges) {
+      if (edge.kind != EdgeKind::kPath || unresolved_.contains(edge.id)) continue;
+      const std::optional<Uuid> from = OnServer(edge.from), to = OnServer(edge.to);
+      if (!from || !to || *from == *to) {
+        ++result_.report.path_edges_dropped;
+        continue;
+      }
+      Edge carried = edge;
+      if (*from != edge.from || *to != edge.to) {
+        carried.id = DerivedUuid({&edge.id, &*from, &*to}, kPathEdgeSalt);
+        carried.from = *from;
+        carried.to = *to;
+      }
+      if (written_edges_.contains(carried.id) || catalogue_.has_edge(carried.id)) continue;
+      result_.additions.edges.push_back(carried);
+      written_edges_.insert(carried.id);
+      ++result_.report.path_edges_added;
+      paths_used.insert(edge.path);
+    }
+    for (const Path& path : submission_.paths) {
+      if (paths_used.contains(path.id) && !catalogue_.has_path(path.id)) {
+        result_.additions.paths.push_back(path);
+        ++result_.report.paths_added;
+      }
+    }
+  }
+
+  std::optional<Uuid> OnServer(const Uuid& node) const {
+    if (server_.Find(node)) return node;
+    const auto it = stands_in_for_.find(node);
+    if (it != stands_in_for_.end()) return it->second.node;
+    return std::nullopt;
+  }
+
+  ExperienceMap& server_;
+  const GraphBatch& submission_;
+  const ServerCatalogue& catalogue_;
+  const MergeOptions& options_;
+
+  std::unordered_map<Uuid, const Node*> fresh_;  // submitted nodes the server lacks
+  std::unordered_set<Uuid> hidden_;              // submitted nodes stored but hidden
+  std::unordered_map<Uuid, Landmarks> landmarks_;
+  std::unordered_map<Uuid, std::vector<const Edge*>> metric_of_;  // submission metric edges
+  // Omitted nodes (of this submission, and earlier ones its edges reach) -> their stand-ins.
+  std::unordered_map<Uuid, StandIn> stands_in_for_;
+  std::unordered_set<Uuid> unresolved_;  // edges to nodes seen only in unmerged submissions
+  std::unordered_set<Uuid> written_edges_;
+  MergeResult result_;
+};
+
+}  // namespace
+
+MergeResult Merge(ExperienceMap& server, const GraphBatch& submission,
+                  const ServerCatalogue& catalogue, const MergeOptions& options,
+                  const MergeProgress& progress) {
+  if (!catalogue.has_edge || !catalogue.has_path) {
+    throw Error(ErrorCode::kInvalidArgument, "merge: the server catalogue must answer both");
+  }
+  return Merger(server, submission, catalogue, options).Run(progress);
+}
+
+}  // namespace fleetmap

@@ -1,0 +1,433 @@
+// The robot's map directory (agent/include/fleetmap/agent/local_map.h) without a network: what
+// is unsynced, full and incremental installs, that an install never loses local content the
+// server does not have, and that a crash at any point of an install leaves map and state
+// describing each other.
+#include <gtest/gtest.h>
+#include <sys/stat.h>
+
+#include <fstream>
+
+#include "corridor_robot_map.h"
+#include "expect_error.h"
+#include "fleetmap/agent/local_map.h"
+#include "fleetmap/core/map_chunks.h"
+#include "fleetmap/store/graph_store.h"
+#include "scratch_dir.h"
+
+namespace fleetmap {
+namespace {
+
+namespace fs = std::filesystem;
+
+// Robot maps built once per process: a day outing and a night outing of the corridor, by
+// different robots (so their elements are disjoint).
+struct Maps {
+  GraphBatch day = CorridorRobotMap({{0, 0.0}});
+  GraphBatch night = CorridorRobotMap({{1, 0.0}});
+};
+const Maps& SharedMaps() {
+  static const Maps maps;
+  return maps;
+}
+
+GraphBatch ReadStore(const std::string& uri) {
+  return GraphStore::Open(uri)->ReadMap();
+}
+
+// `map` as a full download of revision `revision`.
+MapDownload FullDownload(const GraphBatch& map, std::int64_t revision) {
+  MapDownload download;
+  download.revision = revision;
+  download.content = map;
+  download.nodes = map.nodes.size();
+  download.edges = map.edges.size();
+  download.paths = map.paths.size();
+  return download;
+}
+
+GraphBatch Join(const GraphBatch& a, const GraphBatch& b) {
+  GraphBatch out = a;
+  out.nodes.insert(out.nodes.end(), b.nodes.begin(), b.nodes.end());
+  out.edges.insert(out.edges.end(), b.edges.begin(), b.edges.end());
+  out.paths.insert(out.paths.end(), b.paths.begin(), b.paths.end());
+  return out;
+}
+
+void WriteText(const fs::path& path, const std::string& text) {
+  std::ofstream out(path, std::ios::binary);
+  out << text;
+}
+
+std::string ReadText(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+// The day map built into `map` and pushed (accepted by the server, not merged yet).
+Uuid PushDay(LocalMap& map) {
+  GraphStore::Open(map.map_uri())->Put(SharedMaps().day);
+  const Uuid submission = map.BeginSubmission(map.Unsynced()).id;
+  map.MarkPushed(submission);
+  return submission;
+}
+
+TEST(AgentLocalMapTest, NewDirectoryHasAnEmptyMapAndNothingUnsynced) {
+  const ScratchDir dir("fleetmap-agent-map");
+  LocalMap map = LocalMap::Open(dir / "robot");
+  EXPECT_TRUE(fs::exists(dir / "robot" / "map.db"));
+  const GraphBatch unsynced = map.Unsynced();
+  EXPECT_TRUE(unsynced.nodes.empty() && unsynced.edges.empty() && unsynced.paths.empty());
+  EXPECT_EQ(map.state().revision, 0);
+}
+
+TEST(AgentLocalMapTest, EverythingTheBuilderWroteIsUnsyncedUntilPushed) {
+  const ScratchDir dir("fleetmap-agent-map");
+  LocalMap map = LocalMap::Open(dir / "robot");
+  BuildCorridorRobotMap(*GraphStore::Open(map.map_uri()), {{0, 0.0}});
+  const GraphBatch built = ReadStore(map.map_uri());
+  ASSERT_GT(built.nodes.size(), 5u);
+
+  const GraphBatch unsynced = map.Unsynced();
+  EXPECT_EQ(IdsOf(unsynced), IdsOf(built));
+  EXPECT_TRUE(std::is_sorted(unsynced.nodes.begin(), unsynced.nodes.end(),
+                             [](const Node& a, const Node& b) { return a.id < b.id; }));
+
+  const PendingSubmission submission = map.BeginSubmission(unsynced);
+  EXPECT_EQ(submission.content, IdsOf(built));
+  // Read back, the submission encodes to the same chunks: a retry is the same push.
+  EXPECT_EQ(EncodeMapChunks(map.SubmissionContent(submission)), EncodeMapChunks(unsynced));
+  ExpectError(
+      ErrorCode::kInvalidArgument, [&] { map.BeginSubmission(unsynced); },
+      submission.id.ToString());
+  map.MarkPushed(submission.id);
+  EXPECT_TRUE(map.Unsynced().nodes.empty());
+  EXPECT_FALSE(map.state().submission.has_value());
+}
+
+TEST(AgentLocalMapTest, PendingSubmissionAndStateSurviveReopening) {
+  const ScratchDir dir("fleetmap-agent-map");
+  Uuid id;
+  {
+    LocalMap map = LocalMap::Open(dir / "robot");
+    GraphStore::Open(map.map_uri())->Put(SharedMaps().day);
+    id = map.BeginSubmission(map.Unsynced()).id;
+  }
+  LocalMap map = LocalMap::Open(dir / "robot");
+  ASSERT_TRUE(map.state().submission.has_value());
+  EXPECT_EQ(map.state().submission->id, id);
+  EXPECT_EQ(IdsOf(map.SubmissionContent(*map.state().submission)), IdsOf(SharedMaps().day));
+}
+
+TEST(AgentLocalMapTest, OnlyOneExclusiveOpenPerDirectory) {
+  const ScratchDir dir("fleetmap-agent-map");
+  LocalMap first = LocalMap::Open(dir / "robot");
+  ExpectError(
+      ErrorCode::kConflict, [&] { LocalMap::Open(dir / "robot"); }, "in use");
+  // A reader (status) still gets in, and cannot write.
+  LocalMap reader = LocalMap::Open(dir / "robot", LocalMapAccess::kReadOnly);
+  ExpectError(ErrorCode::kInvalidArgument, [&] { reader.Install(FullDownload({}, 1)); });
+}
+
+TEST(AgentLocalMapTest, RobotIsBoundOnce) {
+  const ScratchDir dir("fleetmap-agent-map");
+  LocalMap map = LocalMap::Open(dir / "robot");
+  const Uuid robot = Uuid::Generate();
+  map.BindRobot(robot);
+  map.BindRobot(robot);
+  const Uuid other = Uuid::Generate();
+  ExpectError(
+      ErrorCode::kInvalidArgument, [&] { map.BindRobot(other); }, robot.ToString());
+}
+
+TEST(AgentLocalMapTest, FullInstallReplacesTheMapWithTheDownload) {
+  const ScratchDir dir("fleetmap-agent-map");
+  LocalMap map = LocalMap::Open(dir / "robot");
+  const GraphBatch& day = SharedMaps().day;
+  const InstallReport report = map.Install(FullDownload(day, 3));
+  EXPECT_EQ(report.revision, 3);
+  EXPECT_FALSE(report.incremental);
+  EXPECT_EQ(report.nodes, day.nodes.size());
+  EXPECT_EQ(IdsOf(ReadStore(map.map_uri())), IdsOf(day));
+  EXPECT_TRUE(map.Unsynced().nodes.empty());
+  EXPECT_EQ(map.state().revision, 3);
+  EXPECT_EQ(map.state().installed, IdsOf(day));
+  EXPECT_FALSE(fs::exists(dir / "robot" / "map.db.new"));
+  EXPECT_FALSE(fs::exists(dir / "robot" / "sync.json.next"));
+
+  // A second full install replaces it (the day map is gone from the robot).
+  map.Install(FullDownload(SharedMaps().night, 4));
+  EXPECT_EQ(IdsOf(ReadStore(map.map_uri())), IdsOf(SharedMaps().night));
+  // The state is on disk: a reopened directory says the same.
+  const SyncState state = map.state();
+  { LocalMap moved = std::move(map); }
+  EXPECT_EQ(LocalMap::Open(dir / "robot").state(), state);
+}
+
+TEST(AgentLocalMapTest, IncrementalInstallAppliesRemovedAndAdded) {
+  const ScratchDir dir("fleetmap-agent-map");
+  LocalMap map = LocalMap::Open(dir / "robot");
+  const GraphBatch& day = SharedMaps().day;
+  const GraphBatch& night = SharedMaps().night;
+  MapDownload first = FullDownload(day, 2);
+  first.request.policy = "tod";
+  first.request.mission_start_min = 600;
+  map.Install(first);
+
+  // Revision 5 drops one day node with every edge touching it, and adds the night map.
+  const Uuid dropped = day.nodes[day.nodes.size() / 2].id;
+  MapDownload next;
+  next.revision = 5;
+  next.base_revision = 2;
+  next.request = first.request;
+  next.content = night;
+  next.removed.nodes.insert(dropped);
+  GraphBatch expected = Join(day, night);
+  std::erase_if(expected.nodes, [&](const Node& n) { return n.id == dropped; });
+  for (const Edge& edge : day.edges) {
+    if (edge.from == dropped || edge.to == dropped) next.removed.edges.insert(edge.id);
+  }
+  std::erase_if(expected.edges, [&](const Edge& e) { return next.removed.edges.contains(e.id); });
+  next.nodes = expected.nodes.size();
+  next.edges = expected.edges.size();
+  next.paths = expected.paths.size();
+
+  const InstallReport report = map.Install(next);
+  EXPECT_TRUE(report.incremental);
+  EXPECT_EQ(report.nodes, expected.nodes.size());
+  EXPECT_EQ(IdsOf(ReadStore(map.map_uri())), IdsOf(expected));
+  EXPECT_EQ(map.state().installed, IdsOf(expected));
+  EXPECT_EQ(map.state().revision, 5);
+
+  // An incremental download must continue what is installed, asked for the same way.
+  MapDownload stale = next;
+  stale.revision = 6;
+  ExpectError(
+      ErrorCode::kInvalidArgument, [&] { map.Install(stale); }, "revision 2");
+  MapDownload other_policy = next;
+  other_policy.base_revision = 5;
+  other_policy.revision = 6;
+  other_policy.request.policy = "copy";
+  ExpectError(
+      ErrorCode::kInvalidArgument, [&] { map.Install(other_policy); }, "parameters");
+  EXPECT_EQ(IdsOf(ReadStore(map.map_uri())), IdsOf(expected));
+}
+
+TEST(AgentLocalMapTest, CountsThatDisagreeWithTheHeaderLeaveTheMapAsItWas) {
+  const ScratchDir dir("fleetmap-agent-map");
+  LocalMap map = LocalMap::Open(dir / "robot");
+  map.Install(FullDownload(SharedMaps().day, 1));
+  MapDownload wrong = FullDownload(SharedMaps().night, 2);
+  wrong.nodes += 1;
+  ExpectError(
+      ErrorCode::kCorrupt, [&] { map.Install(wrong); }, "header");
+  EXPECT_EQ(IdsOf(ReadStore(map.map_uri())), IdsOf(SharedMaps().day));
+  EXPECT_EQ(map.state().revision, 1);
+  EXPECT_FALSE(fs::exists(dir / "robot" / "map.db.new"));
+
+  // A download that is not an integral map (an edge whose end is not sent) is refused too.
+  GraphBatch broken = SharedMaps().night;
+  broken.nodes.erase(broken.nodes.begin());
+  ExpectError(ErrorCode::kCorrupt, [&] { map.Install(FullDownload(broken, 2)); });
+  EXPECT_EQ(IdsOf(ReadStore(map.map_uri())), IdsOf(SharedMaps().day));
+}
+
+TEST(AgentLocalMapTest, UnsyncedContentIsKeptThroughAnInstall) {
+  const ScratchDir dir("fleetmap-agent-map");
+  LocalMap map = LocalMap::Open(dir / "robot");
+  const GraphBatch& day = SharedMaps().day;
+  map.Install(FullDownload(day, 1));
+
+  // The robot drives: a new node, linked to an installed node, and a new outing's map.
+  const Node& anchor = day.nodes.front();
+  GraphBatch local = CorridorRobotMap({{1, 60.0}});
+  Node fresh = anchor;
+  fresh.id = Uuid::Generate();
+  local.nodes.push_back(fresh);
+  local.edges.push_back(
+      Edge{Uuid::Generate(), fresh.id, anchor.id, EdgeKind::kMetric, Se3::Identity(), Uuid()});
+  GraphStore::Open(map.map_uri())->Put(local);
+  ASSERT_EQ(IdsOf(map.Unsynced()), IdsOf(local));
+
+  // A pending (not yet accepted) submission of part of it stays pending and unsynced.
+  const PendingSubmission pending = map.BeginSubmission(map.Unsynced());
+
+  // The next download no longer holds the anchor; the local edge still needs it.
+  const InstallReport report = map.Install(FullDownload(SharedMaps().night, 2));
+  EXPECT_EQ(report.kept_unsynced, IdsOf(local).size());
+  EXPECT_EQ(report.kept_for_unsynced, 1u);
+  const GraphBatch installed = ReadStore(map.map_uri());
+  const ElementIds ids = IdsOf(installed);
+  EXPECT_TRUE(ids.Contains(IdsOf(SharedMaps().night)));
+  EXPECT_TRUE(ids.Contains(IdsOf(local)));
+  EXPECT_TRUE(ids.nodes.contains(anchor.id));
+  EXPECT_EQ(ids.nodes.size(),
+            SharedMaps().night.nodes.size() + local.nodes.size() + 1);  // + the anchor
+  EXPECT_EQ(IdsOf(map.Unsynced()), IdsOf(local));  // still to push; the anchor is known
+  ASSERT_TRUE(map.state().submission.has_value());
+  EXPECT_EQ(map.state().submission->id, pending.id);
+  EXPECT_EQ(IdsOf(map.SubmissionContent(pending)), IdsOf(local));
+}
+
+TEST(AgentLocalMapTest, PushedContentStaysUntilADownloadReflectsItsMerge) {
+  const ScratchDir dir("fleetmap-agent-map");
+  LocalMap map = LocalMap::Open(dir / "robot");
+  const GraphBatch& day = SharedMaps().day;
+  GraphStore::Open(map.map_uri())->Put(day);
+  const Uuid submission = map.BeginSubmission(map.Unsynced()).id;
+  map.MarkPushed(submission);
+  ASSERT_EQ(map.state().unmerged.size(), 1u);
+  EXPECT_TRUE(map.Unsynced().nodes.empty());
+
+  // Revision 1 was chosen before the merge: the robot keeps what it pushed.
+  const InstallReport before_merge = map.Install(FullDownload(SharedMaps().night, 1));
+  EXPECT_EQ(before_merge.kept_unmerged, IdsOf(day).size());
+  EXPECT_TRUE(IdsOf(ReadStore(map.map_uri())).Contains(IdsOf(day)));
+  EXPECT_TRUE(map.Unsynced().nodes.empty());  // known to the server all the same
+  ASSERT_EQ(map.state().unmerged.size(), 1u);
+
+  // Merged as revision 2 (MERGE took only the night map's worth): a download of revision 2
+  // reflects the merge, so what it left out goes.
+  map.RecordMerge(submission, 2);
+  const InstallReport merged = map.Install(FullDownload(SharedMaps().night, 2));
+  EXPECT_EQ(merged.kept_unmerged, 0u);
+  EXPECT_EQ(IdsOf(ReadStore(map.map_uri())), IdsOf(SharedMaps().night));
+  EXPECT_TRUE(map.state().unmerged.empty());
+  EXPECT_TRUE(map.state().pushed.nodes.empty());
+}
+
+// A submission the server refused stays in the robot's map through every install, survives a
+// restart of the agent, and goes only after an explicit Discard.
+TEST(AgentLocalMapTest, FailedSubmissionIsKeptUntilDiscarded) {
+  const ScratchDir dir("fleetmap-agent-map");
+  const GraphBatch& day = SharedMaps().day;
+  Uuid submission;
+  {
+    LocalMap map = LocalMap::Open(dir / "robot");
+    submission = PushDay(map);
+    ExpectError(
+        ErrorCode::kInvalidArgument, [&] { map.Discard(submission); }, "has not failed");
+    map.RecordFailure(submission, "edge e ends at node n, never seen");
+  }
+  LocalMap map = LocalMap::Open(dir / "robot");  // the state file keeps the failure
+  ASSERT_EQ(map.state().unmerged.size(), 1u);
+  EXPECT_TRUE(map.state().unmerged[0].failed);
+  EXPECT_EQ(map.state().unmerged[0].error, "edge e ends at node n, never seen");
+  for (std::int64_t revision : {3, 4}) {  // later revisions do not retire it either
+    const InstallReport report = map.Install(FullDownload(SharedMaps().night, revision));
+    EXPECT_EQ(report.kept_failed, IdsOf(day).size());
+    EXPECT_TRUE(IdsOf(ReadStore(map.map_uri())).Contains(IdsOf(day)));
+  }
+  ExpectError(ErrorCode::kNotFound, [&] { map.Discard(Uuid::Generate()); });
+  map.Discard(submission);
+  EXPECT_TRUE(map.state().unmerged.empty());
+  map.Install(FullDownload(SharedMaps().night, 5));
+  EXPECT_EQ(IdsOf(ReadStore(map.map_uri())), IdsOf(SharedMaps().night));
+}
+
+// A state file written before failed submissions were kept (merged_revision 0 meant failed)
+// reads as failed, so an upgrade does not drop what the old agent was about to drop.
+TEST(AgentLocalMapTest, OldStateWithMergedRevisionZeroReadsAsFailed) {
+  const ScratchDir dir("fleetmap-agent-map");
+  Uuid submission;
+  {
+    LocalMap map = LocalMap::Open(dir / "robot");
+    submission = PushDay(map);
+  }
+  std::string text = ReadText(dir / "robot" / "sync.json");
+  const std::string from = "\"merged_revision\": null";
+  ASSERT_NE(text.find(from), std::string::npos) << text;
+  text.replace(text.find(from), from.size(), "\"merged_revision\": 0");
+  WriteText(dir / "robot" / "sync.json", text);
+  LocalMap map = LocalMap::Open(dir / "robot");
+  ASSERT_EQ(map.state().unmerged.size(), 1u);
+  EXPECT_TRUE(map.state().unmerged[0].failed);
+  EXPECT_FALSE(map.state().unmerged[0].merged_revision);
+}
+
+TEST(AgentLocalMapTest, IncrementalDownloadOfNothingRewritesNoMap) {
+  const ScratchDir dir("fleetmap-agent-map");
+  LocalMap map = LocalMap::Open(dir / "robot");
+  map.Install(FullDownload(SharedMaps().day, 4));
+  struct stat before {};
+  ASSERT_EQ(::stat(map.map_path().c_str(), &before), 0);
+  MapDownload nothing;
+  nothing.revision = 6;
+  nothing.base_revision = 4;
+  nothing.nodes = SharedMaps().day.nodes.size();
+  nothing.edges = SharedMaps().day.edges.size();
+  nothing.paths = SharedMaps().day.paths.size();
+  const InstallReport report = map.Install(nothing);
+  EXPECT_TRUE(report.incremental);
+  EXPECT_EQ(report.nodes, SharedMaps().day.nodes.size());
+  struct stat after {};
+  ASSERT_EQ(::stat(map.map_path().c_str(), &after), 0);
+  EXPECT_EQ(before.st_ino, after.st_ino);  // the same file: not replaced
+  EXPECT_EQ(map.state().revision, 6);
+  EXPECT_EQ(LocalMap::Open(dir / "other").state().revision, 0);
+  // Counts that disagree are refused here too.
+  nothing.base_revision = 6;
+  nothing.revision = 7;
+  nothing.nodes += 1;
+  ExpectError(
+      ErrorCode::kCorrupt, [&] { map.Install(nothing); }, "header");
+  EXPECT_EQ(map.state().revision, 6);
+}
+
+TEST(AgentLocalMapTest, LeftoverNewMapFromACrashIsDiscardedAndTheOldMapIntact) {
+  const ScratchDir dir("fleetmap-agent-map");
+  const fs::path robot = dir / "robot";
+  SyncState before;
+  {
+    LocalMap map = LocalMap::Open(robot);
+    map.Install(FullDownload(SharedMaps().day, 1));
+    before = map.state();
+  }
+  // Crashed while writing map.db.new (no state written for it yet).
+  WriteText(robot / "map.db.new", "half a database");
+  {
+    LocalMap map = LocalMap::Open(robot);
+    EXPECT_FALSE(fs::exists(robot / "map.db.new"));
+    EXPECT_EQ(map.state(), before);
+    EXPECT_EQ(IdsOf(ReadStore(map.map_uri())), IdsOf(SharedMaps().day));
+    // And an install after it works.
+    map.Install(FullDownload(SharedMaps().night, 2));
+    EXPECT_EQ(IdsOf(ReadStore(map.map_uri())), IdsOf(SharedMaps().night));
+    before = map.state();
+  }
+  // Crashed after writing the next state, before the map rename: both are discarded.
+  fs::copy_file(robot / "map.db", robot / "map.db.new");
+  WriteText(robot / "sync.json.next", "{\"format\": 1, \"revision\": 99}");
+  {
+    LocalMap map = LocalMap::Open(robot);
+    EXPECT_FALSE(fs::exists(robot / "map.db.new"));
+    EXPECT_FALSE(fs::exists(robot / "sync.json.next"));
+    EXPECT_EQ(map.state(), before);
+    EXPECT_EQ(IdsOf(ReadStore(map.map_uri())), IdsOf(SharedMaps().night));
+  }
+}
+
+TEST(AgentLocalMapTest, CrashBetweenMapRenameAndStateRenameRollsForward) {
+  const ScratchDir dir("fleetmap-agent-map");
+  const fs::path robot = dir / "robot";
+  std::string old_state;
+  SyncState after;
+  {
+    LocalMap map = LocalMap::Open(robot);
+    map.Install(FullDownload(SharedMaps().day, 1));
+    old_state = ReadText(robot / "sync.json");
+    map.Install(FullDownload(SharedMaps().night, 2));
+    after = map.state();
+  }
+  // What the disk holds when the map rename happened and the state rename did not.
+  fs::rename(robot / "sync.json", robot / "sync.json.next");
+  WriteText(robot / "sync.json", old_state);
+  LocalMap map = LocalMap::Open(robot);
+  EXPECT_EQ(map.state(), after);
+  EXPECT_FALSE(fs::exists(robot / "sync.json.next"));
+  // Nothing the server sent is taken for local content.
+  EXPECT_TRUE(map.Unsynced().nodes.empty());
+  EXPECT_TRUE(map.Unsynced().edges.empty());
+}
+
+}  // namespace
+}  // namespace fleetmap

@@ -1,0 +1,306 @@
+// Fleet sync across real processes on 127.0.0.1 (issue: fleetmapd and fleetmap-agent): push →
+// merge → download on both central stores, 20 agents at once, and the server SIGKILLed in the
+// middle of a push and of a merge; landmarks with a stereo camera intact end to end. Exact
+// counts throughout: the robots' maps have random landmarks, so MERGE adds every node pushed and
+// nothing may be lost or doubled.
+#include <gtest/gtest.h>
+#include <signal.h>
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <map>
+#include <set>
+#include <thread>
+
+#include "fleet_processes.h"
+#include "fleetmap/core/graph.h"
+#include "fleetmap/store/graph_store.h"
+#include "fleetmap/store/version_store.h"
+#include "scratch_dir.h"
+#include "store_backends.h"
+
+namespace fleetmap::testing {
+namespace {
+
+std::set<Uuid> HeadNodeIds(const std::string& store_uri) {
+  std::unique_ptr<GraphStore> store = GraphStore::Open(store_uri);
+  std::set<Uuid> ids;
+  for (const Node& node : store->versions().NodesAt(store->versions().HeadRevision(), false)) {
+    EXPECT_TRUE(ids.insert(node.id).second) << "node twice at the head: " << node.id.ToString();
+  }
+  return ids;
+}
+
+std::set<Uuid> LocalNodeIds(const TestRobot& robot) {
+  return NodeIds(GraphStore::Open("sqlite:" + (robot.map_dir / "map.db").string())->ReadMap());
+}
+
+// Polls the central store until `done` holds for the robot's only submission (bounded).
+template <typename Predicate>
+bool WaitForSubmission(const std::string& store_uri, Predicate done,
+                       milliseconds timeout = milliseconds(30'000)) {
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  while (std::chrono::steady_clock::now() < deadline) {
+    {
+      std::unique_ptr<GraphStore> store = GraphStore::Open(store_uri);
+      for (const Submission& submission : store->versions().ListSubmissions()) {
+        if (done(submission)) return true;
+      }
+    }
+    std::this_thread::sleep_for(milliseconds(20));
+  }
+  return false;
+}
+
+template <typename Backend>
+class FleetSyncTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    if (std::optional<std::string> why = Backend::Unavailable()) GTEST_SKIP() << *why;
+  }
+  Backend backend_;
+  ScratchDir dir_{"fleetmap-fleet-sync"};
+};
+TYPED_TEST_SUITE(FleetSyncTest, StoreBackends, BackendNames);
+
+TYPED_TEST(FleetSyncTest, PushMergeDownloadEndToEnd) {
+  const std::string uri = this->backend_.Uri();
+  const TestRobot alpha = RegisterRobot(uri, "alpha", this->dir_ / "alpha");
+  const TestRobot beta = RegisterRobot(uri, "beta", this->dir_ / "beta");
+  const GraphBatch pushed = RandomRobotMap(alpha.id, 40, 1);
+  WriteLocalMap(alpha, pushed);
+  Fleetmapd server = StartFleetmapd(uri, this->dir_ / "fleetmapd.log");
+  ASSERT_FALSE(server.address.empty());
+
+  const auto log = this->dir_ / "alpha.log";
+  SyncOutcome first =
+      FinishSync(*StartSync(alpha, server.address, log, {"--wait-merge", "--policy", "copy"}), log);
+  ASSERT_EQ(first.exit, 0);
+  EXPECT_EQ(first.result["pushed_nodes"], 40);
+  EXPECT_EQ(first.result["merged_revision"], 1);
+  EXPECT_EQ(first.result["revision"], 1);
+  EXPECT_EQ(first.result["nodes"], 40);
+  EXPECT_EQ(HeadNodeIds(uri), NodeIds(pushed));
+  EXPECT_EQ(LocalNodeIds(alpha), NodeIds(pushed));
+
+  // Another robot pulls what alpha pushed; alpha, with nothing new, pushes nothing and pulls
+  // an incremental download with nothing in it.
+  const auto beta_log = this->dir_ / "beta.log";
+  SyncOutcome pulled =
+      FinishSync(*StartSync(beta, server.address, beta_log, {"--policy", "copy"}), beta_log);
+  EXPECT_EQ(pulled.result["pushed_nodes"], 0);
+  EXPECT_EQ(LocalNodeIds(beta), NodeIds(pushed));
+  SyncOutcome again =
+      FinishSync(*StartSync(alpha, server.address, log, {"--wait-merge", "--policy", "copy"}), log);
+  EXPECT_EQ(again.result["pushed_nodes"], 0);
+  EXPECT_EQ(again.result["incremental"], true);
+  EXPECT_EQ(again.result["nodes"], 40);
+  EXPECT_EQ(LocalNodeIds(alpha), NodeIds(pushed));
+  std::unique_ptr<GraphStore> store = GraphStore::Open(uri);
+  EXPECT_EQ(store->versions().HeadRevision(), 1);
+  EXPECT_EQ(store->versions().ListSubmissions().size(), 1u);
+}
+
+// Landmarks with a stereo camera (issue 18) through the whole fleet: pushed by one robot,
+// merged by fleetmapd (which decodes every pushed node and localises it against the map) and
+// pulled by another robot, and what lands in the central store and in the other robot's map
+// decodes to exactly the landmarks pushed, camera included. Every other node carries no camera,
+// so a map mixing old and new landmarks travels too.
+TYPED_TEST(FleetSyncTest, StereoLandmarksArePushedMergedAndPulledIntact) {
+  const std::string uri = this->backend_.Uri();
+  const TestRobot alpha = RegisterRobot(uri, "alpha", this->dir_ / "alpha");
+  const TestRobot beta = RegisterRobot(uri, "beta", this->dir_ / "beta");
+  GraphBatch pushed = RandomRobotMap(alpha.id, 12, 3);
+  std::map<Uuid, Landmarks> landmarks;
+  for (std::size_t i = 0; i < pushed.nodes.size(); ++i) {
+    Node& node = pushed.nodes[i];
+    Landmarks view = DecodeLandmarks(node.landmarks_blob);
+    if (i % 2 == 0) {
+      const Eigen::Quaternionf q(Eigen::AngleAxisf(0.01f * static_cast<float>(i + 1),
+                                                   Eigen::Vector3f(0.1f, 1.f, 0.3f).normalized()));
+      view.stereo = StereoCamera{.focal_px = 718.856f + static_cast<float>(i),
+                                 .baseline_m = 0.5371657f,
+                                 .rect_q_camera = {q.w(), q.x(), q.y(), q.z()}};
+      node.landmarks_blob = EncodeLandmarks(view);
+    }
+    landmarks.emplace(node.id, std::move(view));
+  }
+  WriteLocalMap(alpha, pushed);
+  Fleetmapd server = StartFleetmapd(uri, this->dir_ / "fleetmapd.log");
+  ASSERT_FALSE(server.address.empty());
+
+  const auto alpha_log = this->dir_ / "alpha.log";
+  SyncOutcome push =
+      FinishSync(*StartSync(alpha, server.address, alpha_log, {"--wait-merge", "--policy", "copy"}),
+                 alpha_log);
+  ASSERT_EQ(push.exit, 0);
+  EXPECT_EQ(push.result["pushed_nodes"], 12);
+  EXPECT_EQ(push.result["merged_revision"], 1);
+  const auto beta_log = this->dir_ / "beta.log";
+  SyncOutcome pull =
+      FinishSync(*StartSync(beta, server.address, beta_log, {"--policy", "copy"}), beta_log);
+  ASSERT_EQ(pull.exit, 0);
+  EXPECT_EQ(pull.result["nodes"], 12);
+
+  const auto expect_pushed_landmarks = [&](const std::vector<Node>& nodes, const char* where) {
+    std::set<Uuid> seen;
+    int with_camera = 0;
+    for (const Node& node : nodes) {
+      SCOPED_TRACE(::testing::Message() << where << " " << node.id.ToString());
+      ASSERT_EQ(landmarks.count(node.id), 1u);
+      const Landmarks decoded = DecodeLandmarks(node.landmarks_blob);
+      EXPECT_EQ(decoded, landmarks.at(node.id));
+      EXPECT_EQ(decoded.stereo, landmarks.at(node.id).stereo);
+      if (decoded.stereo) ++with_camera;
+      seen.insert(node.id);
+    }
+    EXPECT_EQ(seen, NodeIds(pushed)) << where;
+    EXPECT_EQ(with_camera, 6) << where;
+  };
+  std::unique_ptr<GraphStore> central = GraphStore::Open(uri);
+  expect_pushed_landmarks(central->versions().NodesAt(central->versions().HeadRevision(), true),
+                          "central head");
+  expect_pushed_landmarks(
+      GraphStore::Open("sqlite:" + (beta.map_dir / "map.db").string())->ReadMap().nodes,
+      "beta's map");
+  expect_pushed_landmarks(
+      GraphStore::Open("sqlite:" + (alpha.map_dir / "map.db").string())->ReadMap().nodes,
+      "alpha's map after the pull");
+}
+
+TYPED_TEST(FleetSyncTest, TwentyAgentsAtOnceLoseAndDuplicateNothing) {
+  constexpr int kAgents = 20, kNodes = 25;
+  const std::string uri = this->backend_.Uri();
+  std::vector<TestRobot> robots;
+  std::set<Uuid> all_pushed;
+  for (int a = 0; a < kAgents; ++a) {
+    robots.push_back(
+        RegisterRobot(uri, "robot-" + std::to_string(a), this->dir_ / ("r" + std::to_string(a))));
+    const GraphBatch map = RandomRobotMap(robots.back().id, kNodes, 100 + a);
+    WriteLocalMap(robots.back(), map);
+    for (const Node& node : map.nodes) all_pushed.insert(node.id);
+  }
+  Fleetmapd server = StartFleetmapd(uri, this->dir_ / "fleetmapd.log");
+  ASSERT_FALSE(server.address.empty());
+
+  std::vector<std::unique_ptr<ChildProcess>> agents;
+  for (int a = 0; a < kAgents; ++a) {
+    agents.push_back(StartSync(robots[a], server.address,
+                               this->dir_ / ("agent-" + std::to_string(a) + ".log"),
+                               {"--wait-merge", "--merge-timeout", "120", "--policy", "copy"}));
+  }
+  std::vector<double> latencies;
+  std::set<std::int64_t> revisions;
+  for (int a = 0; a < kAgents; ++a) {
+    SyncOutcome outcome =
+        FinishSync(*agents[a], this->dir_ / ("agent-" + std::to_string(a) + ".log"));
+    ASSERT_EQ(outcome.exit, 0);
+    EXPECT_EQ(outcome.result["pushed_nodes"], kNodes);
+    revisions.insert(outcome.result["merged_revision"].template get<std::int64_t>());
+    latencies.push_back(outcome.result["seconds"].template get<double>());
+    // What it pulled is the map at the revision it pulled: its own nodes among them.
+    const std::set<Uuid> local = LocalNodeIds(robots[a]);
+    EXPECT_EQ(local.size(), outcome.result["nodes"].template get<std::size_t>());
+  }
+  // Every submission became exactly one revision, and the head holds every node pushed, once.
+  EXPECT_EQ(revisions.size(), static_cast<std::size_t>(kAgents));
+  EXPECT_EQ(HeadNodeIds(uri), all_pushed);
+  std::unique_ptr<GraphStore> store = GraphStore::Open(uri);
+  EXPECT_EQ(store->versions().HeadRevision(), kAgents);
+  const std::vector<Submission> submissions = store->versions().ListSubmissions();
+  ASSERT_EQ(submissions.size(), static_cast<std::size_t>(kAgents));
+  for (const Submission& s : submissions) EXPECT_EQ(s.state, SubmissionState::kMerged);
+
+  std::sort(latencies.begin(), latencies.end());
+  const auto at = [&](double q) {
+    return latencies[static_cast<std::size_t>(q * static_cast<double>(latencies.size() - 1))];
+  };
+  std::printf("20 agents at once: sync latency p50 %.3f s, p99 %.3f s (push, wait merge, pull)\n",
+              at(0.5), at(0.99));
+  ::testing::Test::RecordProperty("sync_p50_ms", static_cast<int>(at(0.5) * 1000));
+  ::testing::Test::RecordProperty("sync_p99_ms", static_cast<int>(at(0.99) * 1000));
+}
+
+TYPED_TEST(FleetSyncTest, ServerKilledMidPushRestartsAndTheAgentResumes) {
+  const std::string uri = this->backend_.Uri();
+  const TestRobot robot = RegisterRobot(uri, "gamma", this->dir_ / "gamma");
+  // About 4 MB of landmarks: several 1 MiB chunks.
+  const GraphBatch pushed = RandomRobotMap(robot.id, 1500, 7);
+  WriteLocalMap(robot, pushed);
+  Fleetmapd server =
+      StartFleetmapd(uri, this->dir_ / "fleetmapd.log", {"--debug-chunk-delay-ms", "300"});
+  ASSERT_FALSE(server.address.empty());
+  const auto log = this->dir_ / "agent.log";
+  std::unique_ptr<ChildProcess> agent =
+      StartSync(robot, server.address, log, {"--wait-merge", "--retry-for", "90"});
+
+  // Kill the server once two chunks are stored and before the last arrives.
+  ASSERT_TRUE(WaitForSubmission(uri, [](const Submission& s) { return s.chunk_count >= 2; }));
+  server.process->Signal(SIGKILL);
+  ASSERT_EQ(server.process->Wait(milliseconds(10'000)), 128 + SIGKILL);
+  {
+    std::unique_ptr<GraphStore> store = GraphStore::Open(uri);
+    const std::vector<Submission> cut = store->versions().ListSubmissions();
+    ASSERT_EQ(cut.size(), 1u);
+    EXPECT_EQ(cut[0].state, SubmissionState::kReceiving);
+    EXPECT_EQ(store->versions().HeadRevision(), 0);
+  }
+  // The same address again: the agent's retries reach it and resume the push.
+  Fleetmapd restarted = StartFleetmapd(uri, this->dir_ / "fleetmapd-2.log", {}, server.address);
+  ASSERT_FALSE(restarted.address.empty());
+  SyncOutcome outcome = FinishSync(*agent, log);
+  ASSERT_EQ(outcome.exit, 0);
+  EXPECT_GE(outcome.result["retries"].template get<int>(), 1);
+  EXPECT_EQ(outcome.result["pushed_nodes"], 1500);
+  EXPECT_EQ(outcome.result["merged_revision"], 1);
+  EXPECT_EQ(HeadNodeIds(uri), NodeIds(pushed));
+  std::unique_ptr<GraphStore> store = GraphStore::Open(uri);
+  const std::vector<Submission> submissions = store->versions().ListSubmissions();
+  ASSERT_EQ(submissions.size(), 1u);
+  EXPECT_EQ(submissions[0].state, SubmissionState::kMerged);
+  // The restarted server took the rest of the chunks, not the whole push again.
+  EXPECT_NE(ReadLog(this->dir_ / "fleetmapd-2.log").find("resum"), std::string::npos)
+      << ReadLog(this->dir_ / "fleetmapd-2.log");
+}
+
+TYPED_TEST(FleetSyncTest, ServerKilledMidMergeMergesTheQueuedSubmissionAfterRestart) {
+  const std::string uri = this->backend_.Uri();
+  const TestRobot robot = RegisterRobot(uri, "delta", this->dir_ / "delta");
+  const GraphBatch pushed = RandomRobotMap(robot.id, 200, 9);
+  WriteLocalMap(robot, pushed);
+  Fleetmapd server =
+      StartFleetmapd(uri, this->dir_ / "fleetmapd.log", {"--debug-merge-delay-ms", "60000"});
+  ASSERT_FALSE(server.address.empty());
+  const auto log = this->dir_ / "agent.log";
+  std::unique_ptr<ChildProcess> agent =
+      StartSync(robot, server.address, log, {"--wait-merge", "--retry-for", "90"});
+
+  // The push is complete and queued; the merge is under way (held by the delay) when killed.
+  ASSERT_TRUE(WaitForSubmission(
+      uri, [](const Submission& s) { return s.state == SubmissionState::kQueued; }));
+  const auto deadline = std::chrono::steady_clock::now() + milliseconds(30'000);
+  while (server.Log().find("merging") == std::string::npos &&
+         std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(milliseconds(20));
+  }
+  ASSERT_NE(server.Log().find("merging"), std::string::npos) << server.Log();
+  server.process->Signal(SIGKILL);
+  ASSERT_EQ(server.process->Wait(milliseconds(10'000)), 128 + SIGKILL);
+  {
+    std::unique_ptr<GraphStore> store = GraphStore::Open(uri);
+    EXPECT_EQ(store->versions().HeadRevision(), 0);  // nothing half-merged
+    EXPECT_EQ(store->versions().ListSubmissions().at(0).state, SubmissionState::kQueued);
+  }
+  Fleetmapd restarted = StartFleetmapd(uri, this->dir_ / "fleetmapd-2.log", {}, server.address);
+  ASSERT_FALSE(restarted.address.empty());
+  SyncOutcome outcome = FinishSync(*agent, log);
+  ASSERT_EQ(outcome.exit, 0);
+  EXPECT_EQ(outcome.result["merged_revision"], 1);
+  EXPECT_EQ(HeadNodeIds(uri), NodeIds(pushed));
+  std::unique_ptr<GraphStore> store = GraphStore::Open(uri);
+  EXPECT_EQ(store->versions().HeadRevision(), 1);  // merged once, not twice
+  EXPECT_EQ(store->versions().ListSubmissions().size(), 1u);
+}
+
+}  // namespace
+}  // namespace fleetmap::testing

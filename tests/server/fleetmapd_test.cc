@@ -1,0 +1,814 @@
+// fleetmapd end to end (DESIGN.md "Sync protocol"; sync.proto): the real daemon on 127.0.0.1,
+// driven with raw frames by a blocking test client (raw_sync_client.h). Every frame error
+// closes only its own session with the right ErrorFrame while a good session keeps working;
+// pushes resume; merges survive a kill; SIGTERM drains. Also the robot registry and
+// VersionStore::ListSettings it stands on, on both backends.
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sqlite3.h>
+
+#include <chrono>
+#include <cstdlib>
+#include <random>
+#include <set>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "expect_error.h"
+#include "fleetmap/core/error.h"
+#include "fleetmap/core/graph.h"
+#include "fleetmap/core/map_chunks.h"
+#include "fleetmap/server/repository.h"
+#include "fleetmap/server/robot_registry.h"
+#include "fleetmap/server/sync_server.h"
+#include "fleetmap/wire/sync_frame.h"
+#include "fleetmapd_process.h"
+#include "random_robot_map.h"
+#include "raw_sync_client.h"
+#include "scratch_dir.h"
+#include "store_backends.h"
+
+namespace fleetmap::testing {
+namespace {
+
+using std::chrono::milliseconds;
+using Code = v1::ErrorFrame::Code;
+
+v1::ErrorFrame::Code ErrorCodeOf(const std::optional<v1::SyncFrame>& frame) {
+  if (!frame || !frame->has_error()) return v1::ErrorFrame::CODE_UNSPECIFIED;
+  return frame->error().code();
+}
+
+std::string Describe(const std::optional<v1::SyncFrame>& frame) {
+  return frame ? frame->ShortDebugString() : "(no frame)";
+}
+
+std::string ErrorTextOf(const std::optional<v1::SyncFrame>& frame) {
+  return frame && frame->has_error() ? frame->error().text() : "";
+}
+
+// A frame's 4-byte length prefix alone.
+std::string LengthPrefix(std::uint32_t n) {
+  const char prefix[4] = {static_cast<char>(n >> 24), static_cast<char>(n >> 16),
+                          static_cast<char>(n >> 8), static_cast<char>(n)};
+  return std::string(prefix, 4);
+}
+
+// A push as a robot sends it: the chunks of a map and their digest.
+struct PushPlan {
+  Uuid id = Uuid::GenerateRandom();
+  std::vector<std::string> chunks;
+  std::uint64_t digest = 0;
+};
+
+PushPlan PlanPush(const GraphBatch& map, std::size_t chunk_bytes = 16 * 1024) {
+  PushPlan plan;
+  plan.chunks = EncodeMapChunks(map, chunk_bytes);
+  plan.digest = DigestOfChunks(plan.chunks);
+  return plan;
+}
+
+// PushBegin for `plan`; total_bytes is the plan's chunks' unless given.
+std::optional<v1::SyncFrame> SendPushBegin(RawSyncClient& client, const PushPlan& plan,
+                                           std::optional<std::uint64_t> announced = {}) {
+  v1::SyncFrame frame;
+  v1::PushBegin& begin = *frame.mutable_push_begin();
+  begin.set_submission_id(plan.id.ToBytesString());
+  begin.set_author("fleetmapd_test");
+  begin.set_chunk_count(static_cast<std::uint32_t>(plan.chunks.size()));
+  begin.set_digest(plan.digest);
+  std::uint64_t total_bytes = 0;
+  for (const std::string& chunk : plan.chunks) total_bytes += chunk.size();
+  begin.set_total_bytes(announced.value_or(total_bytes));
+  if (!client.Send(frame)) return std::nullopt;
+  return client.Receive();
+}
+
+// PushChunk `seq` of `data`, with its digest (DigestOfChunk) as a robot sends it.
+v1::SyncFrame ChunkFrame(std::size_t seq, const std::string& data) {
+  v1::SyncFrame frame;
+  frame.mutable_push_chunk()->set_seq(static_cast<std::uint32_t>(seq));
+  frame.mutable_push_chunk()->set_data(data);
+  frame.mutable_push_chunk()->set_digest(DigestOfChunk(data));
+  return frame;
+}
+
+// Sends chunks [from, to) and checks each acknowledgement.
+void SendChunks(RawSyncClient& client, const PushPlan& plan, std::size_t from, std::size_t to) {
+  for (std::size_t seq = from; seq < to; ++seq) {
+    ASSERT_TRUE(client.Send(ChunkFrame(seq, plan.chunks[seq])));
+    const std::optional<v1::SyncFrame> ack = client.Receive();
+    ASSERT_TRUE(ack && ack->has_push_chunk_ack()) << Describe(ack);
+    EXPECT_EQ(ack->push_chunk_ack().seq(), seq);
+  }
+}
+
+std::optional<v1::SyncFrame> SendPushEnd(RawSyncClient& client) {
+  v1::SyncFrame frame;
+  frame.mutable_push_end();
+  if (!client.Send(frame)) return std::nullopt;
+  return client.Receive();
+}
+
+std::optional<v1::SyncFrame> MergeStatus(RawSyncClient& client, const Uuid& id,
+                                         std::uint32_t wait_ms) {
+  v1::SyncFrame frame;
+  frame.mutable_merge_status_request()->set_submission_id(id.ToBytesString());
+  frame.mutable_merge_status_request()->set_wait_ms(wait_ms);
+  if (!client.Send(frame)) return std::nullopt;
+  return client.Receive();
+}
+
+struct Downloaded {
+  v1::DownloadHeader header;
+  std::vector<std::string> chunks;
+  GraphBatch map;
+};
+
+std::optional<Downloaded> DownloadCopy(RawSyncClient& client, std::int64_t base_revision = 0) {
+  v1::SyncFrame frame;
+  frame.mutable_download_request()->set_policy("copy");
+  frame.mutable_download_request()->set_base_revision(base_revision);
+  if (!client.Send(frame)) return std::nullopt;
+  std::optional<v1::SyncFrame> reply = client.Receive();
+  if (!reply || !reply->has_download_header()) {
+    ADD_FAILURE() << "no download header: " << Describe(reply);
+    return std::nullopt;
+  }
+  Downloaded result;
+  result.header = reply->download_header();
+  for (std::uint32_t seq = 0; seq < result.header.chunk_count(); ++seq) {
+    reply = client.Receive();
+    if (!reply || !reply->has_download_chunk() || reply->download_chunk().seq() != seq) {
+      ADD_FAILURE() << "chunk " << seq << ": " << Describe(reply);
+      return std::nullopt;
+    }
+    result.chunks.push_back(reply->download_chunk().data());
+  }
+  reply = client.Receive();
+  if (!reply || !reply->has_download_end()) {
+    ADD_FAILURE() << "no download end: " << Describe(reply);
+    return std::nullopt;
+  }
+  result.map = DecodeMapChunks(result.chunks);
+  return result;
+}
+
+// A good session's proof of life: a (small) download goes through.
+void ExpectStillServes(RawSyncClient& client) {
+  const std::optional<Downloaded> download = DownloadCopy(client);
+  ASSERT_TRUE(download.has_value());
+  EXPECT_EQ(download->header.chunk_count(), download->chunks.size());
+}
+
+// Pushes `plan` whole in one session; returns PushAccepted.
+std::optional<v1::SyncFrame> PushWhole(RawSyncClient& client, const PushPlan& plan) {
+  const std::optional<v1::SyncFrame> ready = SendPushBegin(client, plan);
+  if (!ready || !ready->has_push_ready()) {
+    ADD_FAILURE() << "no push_ready: " << Describe(ready);
+    return std::nullopt;
+  }
+  SendChunks(client, plan, ready->push_ready().next_chunk(), plan.chunks.size());
+  return SendPushEnd(client);
+}
+
+// Asks until the state is `state` (bounded); the last status.
+v1::MergeStatus WaitForState(RawSyncClient& client, const Uuid& id, const std::string& state,
+                             milliseconds timeout = milliseconds(15'000)) {
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  v1::MergeStatus last;
+  while (std::chrono::steady_clock::now() < deadline) {
+    const std::optional<v1::SyncFrame> reply = MergeStatus(client, id, 0);
+    if (!reply || !reply->has_merge_status()) {
+      ADD_FAILURE() << "no merge status: " << Describe(reply);
+      return last;
+    }
+    last = reply->merge_status();
+    if (last.state() == state) return last;
+    std::this_thread::sleep_for(milliseconds(20));
+  }
+  return last;
+}
+
+template <typename Backend>
+class FleetmapdTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    if (const auto why = Backend::Unavailable()) GTEST_SKIP() << *why;
+    uri_ = backend_.Uri();
+    auto repository = Repository::Open(uri_);
+    NewRobot added = RobotRegistry(repository->versions()).Add("r1", WallNs());
+    robot_ = added.robot.id;
+    token_ = added.token;
+  }
+
+  Fleetmapd Start(std::vector<std::string> extra = {}, const std::string& listen = "127.0.0.1:0") {
+    return StartFleetmapd(uri_, dir_ / "fleetmapd.log", std::move(extra), listen);
+  }
+
+  // A session past Hello.
+  std::unique_ptr<RawSyncClient> Connect(const Fleetmapd& server, bool tls = false) {
+    auto client = std::make_unique<RawSyncClient>(server.address, tls);
+    const std::optional<v1::SyncFrame> welcome = client->Hello(robot_, token_);
+    EXPECT_TRUE(welcome && welcome->has_welcome()) << Describe(welcome) << "\n" << server.Log();
+    return client;
+  }
+
+  Backend backend_;
+  ScratchDir dir_{"fleetmapd-test"};
+  std::string uri_;
+  Uuid robot_;
+  std::string token_;
+};
+
+TYPED_TEST_SUITE(FleetmapdTest, StoreBackends, BackendNames);
+
+// ---- The registry and the settings it is kept in ----
+
+TYPED_TEST(FleetmapdTest, RobotRegistryAddsAuthenticatesAndRefusesDuplicates) {
+  auto repository = Repository::Open(this->uri_);
+  RobotRegistry registry(repository->versions());
+  const NewRobot r2 = registry.Add("r2", 42);
+  EXPECT_EQ(r2.token.size(), 64u);
+  EXPECT_EQ(registry.Authenticate(r2.robot.id, r2.token).outcome, RobotAuthentication::kAccepted);
+  EXPECT_EQ(registry.Authenticate(r2.robot.id, this->token_).outcome,
+            RobotAuthentication::kBadToken);
+  EXPECT_EQ(registry.Authenticate(Uuid::GenerateRandom(), r2.token).outcome,
+            RobotAuthentication::kUnknownRobot);
+  ExpectError(ErrorCode::kConflict, [&] { registry.Add("r2", 43); });
+  ExpectError(ErrorCode::kInvalidArgument, [&] { registry.Add("", 43); });
+  // The token itself is nowhere in the store.
+  for (const auto& [key, value] : repository->versions().ListSettings("")) {
+    EXPECT_EQ(value.find(r2.token), std::string::npos) << key;
+  }
+  registry.RecordSync(r2.robot.id, 77);
+  const std::vector<RegisteredRobot> robots = registry.List();
+  ASSERT_EQ(robots.size(), 2u);
+  EXPECT_EQ(robots[0].name, "r1");
+  EXPECT_EQ(robots[1].name, "r2");
+  EXPECT_EQ(robots[1].added_ns, 42);
+  EXPECT_EQ(robots[1].last_sync_ns, 77);
+}
+
+TYPED_TEST(FleetmapdTest, ListSettingsTakesAPrefixLiterally) {
+  auto repository = Repository::Open(this->uri_);
+  VersionStore& versions = repository->versions();
+  versions.PutSetting("a/2", "two");
+  versions.PutSetting("a/1", std::string("o\0ne", 4));
+  versions.PutSetting("a_x", "not under a/");
+  versions.PutSetting("b/1", "b");
+  const auto under_a = versions.ListSettings("a/");
+  ASSERT_EQ(under_a.size(), 2u);
+  EXPECT_EQ(under_a[0].first, "a/1");
+  EXPECT_EQ(under_a[0].second, std::string("o\0ne", 4));
+  EXPECT_EQ(under_a[1].first, "a/2");
+  EXPECT_TRUE(versions.ListSettings("a%").empty());
+  EXPECT_TRUE(versions.ListSettings("zzz").empty());
+  EXPECT_GE(versions.ListSettings("").size(), 5u);  // and r1's
+}
+
+// ---- Push, merge, download ----
+
+TYPED_TEST(FleetmapdTest, PushMergeThenDownloadEqualsTheHead) {
+  Fleetmapd server = this->Start();
+  ASSERT_FALSE(server.address.empty());
+  auto client = this->Connect(server);
+  const GraphBatch map = RandomRobotMap(this->robot_, 40, 7, 40);
+  const PushPlan plan = PlanPush(map);
+  ASSERT_GT(plan.chunks.size(), 3u);
+  const std::optional<v1::SyncFrame> accepted = PushWhole(*client, plan);
+  ASSERT_TRUE(accepted && accepted->has_push_accepted()) << Describe(accepted);
+  EXPECT_EQ(accepted->push_accepted().state(), "queued");
+
+  const std::optional<v1::SyncFrame> status = MergeStatus(*client, plan.id, 15'000);
+  ASSERT_TRUE(status && status->has_merge_status()) << Describe(status);
+  ASSERT_EQ(status->merge_status().state(), "merged") << Describe(status) << server.Log();
+  EXPECT_EQ(status->merge_status().revision(), 1);
+  EXPECT_EQ(status->merge_status().nodes_added(), 40);
+
+  const std::optional<Downloaded> download = DownloadCopy(*client);
+  ASSERT_TRUE(download.has_value());
+  const GraphBatch head = Repository::Open(this->uri_)->Checkout();
+  EXPECT_EQ(download->header.revision(), 1);
+  EXPECT_EQ(download->header.nodes(), head.nodes.size());
+  EXPECT_EQ(download->map.nodes.size(), head.nodes.size());
+  EXPECT_EQ(NodeIds(download->map), NodeIds(head));
+  EXPECT_EQ(download->map.edges.size(), head.edges.size());
+  EXPECT_EQ(DigestOfChunks(download->chunks), download->header.digest());
+
+  // Incremental from the head: nothing new, nothing removed.
+  const std::optional<Downloaded> again = DownloadCopy(*client, 1);
+  ASSERT_TRUE(again.has_value());
+  EXPECT_EQ(again->header.base_revision(), 1);
+  EXPECT_TRUE(again->map.nodes.empty());
+  EXPECT_EQ(again->header.removed_nodes_size(), 0);
+  EXPECT_EQ(again->header.nodes(), head.nodes.size());
+
+  // A second merge; incremental from revision 1: only its nodes come, nothing is removed.
+  const PushPlan second = PlanPush(RandomRobotMap(this->robot_, 5, 17, 40));
+  ASSERT_TRUE(PushWhole(*client, second));
+  EXPECT_EQ(WaitForState(*client, second.id, "merged").revision(), 2);
+  const std::optional<Downloaded> changes = DownloadCopy(*client, 1);
+  ASSERT_TRUE(changes.has_value());
+  EXPECT_EQ(changes->header.revision(), 2);
+  EXPECT_EQ(changes->header.nodes(), 45u);
+  EXPECT_EQ(changes->map.nodes.size(), 5u);
+  EXPECT_EQ(changes->header.removed_nodes_size(), 0);
+
+  // The same push again is accepted as stored; other content under its id is a conflict.
+  const std::optional<v1::SyncFrame> ready = SendPushBegin(*client, plan);
+  ASSERT_TRUE(ready && ready->has_push_ready()) << Describe(ready);
+  EXPECT_TRUE(ready->push_ready().complete());
+  const std::optional<v1::SyncFrame> repeated = SendPushEnd(*client);
+  ASSERT_TRUE(repeated && repeated->has_push_accepted()) << Describe(repeated);
+  EXPECT_EQ(repeated->push_accepted().state(), "merged");
+  EXPECT_EQ(repeated->push_accepted().revision(), 1);
+  PushPlan other = PlanPush(RandomRobotMap(this->robot_, 3, 8, 40));
+  other.id = plan.id;
+  EXPECT_EQ(ErrorCodeOf(SendPushBegin(*client, other)), v1::ErrorFrame::CONFLICT);
+}
+
+TYPED_TEST(FleetmapdTest, PushResumesFromNextChunkAfterADisconnect) {
+  Fleetmapd server = this->Start();
+  ASSERT_FALSE(server.address.empty());
+  const PushPlan plan = PlanPush(RandomRobotMap(this->robot_, 30, 9, 40));
+  const std::size_t half = plan.chunks.size() / 2;
+  ASSERT_GT(half, 0u);
+  {
+    auto first = this->Connect(server);
+    const std::optional<v1::SyncFrame> ready = SendPushBegin(*first, plan);
+    ASSERT_TRUE(ready && ready->has_push_ready());
+    EXPECT_EQ(ready->push_ready().next_chunk(), 0u);
+    SendChunks(*first, plan, 0, half);
+  }  // the link drops mid-push
+  auto second = this->Connect(server);
+  const std::optional<v1::SyncFrame> ready = SendPushBegin(*second, plan);
+  ASSERT_TRUE(ready && ready->has_push_ready()) << Describe(ready);
+  EXPECT_EQ(ready->push_ready().next_chunk(), half);
+  EXPECT_FALSE(ready->push_ready().complete());
+  SendChunks(*second, plan, half, plan.chunks.size());
+  const std::optional<v1::SyncFrame> accepted = SendPushEnd(*second);
+  ASSERT_TRUE(accepted && accepted->has_push_accepted()) << Describe(accepted);
+  EXPECT_EQ(WaitForState(*second, plan.id, "merged").nodes_added(), 30);
+  EXPECT_EQ(Repository::Open(this->uri_)->ReadSubmission(plan.id).nodes.size(), 30u);
+}
+
+TYPED_TEST(FleetmapdTest, QueuedSubmissionsAreMergedAfterAKillAndRestart) {
+  {
+    // Each merge holds its transaction open for a long time: the kill lands mid-merge.
+    Fleetmapd server = this->Start({"--debug-merge-delay-ms", "60000"});
+    ASSERT_FALSE(server.address.empty());
+    auto client = this->Connect(server);
+    const PushPlan plan = PlanPush(RandomRobotMap(this->robot_, 10, 11, 40));
+    const std::optional<v1::SyncFrame> accepted = PushWhole(*client, plan);
+    ASSERT_TRUE(accepted && accepted->has_push_accepted()) << Describe(accepted);
+    EXPECT_EQ(WaitForState(*client, plan.id, "merging").state(), "merging");
+    server.process->Signal(SIGKILL);
+    ASSERT_TRUE(server.process->Wait(milliseconds(10'000)).has_value());
+
+    auto repository = Repository::Open(this->uri_);
+    EXPECT_EQ(repository->Head(), 0);
+    EXPECT_EQ(repository->versions().FindSubmission(plan.id)->state, SubmissionState::kQueued);
+
+    Fleetmapd restarted = this->Start();
+    ASSERT_FALSE(restarted.address.empty());
+    auto again = this->Connect(restarted);
+    const std::optional<v1::SyncFrame> status = MergeStatus(*again, plan.id, 15'000);
+    ASSERT_TRUE(status && status->has_merge_status()) << Describe(status);
+    EXPECT_EQ(status->merge_status().state(), "merged") << restarted.Log();
+    EXPECT_EQ(status->merge_status().revision(), 1);
+  }
+}
+
+// ---- Frame errors: one session closes, the others go on (SQLite is enough) ----
+
+class FleetmapdSqliteTest : public FleetmapdTest<SqliteBackend> {};
+
+TEST_F(FleetmapdSqliteTest, EachBadSessionGetsItsErrorWhileAGoodOneKeepsWorking) {
+  Fleetmapd server = Start({}, "127.0.0.1:0");
+  ASSERT_FALSE(server.address.empty());
+  auto good = Connect(server);
+  ExpectStillServes(*good);
+
+  {  // wrong token
+    RawSyncClient bad(server.address);
+    const auto reply = bad.Hello(robot_, std::string(64, '0'));
+    EXPECT_EQ(ErrorCodeOf(reply), v1::ErrorFrame::BAD_TOKEN) << Describe(reply);
+    EXPECT_TRUE(bad.ClosedByServer());
+  }
+  ExpectStillServes(*good);
+  {  // unknown robot: the same answer as a wrong token (UnknownRobotAndWrongToken... below)
+    RawSyncClient bad(server.address);
+    const auto reply = bad.Hello(Uuid::GenerateRandom(), token_);
+    EXPECT_EQ(ErrorCodeOf(reply), v1::ErrorFrame::BAD_TOKEN) << Describe(reply);
+  }
+  ExpectStillServes(*good);
+  {  // an older protocol version
+    RawSyncClient bad(server.address);
+    const auto reply = bad.Hello(robot_, token_, kSyncProtocolVersion - 1);
+    EXPECT_EQ(ErrorCodeOf(reply), v1::ErrorFrame::UNSUPPORTED_VERSION) << Describe(reply);
+  }
+  ExpectStillServes(*good);
+  {  // a truncated frame: the prefix says 100 bytes, 10 come, then the link closes
+    RawSyncClient bad(server.address);
+    ASSERT_TRUE(bad.SendBytes(std::string("\0\0\0\x64", 4) + std::string(10, 'x')));
+  }
+  EXPECT_TRUE(server.LogContains("truncated frame")) << server.Log();
+  ExpectStillServes(*good);
+  {  // a prefix over the cap: refused at once, without the body being sent or read
+    RawSyncClient bad(server.address);
+    const std::uint32_t n = kMaxSyncFrameBytes + 1;
+    const char prefix[4] = {static_cast<char>(n >> 24), static_cast<char>(n >> 16),
+                            static_cast<char>(n >> 8), static_cast<char>(n)};
+    ASSERT_TRUE(bad.SendBytes(std::string_view(prefix, 4)));
+    const auto reply = bad.Receive();
+    EXPECT_EQ(ErrorCodeOf(reply), v1::ErrorFrame::FRAME_TOO_LARGE) << Describe(reply);
+  }
+  ExpectStillServes(*good);
+  {  // random bytes
+    std::mt19937 random(3);
+    std::string noise(256, '\0');
+    for (char& c : noise) c = static_cast<char>(random());
+    noise[0] = '\x40';  // a length over the cap: no waiting for a body that never comes
+    RawSyncClient bad(server.address);
+    ASSERT_TRUE(bad.SendBytes(noise));
+    const auto reply = bad.Receive();
+    const Code code = ErrorCodeOf(reply);
+    EXPECT_TRUE(code == v1::ErrorFrame::BAD_FRAME || code == v1::ErrorFrame::FRAME_TOO_LARGE)
+        << Describe(reply);
+  }
+  {  // a body that does not parse
+    RawSyncClient bad(server.address);
+    ASSERT_TRUE(bad.SendBytes(std::string("\0\0\0\x05", 4) + "\xff\xff\xff\xff\xff"));
+    EXPECT_EQ(ErrorCodeOf(bad.Receive()), v1::ErrorFrame::BAD_FRAME);
+  }
+  ExpectStillServes(*good);
+  {  // out of order: a chunk before any push_begin, and anything before hello
+    auto bad = Connect(server);
+    ASSERT_TRUE(bad->Send(ChunkFrame(0, "x")));
+    EXPECT_EQ(ErrorCodeOf(bad->Receive()), v1::ErrorFrame::OUT_OF_ORDER);
+    RawSyncClient early(server.address);
+    v1::SyncFrame request;
+    request.mutable_download_request()->set_policy("copy");
+    ASSERT_TRUE(early.Send(request));
+    EXPECT_EQ(ErrorCodeOf(early.Receive()), v1::ErrorFrame::OUT_OF_ORDER);
+  }
+  {  // a chunk ahead of the next one expected
+    auto bad = Connect(server);
+    const PushPlan plan = PlanPush(RandomRobotMap(robot_, 10, 5, 40));
+    ASSERT_TRUE(SendPushBegin(*bad, plan));
+    ASSERT_TRUE(bad->Send(ChunkFrame(1, plan.chunks[1])));
+    EXPECT_EQ(ErrorCodeOf(bad->Receive()), v1::ErrorFrame::OUT_OF_ORDER);
+  }
+  ExpectStillServes(*good);
+  // Nothing any of them sent was stored but the receiving push they began.
+  auto repository = Repository::Open(uri_);
+  EXPECT_EQ(repository->Head(), 0);
+  for (const Submission& s : repository->Submissions()) {
+    EXPECT_EQ(s.state, SubmissionState::kReceiving);
+    EXPECT_EQ(s.chunk_count, 0);
+  }
+}
+
+TEST_F(FleetmapdSqliteTest, StatusReportsRobotsSessionsAndTheHead) {
+  SyncServerOptions options;
+  options.store_uri = uri_;
+  options.listen = "127.0.0.1:0";
+  SyncServer server(options);
+  server.Start();
+  ASSERT_NE(server.bound_port(), 0);
+  Fleetmapd view;  // only its address is used
+  view.address = server.bound_address();
+  auto client = Connect(view);
+  const PushPlan plan = PlanPush(RandomRobotMap(robot_, 6, 21, 40));
+  ASSERT_TRUE(PushWhole(*client, plan));
+  EXPECT_EQ(WaitForState(*client, plan.id, "merged").revision(), 1);
+  ExpectStillServes(*client);
+  const FleetStatus status = server.Status();
+  EXPECT_EQ(status.listen, server.bound_address());
+  EXPECT_EQ(status.head_revision, 1);
+  EXPECT_EQ(status.map_nodes, 6u);
+  EXPECT_GT(status.map_landmark_bytes, 0);
+  ASSERT_EQ(status.robots.size(), 1u);
+  EXPECT_EQ(status.robots[0].name, "r1");
+  EXPECT_GT(status.robots[0].last_sync_ns, 0);
+  EXPECT_EQ(status.robots[0].pushes, 1u);
+  EXPECT_EQ(status.robots[0].downloads, 1u);
+  EXPECT_EQ(status.sessions_open, 1u);
+  EXPECT_EQ(status.merges, 1u);
+  EXPECT_GT(status.bytes_received, 0u);
+  EXPECT_GT(status.bytes_sent, 0u);
+  client.reset();
+  {
+    RawSyncClient bad(server.bound_address());
+    EXPECT_EQ(ErrorCodeOf(bad.Hello(robot_, "wrong")), v1::ErrorFrame::BAD_TOKEN);
+  }
+  EXPECT_EQ(server.Status().errors_by_code.at("BAD_TOKEN"), 1u);
+  server.Stop();
+  EXPECT_TRUE(server.Status().draining);
+  // The last sync survives the server.
+  EXPECT_GT(RobotRegistry(Repository::Open(uri_)->versions()).List()[0].last_sync_ns, 0);
+}
+
+TEST_F(FleetmapdSqliteTest, InvalidContentIsKeptAndMarkedFailed) {
+  Fleetmapd server = Start();
+  ASSERT_FALSE(server.address.empty());
+  auto client = Connect(server);
+  GraphBatch map = RandomRobotMap(robot_, 4, 12, 40);
+  map.nodes[2].landmarks_blob = "not landmarks";
+  const PushPlan plan = PlanPush(map);
+  const std::optional<v1::SyncFrame> reply = PushWhole(*client, plan);
+  EXPECT_EQ(ErrorCodeOf(reply), v1::ErrorFrame::INVALID) << Describe(reply);
+  const std::optional<Submission> stored =
+      Repository::Open(uri_)->versions().FindSubmission(plan.id);
+  ASSERT_TRUE(stored.has_value());
+  EXPECT_EQ(stored->state, SubmissionState::kFailed);
+  EXPECT_EQ(stored->chunk_count, static_cast<std::int64_t>(plan.chunks.size()));
+  EXPECT_NE(stored->error.find(map.nodes[2].id.ToString()), std::string::npos) << stored->error;
+}
+
+TEST_F(FleetmapdSqliteTest, TlsWithASelfSignedCertificate) {
+  const std::string cert = (dir_ / "cert.pem").string();
+  const std::string key = (dir_ / "key.pem").string();
+  const std::string command =
+      "openssl req -x509 -newkey rsa:2048 -nodes -days 1 -subj /CN=127.0.0.1"
+      " -keyout " +
+      key + " -out " + cert + " >/dev/null 2>&1";
+  ASSERT_EQ(std::system(command.c_str()), 0) << command;
+  Fleetmapd server = Start({"--tls-cert", cert, "--tls-key", key});
+  ASSERT_FALSE(server.address.empty());
+  auto client = Connect(server, /*tls=*/true);
+  ExpectStillServes(*client);
+  // A plain client gets no Welcome from a TLS server.
+  RawSyncClient plain(server.address, false, milliseconds(3000));
+  const std::optional<v1::SyncFrame> reply = plain.Hello(robot_, token_);
+  EXPECT_FALSE(reply && reply->has_welcome());
+  ExpectStillServes(*client);
+
+  // Unreadable TLS files and a bad store: exit 2 with a clear message.
+  ChildProcess bad_cert({FLEETMAPD_PATH, "--store", uri_, "--listen", "127.0.0.1:0", "--tls-cert",
+                         key, "--tls-key", cert},
+                        ChildProcessOptions{.stderr_file = dir_ / "bad.log", .environment = {}});
+  EXPECT_EQ(bad_cert.Wait(milliseconds(10'000)), 2);
+  ChildProcess bad_store({FLEETMAPD_PATH, "--store", "nosuchscheme:x", "--listen", "127.0.0.1:0"},
+                         ChildProcessOptions{.stderr_file = dir_ / "bad.log", .environment = {}});
+  EXPECT_EQ(bad_store.Wait(milliseconds(10'000)), 2);
+}
+
+TEST_F(FleetmapdSqliteTest, SigtermDrainsAbandonsTheRunningMergeAndExitsZero) {
+  Fleetmapd server = Start({"--debug-merge-delay-ms", "60000"});
+  ASSERT_FALSE(server.address.empty());
+  auto idle = Connect(server);
+  auto pusher = Connect(server);
+  const PushPlan plan = PlanPush(RandomRobotMap(robot_, 10, 13, 40));
+  const std::optional<v1::SyncFrame> accepted = PushWhole(*pusher, plan);
+  ASSERT_TRUE(accepted && accepted->has_push_accepted()) << Describe(accepted);
+  EXPECT_EQ(WaitForState(*pusher, plan.id, "merging").state(), "merging");
+
+  const auto start = std::chrono::steady_clock::now();
+  server.process->Signal(SIGTERM);
+  const std::optional<v1::SyncFrame> told = idle->Receive();
+  EXPECT_EQ(ErrorCodeOf(told), v1::ErrorFrame::SHUTTING_DOWN) << Describe(told);
+  EXPECT_EQ(server.process->Wait(milliseconds(15'000)), 0) << server.Log();
+  EXPECT_LT(std::chrono::steady_clock::now() - start, milliseconds(12'000));
+  auto repository = Repository::Open(uri_);
+  EXPECT_EQ(repository->Head(), 0);
+  EXPECT_EQ(repository->versions().FindSubmission(plan.id)->state, SubmissionState::kQueued);
+  EXPECT_NE(server.Log().find("abandoned"), std::string::npos) << server.Log();
+}
+
+// ---- Authentication, limits and floods (issue "Nothing a robot builds is ever lost") ----
+
+TEST_F(FleetmapdSqliteTest, UnknownRobotAndWrongTokenGetTheSameAnswer) {
+  Fleetmapd server = Start();
+  ASSERT_FALSE(server.address.empty());
+  RawSyncClient wrong(server.address);
+  const std::optional<v1::SyncFrame> wrong_token = wrong.Hello(robot_, std::string(64, '0'));
+  RawSyncClient unknown(server.address);
+  const std::optional<v1::SyncFrame> unknown_robot = unknown.Hello(Uuid::GenerateRandom(), token_);
+  EXPECT_EQ(ErrorCodeOf(wrong_token), v1::ErrorFrame::BAD_TOKEN) << Describe(wrong_token);
+  EXPECT_EQ(ErrorCodeOf(unknown_robot), v1::ErrorFrame::BAD_TOKEN) << Describe(unknown_robot);
+  EXPECT_EQ(ErrorTextOf(wrong_token), "unknown robot or wrong token");
+  EXPECT_EQ(ErrorTextOf(unknown_robot), ErrorTextOf(wrong_token));
+  // Only the server's log says which it was.
+  EXPECT_TRUE(server.LogContains("wrong token for robot " + robot_.ToString())) << server.Log();
+  EXPECT_TRUE(server.LogContains("is registered here")) << server.Log();
+}
+
+TEST_F(FleetmapdSqliteTest, AChunkThatDoesNotMatchItsDigestIsRefusedAndNothingIsStored) {
+  Fleetmapd server = Start();
+  ASSERT_FALSE(server.address.empty());
+  const PushPlan plan = PlanPush(RandomRobotMap(robot_, 10, 31, 40));
+  ASSERT_GT(plan.chunks.size(), 1u);
+  {
+    auto client = Connect(server);
+    const std::optional<v1::SyncFrame> ready = SendPushBegin(*client, plan);
+    ASSERT_TRUE(ready && ready->has_push_ready()) << Describe(ready);
+    SendChunks(*client, plan, 0, 1);
+    v1::SyncFrame damaged = ChunkFrame(1, plan.chunks[1]);  // the digest of the chunk as sent
+    damaged.mutable_push_chunk()->mutable_data()->back() ^= 0x01;  // one bit flipped on the way
+    ASSERT_TRUE(client->Send(damaged));
+    const std::optional<v1::SyncFrame> reply = client->Receive();
+    EXPECT_EQ(ErrorCodeOf(reply), v1::ErrorFrame::CHUNK_DIGEST) << Describe(reply);
+    EXPECT_EQ(ErrorTextOf(reply), "chunk 1 does not match its digest; nothing stored");
+    EXPECT_TRUE(client->ClosedByServer());
+  }
+  const std::optional<Submission> stored =
+      Repository::Open(uri_)->versions().FindSubmission(plan.id);
+  ASSERT_TRUE(stored.has_value());
+  EXPECT_EQ(stored->chunk_count, 1);  // chunk 0 only
+  EXPECT_EQ(stored->bytes, static_cast<std::int64_t>(plan.chunks[0].size()));
+  // The robot sends it again, whole this time: the push resumes at chunk 1 and merges.
+  auto again = Connect(server);
+  const std::optional<v1::SyncFrame> ready = SendPushBegin(*again, plan);
+  ASSERT_TRUE(ready && ready->has_push_ready()) << Describe(ready);
+  EXPECT_EQ(ready->push_ready().next_chunk(), 1u);
+  SendChunks(*again, plan, 1, plan.chunks.size());
+  const std::optional<v1::SyncFrame> accepted = SendPushEnd(*again);
+  ASSERT_TRUE(accepted && accepted->has_push_accepted()) << Describe(accepted);
+  EXPECT_EQ(WaitForState(*again, plan.id, "merged").nodes_added(), 10);
+}
+
+TEST_F(FleetmapdSqliteTest, PushesOverTheSubmissionLimitOrOverWhatTheyAnnouncedAreRefused) {
+  Fleetmapd server = Start({"--max-submission-mib", "1"});
+  ASSERT_FALSE(server.address.empty());
+  constexpr std::uint64_t kLimit = 1 << 20;
+  {  // announced over the limit: refused at push_begin, naming the limit and the option
+    auto client = Connect(server);
+    const PushPlan plan = PlanPush(RandomRobotMap(robot_, 3, 41, 40));
+    const std::optional<v1::SyncFrame> reply = SendPushBegin(*client, plan, 3 * kLimit);
+    EXPECT_EQ(ErrorCodeOf(reply), v1::ErrorFrame::INVALID) << Describe(reply);
+    EXPECT_NE(ErrorTextOf(reply).find(std::to_string(kLimit) + " bytes"), std::string::npos)
+        << ErrorTextOf(reply);
+    EXPECT_NE(ErrorTextOf(reply).find("--max-submission-mib"), std::string::npos)
+        << ErrorTextOf(reply);
+    EXPECT_FALSE(Repository::Open(uri_)->versions().FindSubmission(plan.id).has_value());
+  }
+  {  // announced within the limit, sent over it: refused at the chunk that passes it
+    auto client = Connect(server);
+    PushPlan plan;
+    plan.chunks = {std::string(600 << 10, 'a'), std::string(600 << 10, 'b')};
+    plan.digest = DigestOfChunks(plan.chunks);
+    const std::optional<v1::SyncFrame> ready = SendPushBegin(*client, plan, kLimit);
+    ASSERT_TRUE(ready && ready->has_push_ready()) << Describe(ready);
+    SendChunks(*client, plan, 0, 1);
+    ASSERT_TRUE(client->Send(ChunkFrame(1, plan.chunks[1])));
+    const std::optional<v1::SyncFrame> reply = client->Receive();
+    EXPECT_EQ(ErrorCodeOf(reply), v1::ErrorFrame::INVALID) << Describe(reply);
+    EXPECT_NE(ErrorTextOf(reply).find("--max-submission-mib"), std::string::npos)
+        << ErrorTextOf(reply);
+    EXPECT_EQ(Repository::Open(uri_)->versions().FindSubmission(plan.id)->chunk_count, 1);
+  }
+  {  // more than it announced, under the limit: refused too
+    auto client = Connect(server);
+    PushPlan plan;
+    plan.chunks = {"abc", "def"};
+    plan.digest = DigestOfChunks(plan.chunks);
+    const std::optional<v1::SyncFrame> ready = SendPushBegin(*client, plan, 4);
+    ASSERT_TRUE(ready && ready->has_push_ready()) << Describe(ready);
+    SendChunks(*client, plan, 0, 1);
+    ASSERT_TRUE(client->Send(ChunkFrame(1, plan.chunks[1])));
+    const std::optional<v1::SyncFrame> reply = client->Receive();
+    EXPECT_EQ(ErrorCodeOf(reply), v1::ErrorFrame::INVALID) << Describe(reply);
+    EXPECT_NE(ErrorTextOf(reply).find("announced"), std::string::npos) << ErrorTextOf(reply);
+    EXPECT_EQ(Repository::Open(uri_)->versions().FindSubmission(plan.id)->chunk_count, 1);
+  }
+  // A map within the limit goes through.
+  auto client = Connect(server);
+  const PushPlan plan = PlanPush(RandomRobotMap(robot_, 20, 43, 40));
+  const std::optional<v1::SyncFrame> accepted = PushWhole(*client, plan);
+  ASSERT_TRUE(accepted && accepted->has_push_accepted()) << Describe(accepted);
+}
+
+TEST_F(FleetmapdSqliteTest, BeforeItsHelloAConnectionIsHeldToSmallFramesAndAShortDeadline) {
+  Fleetmapd server = Start({"--hello-timeout", "1"});
+  ASSERT_FALSE(server.address.empty());
+  for (const std::uint32_t length : {std::uint32_t{4097}, std::uint32_t{0x04000000}}) {
+    RawSyncClient client(server.address);
+    ASSERT_TRUE(client.SendBytes(LengthPrefix(length)));
+    const std::optional<v1::SyncFrame> reply = client.Receive();
+    EXPECT_EQ(ErrorCodeOf(reply), v1::ErrorFrame::FRAME_TOO_LARGE) << Describe(reply);
+    EXPECT_NE(ErrorTextOf(reply).find("before a hello"), std::string::npos) << Describe(reply);
+  }
+  for (const std::string& sent : {std::string(), LengthPrefix(60) + "0123456789"}) {
+    // Nothing, or part of a hello, then silence: TIMEOUT after the hello deadline.
+    RawSyncClient client(server.address, false, milliseconds(5000));
+    ASSERT_TRUE(client.SendBytes(sent));
+    const auto start = std::chrono::steady_clock::now();
+    const std::optional<v1::SyncFrame> reply = client.Receive();
+    const auto took = std::chrono::steady_clock::now() - start;
+    EXPECT_EQ(ErrorCodeOf(reply), v1::ErrorFrame::TIMEOUT) << Describe(reply);
+    EXPECT_NE(ErrorTextOf(reply).find("no complete hello within 1 s"), std::string::npos)
+        << Describe(reply);
+    EXPECT_LT(took, milliseconds(2500));
+  }
+  // Past its hello a robot may send frames above 4 KiB (this one is refused for its content,
+  // not its size).
+  auto robot = Connect(server);
+  v1::SyncFrame large;
+  large.mutable_merge_status_request()->set_submission_id(std::string(8000, 'x'));
+  ASSERT_TRUE(robot->Send(large));
+  const std::optional<v1::SyncFrame> reply = robot->Receive();
+  EXPECT_EQ(ErrorCodeOf(reply), v1::ErrorFrame::INVALID) << Describe(reply);
+}
+
+TEST_F(FleetmapdSqliteTest, TheOldestConnectionWithoutAHelloMakesRoomForANewOne) {
+  Fleetmapd server = Start({"--max-pending-hello-per-address", "4"});
+  ASSERT_FALSE(server.address.empty());
+  std::vector<std::unique_ptr<RawSyncClient>> idle;
+  for (int i = 0; i < 4; ++i) idle.push_back(std::make_unique<RawSyncClient>(server.address));
+  // A fifth pushes out the first; a robot (a sixth) gets in and pushes out the second.
+  auto fifth = std::make_unique<RawSyncClient>(server.address);
+  const std::optional<v1::SyncFrame> first = idle[0]->Receive();
+  EXPECT_EQ(ErrorCodeOf(first), v1::ErrorFrame::BUSY) << Describe(first);
+  EXPECT_NE(ErrorTextOf(first).find("had not said hello"), std::string::npos) << Describe(first);
+  auto robot = Connect(server);
+  ExpectStillServes(*robot);
+  EXPECT_EQ(ErrorCodeOf(idle[1]->Receive()), v1::ErrorFrame::BUSY);
+  // The others are still open: each can still say hello.
+  const std::optional<v1::SyncFrame> welcome = idle[2]->Hello(robot_, token_);
+  EXPECT_TRUE(welcome && welcome->has_welcome()) << Describe(welcome);
+}
+
+TEST_F(FleetmapdSqliteTest, TheCapOverAllAddressesPushesOutTheOldestToo) {
+  Fleetmapd server = Start({"--max-pending-hello", "3"});
+  ASSERT_FALSE(server.address.empty());
+  std::vector<std::unique_ptr<RawSyncClient>> idle;
+  for (int i = 0; i < 4; ++i) idle.push_back(std::make_unique<RawSyncClient>(server.address));
+  const std::optional<v1::SyncFrame> first = idle[0]->Receive();
+  EXPECT_EQ(ErrorCodeOf(first), v1::ErrorFrame::BUSY) << Describe(first);
+  EXPECT_NE(ErrorTextOf(first).find("more than 3 connections had not said hello"),
+            std::string::npos)
+      << Describe(first);
+  auto robot = Connect(server);
+  ExpectStillServes(*robot);
+}
+
+// At max_sessions a connection without a hello makes room; only a server full of robots past
+// their hello refuses a new one.
+TEST_F(FleetmapdSqliteTest, AFullServerRefusesOnlyWhenEverySessionIsPastItsHello) {
+  SyncServerOptions options;
+  options.store_uri = uri_;
+  options.listen = "127.0.0.1:0";
+  options.max_sessions = 2;
+  SyncServer server(options);
+  server.Start();
+  Fleetmapd view;  // only its address is used
+  view.address = server.bound_address();
+  auto robot = Connect(view);
+  RawSyncClient idle(view.address);
+  auto second = Connect(view);  // pushes `idle` out
+  const std::optional<v1::SyncFrame> pushed_out = idle.Receive();
+  EXPECT_EQ(ErrorCodeOf(pushed_out), v1::ErrorFrame::BUSY) << Describe(pushed_out);
+  RawSyncClient third(view.address);
+  const std::optional<v1::SyncFrame> refused = third.Receive();
+  EXPECT_EQ(ErrorCodeOf(refused), v1::ErrorFrame::BUSY) << Describe(refused);
+  EXPECT_NE(ErrorTextOf(refused).find("maximum of 2 sessions"), std::string::npos)
+      << Describe(refused);
+  ExpectStillServes(*robot);
+  ExpectStillServes(*second);
+  robot.reset();
+  second.reset();
+  server.Stop();
+}
+
+// The last-sync record is best effort: a store that will not take it (a trigger stands in for
+// a full disk) does not stop a hello or a download.
+TEST_F(FleetmapdSqliteTest, AStoreThatCannotRecordTheLastSyncStillLetsTheRobotIn) {
+  {
+    const std::string path = uri_.substr(std::string("sqlite:").size());
+    sqlite3* db = nullptr;
+    ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
+    for (const char* when : {"INSERT", "UPDATE"}) {
+      const std::string sql = std::string("CREATE TRIGGER refuse_sync_") + when + " BEFORE " +
+                              when +
+                              " ON settings WHEN NEW.key LIKE 'robot-sync/%' BEGIN SELECT "
+                              "RAISE(ABORT, 'database or disk is full (a test trigger)'); END";
+      char* error = nullptr;
+      EXPECT_EQ(sqlite3_exec(db, sql.c_str(), nullptr, nullptr, &error), SQLITE_OK)
+          << (error ? error : "");
+      sqlite3_free(error);
+    }
+    sqlite3_close(db);
+  }
+  SyncServerOptions options;
+  options.store_uri = uri_;
+  options.listen = "127.0.0.1:0";
+  SyncServer server(options);
+  server.Start();
+  Fleetmapd view;  // only its address is used
+  view.address = server.bound_address();
+  auto client = Connect(view);
+  ExpectStillServes(*client);
+  const FleetStatus status = server.Status();
+  EXPECT_EQ(status.last_sync_write_failures, 1u);
+  ASSERT_EQ(status.robots.size(), 1u);
+  EXPECT_GT(status.robots[0].last_sync_ns, 0);  // kept in memory
+  client.reset();
+  server.Stop();
+  EXPECT_EQ(RobotRegistry(Repository::Open(uri_)->versions()).List()[0].last_sync_ns, 0);
+}
+
+}  // namespace
+}  // namespace fleetmap::testing
