@@ -23,13 +23,11 @@ void AddDownloadCommand(CLI::App& app);
 void AddDreamCommand(CLI::App& app);
 // `fleetmap robot add|list`: the robots fleetmapd lets sync (robot_command.cc).
 void AddRobotCommands(CLI::App& app);
-// `fleetmap log split|cat`: record files of raw sensor data (log_file_commands.cc). Shares the
-// `log` subcommand with the revision history and the sensor index; registers after
-// AddHistoryCommands.
-void AddLogFileCommands(CLI::App& app);
-// `fleetmap log ingest|reindex`: the SQL index of record files (log_index_commands.cc); shares
-// `log` like AddLogFileCommands.
-void AddLogIndexCommands(CLI::App& app);
+// `fleetmap records split|cat|ingest|reindex`: record files of raw sensor data
+// (records_file_commands.cc) and their SQL index (records_index_commands.cc, registered by
+// AddRecordsCommands on its `records` subcommand).
+void AddRecordsCommands(CLI::App& app);
+void AddRecordsIndexCommands(CLI::App& records);
 // `fleetmap query datum|nearest|join|batch-join`: seed 000 Eqs. 1-2 (query_command.cc).
 void AddQueryCommand(CLI::App& app);
 // `fleetmap bench index`: seed 000 Table 1 (bench_index_command.cc). Registers after

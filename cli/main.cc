@@ -19,8 +19,7 @@ int main(int argc, char** argv) {
   fleetmap::cli::AddDownloadCommand(app);
   fleetmap::cli::AddDreamCommand(app);
   fleetmap::cli::AddRobotCommands(app);
-  fleetmap::cli::AddLogFileCommands(app);
-  fleetmap::cli::AddLogIndexCommands(app);
+  fleetmap::cli::AddRecordsCommands(app);
   fleetmap::cli::AddQueryCommand(app);
   fleetmap::cli::AddBenchIndexCommand(app);
   fleetmap::cli::AddAnnotationCommands(app);

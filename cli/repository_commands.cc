@@ -5,6 +5,8 @@
 #include <iostream>
 #include <nlohmann/json.hpp>
 #include <optional>
+#include <string>
+#include <vector>
 
 #include "commands.h"
 #include "fleetmap/core/error.h"
@@ -206,10 +208,17 @@ void AddHistoryCommands(CLI::App& app) {
       "each added and hid.");
   AddStoreOption(*log, log_args->store);
   log->add_flag("--json", log_args->json, "Print JSON (with each merge's full report)");
-  // `log` is shared with the sensor-log commands (`log split`, ...): the history is shown only
-  // when no such subcommand ran.
+  // Record files moved from `log` to `records` (issue 20): a user who types the old command
+  // is told where it went instead of reading a parse error.
+  log->allow_extras();
   log->callback([log_args, log] {
-    if (log->get_subcommands().empty()) RunLog(*log_args);
+    const std::vector<std::string> extras = log->remaining();
+    if (!extras.empty()) {
+      throw Error(ErrorCode::kInvalidArgument,
+                  "`fleetmap log` shows the revision history and takes no '" + extras.front() +
+                      "'; record files are under `fleetmap records split|cat|ingest|reindex`");
+    }
+    RunLog(*log_args);
   });
 
   auto checkout_args = std::make_shared<CheckoutArgs>();

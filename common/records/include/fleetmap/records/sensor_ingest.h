@@ -1,7 +1,7 @@
-// Filling the sensor index from record files (seed 000 §4.1, §5.1): `fleetmap log ingest`
-// indexes given files, `fleetmap log reindex` rebuilds the index of a whole repository root by
-// linear scan. Every record becomes one Data row (platform, sensor, stamp, file relative to the
-// root, offset, length, type); the files table remembers what was indexed.
+// Filling the sensor index from record files (seed 000 §4.1, §5.1): `fleetmap records
+// ingest` indexes given files, `fleetmap records reindex` rebuilds the index of a whole
+// repository root by linear scan. Every record becomes one Data row (platform, sensor, stamp, file
+// relative to the root, offset, length, type); the files table remembers what was indexed.
 //
 // Idempotent: a (file, offset) already indexed keeps its row and id, so ingesting a file twice,
 // or reindexing after an ingest, adds nothing. Corrupt stretches of a file (record_file.h) are

@@ -1,6 +1,6 @@
-// `fleetmap log split` and `fleetmap log cat`: cut a record file (record_file.h) into pieces
-// and join record files, at record boundaries (seed 000 §5.1: monolithic files "can be
-// constructed, split, and concatenated easily"). Both copy only whole, checking records; every
+// `fleetmap records split` and `fleetmap records cat`: cut a record file (record_file.h) into
+// pieces and join record files, at record boundaries (seed 000 §5.1: record files are built,
+// cut and joined without an index). Both copy only whole, checking records; every
 // corrupt stretch of the input is printed (file, offset, length, what) and makes the exit
 // status 2, after the output of the good records has been written.
 #include <CLI/CLI.hpp>
@@ -89,18 +89,19 @@ void RunCat(const CatArgs& args) {
 
 }  // namespace
 
-void AddLogFileCommands(CLI::App& app) {
-  // `log` is shared with the revision history and the sensor-index commands; whichever
-  // registers first creates it. (CLI11 2.1 has no get_subcommand_no_throw.)
-  const std::vector<CLI::App*> existing =
-      app.get_subcommands([](CLI::App* sub) { return sub->get_name() == "log"; });
-  CLI::App* log = existing.empty() ? app.add_subcommand(
-                                         "log", "Raw sensor logs: record files and their SQL index")
-                                   : existing.front();
+void AddRecordsCommands(CLI::App& app) {
+  CLI::App* records = app.add_subcommand(
+      "records",
+      "Raw sensor data: record files (split, cat) and their SQL index (ingest, reindex)");
+  records->require_subcommand(1);
+  records->footer(
+      "Record files hold raw sensor messages, framed and CRC-checked (seed 000 §5.1); the "
+      "SQL index over them (seed 000 §4.1) lives in the store. `fleetmap images ingest` "
+      "writes stereo folders into them.");
 
   auto split_args = std::make_shared<SplitArgs>();
   CLI::App* split =
-      log->add_subcommand("split", "Cut a record file into pieces at record boundaries");
+      records->add_subcommand("split", "Cut a record file into pieces at record boundaries");
   split->footer(
       "Writes OUT/PREFIX-0000.rec, PREFIX-0001.rec, ... each at most --max-bytes (a record "
       "bigger than that gets a piece of its own), and prints each piece's records and bytes. "
@@ -118,7 +119,7 @@ void AddLogFileCommands(CLI::App& app) {
   split->callback([split_args] { RunSplit(*split_args); });
 
   auto cat_args = std::make_shared<CatArgs>();
-  CLI::App* cat = log->add_subcommand("cat", "Join record files, in order, into a new one");
+  CLI::App* cat = records->add_subcommand("cat", "Join record files, in order, into a new one");
   cat->footer(
       "Copies the whole records of FILES in the order given into --out (which must not exist) "
       "and prints the records and bytes written. Corrupt stretches are left out and printed "
@@ -126,6 +127,8 @@ void AddLogFileCommands(CLI::App& app) {
   cat->add_option("files", cat_args->files, "Record files")->required()->check(CLI::ExistingFile);
   cat->add_option("--out", cat_args->out, "The new record file")->required();
   cat->callback([cat_args] { RunCat(*cat_args); });
+
+  AddRecordsIndexCommands(*records);
 }
 
 }  // namespace fleetmap::cli

@@ -1,4 +1,4 @@
-// `fleetmap log ingest` and `fleetmap log reindex`: fill the SQL index of raw sensor data
+// `fleetmap records ingest` and `fleetmap records reindex`: fill the SQL index of raw sensor data
 // (sensor_index.h, seed 000 §4.1) from record files (record_file.h) under a repository root.
 // Both are idempotent: a record already indexed (same file and offset) keeps its row.
 #include <CLI/CLI.hpp>
@@ -100,18 +100,10 @@ void RunReindex(const ReindexArgs& args) {
 
 }  // namespace
 
-void AddLogIndexCommands(CLI::App& app) {
-  // `log` is shared with the revision history and `log split|cat`; whichever registers first
-  // creates it. (CLI11 2.1 has no get_subcommand_no_throw.)
-  const std::vector<CLI::App*> existing =
-      app.get_subcommands([](CLI::App* sub) { return sub->get_name() == "log"; });
-  CLI::App* log = existing.empty() ? app.add_subcommand(
-                                         "log", "Raw sensor logs: record files and their SQL index")
-                                   : existing.front();
-
+void AddRecordsIndexCommands(CLI::App& records) {
   auto ingest_args = std::make_shared<IngestArgs>();
   CLI::App* ingest =
-      log->add_subcommand("ingest", "Index every record of record files in the SQL index");
+      records.add_subcommand("ingest", "Index every record of record files in the SQL index");
   ingest->footer(
       "Adds one Data row (platform, sensor, stamp, file relative to --root, offset, length, "
       "message type) per record (seed 000 §4.1). Idempotent: a record already indexed keeps its "
@@ -128,7 +120,7 @@ void AddLogIndexCommands(CLI::App& app) {
 
   auto reindex_args = std::make_shared<ReindexArgs>();
   CLI::App* reindex =
-      log->add_subcommand("reindex", "Rebuild the SQL index of every *.rec under a root");
+      records.add_subcommand("reindex", "Rebuild the SQL index of every *.rec under a root");
   reindex->footer(
       "Scans every *.rec file under --root linearly, taking platform and sensor from the layout "
       "PLATFORM/SENSOR/DATE/FILE.rec, and indexes every whole record. Rows already indexed stay "
