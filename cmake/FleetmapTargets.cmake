@@ -73,7 +73,6 @@ endfunction()
 # library's includes with what it links.
 function(fleetmap_write_layering)
   get_property(lines GLOBAL PROPERTY FLEETMAP_LAYERING)
-  list(APPEND lines "fleetmap_proto|${PROJECT_SOURCE_DIR}/proto|protobuf::libprotobuf|")
   string(REPLACE ";" "\n" text "${lines}")
   file(WRITE ${CMAKE_BINARY_DIR}/fleetmap-layering.txt.tmp "${text}\n")
   configure_file(${CMAKE_BINARY_DIR}/fleetmap-layering.txt.tmp
