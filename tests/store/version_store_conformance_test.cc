@@ -201,7 +201,8 @@ TYPED_TEST(VersionStoreConformance, SchemaOneStoreMigratesWithItsMapAtRevisionZe
   const GraphBatch old = Chain(3, 0);
   this->store_->Put(old);
   this->store_.reset();
-  // Back to schema 1: undo 0005 (submission nodes, stand-ins), 0004 (annotations on data: the
+  // Back to schema 1: undo 0006 (claims: columns of submissions, dropped with it), 0005
+  // (submission nodes, stand-ins), 0004 (annotations on data: the
   // payload tables, and the annotation table as schema 1 had it, empty here), 0003 (sensor index)
   // and 0002 (versions).
   const bool sqlite = std::is_same_v<TypeParam, SqliteBackend>;
@@ -432,6 +433,114 @@ TYPED_TEST(VersionStoreConformance, QueuedSubmissionKeepsItsLastTransientError) 
   this->versions().SetSubmissionState(header.id, SubmissionState::kMerged, 2, "ignored");
   stored = *this->versions().FindSubmission(header.id);
   EXPECT_EQ(stored.error, "") << "a merged submission has no error";
+}
+
+// --- Claims: several fleetmapd on one store (issue 21) ------------------------------------
+
+// `received_ns` apart, each complete (queued).
+std::vector<Submission> QueueSubmissions(VersionStore& versions, int n) {
+  std::vector<Submission> queued;
+  for (int i = 0; i < n; ++i) {
+    queued.push_back(versions.BeginSubmission(Header(Uuid::Generate(), 1000 + i)));
+    versions.CompleteSubmission(queued.back().id, 7);
+  }
+  return queued;
+}
+
+constexpr std::chrono::milliseconds kLongLease{60'000};
+
+TYPED_TEST(VersionStoreConformance, ClaimsGoOldestFirstEachToOneInstance) {
+  const std::vector<Submission> queued = QueueSubmissions(this->versions(), 3);
+  this->versions().BeginSubmission(Header(Uuid::Generate(), 1));  // still receiving
+  const Submission merged = this->versions().BeginSubmission(Header(Uuid::Generate(), 2));
+  this->versions().CompleteSubmission(merged.id, 7);
+  this->versions().SetSubmissionState(merged.id, SubmissionState::kMerged, 1, "");
+
+  const std::optional<Submission> a = this->versions().ClaimQueuedSubmission("a", kLongLease);
+  const std::optional<Submission> b = this->versions().ClaimQueuedSubmission("b", kLongLease);
+  const std::optional<Submission> c = this->versions().ClaimQueuedSubmission("c", kLongLease);
+  ASSERT_TRUE(a && b && c);
+  EXPECT_EQ(a->id, queued[0].id);
+  EXPECT_EQ(b->id, queued[1].id);
+  EXPECT_EQ(c->id, queued[2].id);
+  EXPECT_EQ(a->state, SubmissionState::kQueued);
+  EXPECT_EQ(this->versions().ClaimQueuedSubmission("d", kLongLease), std::nullopt)
+      << "receiving and merged submissions are never claimed, live claims are not shared";
+  // An instance restarted under its name takes back what it held.
+  EXPECT_EQ(this->versions().ClaimQueuedSubmission("b", kLongLease)->id, queued[1].id);
+
+  const std::optional<SubmissionClaim> claim = this->versions().FindClaim(queued[0].id);
+  ASSERT_TRUE(claim);
+  EXPECT_EQ(claim->instance, "a");
+  EXPECT_GT(claim->lease_until_ns, 0);
+  EXPECT_EQ(this->versions().FindClaim(merged.id), std::nullopt);
+  ExpectError(ErrorCode::kNotFound, [&] { this->versions().FindClaim(Uuid::Generate()); });
+}
+
+TYPED_TEST(VersionStoreConformance, EndedLeaseIsTakenOverAndCannotBeRenewed) {
+  const Submission queued = QueueSubmissions(this->versions(), 1)[0];
+  ASSERT_TRUE(this->versions().ClaimQueuedSubmission("dies", std::chrono::milliseconds(50)));
+  EXPECT_EQ(this->versions().ClaimQueuedSubmission("other", kLongLease), std::nullopt);
+  std::this_thread::sleep_for(std::chrono::milliseconds(150));
+
+  const std::optional<Submission> taken =
+      this->versions().ClaimQueuedSubmission("other", kLongLease);
+  ASSERT_TRUE(taken);
+  EXPECT_EQ(taken->id, queued.id);
+  EXPECT_FALSE(this->versions().RenewClaim(queued.id, "dies", kLongLease))
+      << "the instance whose lease ended must not go on to commit its merge";
+  EXPECT_EQ(this->versions().FindClaim(queued.id)->instance, "other");
+  const std::int64_t until = this->versions().FindClaim(queued.id)->lease_until_ns;
+  EXPECT_TRUE(this->versions().RenewClaim(queued.id, "other", 2 * kLongLease));
+  EXPECT_GT(this->versions().FindClaim(queued.id)->lease_until_ns, until);
+}
+
+TYPED_TEST(VersionStoreConformance, ReleasedClaimIsFreeAtOnceAndBadClaimsAreRefused) {
+  const Submission queued = QueueSubmissions(this->versions(), 1)[0];
+  ASSERT_TRUE(this->versions().ClaimQueuedSubmission("a", kLongLease));
+  this->versions().ReleaseClaim(queued.id, "b");  // not b's: changes nothing
+  EXPECT_EQ(this->versions().ClaimQueuedSubmission("b", kLongLease), std::nullopt);
+  this->versions().ReleaseClaim(queued.id, "a");
+  EXPECT_FALSE(this->versions().RenewClaim(queued.id, "a", kLongLease));
+  EXPECT_EQ(this->versions().ClaimQueuedSubmission("b", kLongLease)->id, queued.id);
+
+  ExpectError(ErrorCode::kInvalidArgument,
+              [&] { this->versions().ClaimQueuedSubmission("", kLongLease); });
+  ExpectError(ErrorCode::kInvalidArgument,
+              [&] { this->versions().ClaimQueuedSubmission("a", std::chrono::milliseconds(0)); });
+  EXPECT_EQ(this->versions().FindClaim(queued.id)->instance, "b")
+      << "a refused claim changes nothing";
+}
+
+// Instances claiming at once on their own connections: every submission claimed exactly once.
+TYPED_TEST(VersionStoreConformance, InstancesClaimingAtOnceNeverShareASubmission) {
+  constexpr int kSubmissions = 40, kInstances = 4;
+  const std::vector<Submission> queued = QueueSubmissions(this->versions(), kSubmissions);
+  std::vector<std::vector<Uuid>> claimed(kInstances);
+  std::vector<std::string> errors(kInstances);
+  std::vector<std::thread> instances;
+  for (int i = 0; i < kInstances; ++i) {
+    instances.emplace_back([&, i] {
+      try {
+        auto store = GraphStore::Open(this->backend_->Uri());
+        const std::string name = "instance-" + std::to_string(i);
+        while (auto s = store->versions().ClaimQueuedSubmission(name, kLongLease)) {
+          claimed[i].push_back(s->id);
+          // As a merge would: finish it, so this instance's next claim takes a new one.
+          store->versions().SetSubmissionState(s->id, SubmissionState::kFailed, 0, "test");
+        }
+      } catch (const Error& e) {
+        errors[i] = e.what();
+      }
+    });
+  }
+  for (std::thread& t : instances) t.join();
+  std::vector<Uuid> all;
+  for (int i = 0; i < kInstances; ++i) {
+    EXPECT_EQ(errors[i], "") << "instance " << i;
+    all.insert(all.end(), claimed[i].begin(), claimed[i].end());
+  }
+  EXPECT_EQ(Sorted(all), SortedIds(queued)) << "each submission claimed once, none left";
 }
 
 // --- What the server has seen of each node ------------------------------------------------

@@ -127,6 +127,17 @@ Error NoSubmission(const Uuid& id) {
   return Error(ErrorCode::kNotFound, "no submission " + id.ToString());
 }
 
+std::int64_t ClaimLeaseNs(const std::string& instance, std::chrono::milliseconds lease) {
+  if (instance.empty()) {
+    throw Error(ErrorCode::kInvalidArgument, "a claim needs the name of the instance making it");
+  }
+  if (lease.count() <= 0) {
+    throw Error(ErrorCode::kInvalidArgument,
+                "a claim's lease must be positive, not " + std::to_string(lease.count()) + " ms");
+  }
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(lease).count();
+}
+
 void RequireSameRobot(const Submission& stored, const Submission& header) {
   if (stored.robot == header.robot) return;
   throw Error(ErrorCode::kConflict, "submission " + stored.id.ToString() + " belongs to robot " +

@@ -3,6 +3,7 @@
 // one conformance suite.
 #pragma once
 
+#include <chrono>
 #include <cstdint>
 #include <optional>
 #include <string>
@@ -60,6 +61,10 @@ void RequireRevertable(RevisionNumber reverted, const std::optional<Revision>& t
 // ---- Submission rules ----
 
 Error NoSubmission(const Uuid& id);
+
+// A claim's lease in nanoseconds, and who claims. Throws Error(kInvalidArgument) for a lease
+// that is not positive or an empty instance name (a claim must say who holds it).
+std::int64_t ClaimLeaseNs(const std::string& instance, std::chrono::milliseconds lease);
 
 // BeginSubmission of a stored id: a resumed push from the same robot, else a conflict.
 void RequireSameRobot(const Submission& stored, const Submission& header);

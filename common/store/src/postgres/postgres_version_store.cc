@@ -13,6 +13,7 @@
 #include "postgres/postgres_version_store.h"
 
 #include <bit>
+#include <chrono>
 #include <string>
 #include <vector>
 
@@ -26,6 +27,9 @@ namespace {
 
 constexpr const char* kSubmissionColumns =
     "id, robot, author, received_ns, chunk_count, bytes, digest, state, revision, error";
+// Now as UTC nanoseconds by the server's clock (clock_timestamp: the time of the call, not
+// of the transaction's start).
+constexpr const char* kNowNs = "(extract(epoch FROM clock_timestamp()) * 1000000000)::bigint";
 constexpr const char* kRevisionColumns =
     "number, created_ns, author, kind, submission, coalesce(reverted, 0), nodes_added,"
     " edges_added, paths_added, nodes_hidden, edges_hidden, paths_hidden, report";
@@ -167,6 +171,49 @@ class PostgresVersionStore final : public VersionStore {
       }
       return submissions;
     });
+  }
+
+  // ---- Claims ----
+
+  std::optional<Submission> ClaimQueuedSubmission(const std::string& instance,
+                                                  std::chrono::milliseconds lease) override {
+    const std::int64_t lease_ns = ClaimLeaseNs(instance, lease);
+    return session_.Atomically("claim a queued submission for " + instance,
+                               [&](pqxx::transaction_base& t) -> std::optional<Submission> {
+                                 const pqxx::result r = t.exec_prepared("version_claim_submission",
+                                                                        instance, lease_ns);
+                                 if (r.empty()) return std::nullopt;
+                                 return ReadSubmission(r[0]);
+                               });
+  }
+
+  bool RenewClaim(const Uuid& id, const std::string& instance,
+                  std::chrono::milliseconds lease) override {
+    const std::int64_t lease_ns = ClaimLeaseNs(instance, lease);
+    return session_.Atomically(
+        "renew the claim on submission " + id.ToString(), [&](pqxx::transaction_base& t) {
+          return t.exec_prepared("version_renew_claim", id.ToString(), instance, lease_ns)
+                     .affected_rows() == 1;
+        });
+  }
+
+  void ReleaseClaim(const Uuid& id, const std::string& instance) override {
+    session_.Atomically("release the claim on submission " + id.ToString(),
+                        [&](pqxx::transaction_base& t) {
+                          t.exec_prepared("version_release_claim", id.ToString(), instance);
+                        });
+  }
+
+  std::optional<SubmissionClaim> FindClaim(const Uuid& id) override {
+    return session_.Autocommit("find the claim on submission " + id.ToString(),
+                               [&](pqxx::transaction_base& t) -> std::optional<SubmissionClaim> {
+                                 const pqxx::result r =
+                                     t.exec_prepared("version_find_claim", id.ToString());
+                                 if (r.empty()) throw NoSubmission(id);
+                                 const std::string instance = r[0][0].c_str();
+                                 if (instance.empty()) return std::nullopt;
+                                 return SubmissionClaim{instance, r[0][1].as<std::int64_t>()};
+                               });
   }
 
   std::string SubmissionChunk(const Uuid& id, std::int64_t seq) override {
@@ -497,6 +544,25 @@ class PostgresVersionStore final : public VersionStore {
               "UPDATE submissions SET state = 1, digest = $2 WHERE id = $1");
     c.prepare("version_set_submission_state",
               "UPDATE submissions SET state = $2, revision = $3, error = $4 WHERE id = $1");
+    // Claims, timed by this server's clock. SKIP LOCKED: instances claiming at once each lock
+    // a different submission instead of queueing behind one another for the same row.
+    c.prepare("version_claim_submission",
+              Cat({"WITH now AS (SELECT ", kNowNs,
+                   " AS ns) UPDATE submissions SET claimed_by = $1,"
+                   " lease_until_ns = (SELECT ns FROM now) + $2 WHERE id = (SELECT id FROM"
+                   " submissions, now WHERE state = 1 AND (claimed_by = '' OR claimed_by = $1"
+                   " OR lease_until_ns <= now.ns) ORDER BY received_ns, id LIMIT 1"
+                   " FOR UPDATE OF submissions SKIP LOCKED) RETURNING ",
+                   kSubmissionColumns}));
+    c.prepare(
+        "version_renew_claim",
+        Cat({"WITH now AS (SELECT ", kNowNs,
+             " AS ns) UPDATE submissions SET lease_until_ns = (SELECT ns FROM now) + $3"
+             " WHERE id = $1 AND claimed_by = $2 AND lease_until_ns > (SELECT ns FROM now)"}));
+    c.prepare("version_release_claim",
+              "UPDATE submissions SET lease_until_ns = 0 WHERE id = $1 AND claimed_by = $2");
+    c.prepare("version_find_claim",
+              "SELECT claimed_by, lease_until_ns FROM submissions WHERE id = $1");
     // Revisions.
     c.prepare("version_head", "SELECT coalesce(max(number), 0) FROM revisions");
     c.prepare("version_find_revision",

@@ -10,6 +10,7 @@
 #include "sqlite/sqlite_version_store.h"
 
 #include <bit>
+#include <chrono>
 #include <string>
 #include <type_traits>
 #include <vector>
@@ -218,6 +219,64 @@ class SqliteVersionStore final : public VersionStore {
     Require(id);
     throw Error(ErrorCode::kNotFound,
                 "no chunk " + std::to_string(seq) + " of submission " + id.ToString());
+  }
+
+  // ---- Claims ----
+
+  std::optional<Submission> ClaimQueuedSubmission(const std::string& instance,
+                                                  std::chrono::milliseconds lease) override {
+    // BEGIN IMMEDIATE: the write lock is taken before the read, so two connections cannot
+    // both pick the same submission.
+    const std::int64_t lease_ns = ClaimLeaseNs(instance, lease);
+    return Atomically([&]() -> std::optional<Submission> {
+      const std::int64_t now = NowNs();
+      std::optional<Uuid> id;
+      {
+        StatementUse s(s_.first_claimable);
+        s->BindText(1, instance);
+        s->Bind(2, now);
+        if (!s->Step()) return std::nullopt;
+        id = s->UuidAt(0);
+      }
+      StatementUse s(s_.set_claim);
+      s->Bind(1, *id);
+      s->BindText(2, instance);
+      s->Bind(3, now + lease_ns);
+      s->Run();
+      return Find(*id);
+    });
+  }
+
+  bool RenewClaim(const Uuid& id, const std::string& instance,
+                  std::chrono::milliseconds lease) override {
+    const std::int64_t lease_ns = ClaimLeaseNs(instance, lease);
+    return Atomically([&] {
+      const std::int64_t now = NowNs();
+      StatementUse s(s_.renew_claim);
+      s->Bind(1, id);
+      s->BindText(2, instance);
+      s->Bind(3, now);
+      s->Bind(4, now + lease_ns);
+      s->Run();
+      return sqlite3_changes(db_) == 1;
+    });
+  }
+
+  void ReleaseClaim(const Uuid& id, const std::string& instance) override {
+    StatementUse s(s_.release_claim);
+    s->Bind(1, id);
+    s->BindText(2, instance);
+    s->Run();
+  }
+
+  std::optional<SubmissionClaim> FindClaim(const Uuid& id) override {
+    StatementUse s(s_.find_claim);
+    s->Bind(1, id);
+    if (!s->Step()) {
+      throw NoSubmission(id);
+    }
+    if (s->Text(0).empty()) return std::nullopt;
+    return SubmissionClaim{s->Text(0), s->Int64(1)};
   }
 
   // ---- Revisions ----
@@ -595,7 +654,20 @@ class SqliteVersionStore final : public VersionStore {
                        " ON CONFLICT (node) DO NOTHING"),
           find_stand_in(db,
                         "SELECT stand_in, tx, ty, tz, qw, qx, qy, qz, revision FROM stand_ins"
-                        " WHERE node = ?1") {}
+                        " WHERE node = ?1"),
+          first_claimable(db,
+                          "SELECT id FROM submissions WHERE state = 1 AND (claimed_by = ''"
+                          " OR claimed_by = ?1 OR lease_until_ns <= ?2)"
+                          " ORDER BY received_ns, id LIMIT 1"),
+          set_claim(db,
+                    "UPDATE submissions SET claimed_by = ?2, lease_until_ns = ?3 WHERE id = ?1"),
+          renew_claim(db,
+                      "UPDATE submissions SET lease_until_ns = ?4 WHERE id = ?1"
+                      " AND claimed_by = ?2 AND lease_until_ns > ?3"),
+          release_claim(db,
+                        "UPDATE submissions SET lease_until_ns = 0 WHERE id = ?1"
+                        " AND claimed_by = ?2"),
+          find_claim(db, "SELECT claimed_by, lease_until_ns FROM submissions WHERE id = ?1") {}
 
     Statement begin_submission, find_submission, list_submissions;
     Statement chunk_equals, insert_chunk, count_chunk, chunk;
@@ -608,7 +680,15 @@ class SqliteVersionStore final : public VersionStore {
     Statement version_of;
     Statement find_setting, put_setting, list_settings;
     Statement put_submission_node, submissions_with_node, put_stand_in, find_stand_in;
+    Statement first_claimable, set_claim, renew_claim, release_claim, find_claim;
   };
+
+  // SQLite is a local file, so the host's clock is the database's.
+  static std::int64_t NowNs() {
+    return std::chrono::duration_cast<std::chrono::nanoseconds>(
+               std::chrono::system_clock::now().time_since_epoch())
+        .count();
+  }
 
   // Runs fn as one atomic unit: under a savepoint inside an open transaction (so a failure
   // undoes only fn's writes), else in a BEGIN IMMEDIATE transaction of its own.

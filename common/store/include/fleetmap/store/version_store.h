@@ -17,6 +17,7 @@
 // Threading: as the owning GraphStore (one thread at a time).
 #pragma once
 
+#include <chrono>
 #include <cstdint>
 #include <optional>
 #include <string>
@@ -89,6 +90,15 @@ struct RevisionChanges {
   std::vector<Uuid> nodes_removed, edges_removed, paths_removed;  // visible at `from` only
 };
 
+// Which fleetmapd instance holds a queued submission to merge it, until when (several
+// instances on one database; see ClaimQueuedSubmission).
+struct SubmissionClaim {
+  std::string instance;
+  std::int64_t lease_until_ns = 0;  // UTC, by the database's clock
+
+  friend bool operator==(const SubmissionClaim&, const SubmissionClaim&) = default;
+};
+
 // Where MERGE put a submitted node it omitted (seed 004 §V-A): the server node that stands in
 // for it (the node it localised in, or was placed in through a localised neighbour) and its
 // pose there.
@@ -144,6 +154,27 @@ class VersionStore {
   virtual std::vector<Submission> ListSubmissions() = 0;
   // Chunk `seq` of a submission. Throws Error(kNotFound) for an unknown id or chunk.
   virtual std::string SubmissionChunk(const Uuid& id, std::int64_t seq) = 0;
+
+  // ---- Claims: which instance merges a queued submission (several fleetmapd, one store) ----
+  // A claim is a lease, timed by the database's clock (PostgreSQL's; the host's for SQLite,
+  // which is local), so instances whose clocks disagree still agree when it ends.
+
+  // Claims for `instance` the first queued submission (by received_ns, then id) that no live
+  // lease holds: never claimed, its lease ended, or held by `instance` itself (an instance
+  // restarted under its name takes back what it held). The lease runs `lease` from now.
+  // Of instances claiming at once, each submission goes to one. nullopt when none is free.
+  virtual std::optional<Submission> ClaimQueuedSubmission(const std::string& instance,
+                                                          std::chrono::milliseconds lease) = 0;
+  // Extends `instance`'s claim on `id` to `lease` from now. False, changing nothing, when it
+  // no longer holds a live claim (the lease ended; another instance may have it).
+  virtual bool RenewClaim(const Uuid& id, const std::string& instance,
+                          std::chrono::milliseconds lease) = 0;
+  // Ends `instance`'s claim on `id` so another instance may claim it at once (after a merge
+  // that did not finish it); a no-op when `instance` holds none.
+  virtual void ReleaseClaim(const Uuid& id, const std::string& instance) = 0;
+  // The claim on `id`, live or ended; nullopt when none was ever made. Throws
+  // Error(kNotFound) for an unknown submission.
+  virtual std::optional<SubmissionClaim> FindClaim(const Uuid& id) = 0;
 
   // ---- What the server has seen of each node beyond the map ----
 
