@@ -450,7 +450,11 @@ int DiscardCommand(const AgentArguments& args) {
 }
 
 void AddSyncOptions(CLI::App& command, AgentArguments& args) {
-  command.add_option("--server", args.server, "fleetmapd address HOST:PORT")->required();
+  command
+      .add_option("--server", args.server,
+                  "fleetmapd address HOST:PORT, or several (HOST:PORT,HOST:PORT,...) sharing "
+                  "one store: a failed attempt retries on the next")
+      ->required();
   command.add_option("--robot", args.robot, "this robot's UUID (from `fleetmap robot add`)")
       ->required();
   CLI::Option* token_file =

@@ -2,10 +2,12 @@
 // repository whole (seed 004 §IV: robots hand their EBN maps to the server), and MERGE of what
 // was pushed into the linear history (seed 004 §V-A).
 #include <algorithm>
+#include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
 #include <nlohmann/json.hpp>
+#include <optional>
 
 #include "commands.h"
 #include "fleetmap/core/error.h"
@@ -99,6 +101,18 @@ struct SubmissionsArgs {
   bool json = false;
 };
 
+// The claim a fleetmapd holds on a queued submission to merge it (several servers on one
+// store), when its lease has not ended by this host's clock.
+std::optional<SubmissionClaim> QueuedClaim(Repository& repository, const Submission& s) {
+  if (s.state != SubmissionState::kQueued) return std::nullopt;
+  std::optional<SubmissionClaim> claim = repository.versions().FindClaim(s.id);
+  const std::int64_t now_ns = std::chrono::duration_cast<std::chrono::nanoseconds>(
+                                  std::chrono::system_clock::now().time_since_epoch())
+                                  .count();
+  if (!claim || claim->lease_until_ns <= now_ns) return std::nullopt;
+  return claim;
+}
+
 void RunSubmissions(const SubmissionsArgs& args) {
   const std::unique_ptr<Repository> repository = OpenRepository(args.store);
   const std::vector<Submission> submissions = repository->Submissions();
@@ -117,6 +131,10 @@ void RunSubmissions(const SubmissionsArgs& args) {
       if (s.state == SubmissionState::kMerged) entry["revision"] = s.revision;
       // Failed: why. Queued: the last transient failure of its merge, which fleetmapd retries.
       if (!s.error.empty()) entry["error"] = s.error;
+      if (const std::optional<SubmissionClaim> claim = QueuedClaim(*repository, s)) {
+        entry["claimed_by"] = claim->instance;
+        entry["lease_until"] = FormatUtc(claim->lease_until_ns);
+      }
       list.push_back(std::move(entry));
     }
     std::cout << list.dump(2) << "\n";
@@ -137,6 +155,10 @@ void RunSubmissions(const SubmissionsArgs& args) {
     std::string outcome;
     if (s.state == SubmissionState::kMerged) outcome = std::to_string(s.revision);
     if (s.state != SubmissionState::kMerged) outcome = s.error;  // queued: the last retry's
+    if (const std::optional<SubmissionClaim> claim = QueuedClaim(*repository, s)) {
+      outcome = "claimed by " + claim->instance + " until " + FormatUtc(claim->lease_until_ns) +
+                (outcome.empty() ? "" : "; " + outcome);
+    }
     std::printf("%-36s  %-36s  %-*s  %-20s  %10lld  %-9s  %s\n", s.id.ToString().c_str(),
                 s.robot.ToString().c_str(), author_width, s.author.c_str(),
                 FormatUtc(s.received_ns).c_str(), static_cast<long long>(s.bytes),

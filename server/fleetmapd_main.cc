@@ -27,6 +27,7 @@ int main(int argc, char** argv) {
   fleetmap::SyncServerOptions options;
   std::string http;
   int debug_merge_delay_ms = 0;
+  int debug_merge_pause_ms = 0;
   std::int64_t busy_timeout_ms = options.store_busy_timeout.count();
   std::int64_t merge_max_retry_ms = options.merge_max_retry.count();
   int debug_chunk_delay_ms = 0;
@@ -77,9 +78,28 @@ int main(int argc, char** argv) {
                  "waits 500 ms, each next one twice as long)")
       ->capture_default_str()
       ->check(CLI::Range(std::int64_t{1}, std::int64_t{3'600'000}));
+  std::int64_t merge_lease_ms = options.merge_lease.count();
+  std::int64_t merge_poll_ms = options.merge_poll.count();
+  app.add_option("--instance", options.instance,
+                 "This server's name among the fleetmapd sharing one store (merge claims, "
+                 "/metrics, logs); unique per store and kept across restarts (default: "
+                 "HOSTNAME:PORT as bound)");
+  app.add_option("--merge-lease-ms", merge_lease_ms,
+                 "How long a claim on a submission lasts unless renewed (every third of it "
+                 "while the merge runs): another fleetmapd on the store takes the submission "
+                 "over this long after its merger died")
+      ->capture_default_str()
+      ->check(CLI::Range(std::int64_t{300}, std::int64_t{3'600'000}));
+  app.add_option("--merge-poll-ms", merge_poll_ms,
+                 "How often an idle fleetmapd looks in the store for submissions queued by "
+                 "the others or left by one that died, and for merges the others finished")
+      ->capture_default_str()
+      ->check(CLI::Range(std::int64_t{10}, std::int64_t{600'000}));
   // A test knob, hidden from --help: each merge holds its transaction this long before the
   // commit, so a test can kill the daemon mid-merge.
   app.add_option("--debug-merge-delay-ms", debug_merge_delay_ms)->group("");
+  // Likewise, after the claim and before MERGE: a test freezes the daemon there past its lease.
+  app.add_option("--debug-merge-pause-ms", debug_merge_pause_ms)->group("");
   app.add_option("--debug-chunk-delay-ms", debug_chunk_delay_ms)->group("");
   try {
     app.parse(argc, argv);
@@ -87,7 +107,10 @@ int main(int argc, char** argv) {
     const int code = app.exit(e);
     return code == 0 ? 0 : 2;
   }
+  options.merge_lease = std::chrono::milliseconds(merge_lease_ms);
+  options.merge_poll = std::chrono::milliseconds(merge_poll_ms);
   options.debug_merge_delay = std::chrono::milliseconds(debug_merge_delay_ms);
+  options.debug_merge_pause = std::chrono::milliseconds(debug_merge_pause_ms);
   options.store_busy_timeout = std::chrono::milliseconds(busy_timeout_ms);
   options.merge_max_retry = std::chrono::milliseconds(merge_max_retry_ms);
   options.merge_first_retry = std::min(options.merge_first_retry, options.merge_max_retry);

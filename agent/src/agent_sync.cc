@@ -39,15 +39,37 @@ std::string Mib(std::uint64_t bytes) {
   return text;
 }
 
+// "HOST:PORT[,HOST:PORT...]" as a list; Error(kInvalidArgument) when an entry is empty.
+std::vector<std::string> ServerAddresses(const std::string& list) {
+  std::vector<std::string> servers;
+  std::size_t from = 0;
+  for (;;) {
+    const std::size_t comma = list.find(',', from);
+    std::string server = list.substr(from, comma == std::string::npos ? comma : comma - from);
+    if (server.empty()) {
+      throw Error(ErrorCode::kInvalidArgument,
+                  "--server '" + list + "': an empty address (give HOST:PORT[,HOST:PORT...])");
+    }
+    servers.push_back(std::move(server));
+    if (comma == std::string::npos) return servers;
+    from = comma + 1;
+  }
+}
+
 // One sync: the steps of an attempt, and what survives from one attempt to the next.
 class SyncRun {
  public:
   SyncRun(LocalMap& map, const AgentSyncOptions& options, SyncResult& result)
-      : map_(map), options_(options), result_(result) {}
+      : map_(map), options_(options), result_(result), servers_(ServerAddresses(options.server)) {}
+
+  // After a failed attempt: the next server of the list (they share one store, so the push
+  // resumes and the merge is waited for wherever the robot lands).
+  void NextServer() { server_ = (server_ + 1) % servers_.size(); }
+  const std::string& server() const { return servers_[server_]; }
 
   // One pass from the connect to the install; steps finished by an earlier pass are skipped.
   void Attempt() {
-    SyncClient client(options_.server, options_.link);
+    SyncClient client(server(), options_.link);
     // The link's bytes count whether or not the attempt completes.
     struct ByteCount {
       SyncClient& client;
@@ -113,7 +135,7 @@ class SyncRun {
     client.Send(frame);
     const v1::SyncFrame welcome = client.Expect(v1::SyncFrame::kWelcome, "hello");
     map_.BindRobot(options_.robot);
-    Progress("connected to " + options_.server + " as robot '" + welcome.welcome().robot_name() +
+    Progress("connected to " + server() + " as robot '" + welcome.welcome().robot_name() +
              "' (head revision " + std::to_string(welcome.welcome().head_revision()) + ")");
   }
 
@@ -386,6 +408,8 @@ class SyncRun {
   LocalMap& map_;
   const AgentSyncOptions& options_;
   SyncResult& result_;
+  std::vector<std::string> servers_;
+  std::size_t server_ = 0;
   std::optional<Clock::time_point> merge_deadline_;
   int milestones_ = 0;
 };
@@ -441,6 +465,7 @@ SyncResult RunSync(LocalMap& map, const AgentSyncOptions& options) {
                                                               factor(jitter))));
     ++result.retries;
     result.last_retry_reason = reason;
+    run.NextServer();
     if (options.progress) {
       char seconds[32];
       std::snprintf(seconds, sizeof seconds, "%.1f", static_cast<double>(delay.count()) / 1000.0);

@@ -78,6 +78,13 @@ std::string FleetMetricsText(const FleetStatus& status) {
           status.downloads);
   Counter(out, "fleetmap_merges_total", "Merges committed since the server started.",
           status.merges);
+  out.Family("fleetmap_merge_recent_revision", kGauge,
+             "The revision each of this server's last merges made (at most 32, the newest), "
+             "by submission.");
+  for (const MergeRun& run : status.recent_merges) {
+    out.Sample("fleetmap_merge_recent_revision", run.revision,
+               {{"instance", status.instance}, {"submission", run.submission}});
+  }
   Counter(out, "fleetmap_merges_failed_total",
           "Merges refused for their content (the submission is failed) since the server started.",
           status.merges_failed);
@@ -104,6 +111,9 @@ std::string FleetMetricsText(const FleetStatus& status) {
   Counter(out, "fleetmap_last_sync_write_failures_total",
           "Hellos whose last-sync time the store would not take (kept in memory only).",
           status.last_sync_write_failures);
+  out.Family("fleetmap_instance_info", kGauge,
+             "1, labelled with this server's name among the servers sharing its store.");
+  out.Sample("fleetmap_instance_info", std::uint64_t{1}, {{"instance", status.instance}});
   out.Family("fleetmap_start_time_seconds", kGauge, "Unix time the server started.");
   out.Sample("fleetmap_start_time_seconds", UnixSeconds(status.started_ns));
   return out.text();

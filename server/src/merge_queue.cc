@@ -13,6 +13,9 @@ namespace {
 // Thrown from inside a merge to abandon it when the server stops: not an Error, so the
 // repository does not mark the submission failed; its transaction rolls back.
 struct MergeAbandoned {};
+// Thrown likewise when this instance's lease on the submission ended: another instance may be
+// merging it now.
+struct LeaseLost {};
 
 std::int64_t NowNs() {
   return std::chrono::duration_cast<std::chrono::nanoseconds>(
@@ -24,13 +27,18 @@ std::int64_t NowNs() {
 // stop abandon a merge.
 std::unique_ptr<Repository> OpenMergeRepository(const std::string& uri,
                                                 const MergeQueueOptions& options,
-                                                std::function<void()> before_commit) {
+                                                std::function<void(const Uuid&)> before_commit) {
   RepositoryOptions repository_options;
   repository_options.store = options.store;
-  repository_options.before_merge_commit = [hook = std::move(before_commit)](const Uuid&) {
-    hook();
-  };
+  repository_options.before_merge_commit = std::move(before_commit);
   return Repository::Open(uri, std::move(repository_options));
+}
+
+// first_retry * 2^(attempts-1), at most max_retry.
+std::chrono::milliseconds Backoff(const MergeQueueOptions& options, std::uint32_t attempts) {
+  std::chrono::milliseconds backoff = options.first_retry;
+  for (std::uint32_t i = 1; i < attempts && backoff < options.max_retry; ++i) backoff *= 2;
+  return std::min(backoff, options.max_retry);
 }
 
 // MERGE refused the content itself: retrying cannot help. Everything else is the server's
@@ -45,14 +53,35 @@ bool IsPermanent(const Error& error) {
 MergeQueue::MergeQueue(const std::string& store_uri, MergeQueueOptions options,
                        DoneCallback on_done)
     : options_(options), on_done_(std::move(on_done)), store_uri_(store_uri) {
-  repository_ = OpenMergeRepository(store_uri_, options_, [this] { BeforeCommit(); });
+  if (options_.instance.empty()) {
+    throw Error(ErrorCode::kInvalidArgument, "a merge queue needs an instance name");
+  }
+  if (options_.lease.count() < 3 || options_.poll.count() <= 0) {
+    throw Error(ErrorCode::kInvalidArgument,
+                "the merge lease must be at least 3 ms and the poll period positive");
+  }
+  repository_ = OpenMergeRepository(store_uri_, options_,
+                                    [this](const Uuid& submission) { BeforeCommit(submission); });
 }
 
-void MergeQueue::BeforeCommit() {
-  std::unique_lock lock(mutex_);
-  if (options_.debug_delay.count() > 0) {
-    wake_.wait_for(lock, options_.debug_delay, [&] { return stopping_; });
+void MergeQueue::BeforeCommit(const Uuid& submission) {
+  {
+    std::unique_lock lock(mutex_);
+    if (options_.debug_delay.count() > 0) {
+      wake_.wait_for(lock, options_.debug_delay, [&] { return stopping_; });
+    }
   }
+  CheckStillOurs();
+  // The fence, in the merge's own transaction: the commit goes through only while this
+  // instance holds the lease (renewed here, so it holds until well after the commit).
+  if (!repository_->versions().RenewClaim(submission, options_.instance, options_.lease)) {
+    throw LeaseLost{};
+  }
+}
+
+void MergeQueue::CheckStillOurs() {
+  if (lease_lost_.load()) throw LeaseLost{};
+  std::lock_guard lock(mutex_);
   if (stopping_) throw MergeAbandoned{};
 }
 
@@ -67,7 +96,12 @@ std::size_t MergeQueue::Start() {
     Enqueue(submission.id, submission.robot);
     ++queued;
   }
+  {
+    std::lock_guard lock(mutex_);
+    kicked_ = true;
+  }
   thread_ = std::thread([this] { Run(); });
+  keeper_ = std::thread([this] { Keep(); });
   return queued;
 }
 
@@ -75,14 +109,16 @@ std::uint32_t MergeQueue::Enqueue(const Uuid& submission, const Uuid& robot) {
   std::uint32_t position = 0;
   {
     std::lock_guard lock(mutex_);
+    kicked_ = true;
     const std::uint32_t running = merging_ ? 1 : 0;
     if (merging_ && merging_->submission == submission) return 0;
     const auto found = FindWaiting(submission);
     if (found != waiting_.end()) {
-      return running + static_cast<std::uint32_t>(found - waiting_.begin());
+      position = running + static_cast<std::uint32_t>(found - waiting_.begin());
+    } else {
+      position = running + static_cast<std::uint32_t>(waiting_.size());
+      waiting_.emplace_back(submission, robot);
     }
-    position = running + static_cast<std::uint32_t>(waiting_.size());
-    waiting_.emplace_back(submission, robot);
   }
   wake_.notify_all();
   return position;
@@ -120,7 +156,7 @@ std::uint64_t MergeQueue::retries_total() const {
 
 bool MergeQueue::backing_off() const {
   std::lock_guard lock(mutex_);
-  return !waiting_.empty() && std::chrono::steady_clock::now() < retry_at_;
+  return std::chrono::steady_clock::now() < retry_at_;
 }
 
 std::size_t MergeQueue::Length() const {
@@ -151,6 +187,7 @@ void MergeQueue::Stop() {
   }
   wake_.notify_all();
   if (thread_.joinable()) thread_.join();
+  if (keeper_.joinable()) keeper_.join();
   {
     std::lock_guard lock(mutex_);
     watchers.swap(watchers_);
@@ -160,50 +197,113 @@ void MergeQueue::Stop() {
   }
 }
 
-void MergeQueue::Run() {
+bool MergeQueue::WaitForWork() {
+  std::unique_lock lock(mutex_);
   for (;;) {
-    Uuid submission, robot;
-    {
-      std::unique_lock lock(mutex_);
-      // Woken by a new submission or a stop; after a transient failure, not before retry_at_.
-      for (;;) {
-        if (stopping_) return;
-        if (!waiting_.empty()) {
-          if (std::chrono::steady_clock::now() >= retry_at_) break;
-          wake_.wait_until(lock, retry_at_);
-        } else {
-          wake_.wait(lock);
-        }
-      }
-      std::tie(submission, robot) = waiting_.front();
-      merging_ = Running{submission, robot, NowNs()};
-      waiting_.pop_front();
+    if (stopping_) return false;
+    const auto now = std::chrono::steady_clock::now();
+    if (now < retry_at_) {
+      wake_.wait_until(lock, retry_at_);
+      continue;
     }
-    spdlog::info("merging {}", submission.ToString());
-    MergeDone done = MergeOne(submission);
-    if (done.transient) AfterTransientFailure(done, robot);
-    if (done.waits_for) {
-      // An edge reaches a node of an earlier submission still queued: that one goes first,
-      // this one right after it (FIFO keeps this rare: the earlier one was accepted first).
+    if (kicked_) break;
+    // Nothing received here: look in the store after a poll period all the same (pushed to
+    // another instance, or left by one that died).
+    if (!wake_.wait_for(lock, options_.poll, [&] { return stopping_ || kicked_; })) break;
+  }
+  kicked_ = false;
+  return true;
+}
+
+std::optional<Submission> MergeQueue::ClaimNext() {
+  try {
+    if (!repository_) ReopenIfBroken();
+    if (!repository_) throw Error(ErrorCode::kBackend, "the store cannot be opened");
+    VersionStore& versions = repository_->versions();
+    std::vector<Uuid> skip;
+    for (auto it = deferred_.begin(); it != deferred_.end();) {
+      const std::optional<Submission> first = versions.FindSubmission(it->second);
+      if (first && first->state == SubmissionState::kQueued) {
+        skip.push_back(it->first);
+        ++it;
+      } else {
+        it = deferred_.erase(it);  // what it waited for has merged (or failed): try it again
+      }
+    }
+    std::optional<Submission> claimed =
+        versions.ClaimQueuedSubmission(options_.instance, options_.lease, skip);
+    std::lock_guard lock(mutex_);
+    claim_failures_ = 0;
+    if (claimed) kicked_ = true;  // there may be more: claim again right after this merge
+    return claimed;
+  } catch (const std::exception& error) {
+    std::chrono::milliseconds retry_in{0};
+    {
       std::lock_guard lock(mutex_);
-      merging_.reset();
-      const Uuid first = *done.waits_for;
-      const auto found = FindWaiting(first);
-      Uuid first_robot;
-      if (found != waiting_.end()) {
-        first_robot = found->second;
+      retry_in = Backoff(options_, ++claim_failures_);
+      ++retries_total_;
+      retry_at_ = std::chrono::steady_clock::now() + retry_in;
+      kicked_ = true;
+    }
+    spdlog::warn(
+        "merge queue: claiming the next submission failed (attempt {}), retrying in {} ms: {}",
+        claim_failures_, retry_in.count(), error.what());
+    ReopenIfBroken();
+    return std::nullopt;
+  }
+}
+
+void MergeQueue::ReleaseClaim(const Uuid& submission) {
+  try {
+    if (repository_) repository_->versions().ReleaseClaim(submission, options_.instance);
+  } catch (const std::exception& error) {
+    // Harmless: the lease ends by itself, and this instance may take it back before then.
+    spdlog::warn("merge {}: releasing the claim failed: {}", submission.ToString(), error.what());
+  }
+}
+
+void MergeQueue::Run() {
+  while (WaitForWork()) {
+    const std::optional<Submission> claimed = ClaimNext();
+    if (!claimed) continue;
+    const Uuid submission = claimed->id, robot = claimed->robot;
+    lease_lost_ = false;
+    {
+      std::lock_guard lock(mutex_);
+      merging_ = Running{submission, robot, NowNs()};
+      if (const auto found = FindWaiting(submission); found != waiting_.end()) {
         waiting_.erase(found);
       }
-      waiting_.emplace_front(submission, robot);
-      waiting_.emplace_front(first, first_robot);
+    }
+    spdlog::info("merging {} (instance {})", submission.ToString(), options_.instance);
+    MergeDone done = MergeOne(submission);
+    if (done.lease_lost) {
+      // Another instance holds it now: it merges it; the keeper tells our watchers when.
+      spdlog::warn("merge {}: the lease ended mid-merge; rolled back, left to its new holder",
+                   submission.ToString());
+      std::lock_guard lock(mutex_);
+      merging_.reset();
+      if (FindWaiting(submission) == waiting_.end()) waiting_.emplace_front(submission, robot);
+      continue;
+    }
+    if (!done.merged) ReleaseClaim(submission);  // free at once for whoever can merge it
+    if (done.transient) AfterTransientFailure(done, robot);
+    if (done.waits_for) {
+      // An edge reaches a node of an earlier submission still queued: that one goes first
+      // (claimed next when free; another instance may hold it), this one after it.
+      deferred_[submission] = *done.waits_for;
+      std::lock_guard lock(mutex_);
+      merging_.reset();
+      kicked_ = true;
+      if (FindWaiting(submission) == waiting_.end()) waiting_.emplace_front(submission, robot);
       spdlog::info("merge {}: waits for submission {}, merging that first", submission.ToString(),
-                   first.ToString());
+                   done.waits_for->ToString());
       continue;
     }
     if (on_done_) on_done_(done);
     if (done.transient) {
       std::lock_guard lock(mutex_);
-      merging_.reset();  // back at the head of the queue; its watchers keep waiting
+      merging_.reset();  // still queued; its watchers keep waiting
       continue;
     }
     Finish(submission);
@@ -215,13 +315,64 @@ void MergeQueue::Finish(const Uuid& submission) {
   std::vector<std::function<void()>> watchers;
   {
     std::lock_guard lock(mutex_);
-    merging_.reset();
+    if (merging_ && merging_->submission == submission) merging_.reset();
+    if (const auto found = FindWaiting(submission); found != waiting_.end()) {
+      waiting_.erase(found);
+    }
     if (const auto found = watchers_.find(submission); found != watchers_.end()) {
       watchers = std::move(found->second);
       watchers_.erase(found);
     }
   }
   for (auto& watcher : watchers) watcher();
+}
+
+void MergeQueue::Keep() {
+  std::unique_ptr<GraphStore> store;
+  const auto period = std::min(options_.poll, options_.lease / 3);
+  for (;;) {
+    {
+      std::unique_lock lock(mutex_);
+      if (wake_.wait_for(lock, period, [&] { return stopping_; })) return;
+    }
+    try {
+      if (!store) store = GraphStore::Open(store_uri_, options_.store);
+      KeepOnce(*store);
+    } catch (const std::exception& error) {
+      // The merge's own commit fence still guards the lease; try again next period.
+      spdlog::warn("merge queue keeper: {}", error.what());
+      store.reset();
+    }
+  }
+}
+
+void MergeQueue::KeepOnce(GraphStore& store) {
+  std::optional<Uuid> running;
+  std::vector<Uuid> known;
+  {
+    std::lock_guard lock(mutex_);
+    if (merging_) running = merging_->submission;
+    for (const auto& [submission, robot] : waiting_) known.push_back(submission);
+    for (const auto& [submission, list] : watchers_) {
+      if (FindWaiting(submission) == waiting_.end() && submission != running) {
+        known.push_back(submission);
+      }
+    }
+  }
+  VersionStore& versions = store.versions();
+  if (running && !lease_lost_ &&
+      !versions.RenewClaim(*running, options_.instance, options_.lease)) {
+    lease_lost_ = true;
+  }
+  for (const Uuid& submission : known) {
+    const std::optional<Submission> stored = versions.FindSubmission(submission);
+    if (stored && stored->state == SubmissionState::kQueued) continue;
+    {
+      std::lock_guard lock(mutex_);
+      if (merging_ && merging_->submission == submission) continue;  // ours, just finishing
+    }
+    Finish(submission);  // merged or failed by another instance (or gone)
+  }
 }
 
 void MergeQueue::AfterTransientFailure(MergeDone& done, const Uuid& robot) {
@@ -232,18 +383,18 @@ void MergeQueue::AfterTransientFailure(MergeDone& done, const Uuid& robot) {
     retries.last_error = done.error;
     ++retries_total_;
     done.attempts = retries.attempts;
-    // first_retry * 2^(attempts-1), at most max_retry.
-    std::chrono::milliseconds backoff = options_.first_retry;
-    for (std::uint32_t i = 1; i < retries.attempts && backoff < options_.max_retry; ++i) {
-      backoff *= 2;
-    }
-    done.retry_in = std::min(backoff, options_.max_retry);
+    // A lost race (another instance committed the revision first) is retried at once on the
+    // new head; anything else backs off.
+    done.retry_in =
+        done.conflict ? std::chrono::milliseconds(0) : Backoff(options_, retries.attempts);
     retry_at_ = std::chrono::steady_clock::now() + done.retry_in;
+    kicked_ = true;
     if (FindWaiting(done.submission) == waiting_.end()) {
       waiting_.emplace_front(done.submission, robot);
     }
   }
   ReopenIfBroken();
+  if (done.conflict) return;  // nothing to tell: it merges in a moment
   // Best effort: `fleetmap submissions` and a robot asking after its merge see why it waits.
   // When the store cannot take even this, the queue in memory still holds the submission.
   if (repository_) {
@@ -270,7 +421,8 @@ void MergeQueue::ReopenIfBroken() {
   }
   repository_.reset();
   try {
-    repository_ = OpenMergeRepository(store_uri_, options_, [this] { BeforeCommit(); });
+    repository_ = OpenMergeRepository(store_uri_, options_,
+                                      [this](const Uuid& submission) { BeforeCommit(submission); });
   } catch (const std::exception& error) {
     spdlog::warn("merge queue: reconnecting to the store failed: {}; retrying later", error.what());
   }
@@ -282,13 +434,20 @@ MergeDone MergeQueue::MergeOne(const Uuid& submission) {
   const auto start = std::chrono::steady_clock::now();
   // Between MERGE's segments: abandon when stopping (and BeforeCommit, just before the
   // commit).
-  const auto check_stop = [this](std::size_t, std::size_t) {
-    std::lock_guard lock(mutex_);
-    if (stopping_) throw MergeAbandoned{};
-  };
+  const auto check_stop = [this](std::size_t, std::size_t) { CheckStillOurs(); };
   try {
     if (!repository_) ReopenIfBroken();
     if (!repository_) throw Error(ErrorCode::kBackend, "the store cannot be opened");
+    if (options_.debug_pause.count() > 0) {
+      {
+        std::unique_lock lock(mutex_);
+        wake_.wait_for(lock, options_.debug_pause, [&] { return stopping_; });
+      }
+      CheckStillOurs();
+      if (!repository_->versions().RenewClaim(submission, options_.instance, options_.lease)) {
+        throw LeaseLost{};
+      }
+    }
     const MergeOutcome outcome = repository_->Merge(submission, check_stop);
     if (outcome.waits_for) {
       done.waits_for = outcome.waits_for;
@@ -301,8 +460,12 @@ MergeDone MergeQueue::MergeOne(const Uuid& submission) {
   } catch (const MergeAbandoned&) {
     done.abandoned = true;
     done.error = "abandoned: the server is stopping; the submission stays queued";
+  } catch (const LeaseLost&) {
+    done.lease_lost = true;
+    done.error = "the lease ended: another instance may merge it";
   } catch (const Error& error) {
     done.error = error.what();
+    done.conflict = error.code() == ErrorCode::kConflict;
     // The repository marks content MERGE refuses failed itself, in the store; when that
     // write failed too, the submission is still kQueued there and is tried again.
     done.transient = !IsPermanent(error) || StillQueued(submission);
@@ -310,7 +473,7 @@ MergeDone MergeQueue::MergeOne(const Uuid& submission) {
     done.error = error.what();
     done.transient = true;  // not MERGE's verdict on the content (e.g. out of memory)
   }
-  if (done.merged || (!done.transient && !done.abandoned && !done.waits_for)) {
+  if (done.merged || (!done.transient && !done.abandoned && !done.lease_lost && !done.waits_for)) {
     std::lock_guard lock(mutex_);
     retries_.erase(submission);
   }

@@ -52,6 +52,19 @@ void ServerActivity::MergeFinished(bool merged) {
   ++(merged ? totals_.merges : totals_.merges_failed);
 }
 
+void ServerActivity::MergeRan(const Uuid& submission, RevisionNumber revision, double seconds,
+                              std::int64_t finished_ns) {
+  std::lock_guard lock(mutex_);
+  std::vector<MergeRun>& recent = totals_.recent_merges;
+  if (recent.size() == FleetStatus::kRecentMerges) recent.erase(recent.begin());
+  recent.push_back(MergeRun{submission.ToString(), revision, seconds, finished_ns});
+}
+
+void ServerActivity::SetInstance(const std::string& instance) {
+  std::lock_guard lock(mutex_);
+  totals_.instance = instance;
+}
+
 void ServerActivity::MergeRetried() {
   std::lock_guard lock(mutex_);
   ++totals_.merge_retries;

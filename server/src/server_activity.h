@@ -32,6 +32,10 @@ class ServerActivity {
   void PushAccepted(const Uuid& robot);
   void DownloadSent(const Uuid& robot);
   void MergeFinished(bool merged);
+  // A merge this server committed (kept among the recent ones).
+  void MergeRan(const Uuid& submission, RevisionNumber revision, double seconds,
+                std::int64_t finished_ns);
+  void SetInstance(const std::string& instance);
   // A hello whose last-sync time could not be written to the store (it is kept here).
   void LastSyncNotRecorded();
   void MergeRetried();  // a merge failed transiently; its submission stays queued

@@ -199,7 +199,16 @@ std::string FleetStatusPage(const FleetStatus& status) {
   html += "<h2>Totals since start</h2>\n<dl class=\"totals\" id=\"totals\">\n";
   Total(html, "Pushes accepted", std::to_string(status.pushes));
   Total(html, "Downloads streamed", std::to_string(status.downloads));
+  Total(html, "Instance", status.instance);
   Total(html, "Merges committed", std::to_string(status.merges));
+  if (!status.recent_merges.empty()) {
+    std::string runs;
+    for (const MergeRun& run : status.recent_merges) {
+      if (!runs.empty()) runs += ", ";
+      runs += "r" + std::to_string(run.revision) + " (" + run.submission.substr(0, 8) + ")";
+    }
+    Total(html, "Merges run here (latest)", runs);
+  }
   Total(html, "Merges failed", std::to_string(status.merges_failed));
   Total(html, "Bytes received", Bytes(static_cast<std::int64_t>(status.bytes_received)));
   Total(html, "Bytes sent", Bytes(static_cast<std::int64_t>(status.bytes_sent)));

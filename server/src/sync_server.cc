@@ -1,6 +1,7 @@
 #include "fleetmap/server/sync_server.h"
 
 #include <spdlog/spdlog.h>
+#include <unistd.h>
 
 #include <atomic>
 #include <boost/asio/io_context.hpp>
@@ -8,6 +9,7 @@
 #include <boost/asio/post.hpp>
 #include <boost/asio/ssl/context.hpp>
 #include <boost/asio/strand.hpp>
+#include <cstring>
 #include <optional>
 #include <thread>
 #include <vector>
@@ -67,6 +69,14 @@ server::AdmissionLimits LimitsOf(const SyncServerOptions& options) {
                                  options.max_pending_hello_per_address};
 }
 
+// HOSTNAME:PORT: unique among the servers on one host, and the same when a server restarts on
+// its port (so it takes back its own claims at once).
+std::string DefaultInstanceName(unsigned short port) {
+  char host[256] = {};
+  if (gethostname(host, sizeof host - 1) != 0 || host[0] == '\0') std::strcpy(host, "fleetmapd");
+  return std::string(host) + ":" + std::to_string(port);
+}
+
 std::string EndpointText(const tcp::endpoint& endpoint) {
   const std::string host = endpoint.address().to_string();
   const std::string port = std::to_string(endpoint.port());
@@ -98,14 +108,6 @@ class SyncServer::Impl {
     store_options.busy_timeout_ms = options_.store_busy_timeout.count();
     store_ = std::make_unique<server::StoreWorkers>(options_.store_uri, options_.store_threads,
                                                     store_options);
-    server::MergeQueueOptions merge_options;
-    merge_options.debug_delay = options_.debug_merge_delay;
-    merge_options.first_retry = options_.merge_first_retry;
-    merge_options.max_retry = options_.merge_max_retry;
-    merge_options.store = store_options;
-    merges_ = std::make_unique<server::MergeQueue>(
-        options_.store_uri, merge_options,
-        [this](const server::MergeDone& done) { OnMergeDone(done); });
     try {
       acceptor_.open(endpoint.protocol());
       acceptor_.set_option(asio::socket_base::reuse_address(true));
@@ -116,6 +118,20 @@ class SyncServer::Impl {
                   "cannot listen on " + options_.listen + ": " + error.code().message());
     }
     bound_ = acceptor_.local_endpoint();
+    server::MergeQueueOptions merge_options;
+    merge_options.instance =
+        options_.instance.empty() ? DefaultInstanceName(bound_.port()) : options_.instance;
+    merge_options.lease = options_.merge_lease;
+    merge_options.poll = options_.merge_poll;
+    merge_options.debug_delay = options_.debug_merge_delay;
+    merge_options.debug_pause = options_.debug_merge_pause;
+    merge_options.first_retry = options_.merge_first_retry;
+    merge_options.max_retry = options_.merge_max_retry;
+    merge_options.store = store_options;
+    merges_ = std::make_unique<server::MergeQueue>(
+        options_.store_uri, merge_options,
+        [this](const server::MergeDone& done) { OnMergeDone(done); });
+    activity_.SetInstance(merge_options.instance);
     context_.emplace(server::SessionContext{options_, *store_, *merges_, cache_, activity_,
                                             tracker_, admission_, draining_});
   }
@@ -125,7 +141,8 @@ class SyncServer::Impl {
   void Start() {
     started_ns_ = NowNs();
     const std::size_t queued = merges_->Start();
-    if (queued > 0) spdlog::info("merge queue: {} submissions queued before a restart", queued);
+    spdlog::info("merge queue: instance {}, {} submissions queued in the store",
+                 merges_->instance(), queued);
     RefreshFromStore();
     do_accept();
     for (int i = 0; i < options_.io_threads; ++i) {
@@ -224,6 +241,7 @@ class SyncServer::Impl {
   void OnMergeDone(const server::MergeDone& done) {
     if (done.merged) {
       activity_.MergeFinished(true);
+      activity_.MergeRan(done.submission, done.revision, done.seconds, NowNs());
       activity_.SetHead(done.revision, done.head_stats);
       spdlog::info("merge {}: revision {}, {} nodes added, {:.3f} s", done.submission.ToString(),
                    done.revision, done.nodes_added, done.seconds);

@@ -347,6 +347,26 @@ TEST_F(AgentSyncTest, BadArgumentsExitTwoBeforeDialling) {
                                      "");
   EXPECT_EQ(no_token.exit, 2) << Describe(no_token);
   EXPECT_TRUE(Contains(no_token.err, "token")) << no_token.err;
+  const AgentRun empty_server = RunAgent({"sync", "--server", "127.0.0.1:1,,127.0.0.1:2", "--robot",
+                                          robot_.ToString(), "--map-dir", map_dir_.string()},
+                                         token_);
+  EXPECT_EQ(empty_server.exit, 2) << Describe(empty_server);
+  EXPECT_TRUE(Contains(empty_server.err, "an empty address")) << empty_server.err;
+}
+
+// Several servers on one store: the first listed is down, the retry goes to the next.
+TEST_F(AgentSyncTest, ASecondListedServerTakesTheSyncWhenTheFirstIsDown) {
+  WriteRobotMap(CorridorMap());
+  StartServer();
+  const std::string down = "127.0.0.1:" + std::to_string(UnusedPort());
+  std::vector<std::string> args = SyncArgs(down + "," + address_);
+  args.insert(args.end(), {"--retry-for", "30", "--wait-merge"});
+  const AgentRun run = RunAgent(args, token_);
+  ASSERT_EQ(run.exit, 0) << Describe(run);
+  EXPECT_EQ(run.result["retries"].get<int>(), 1) << Describe(run);
+  EXPECT_TRUE(Contains(run.err, "connected to " + address_)) << run.err;
+  EXPECT_EQ(run.result["pushed_nodes"], CorridorMap().nodes.size());
+  EXPECT_EQ(LocalMapIds(), ServerHeadIds());
 }
 
 TEST_F(AgentSyncTest, RetriesUntilALateServerComesUp) {

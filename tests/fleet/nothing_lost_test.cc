@@ -2,8 +2,9 @@
 // stuck queue), on real fleetmapd and fleetmap-agent processes on 127.0.0.1, both stores:
 // 1. a robot pushes without waiting, builds on the nodes it kept, and pushes again while the
 //    first push is still queued, or after MERGE omitted the nodes it built on;
-// 2. another writer holds the store's write lock for twice the busy timeout during a merge;
-// 3. the same, so long that recording a failure fails too, while an agent waits on the merge.
+// 2. another writer holds the store's write lock for twice the busy timeout when a merge is
+//    due (its first write, the claim, meets the lock);
+// 3. the same, held for ten busy timeouts, while an agent waits on the merge.
 #include <gtest/gtest.h>
 #include <signal.h>
 
@@ -242,10 +243,12 @@ TYPED_TEST(NothingLostTest, LockHeldTwiceTheBusyTimeoutDuringAMergeThenMerges) {
       uri, this->dir_ / "fleetmapd-2.log",
       {"--busy-timeout-ms", std::to_string(kBusyTimeout.count()), "--merge-max-retry-ms", "1000"});
   ASSERT_FALSE(server.address.empty());
-  ASSERT_TRUE(server.LogContains("merging"));
+  // The merge's claim met the lock: it failed transiently and is retried; the submission is
+  // still queued, not failed.
+  ASSERT_TRUE(server.LogContains("claiming the next submission failed")) << server.Log();
   std::this_thread::sleep_for(2 * kBusyTimeout);
-  // The merge met the lock: it failed transiently and is still queued, not failed.
   EXPECT_TRUE(server.LogContains("retrying in")) << server.Log();
+  EXPECT_EQ(OnlySubmissionOf(uri, queued.robot.id)->state, SubmissionState::kQueued);
   lock->Release();
 
   ASSERT_TRUE(WaitFor(
@@ -266,10 +269,10 @@ TYPED_TEST(NothingLostTest, LockHeldTwiceTheBusyTimeoutDuringAMergeThenMerges) {
   EXPECT_EQ(LocalNodes(queued.robot), NodeIds(queued.pushed));
 }
 
-// (3) The lock is held so long that recording the failure fails as well, while the robot's
-// agent waits for the merge: the agent and the server do not spin (frames per second stay
-// small), and once the lock goes the submission merges without a restart.
-TYPED_TEST(NothingLostTest, RecordingTheFailureFailingTooNeitherSpinsNorStrands) {
+// (3) The lock is held for ten busy timeouts, so that claims fail again and again, while the
+// robot's agent waits for the merge: the agent and the server do not spin (frames per second
+// stay small), and once the lock goes the submission merges without a restart.
+TYPED_TEST(NothingLostTest, LockHeldTenBusyTimeoutsWhileAnAgentWaitsNeitherSpinsNorStrands) {
   const std::string uri = this->backend_.Uri();
   const QueuedBehindALock queued = QueueASubmission(this->dir_.path(), uri);
   constexpr std::chrono::milliseconds kBusyTimeout{500}, kHeld{5000};
@@ -283,8 +286,9 @@ TYPED_TEST(NothingLostTest, RecordingTheFailureFailingTooNeitherSpinsNorStrands)
       StartSync(queued.robot, server.address, queued.agent_log,
                 {"--policy", "copy", "--wait-merge", "--merge-timeout", "60"});
   std::this_thread::sleep_for(kHeld);
-  // The merge met the lock, and so did writing down why: it stays queued in memory.
-  EXPECT_TRUE(server.LogContains("recording the transient failure failed too")) << server.Log();
+  // Every claim met the lock and was retried with a backoff; it stays queued in the store.
+  EXPECT_TRUE(server.LogContains("claiming the next submission failed (attempt 3)"))
+      << server.Log();
   lock->Release();
 
   SyncOutcome outcome = FinishSync(*agent, queued.agent_log);

@@ -357,7 +357,7 @@ TYPED_TEST(FleetmapdTest, PushResumesFromNextChunkAfterADisconnect) {
 TYPED_TEST(FleetmapdTest, QueuedSubmissionsAreMergedAfterAKillAndRestart) {
   {
     // Each merge holds its transaction open for a long time: the kill lands mid-merge.
-    Fleetmapd server = this->Start({"--debug-merge-delay-ms", "60000"});
+    Fleetmapd server = this->Start({"--instance", "depot", "--debug-merge-delay-ms", "60000"});
     ASSERT_FALSE(server.address.empty());
     auto client = this->Connect(server);
     const PushPlan plan = PlanPush(RandomRobotMap(this->robot_, 10, 11, 40));
@@ -371,7 +371,10 @@ TYPED_TEST(FleetmapdTest, QueuedSubmissionsAreMergedAfterAKillAndRestart) {
     EXPECT_EQ(repository->Head(), 0);
     EXPECT_EQ(repository->versions().FindSubmission(plan.id)->state, SubmissionState::kQueued);
 
-    Fleetmapd restarted = this->Start();
+    // The killed server's claim on the submission outlives it (its lease is 30 s); restarted
+    // under the same instance name, on another port, it takes the claim back at once.
+    EXPECT_EQ(repository->versions().FindClaim(plan.id)->instance, "depot");
+    Fleetmapd restarted = this->Start({"--instance", "depot"});
     ASSERT_FALSE(restarted.address.empty());
     auto again = this->Connect(restarted);
     const std::optional<v1::SyncFrame> status = MergeStatus(*again, plan.id, 15'000);

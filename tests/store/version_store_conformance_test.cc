@@ -479,6 +479,12 @@ TYPED_TEST(VersionStoreConformance, ClaimsGoOldestFirstEachToOneInstance) {
 
 TYPED_TEST(VersionStoreConformance, EndedLeaseIsTakenOverAndCannotBeRenewed) {
   const Submission queued = QueueSubmissions(this->versions(), 1)[0];
+  ASSERT_TRUE(this->versions().ClaimQueuedSubmission("slow", std::chrono::milliseconds(50)));
+  std::this_thread::sleep_for(std::chrono::milliseconds(150));
+  // Ended, but nobody took it: its holder was slow, not replaced, and may renew it.
+  EXPECT_TRUE(this->versions().RenewClaim(queued.id, "slow", std::chrono::milliseconds(50)));
+  EXPECT_EQ(this->versions().ClaimQueuedSubmission("other", kLongLease), std::nullopt);
+  std::this_thread::sleep_for(std::chrono::milliseconds(150));
   ASSERT_TRUE(this->versions().ClaimQueuedSubmission("dies", std::chrono::milliseconds(50)));
   EXPECT_EQ(this->versions().ClaimQueuedSubmission("other", kLongLease), std::nullopt);
   std::this_thread::sleep_for(std::chrono::milliseconds(150));
@@ -501,6 +507,7 @@ TYPED_TEST(VersionStoreConformance, ReleasedClaimIsFreeAtOnceAndBadClaimsAreRefu
   this->versions().ReleaseClaim(queued.id, "b");  // not b's: changes nothing
   EXPECT_EQ(this->versions().ClaimQueuedSubmission("b", kLongLease), std::nullopt);
   this->versions().ReleaseClaim(queued.id, "a");
+  EXPECT_EQ(this->versions().FindClaim(queued.id), std::nullopt);
   EXPECT_FALSE(this->versions().RenewClaim(queued.id, "a", kLongLease));
   EXPECT_EQ(this->versions().ClaimQueuedSubmission("b", kLongLease)->id, queued.id);
 
@@ -510,6 +517,19 @@ TYPED_TEST(VersionStoreConformance, ReleasedClaimIsFreeAtOnceAndBadClaimsAreRefu
               [&] { this->versions().ClaimQueuedSubmission("a", std::chrono::milliseconds(0)); });
   EXPECT_EQ(this->versions().FindClaim(queued.id)->instance, "b")
       << "a refused claim changes nothing";
+}
+
+TYPED_TEST(VersionStoreConformance, ClaimPassesOverTheSubmissionsItIsToldToSkip) {
+  const std::vector<Submission> queued = QueueSubmissions(this->versions(), 3);
+  const std::optional<Submission> claimed =
+      this->versions().ClaimQueuedSubmission("a", kLongLease, {queued[0].id, queued[2].id});
+  ASSERT_TRUE(claimed);
+  EXPECT_EQ(claimed->id, queued[1].id) << "the oldest not skipped";
+  EXPECT_EQ(this->versions().FindClaim(queued[0].id), std::nullopt) << "a skipped one stays free";
+  EXPECT_EQ(this->versions().ClaimQueuedSubmission("b", kLongLease, {queued[0].id, queued[2].id}),
+            std::nullopt)
+      << "only skipped and held submissions are left";
+  EXPECT_EQ(this->versions().ClaimQueuedSubmission("b", kLongLease, {})->id, queued[0].id);
 }
 
 // Instances claiming at once on their own connections: every submission claimed exactly once.

@@ -38,7 +38,9 @@
 namespace fleetmap {
 
 struct AgentSyncOptions {
-  std::string server;  // HOST:PORT
+  // HOST:PORT, or several separated by commas (fleetmapd instances sharing one store): each
+  // retry goes to the next one, so a robot whose server died syncs through another.
+  std::string server;
   Uuid robot;
   std::string token;
   std::string author = "fleetmap-agent";  // recorded with each submission

@@ -176,12 +176,14 @@ class PostgresVersionStore final : public VersionStore {
   // ---- Claims ----
 
   std::optional<Submission> ClaimQueuedSubmission(const std::string& instance,
-                                                  std::chrono::milliseconds lease) override {
+                                                  std::chrono::milliseconds lease,
+                                                  const std::vector<Uuid>& skip) override {
     const std::int64_t lease_ns = ClaimLeaseNs(instance, lease);
+    const std::string passed_over = UuidArray(skip);
     return session_.Atomically("claim a queued submission for " + instance,
                                [&](pqxx::transaction_base& t) -> std::optional<Submission> {
-                                 const pqxx::result r = t.exec_prepared("version_claim_submission",
-                                                                        instance, lease_ns);
+                                 const pqxx::result r = t.exec_prepared(
+                                     "version_claim_submission", instance, lease_ns, passed_over);
                                  if (r.empty()) return std::nullopt;
                                  return ReadSubmission(r[0]);
                                });
@@ -551,16 +553,17 @@ class PostgresVersionStore final : public VersionStore {
                    " AS ns) UPDATE submissions SET claimed_by = $1,"
                    " lease_until_ns = (SELECT ns FROM now) + $2 WHERE id = (SELECT id FROM"
                    " submissions, now WHERE state = 1 AND (claimed_by = '' OR claimed_by = $1"
-                   " OR lease_until_ns <= now.ns) ORDER BY received_ns, id LIMIT 1"
+                   " OR lease_until_ns <= now.ns) AND NOT (id = ANY($3::uuid[]))"
+                   " ORDER BY received_ns, id LIMIT 1"
                    " FOR UPDATE OF submissions SKIP LOCKED) RETURNING ",
                    kSubmissionColumns}));
-    c.prepare(
-        "version_renew_claim",
-        Cat({"WITH now AS (SELECT ", kNowNs,
-             " AS ns) UPDATE submissions SET lease_until_ns = (SELECT ns FROM now) + $3"
-             " WHERE id = $1 AND claimed_by = $2 AND lease_until_ns > (SELECT ns FROM now)"}));
+    c.prepare("version_renew_claim",
+              Cat({"WITH now AS (SELECT ", kNowNs,
+                   " AS ns) UPDATE submissions SET lease_until_ns = (SELECT ns FROM now) + $3"
+                   " WHERE id = $1 AND claimed_by = $2"}));
     c.prepare("version_release_claim",
-              "UPDATE submissions SET lease_until_ns = 0 WHERE id = $1 AND claimed_by = $2");
+              "UPDATE submissions SET claimed_by = '', lease_until_ns = 0"
+              " WHERE id = $1 AND claimed_by = $2");
     c.prepare("version_find_claim",
               "SELECT claimed_by, lease_until_ns FROM submissions WHERE id = $1");
     // Revisions.

@@ -9,6 +9,7 @@
 //   statement (see AppendRevision).
 #include "sqlite/sqlite_version_store.h"
 
+#include <algorithm>
 #include <bit>
 #include <chrono>
 #include <string>
@@ -224,7 +225,8 @@ class SqliteVersionStore final : public VersionStore {
   // ---- Claims ----
 
   std::optional<Submission> ClaimQueuedSubmission(const std::string& instance,
-                                                  std::chrono::milliseconds lease) override {
+                                                  std::chrono::milliseconds lease,
+                                                  const std::vector<Uuid>& skip) override {
     // BEGIN IMMEDIATE: the write lock is taken before the read, so two connections cannot
     // both pick the same submission.
     const std::int64_t lease_ns = ClaimLeaseNs(instance, lease);
@@ -235,8 +237,11 @@ class SqliteVersionStore final : public VersionStore {
         StatementUse s(s_.first_claimable);
         s->BindText(1, instance);
         s->Bind(2, now);
-        if (!s->Step()) return std::nullopt;
-        id = s->UuidAt(0);
+        while (!id && s->Step()) {
+          const Uuid candidate = s->UuidAt(0);
+          if (std::find(skip.begin(), skip.end(), candidate) == skip.end()) id = candidate;
+        }
+        if (!id) return std::nullopt;
       }
       StatementUse s(s_.set_claim);
       s->Bind(1, *id);
@@ -255,8 +260,7 @@ class SqliteVersionStore final : public VersionStore {
       StatementUse s(s_.renew_claim);
       s->Bind(1, id);
       s->BindText(2, instance);
-      s->Bind(3, now);
-      s->Bind(4, now + lease_ns);
+      s->Bind(3, now + lease_ns);
       s->Run();
       return sqlite3_changes(db_) == 1;
     });
@@ -658,14 +662,14 @@ class SqliteVersionStore final : public VersionStore {
           first_claimable(db,
                           "SELECT id FROM submissions WHERE state = 1 AND (claimed_by = ''"
                           " OR claimed_by = ?1 OR lease_until_ns <= ?2)"
-                          " ORDER BY received_ns, id LIMIT 1"),
+                          " ORDER BY received_ns, id"),
           set_claim(db,
                     "UPDATE submissions SET claimed_by = ?2, lease_until_ns = ?3 WHERE id = ?1"),
           renew_claim(db,
-                      "UPDATE submissions SET lease_until_ns = ?4 WHERE id = ?1"
-                      " AND claimed_by = ?2 AND lease_until_ns > ?3"),
+                      "UPDATE submissions SET lease_until_ns = ?3 WHERE id = ?1"
+                      " AND claimed_by = ?2"),
           release_claim(db,
-                        "UPDATE submissions SET lease_until_ns = 0 WHERE id = ?1"
+                        "UPDATE submissions SET claimed_by = '', lease_until_ns = 0 WHERE id = ?1"
                         " AND claimed_by = ?2"),
           find_claim(db, "SELECT claimed_by, lease_until_ns FROM submissions WHERE id = ?1") {}
 

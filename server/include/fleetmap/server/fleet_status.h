@@ -31,10 +31,19 @@ struct MergingSubmission {
   std::int64_t started_ns = 0;
 };
 
+// A merge this server ran (committed).
+struct MergeRun {
+  std::string submission;  // canonical UUID text
+  std::int64_t revision = 0;
+  double seconds = 0.0;
+  std::int64_t finished_ns = 0;
+};
+
 struct FleetStatus {
   std::int64_t now_ns = 0;      // when the snapshot was taken
   std::int64_t started_ns = 0;  // when the server started
   std::string listen;           // "HOST:PORT" as bound
+  std::string instance;         // its name among the servers sharing the store
   bool tls = false;
   bool draining = false;  // Stop() was called
 
@@ -53,9 +62,12 @@ struct FleetStatus {
   std::optional<MergingSubmission> merging;
 
   // Totals since the server started.
-  std::uint64_t pushes = 0;          // pushes accepted (PushAccepted sent)
-  std::uint64_t downloads = 0;       // downloads streamed whole
-  std::uint64_t merges = 0;          // merges committed
+  std::uint64_t pushes = 0;     // pushes accepted (PushAccepted sent)
+  std::uint64_t downloads = 0;  // downloads streamed whole
+  std::uint64_t merges = 0;     // merges committed (by this server)
+  // The last merges this server committed, oldest first (at most kRecentMerges).
+  std::vector<MergeRun> recent_merges;
+  static constexpr std::size_t kRecentMerges = 32;
   std::uint64_t merges_failed = 0;   // refused for their content (permanent)
   std::uint64_t merge_retries = 0;   // failed for the server's reasons, queued again
   bool merge_backing_off = false;    // the head of the queue waits for its retry

@@ -54,6 +54,8 @@ struct SyncServerOptions {
   std::chrono::milliseconds drain_deadline{10'000};  // Stop() waits this long for sessions
   // A test knob: each merge holds its transaction open this long before it commits.
   std::chrono::milliseconds debug_merge_delay{0};
+  // A test knob: each merge waits this long after its claim, before MERGE starts.
+  std::chrono::milliseconds debug_merge_pause{0};
   // How long a store call waits for a lock another writer holds before it fails (SQLite's
   // busy timeout, PostgreSQL's lock_timeout). A merge that fails so is retried, not failed.
   std::chrono::milliseconds store_busy_timeout{10'000};
@@ -64,6 +66,16 @@ struct SyncServerOptions {
   // A test knob: each pushed chunk waits this long before it is stored, so that tests can
   // SIGKILL the server in the middle of a push.
   std::chrono::milliseconds debug_chunk_delay{0};
+  // This server's name among the fleetmapd sharing its store (the merge claims, metrics and
+  // logs). Empty: HOSTNAME:PORT as bound, the same across a restart on the same port, so a
+  // restarted server takes back at once the merge it held.
+  std::string instance;
+  // A merge's claim lasts this long unless renewed (every third of it while the merge runs):
+  // another instance takes a submission over this long after its merger died.
+  std::chrono::milliseconds merge_lease{30'000};
+  // How often an idle server looks in the store for queued submissions (pushed to another
+  // instance, or left by one that died) and for merges other instances finished.
+  std::chrono::milliseconds merge_poll{1'000};
   // Encoded downloads kept in memory (the newest is always kept, whatever its size).
   std::uint64_t download_cache_bytes = std::uint64_t{1} << 30;
 };

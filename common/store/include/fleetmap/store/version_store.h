@@ -162,15 +162,27 @@ class VersionStore {
   // Claims for `instance` the first queued submission (by received_ns, then id) that no live
   // lease holds: never claimed, its lease ended, or held by `instance` itself (an instance
   // restarted under its name takes back what it held). The lease runs `lease` from now.
-  // Of instances claiming at once, each submission goes to one. nullopt when none is free.
+  // Of instances claiming at once, each submission goes to one. Submissions in `skip` are
+  // passed over (fleetmapd's: one waiting for an earlier submission another instance merges).
+  // nullopt when none is free.
   virtual std::optional<Submission> ClaimQueuedSubmission(const std::string& instance,
-                                                          std::chrono::milliseconds lease) = 0;
+                                                          std::chrono::milliseconds lease,
+                                                          const std::vector<Uuid>& skip) = 0;
+  std::optional<Submission> ClaimQueuedSubmission(const std::string& instance,
+                                                  std::chrono::milliseconds lease) {
+    return ClaimQueuedSubmission(instance, lease, {});
+  }
   // Extends `instance`'s claim on `id` to `lease` from now. False, changing nothing, when it
-  // no longer holds a live claim (the lease ended; another instance may have it).
+  // no longer holds the claim: another instance claimed it (which it may once the lease has
+  // ended), or it was released. A lease that ended but that nobody took is renewed: its
+  // holder was slow, not replaced. Inside the merge's transaction (which has written the
+  // submission's row, so nobody can claim it meanwhile) this is the fence: true means no
+  // other instance can be merging it.
   virtual bool RenewClaim(const Uuid& id, const std::string& instance,
                           std::chrono::milliseconds lease) = 0;
   // Ends `instance`'s claim on `id` so another instance may claim it at once (after a merge
-  // that did not finish it); a no-op when `instance` holds none.
+  // that did not finish it): FindClaim says none, and RenewClaim fails; a no-op when
+  // `instance` holds none.
   virtual void ReleaseClaim(const Uuid& id, const std::string& instance) = 0;
   // The claim on `id`, live or ended; nullopt when none was ever made. Throws
   // Error(kNotFound) for an unknown submission.
