@@ -268,20 +268,6 @@ std::vector<std::size_t> Sizes(std::size_t max_n) {
   return sizes;
 }
 
-// "postgresql://u@h:5432/postgres?x=y" with "db" -> "postgresql://u@h:5432/db?x=y".
-std::string UriWithDatabase(const std::string& uri, const std::string& database) {
-  const std::size_t authority = uri.find("://");
-  if (authority == std::string::npos) {
-    throw Error(ErrorCode::kInvalidArgument, "not a postgresql:// URI: " + uri);
-  }
-  const std::size_t slash = uri.find_first_of("/?", authority + 3);
-  if (slash == std::string::npos) return uri + "/" + database;
-  if (uri[slash] == '?') return uri.substr(0, slash) + "/" + database + uri.substr(slash);
-  const std::size_t query = uri.find('?', slash);
-  return uri.substr(0, slash + 1) + database +
-         (query == std::string::npos ? std::string() : uri.substr(query));
-}
-
 // Databases made for this run, dropped when it ends (also on error).
 class ScratchDatabases {
  public:

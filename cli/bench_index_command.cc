@@ -242,15 +242,6 @@ Figures RunOne(const std::string& backend, const std::string& uri, const IndexBe
   return f;
 }
 
-std::string WithDatabase(const std::string& admin_uri, const std::string& database) {
-  const std::size_t scheme = admin_uri.find("://");
-  const std::size_t slash = admin_uri.find('/', scheme + 3);
-  const std::size_t query = admin_uri.find('?', scheme + 3);
-  const std::string base = admin_uri.substr(0, slash == std::string::npos ? query : slash);
-  const std::string tail = query == std::string::npos ? "" : admin_uri.substr(query);
-  return base + "/" + database + tail;
-}
-
 std::string Format(const char* fmt, double v) {
   char text[64];
   std::snprintf(text, sizeof text, fmt, v);
@@ -326,7 +317,7 @@ void RunBenchIndex(const IndexBenchOptions& o) {
     if (!admin_uri.empty()) {
       scratch_db = "fleetmap_bench_index_" + run_id;
       CreatePostgresDatabase(admin_uri, *scratch_db);
-      stores.emplace_back("postgresql", WithDatabase(admin_uri, *scratch_db));
+      stores.emplace_back("postgresql", UriWithDatabase(admin_uri, *scratch_db));
     } else {
       std::cerr << "no PostgreSQL (--pg or FLEETMAP_TEST_PG_URI): SQLite only\n";
     }

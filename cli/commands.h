@@ -33,6 +33,9 @@ void AddQueryCommand(CLI::App& app);
 // `fleetmap bench index`: seed 000 Table 1 (bench_index_command.cc). Registers after
 // AddBenchCommand.
 void AddBenchIndexCommand(CLI::App& app);
+// `fleetmap bench scale`: merge, download and store growth with the map (issue 21;
+// bench_scale_command.cc). Registers after AddBenchCommand.
+void AddBenchScaleCommand(CLI::App& app);
 // `fleetmap annotate bbox|rm` and `fleetmap query annotated`: annotations on raw sensor data
 // (annotation_commands.cc). Shares `query` with the sensor-index queries.
 void AddAnnotationCommands(CLI::App& app);

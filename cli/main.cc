@@ -22,6 +22,7 @@ int main(int argc, char** argv) {
   fleetmap::cli::AddRecordsCommands(app);
   fleetmap::cli::AddQueryCommand(app);
   fleetmap::cli::AddBenchIndexCommand(app);
+  fleetmap::cli::AddBenchScaleCommand(app);
   fleetmap::cli::AddAnnotationCommands(app);
   fleetmap::cli::AddImagesCommand(app);
   try {

@@ -524,6 +524,20 @@ void AnalyzePostgresGraphTables(const std::string& uri) {
   ExecAutocommit(uri, "ANALYZE annotations, edges, nodes, paths");
 }
 
+// "postgresql://u@h:5432/postgres?x=y" with "db" -> "postgresql://u@h:5432/db?x=y".
+std::string UriWithDatabase(const std::string& uri, const std::string& database) {
+  const std::size_t authority = uri.find("://");
+  if (authority == std::string::npos) {
+    throw Error(ErrorCode::kInvalidArgument, "not a postgresql:// URI: " + uri);
+  }
+  const std::size_t slash = uri.find_first_of("/?", authority + 3);
+  if (slash == std::string::npos) return uri + "/" + database;
+  if (uri[slash] == '?') return uri.substr(0, slash) + "/" + database + uri.substr(slash);
+  const std::size_t query = uri.find('?', slash);
+  return uri.substr(0, slash + 1) + database +
+         (query == std::string::npos ? std::string() : uri.substr(query));
+}
+
 void CreatePostgresDatabase(const std::string& admin_uri, const std::string& name) {
   RequirePlainIdentifier(name);
   ExecAutocommit(admin_uri, "CREATE DATABASE " + name);

@@ -29,6 +29,10 @@ void TruncatePostgresGraphTables(const std::string& uri);
 // Collects planner statistics for the graph tables (what autovacuum would do later).
 void AnalyzePostgresGraphTables(const std::string& uri);
 
+// `uri` naming `database` instead: "postgresql://u@h:5432/postgres?x=y" with "db" gives
+// "postgresql://u@h:5432/db?x=y". Throws Error(kInvalidArgument) for a URI without "://".
+std::string UriWithDatabase(const std::string& uri, const std::string& database);
+
 // CREATE DATABASE / DROP DATABASE ... WITH (FORCE) through a connection to admin_uri.
 // REQUIRES: name is a plain identifier ([a-z0-9_]).
 void CreatePostgresDatabase(const std::string& admin_uri, const std::string& name);

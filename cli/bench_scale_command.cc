@@ -1,0 +1,449 @@
+// `fleetmap bench scale` (issue 21 item 4): how the repository's work grows with the map.
+// For each backend and size it writes a fleet map of n nodes (scale_workload.h), then
+// measures, each in a child process of its own so that its peak RSS is its own:
+//   merge     a 500-node submission that revisits a known stretch: Push, then Merge timed;
+//   download  a mission's time-of-day subset of about 10 % of the nodes, selected and encoded
+//             into chunks as fleetmapd does for a cold download;
+// and the store's size on disk. Prints a table, writes a CSV and a log-log plot.
+//
+// The children are this same program (`fleetmap bench scale-step`, hidden), which prints one
+// JSON line: seconds, peak RSS (getrusage) and RSS before the work.
+#include <sys/resource.h>
+#include <sys/statvfs.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <pqxx/pqxx>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "commands.h"
+#include "fleetmap/core/child_process.h"
+#include "fleetmap/core/error.h"
+#include "fleetmap/core/map_chunks.h"
+#include "fleetmap/experiments/gnuplot.h"
+#include "fleetmap/policies/download_policy.h"
+#include "fleetmap/server/repository.h"
+#include "raw_baseline.h"
+#include "scale_workload.h"
+
+namespace fleetmap::cli {
+namespace {
+
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+
+// Bytes of landmarks per landmark in a blob (3 floats and a 32-byte descriptor, plus framing),
+// for the disk estimate.
+constexpr double kBytesPerLandmark = 46.5;
+
+struct ScaleOptions {
+  std::vector<std::size_t> sizes{10'000, 100'000, 1'000'000};
+  std::vector<std::string> backends{"sqlite", "postgresql"};
+  std::string pg_uri;
+  std::string out_dir = "bench-scale";
+  int landmarks = 200;
+  std::size_t submission_nodes = 500;
+  double subset_percent = 10.0;
+  std::uint32_t seed = 1;
+  bool keep = false;
+};
+
+struct StepOptions {
+  std::string op;
+  std::string store;
+  std::size_t nodes = 0;
+  int landmarks = 200;
+  std::uint32_t seed = 1;
+  std::size_t submission_nodes = 500;
+  double subset_percent = 10.0;
+};
+
+struct ScaleRow {
+  std::string backend;
+  std::size_t n = 0;
+  int landmarks = 0;
+  double write_s = 0.0;
+  std::int64_t store_bytes = 0;
+  nlohmann::json merge, download;  // the steps' JSON (empty when not run)
+  std::string status;              // empty when every step ran
+};
+
+std::int64_t CurrentRssBytes() {
+  std::ifstream statm("/proc/self/statm");
+  std::int64_t pages = 0, resident = 0;
+  statm >> pages >> resident;
+  return resident * sysconf(_SC_PAGESIZE);
+}
+
+std::int64_t PeakRssBytes() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  return static_cast<std::int64_t>(usage.ru_maxrss) * 1024;
+}
+
+double SecondsSince(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+// ---- the child: one measured step ----
+
+void RunStep(const StepOptions& o) {
+  ScaleMapSpec spec{o.nodes, o.landmarks, o.seed};
+  std::unique_ptr<Repository> repository = Repository::Open(o.store);
+  nlohmann::ordered_json result;
+  result["op"] = o.op;
+  result["rss_before_bytes"] = CurrentRssBytes();
+  if (o.op == "merge") {
+    const Uuid robot = Uuid::Generate(), id = Uuid::Generate();
+    const GraphBatch submission = RevisitSubmission(spec, o.submission_nodes, robot);
+    repository->Push(id, robot, "fleetmap bench scale", submission);
+    result["rss_before_bytes"] = CurrentRssBytes();
+    const Clock::time_point start = Clock::now();
+    const MergeOutcome outcome = repository->Merge(id);
+    result["seconds"] = SecondsSince(start);
+    result["nodes_pushed"] = submission.nodes.size();
+    result["nodes_added"] = outcome.revision.nodes_added;
+    result["revision"] = outcome.revision.number;
+  } else if (o.op == "download") {
+    DownloadPolicy policy = ParseDownloadPolicy("tod");
+    policy.mission_start_min = RevisitTimeOfDayMin(spec);
+    // T_w is a half-width (seed 004 Eq. 4: within T_w of the mission start either way).
+    policy.window_min = 1440.0 * o.subset_percent / 100.0 / 2.0;
+    const Clock::time_point start = Clock::now();
+    const Download download = repository->SelectForDownload(policy);
+    const std::vector<std::string> chunks = EncodeMapChunks(download.map);
+    result["seconds"] = SecondsSince(start);
+    std::int64_t bytes = 0;
+    for (const std::string& chunk : chunks) bytes += static_cast<std::int64_t>(chunk.size());
+    result["nodes"] = download.map.nodes.size();
+    result["bytes"] = bytes;
+  } else {
+    throw Error(ErrorCode::kInvalidArgument, "bench scale-step: unknown --op " + o.op);
+  }
+  result["peak_rss_bytes"] = PeakRssBytes();
+  std::cout << result.dump() << std::endl;
+}
+
+// ---- the parent ----
+
+std::string SelfPath() {
+  return fs::read_symlink("/proc/self/exe").string();
+}
+
+nlohmann::json RunChildStep(const std::string& op, const std::string& store, const ScaleRow& row,
+                            const ScaleOptions& o) {
+  const std::vector<std::string> argv = {SelfPath(),
+                                         "bench",
+                                         "scale-step",
+                                         "--op",
+                                         op,
+                                         "--store",
+                                         store,
+                                         "--nodes",
+                                         std::to_string(row.n),
+                                         "--landmarks",
+                                         std::to_string(row.landmarks),
+                                         "--seed",
+                                         std::to_string(o.seed),
+                                         "--submission-nodes",
+                                         std::to_string(o.submission_nodes),
+                                         "--subset-percent",
+                                         std::to_string(o.subset_percent)};
+  ChildProcess child(argv);
+  const std::string out = child.ReadRest(std::chrono::hours(6));
+  const std::optional<int> status = child.Wait(std::chrono::seconds(10));
+  if (status != 0) {
+    throw Error(ErrorCode::kBackend, op + " step failed (exit " +
+                                         (status ? std::to_string(*status) : "?") + "): " + out);
+  }
+  return nlohmann::json::parse(out);
+}
+
+std::int64_t SqliteBytes(const fs::path& file) {
+  std::int64_t bytes = 0;
+  std::error_code ignored;
+  for (const char* suffix : {"", "-wal"}) {
+    const auto size = fs::file_size(file.string() + suffix, ignored);
+    if (!ignored) bytes += static_cast<std::int64_t>(size);
+  }
+  return bytes;
+}
+
+std::int64_t PostgresBytes(const std::string& uri) {
+  pqxx::connection connection(uri);
+  pqxx::nontransaction t(connection);
+  return t.exec1("SELECT pg_database_size(current_database())")[0].as<std::int64_t>();
+}
+
+// Landmarks per node that fit: the requested count, or fewer when the estimated map (twice,
+// for the store's overhead) would not fit in the free space of `dir`.
+int LandmarksThatFit(std::size_t n, int wanted, const fs::path& dir) {
+  struct statvfs fs_stats {};
+  if (statvfs(dir.c_str(), &fs_stats) != 0) return wanted;
+  const double free_bytes =
+      static_cast<double>(fs_stats.f_bavail) * static_cast<double>(fs_stats.f_frsize);
+  const double need = 2.0 * static_cast<double>(n) * wanted * kBytesPerLandmark;
+  if (need <= free_bytes) return wanted;
+  return std::max(
+      10, static_cast<int>(free_bytes / (2.0 * static_cast<double>(n) * kBytesPerLandmark)));
+}
+
+std::string Mb(std::int64_t bytes) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.1f", static_cast<double>(bytes) / 1e6);
+  return text;
+}
+
+double Number(const nlohmann::json& step, const char* key) {
+  return step.contains(key) ? step[key].get<double>() : 0.0;
+}
+
+void PrintTable(std::ostream& out, const std::vector<ScaleRow>& rows) {
+  char line[512];
+  std::snprintf(line, sizeof line, "%-10s %9s %5s %9s %10s | %9s %9s %6s | %9s %9s %8s %9s  %s\n",
+                "backend", "nodes", "lm", "write s", "store MB", "merge s", "merge MB", "added",
+                "dl s", "dl MB", "dl nodes", "dl data", "status");
+  out << line;
+  for (const ScaleRow& r : rows) {
+    std::snprintf(line, sizeof line,
+                  "%-10s %9zu %5d %9.1f %10s | %9.3f %9s %6.0f | %9.3f %9s %8.0f %9s  %s\n",
+                  r.backend.c_str(), r.n, r.landmarks, r.write_s, Mb(r.store_bytes).c_str(),
+                  Number(r.merge, "seconds"),
+                  Mb(static_cast<std::int64_t>(Number(r.merge, "peak_rss_bytes"))).c_str(),
+                  Number(r.merge, "nodes_added"), Number(r.download, "seconds"),
+                  Mb(static_cast<std::int64_t>(Number(r.download, "peak_rss_bytes"))).c_str(),
+                  Number(r.download, "nodes"),
+                  Mb(static_cast<std::int64_t>(Number(r.download, "bytes"))).c_str(),
+                  r.status.c_str());
+    out << line;
+  }
+  out << "(merge MB, dl MB: peak RSS of the process doing it; dl data: the encoded subset; lm: "
+         "landmarks per node)\n";
+  // Growth between consecutive sizes of one backend: what the issue's targets compare.
+  for (std::size_t i = 1; i < rows.size(); ++i) {
+    const ScaleRow& a = rows[i - 1];
+    const ScaleRow& b = rows[i];
+    if (a.backend != b.backend || Number(a.merge, "seconds") <= 0) continue;
+    std::snprintf(line, sizeof line,
+                  "%s %zu -> %zu nodes (x%.1f): merge time x%.2f, merge peak RSS x%.2f, download "
+                  "time x%.2f\n",
+                  b.backend.c_str(), a.n, b.n, static_cast<double>(b.n) / static_cast<double>(a.n),
+                  Number(b.merge, "seconds") / Number(a.merge, "seconds"),
+                  Number(b.merge, "peak_rss_bytes") / Number(a.merge, "peak_rss_bytes"),
+                  Number(b.download, "seconds") / std::max(1e-9, Number(a.download, "seconds")));
+    out << line;
+  }
+}
+
+void WriteCsv(const fs::path& file, const std::vector<ScaleRow>& rows) {
+  std::ofstream csv(file);
+  csv << "backend,nodes,landmarks_per_node,write_s,store_bytes,merge_s,merge_peak_rss_bytes,"
+         "merge_rss_before_bytes,merge_nodes_pushed,merge_nodes_added,download_s,"
+         "download_peak_rss_bytes,download_nodes,download_bytes,status\n";
+  for (const ScaleRow& r : rows) {
+    csv << r.backend << ',' << r.n << ',' << r.landmarks << ',' << r.write_s << ',' << r.store_bytes
+        << ',' << Number(r.merge, "seconds") << ','
+        << static_cast<std::int64_t>(Number(r.merge, "peak_rss_bytes")) << ','
+        << static_cast<std::int64_t>(Number(r.merge, "rss_before_bytes")) << ','
+        << Number(r.merge, "nodes_pushed") << ',' << Number(r.merge, "nodes_added") << ','
+        << Number(r.download, "seconds") << ','
+        << static_cast<std::int64_t>(Number(r.download, "peak_rss_bytes")) << ','
+        << Number(r.download, "nodes") << ','
+        << static_cast<std::int64_t>(Number(r.download, "bytes")) << ",\"" << r.status << "\"\n";
+  }
+  csv.close();
+  if (!csv) throw Error(ErrorCode::kBackend, "cannot write " + file.string());
+}
+
+void Plot(const fs::path& dir, const std::vector<std::string>& backends, std::ostream& log) {
+  std::ostringstream gp;
+  gp << GnuplotPngPreamble(dir / "scale_bench.png", 1200, 500);
+  gp << "set datafile separator ','\nset logscale xy\nset key top left\nset grid\n"
+        "set multiplot layout 1,2\n"
+        "set title 'Time'\nset xlabel 'map nodes'\nset ylabel 'seconds'\nplot ";
+  const std::string csv = GnuplotQuote((dir / "scale_bench.csv").string());
+  bool first = true;
+  for (const std::string& b : backends) {
+    const std::string filter = "(strcol(1) eq '" + b + "' ? ";
+    gp << (first ? "" : ", ") << csv << " every ::1 using 2:" << filter
+       << "$6 : 1/0) with linespoints title '" << b << " merge', " << csv
+       << " every ::1 using 2:" << filter << "$11 : 1/0) with linespoints title '" << b
+       << " download'";
+    first = false;
+  }
+  gp << "\nset title 'Peak RSS'\nset ylabel 'MB'\nplot ";
+  first = true;
+  for (const std::string& b : backends) {
+    const std::string filter = "(strcol(1) eq '" + b + "' ? ";
+    gp << (first ? "" : ", ") << csv << " every ::1 using 2:" << filter
+       << "$7/1e6 : 1/0) with linespoints title '" << b << " merge', " << csv
+       << " every ::1 using 2:" << filter << "$12/1e6 : 1/0) with linespoints title '" << b
+       << " download'";
+    first = false;
+  }
+  gp << "\nunset multiplot\n";
+  RunGnuplot(dir / "scale_bench.gp", gp.str(), log);
+}
+
+void RunScale(const ScaleOptions& o) {
+  const fs::path dir = o.out_dir;
+  fs::create_directories(dir);
+  std::string admin_uri = o.pg_uri;
+  if (admin_uri.empty()) {
+    if (const char* env = std::getenv("FLEETMAP_TEST_PG_URI")) admin_uri = env;
+  }
+  std::vector<ScaleRow> rows;
+  for (const std::string& backend : o.backends) {
+    if (backend != "sqlite" && backend != "postgresql") {
+      throw Error(ErrorCode::kInvalidArgument,
+                  "--backends: unknown backend '" + backend + "' (sqlite, postgresql)");
+    }
+    if (backend == "postgresql" && admin_uri.empty()) {
+      throw Error(ErrorCode::kInvalidArgument,
+                  "--backends postgresql needs a server: --pg URI or $FLEETMAP_TEST_PG_URI");
+    }
+  }
+  for (const std::string& backend : o.backends) {
+    for (const std::size_t n : o.sizes) {
+      ScaleRow row;
+      row.backend = backend;
+      row.n = n;
+      row.landmarks = LandmarksThatFit(n, o.landmarks, dir);
+      if (row.landmarks != o.landmarks) {
+        std::cerr << "[" << backend << " " << n << "] disk short: " << row.landmarks
+                  << " landmarks per node instead of " << o.landmarks << "\n";
+      }
+      std::string uri;
+      std::optional<std::string> scratch_db;
+      const fs::path sqlite_file = dir / ("scale-" + std::to_string(n) + ".db");
+      if (backend == "sqlite") {
+        for (const char* suffix : {"", "-wal", "-shm"}) fs::remove(sqlite_file.string() + suffix);
+        uri = "sqlite:" + sqlite_file.string();
+      } else {
+        scratch_db = "fleetmap_bench_scale_" + std::to_string(n) + "_" + std::to_string(getpid());
+        CreatePostgresDatabase(admin_uri, *scratch_db);
+        uri = UriWithDatabase(admin_uri, *scratch_db);
+      }
+      try {
+        const Clock::time_point start = Clock::now();
+        {
+          std::unique_ptr<Repository> repository = Repository::Open(uri);
+          std::size_t last_percent = 0;
+          WriteScaleMap(*repository, ScaleMapSpec{n, row.landmarks, o.seed},
+                        [&](std::size_t done, std::size_t all) {
+                          const std::size_t percent = done * 100 / all;
+                          if (percent >= last_percent + 10 || done == all) {
+                            std::cerr << "[" << backend << " " << n
+                                      << "] writing the map: " << percent << " %\n";
+                            last_percent = percent;
+                          }
+                        });
+        }
+        row.write_s = SecondsSince(start);
+        row.store_bytes = backend == "sqlite" ? SqliteBytes(sqlite_file) : PostgresBytes(uri);
+        std::cerr << "[" << backend << " " << n << "] merging a " << o.submission_nodes
+                  << "-node revisit\n";
+        row.merge = RunChildStep("merge", uri, row, o);
+        std::cerr << "[" << backend << " " << n << "] downloading a " << o.subset_percent
+                  << " % subset\n";
+        row.download = RunChildStep("download", uri, row, o);
+      } catch (const std::exception& error) {
+        row.status = std::string("error: ") + error.what();
+        std::cerr << "[" << backend << " " << n << "] " << row.status << "\n";
+      }
+      if (!o.keep) {
+        std::error_code ignored;
+        if (backend == "sqlite") {
+          for (const char* suffix : {"", "-wal", "-shm"})
+            fs::remove(sqlite_file.string() + suffix, ignored);
+        } else if (scratch_db) {
+          DropPostgresDatabase(admin_uri, *scratch_db);
+        }
+      }
+      rows.push_back(std::move(row));
+    }
+  }
+  PrintTable(std::cout, rows);
+  WriteCsv(dir / "scale_bench.csv", rows);
+  Plot(dir, o.backends, std::cerr);
+  std::cout << "wrote " << (dir / "scale_bench.csv").string() << " and "
+            << (dir / "scale_bench.png").string() << "\n";
+  for (const ScaleRow& row : rows) {
+    if (!row.status.empty()) throw Error(ErrorCode::kBackend, "some sizes failed (see status)");
+  }
+}
+
+CLI::App* BenchSubcommand(CLI::App& app) {
+  const std::vector<CLI::App*> existing =
+      app.get_subcommands([](CLI::App* sub) { return sub->get_name() == "bench"; });
+  if (!existing.empty()) return existing.front();
+  CLI::App* bench =
+      app.add_subcommand("bench", "Benchmarks that reproduce the seed papers' figures");
+  bench->require_subcommand(1);
+  return bench;
+}
+
+}  // namespace
+
+void AddBenchScaleCommand(CLI::App& app) {
+  CLI::App* bench = BenchSubcommand(app);
+  auto o = std::make_shared<ScaleOptions>();
+  CLI::App* scale = bench->add_subcommand(
+      "scale", "How merge, download and the store grow with the map (10^4..10^6 nodes)");
+  scale->footer(
+      "Per backend and size: writes a fleet map of N nodes (outings of 1000 experiences, "
+      "random landmarks, as revisions), then in child processes merges a 500-node submission "
+      "that revisits a known stretch (time, peak RSS, nodes MERGE added) and selects and "
+      "encodes a time-of-day subset of about 10 % of the nodes as a cold download does (time, "
+      "peak RSS, bytes); and the store's size on disk. When the disk is short the landmarks per "
+      "node are reduced for that size, and the output says so. Prints a table and the growth "
+      "between sizes; writes OUT/scale_bench.csv and OUT/scale_bench.png (gnuplot). The "
+      "PostgreSQL runs use scratch databases (fleetmap_bench_scale_N_PID, dropped) on --pg or "
+      "$FLEETMAP_TEST_PG_URI.");
+  scale->add_option("--sizes", o->sizes, "Map sizes in nodes")
+      ->delimiter(',')
+      ->check(CLI::Range(std::size_t{1000}, std::size_t{100'000'000}));
+  scale->add_option("--backends", o->backends, "sqlite, postgresql")->delimiter(',');
+  scale->add_option("--pg", o->pg_uri, "PostgreSQL server (default: $FLEETMAP_TEST_PG_URI)");
+  scale->add_option("--out", o->out_dir, "Directory for stores, CSV and plot")
+      ->capture_default_str();
+  scale->add_option("--landmarks", o->landmarks, "Landmarks per node (200: about 9.3 KB)")
+      ->check(CLI::Range(10, 2000))
+      ->capture_default_str();
+  scale->add_option("--submission-nodes", o->submission_nodes, "Nodes of the merged submission")
+      ->check(CLI::Range(std::size_t{10}, std::size_t{1000}))
+      ->capture_default_str();
+  scale
+      ->add_option("--subset-percent", o->subset_percent,
+                   "The download's time-of-day window, as a share of the day")
+      ->check(CLI::Range(1.0, 100.0))
+      ->capture_default_str();
+  scale->add_option("--seed", o->seed, "Seed of the generated landmarks")->capture_default_str();
+  scale->add_flag("--keep", o->keep, "Keep the generated stores");
+  scale->callback([o] { RunScale(*o); });
+
+  // The measured step, run by `bench scale` in a child process (not for users).
+  auto s = std::make_shared<StepOptions>();
+  CLI::App* step = bench->add_subcommand("scale-step", "");
+  step->group("");
+  step->add_option("--op", s->op)->required();
+  step->add_option("--store", s->store)->required();
+  step->add_option("--nodes", s->nodes)->required();
+  step->add_option("--landmarks", s->landmarks);
+  step->add_option("--seed", s->seed);
+  step->add_option("--submission-nodes", s->submission_nodes);
+  step->add_option("--subset-percent", s->subset_percent);
+  step->callback([s] { RunStep(*s); });
+}
+
+}  // namespace fleetmap::cli
