@@ -238,16 +238,18 @@ std::optional<Submission> MergeQueue::ClaimNext() {
     return claimed;
   } catch (const std::exception& error) {
     std::chrono::milliseconds retry_in{0};
+    std::uint32_t attempt = 0;
     {
       std::lock_guard lock(mutex_);
-      retry_in = Backoff(options_, ++claim_failures_);
+      attempt = ++claim_failures_;
+      retry_in = Backoff(options_, attempt);
       ++retries_total_;
       retry_at_ = std::chrono::steady_clock::now() + retry_in;
       kicked_ = true;
     }
     spdlog::warn(
         "merge queue: claiming the next submission failed (attempt {}), retrying in {} ms: {}",
-        claim_failures_, retry_in.count(), error.what());
+        attempt, retry_in.count(), error.what());
     ReopenIfBroken();
     return std::nullopt;
   }
