@@ -79,7 +79,7 @@ std::string FleetMetricsText(const FleetStatus& status) {
   Counter(out, "fleetmap_merges_total", "Merges committed since the server started.",
           status.merges);
   out.Family("fleetmap_merge_recent_revision", kGauge,
-             "The revision each of this server's last merges made (at most 32, the newest), "
+             "The revision each of this server's last merges made (at most 64, the newest), "
              "by submission.");
   for (const MergeRun& run : status.recent_merges) {
     out.Sample("fleetmap_merge_recent_revision", run.revision,

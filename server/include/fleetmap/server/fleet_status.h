@@ -67,7 +67,7 @@ struct FleetStatus {
   std::uint64_t merges = 0;     // merges committed (by this server)
   // The last merges this server committed, oldest first (at most kRecentMerges).
   std::vector<MergeRun> recent_merges;
-  static constexpr std::size_t kRecentMerges = 32;
+  static constexpr std::size_t kRecentMerges = 64;
   std::uint64_t merges_failed = 0;   // refused for their content (permanent)
   std::uint64_t merge_retries = 0;   // failed for the server's reasons, queued again
   bool merge_backing_off = false;    // the head of the queue waits for its retry
