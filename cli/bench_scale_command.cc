@@ -66,6 +66,7 @@ struct StepOptions {
   std::uint32_t seed = 1;
   std::size_t submission_nodes = 500;
   double subset_percent = 10.0;
+  std::string appearance_dir;
 };
 
 struct ScaleRow {
@@ -74,6 +75,7 @@ struct ScaleRow {
   int landmarks = 0;
   double write_s = 0.0;
   std::int64_t store_bytes = 0;
+  std::int64_t index_bytes = 0;    // the appearance index beside the store
   nlohmann::json merge, download;  // the steps' JSON (empty when not run)
   std::string status;              // empty when every step ran
 };
@@ -99,7 +101,9 @@ double SecondsSince(Clock::time_point start) {
 
 void RunStep(const StepOptions& o) {
   ScaleMapSpec spec{o.nodes, o.landmarks, o.seed};
-  std::unique_ptr<Repository> repository = Repository::Open(o.store);
+  RepositoryOptions options;
+  options.appearance_dir = o.appearance_dir;
+  std::unique_ptr<Repository> repository = Repository::Open(o.store, options);
   nlohmann::ordered_json result;
   result["op"] = o.op;
   result["rss_before_bytes"] = CurrentRssBytes();
@@ -114,6 +118,7 @@ void RunStep(const StepOptions& o) {
     result["nodes_pushed"] = submission.nodes.size();
     result["nodes_added"] = outcome.revision.nodes_added;
     result["revision"] = outcome.revision.number;
+    result["region_nodes"] = outcome.region_nodes;
   } else if (o.op == "download") {
     DownloadPolicy policy = ParseDownloadPolicy("tod");
     policy.mission_start_min = RevisitTimeOfDayMin(spec);
@@ -140,7 +145,8 @@ std::string SelfPath() {
   return fs::read_symlink("/proc/self/exe").string();
 }
 
-nlohmann::json RunChildStep(const std::string& op, const std::string& store, const ScaleRow& row,
+nlohmann::json RunChildStep(const std::string& op, const std::string& store,
+                            const fs::path& appearance_dir, const ScaleRow& row,
                             const ScaleOptions& o) {
   const std::vector<std::string> argv = {SelfPath(),
                                          "bench",
@@ -158,7 +164,9 @@ nlohmann::json RunChildStep(const std::string& op, const std::string& store, con
                                          "--submission-nodes",
                                          std::to_string(o.submission_nodes),
                                          "--subset-percent",
-                                         std::to_string(o.subset_percent)};
+                                         std::to_string(o.subset_percent),
+                                         "--appearance-dir",
+                                         appearance_dir.string()};
   ChildProcess child(argv);
   const std::string out = child.ReadRest(std::chrono::hours(6));
   const std::optional<int> status = child.Wait(std::chrono::seconds(10));
@@ -174,6 +182,16 @@ std::int64_t SqliteBytes(const fs::path& file) {
   std::error_code ignored;
   for (const char* suffix : {"", "-wal"}) {
     const auto size = fs::file_size(file.string() + suffix, ignored);
+    if (!ignored) bytes += static_cast<std::int64_t>(size);
+  }
+  return bytes;
+}
+
+std::int64_t DirectoryBytes(const fs::path& dir) {
+  std::int64_t bytes = 0;
+  std::error_code ignored;
+  for (const auto& entry : fs::directory_iterator(dir, ignored)) {
+    const auto size = fs::file_size(entry.path(), ignored);
     if (!ignored) bytes += static_cast<std::int64_t>(size);
   }
   return bytes;
@@ -210,25 +228,29 @@ double Number(const nlohmann::json& step, const char* key) {
 
 void PrintTable(std::ostream& out, const std::vector<ScaleRow>& rows) {
   char line[512];
-  std::snprintf(line, sizeof line, "%-10s %9s %5s %9s %10s | %9s %9s %6s | %9s %9s %8s %9s  %s\n",
-                "backend", "nodes", "lm", "write s", "store MB", "merge s", "merge MB", "added",
-                "dl s", "dl MB", "dl nodes", "dl data", "status");
+  std::snprintf(line, sizeof line,
+                "%-10s %9s %5s %9s %10s %9s | %9s %9s %6s %7s | %9s %9s %8s %9s  %s\n", "backend",
+                "nodes", "lm", "write s", "store MB", "index MB", "merge s", "merge MB", "added",
+                "region", "dl s", "dl MB", "dl nodes", "dl data", "status");
   out << line;
   for (const ScaleRow& r : rows) {
     std::snprintf(line, sizeof line,
-                  "%-10s %9zu %5d %9.1f %10s | %9.3f %9s %6.0f | %9.3f %9s %8.0f %9s  %s\n",
+                  "%-10s %9zu %5d %9.1f %10s %9s | %9.3f %9s %6.0f %7.0f | %9.3f %9s %8.0f %9s  "
+                  "%s\n",
                   r.backend.c_str(), r.n, r.landmarks, r.write_s, Mb(r.store_bytes).c_str(),
-                  Number(r.merge, "seconds"),
+                  Mb(r.index_bytes).c_str(), Number(r.merge, "seconds"),
                   Mb(static_cast<std::int64_t>(Number(r.merge, "peak_rss_bytes"))).c_str(),
-                  Number(r.merge, "nodes_added"), Number(r.download, "seconds"),
+                  Number(r.merge, "nodes_added"), Number(r.merge, "region_nodes"),
+                  Number(r.download, "seconds"),
                   Mb(static_cast<std::int64_t>(Number(r.download, "peak_rss_bytes"))).c_str(),
                   Number(r.download, "nodes"),
                   Mb(static_cast<std::int64_t>(Number(r.download, "bytes"))).c_str(),
                   r.status.c_str());
     out << line;
   }
-  out << "(merge MB, dl MB: peak RSS of the process doing it; dl data: the encoded subset; lm: "
-         "landmarks per node)\n";
+  out << "(merge MB, dl MB: peak RSS of the process doing it; region: map nodes the merge "
+         "loaded; index MB: the appearance index beside the store; dl data: the encoded subset; "
+         "lm: landmarks per node)\n";
   // Growth between consecutive sizes of one backend: what the targets compare.
   for (std::size_t i = 1; i < rows.size(); ++i) {
     const ScaleRow& a = rows[i - 1];
@@ -247,16 +269,17 @@ void PrintTable(std::ostream& out, const std::vector<ScaleRow>& rows) {
 
 void WriteCsv(const fs::path& file, const std::vector<ScaleRow>& rows) {
   std::ofstream csv(file);
-  csv << "backend,nodes,landmarks_per_node,write_s,store_bytes,merge_s,merge_peak_rss_bytes,"
-         "merge_rss_before_bytes,merge_nodes_pushed,merge_nodes_added,download_s,"
+  csv << "backend,nodes,landmarks_per_node,write_s,store_bytes,index_bytes,merge_s,"
+         "merge_peak_rss_bytes,merge_rss_before_bytes,merge_nodes_pushed,merge_nodes_added,"
+         "merge_region_nodes,download_s,"
          "download_peak_rss_bytes,download_nodes,download_bytes,status\n";
   for (const ScaleRow& r : rows) {
     csv << r.backend << ',' << r.n << ',' << r.landmarks << ',' << r.write_s << ',' << r.store_bytes
-        << ',' << Number(r.merge, "seconds") << ','
+        << ',' << r.index_bytes << ',' << Number(r.merge, "seconds") << ','
         << static_cast<std::int64_t>(Number(r.merge, "peak_rss_bytes")) << ','
         << static_cast<std::int64_t>(Number(r.merge, "rss_before_bytes")) << ','
         << Number(r.merge, "nodes_pushed") << ',' << Number(r.merge, "nodes_added") << ','
-        << Number(r.download, "seconds") << ','
+        << Number(r.merge, "region_nodes") << ',' << Number(r.download, "seconds") << ','
         << static_cast<std::int64_t>(Number(r.download, "peak_rss_bytes")) << ','
         << Number(r.download, "nodes") << ','
         << static_cast<std::int64_t>(Number(r.download, "bytes")) << ",\"" << r.status << "\"\n";
@@ -326,6 +349,9 @@ void RunScale(const ScaleOptions& o) {
       std::string uri;
       std::optional<std::string> scratch_db;
       const fs::path sqlite_file = dir / ("scale-" + std::to_string(n) + ".db");
+      const fs::path appearance_dir =
+          dir / ("scale-" + std::to_string(n) + "-" + backend + ".appearance");
+      fs::remove_all(appearance_dir);
       if (backend == "sqlite") {
         for (const char* suffix : {"", "-wal", "-shm"}) fs::remove(sqlite_file.string() + suffix);
         uri = "sqlite:" + sqlite_file.string();
@@ -337,7 +363,9 @@ void RunScale(const ScaleOptions& o) {
       try {
         const Clock::time_point start = Clock::now();
         {
-          std::unique_ptr<Repository> repository = Repository::Open(uri);
+          RepositoryOptions options;
+          options.appearance_dir = appearance_dir;
+          std::unique_ptr<Repository> repository = Repository::Open(uri, options);
           std::size_t last_percent = 0;
           WriteScaleMap(*repository, ScaleMapSpec{n, row.landmarks, o.seed},
                         [&](std::size_t done, std::size_t all) {
@@ -351,12 +379,13 @@ void RunScale(const ScaleOptions& o) {
         }
         row.write_s = SecondsSince(start);
         row.store_bytes = backend == "sqlite" ? SqliteBytes(sqlite_file) : PostgresBytes(uri);
+        row.index_bytes = DirectoryBytes(appearance_dir);
         std::cerr << "[" << backend << " " << n << "] merging a " << o.submission_nodes
                   << "-node revisit\n";
-        row.merge = RunChildStep("merge", uri, row, o);
+        row.merge = RunChildStep("merge", uri, appearance_dir, row, o);
         std::cerr << "[" << backend << " " << n << "] downloading a " << o.subset_percent
                   << " % subset\n";
-        row.download = RunChildStep("download", uri, row, o);
+        row.download = RunChildStep("download", uri, appearance_dir, row, o);
       } catch (const std::exception& error) {
         row.status = std::string("error: ") + error.what();
         std::cerr << "[" << backend << " " << n << "] " << row.status << "\n";
@@ -369,6 +398,7 @@ void RunScale(const ScaleOptions& o) {
         } else if (scratch_db) {
           DropPostgresDatabase(admin_uri, *scratch_db);
         }
+        fs::remove_all(appearance_dir, ignored);
       }
       rows.push_back(std::move(row));
     }
@@ -440,6 +470,7 @@ void AddBenchScaleCommand(CLI::App& app) {
   step->add_option("--store", s->store)->required();
   step->add_option("--nodes", s->nodes)->required();
   step->add_option("--landmarks", s->landmarks);
+  step->add_option("--appearance-dir", s->appearance_dir);
   step->add_option("--seed", s->seed);
   step->add_option("--submission-nodes", s->submission_nodes);
   step->add_option("--subset-percent", s->subset_percent);

@@ -101,6 +101,8 @@ void WriteScaleMap(Repository& repository, const ScaleMapSpec& spec,
     repository.versions().AppendRevision(revision, map);
     repository.store().Put(map);
     transaction.Commit();
+    // As fleetmapd keeps it after each merge: the next merge indexes only what is new.
+    repository.UpdateAppearanceIndex();
     if (progress) progress(outing + 1, spec.outings());
   }
 }

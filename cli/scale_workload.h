@@ -37,7 +37,8 @@ GraphBatch ScaleOuting(const ScaleMapSpec& spec, std::size_t outing, const Uuid&
                        int day = 0);
 
 // Writes the spec's map into the repository's store, one revision per outing (committed one
-// by one, so memory stays at one outing). `progress(done, all)` after each. REQUIRES: an
+// by one, so memory stays at one outing), bringing the appearance index up to each revision as
+// fleetmapd does after a merge. `progress(done, all)` after each. REQUIRES: an
 // empty repository. Throws as the store does.
 void WriteScaleMap(Repository& repository, const ScaleMapSpec& spec,
                    const std::function<void(std::size_t, std::size_t)>& progress);

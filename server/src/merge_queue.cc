@@ -454,6 +454,8 @@ MergeDone MergeQueue::MergeOne(const Uuid& submission) {
     if (outcome.waits_for) {
       done.waits_for = outcome.waits_for;
     } else {
+      spdlog::info("merge {}: loaded {} nodes of the map around it, {:.2f} s in all",
+                   submission.ToString(), outcome.region_nodes, outcome.seconds);
       done.merged = true;
       done.revision = outcome.revision.number;
       done.nodes_added = outcome.revision.nodes_added;

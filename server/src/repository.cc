@@ -2,17 +2,40 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdio>
+#include <cstdlib>
 #include <unordered_map>
 #include <unordered_set>
 
 #include "fleetmap/core/error.h"
 #include "fleetmap/core/map_chunks.h"
+#include "merge_region.h"
 #include "merge_report_json.h"
 
 namespace fleetmap {
 namespace {
 
 constexpr const char* kVocabularySetting = "appearance.vocabulary";
+// The finer words of the map's appearance index on disk (Repository::IndexVocabulary).
+constexpr const char* kIndexVocabularySetting = "appearance.index_vocabulary";
+
+// The index vocabulary: 10^5 words where MERGE's has 10^3. A query reads the postings of its
+// words, about n D / W for n nodes of D descriptors over W words: at 10^6 nodes of 200
+// descriptors, 2000 per word instead of 200,000. Finer words match fewer noisy descriptors,
+// but a place seen again still shares far more of them than chance (seed 004 §III-B needs the
+// place, not a ranking; the region's own index ranks with MERGE's words).
+VocabularyOptions IndexVocabularyOptions() {
+  VocabularyOptions options;
+  options.branching = 10;
+  options.depth = 5;
+  return options;
+}
+// A head with more landmark bytes than this trains the vocabulary from a sample of its first
+// revisions instead of reading every node (a fleet map of 10^6 nodes holds about 9 GB).
+constexpr std::int64_t kWholeHeadSampleBytes = 512LL << 20;
+constexpr std::size_t kMaxVocabularySample = 200'000;
+// Nodes the appearance index takes per segment while it catches up.
+constexpr std::size_t kIndexBatchNodes = 20'000;
 
 // Descriptors for a vocabulary trained from a submission: every node's, thinned to about
 // 200k so training stays a fraction of a second; the same submission gives the same sample.
@@ -22,7 +45,7 @@ std::vector<Descriptor256> VocabularySample(const GraphBatch& map) {
     const Landmarks landmarks = DecodeLandmarks(node.landmarks_blob);
     all.insert(all.end(), landmarks.descriptors.begin(), landmarks.descriptors.end());
   }
-  constexpr std::size_t kMaxSample = 200'000;
+  constexpr std::size_t kMaxSample = kMaxVocabularySample;
   if (all.size() <= kMaxSample) return all;
   std::vector<Descriptor256> sample;
   sample.reserve(kMaxSample);
@@ -38,17 +61,31 @@ std::vector<Uuid> NodeIdsOf(const GraphBatch& map) {
   return ids;
 }
 
+// 64-bit FNV-1a: names a vocabulary or a store URI (not a security boundary).
+std::uint64_t Fnv1a(std::string_view bytes) {
+  std::uint64_t hash = 0xcbf29ce484222325ULL;
+  for (const char c : bytes) hash = (hash ^ static_cast<unsigned char>(c)) * 0x100000001b3ULL;
+  return hash;
+}
+
 double SecondsSince(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
-}  // namespace
+MergeRegionOptions RegionOptions(const MergeOptions& merge) {
+  // What the replaying localiser can reach (experience_builder.h): between two frames queried
+  // by appearance it runs on for at most relocalise_after_m before it would relocalise, and
+  // from wherever it is it searches search_radius_m for candidates within candidate_radius_m.
+  const BuilderOptions& localiser = merge.localiser;
+  MergeRegionOptions region;
+  region.sample_every_m = localiser.relocalise_after_m;
+  region.radius_m =
+      localiser.relocalise_after_m + localiser.search_radius_m + localiser.candidate_radius_m;
+  region.matches_per_frame = localiser.relocalisation_candidates;
+  return region;
+}
 
-// The map at one revision as MERGE works on it.
-struct Repository::Mirror {
-  RevisionNumber revision = 0;
-  ExperienceMap map;
-};
+}  // namespace
 
 std::unique_ptr<Repository> Repository::Open(std::string_view uri, RepositoryOptions options) {
   std::unique_ptr<GraphStore> store = GraphStore::Open(uri, options.store);
@@ -60,7 +97,13 @@ Repository::Repository(std::unique_ptr<GraphStore> store, RepositoryOptions opti
   if (!store_) throw Error(ErrorCode::kInvalidArgument, "repository: no store");
 }
 
-Repository::~Repository() = default;
+Repository::~Repository() {
+  appearance_.reset();
+  if (!temporary_appearance_dir_.empty()) {
+    std::error_code ignored;
+    std::filesystem::remove_all(temporary_appearance_dir_, ignored);
+  }
+}
 
 std::int64_t Repository::Now() const {
   if (options_.now_ns) return options_.now_ns();
@@ -250,14 +293,32 @@ std::shared_ptr<const AppearanceVocabulary> Repository::StoredVocabulary() {
   return vocabulary_;
 }
 
+std::vector<Descriptor256> Repository::SampleForVocabulary(const GraphBatch* first_submission) {
+  // The map at the head, or else the submission. A head too large to hold is sampled from its
+  // first revisions' nodes, read one revision at a time, until the sample is full.
+  const RevisionNumber head_revision = versions().HeadRevision();
+  GraphBatch head;
+  if (versions().StatsAt(head_revision).landmark_bytes <= kWholeHeadSampleBytes) {
+    head.nodes = versions().NodesAt(head_revision);
+  } else {
+    std::size_t descriptors = 0;
+    for (RevisionNumber r = 1; r <= head_revision && descriptors < kMaxVocabularySample; ++r) {
+      const RevisionChanges added = versions().Changes(r - 1, r);
+      for (Node& node : store_->GetNodes(added.nodes_added)) {
+        descriptors += DecodeLandmarks(node.landmarks_blob).size();
+        head.nodes.push_back(std::move(node));
+      }
+    }
+  }
+  std::vector<Descriptor256> sample = VocabularySample(head);
+  if (sample.empty() && first_submission) sample = VocabularySample(*first_submission);
+  return sample;
+}
+
 std::shared_ptr<const AppearanceVocabulary> Repository::Vocabulary(
     const GraphBatch* first_submission) {
   if (StoredVocabulary()) return vocabulary_;
-  // No vocabulary yet: train one from the map at the head, or else from the submission.
-  GraphBatch head;
-  head.nodes = versions().NodesAt(versions().HeadRevision());
-  std::vector<Descriptor256> sample = VocabularySample(head);
-  if (sample.empty() && first_submission) sample = VocabularySample(*first_submission);
+  const std::vector<Descriptor256> sample = SampleForVocabulary(first_submission);
   if (sample.empty()) return nullptr;  // nothing to learn words from, nothing to index either
   auto trained = std::make_shared<const AppearanceVocabulary>(AppearanceVocabulary::Train(sample));
   versions().PutSetting(kVocabularySetting, trained->Encode());
@@ -265,21 +326,107 @@ std::shared_ptr<const AppearanceVocabulary> Repository::Vocabulary(
   return vocabulary_;
 }
 
-Repository::Mirror& Repository::HeadMirror(const GraphBatch* first_submission) {
-  const RevisionNumber head = versions().HeadRevision();
-  if (mirror_ && mirror_->revision == head) return *mirror_;
-  mirror_.reset();
-  std::shared_ptr<const AppearanceVocabulary> vocabulary = Vocabulary(first_submission);
-  if (!vocabulary) {
-    // An empty map and an empty submission: any vocabulary indexes nothing.
-    vocabulary = std::make_shared<const AppearanceVocabulary>(
-        AppearanceVocabulary::Train(std::vector<Descriptor256>(1)));
+std::shared_ptr<const AppearanceVocabulary> Repository::IndexVocabulary(
+    const GraphBatch* first_submission) {
+  if (index_vocabulary_) return index_vocabulary_;
+  if (const std::optional<std::string> stored = versions().FindSetting(kIndexVocabularySetting)) {
+    index_vocabulary_ =
+        std::make_shared<const AppearanceVocabulary>(AppearanceVocabulary::Decode(*stored));
+    return index_vocabulary_;
   }
-  const std::vector<Node> nodes = versions().NodesAt(head);
-  const std::vector<Edge> edges = versions().EdgesAt(head);
-  mirror_ =
-      std::make_unique<Mirror>(Mirror{head, ExperienceMap::FromGraph(nodes, edges, vocabulary)});
-  return *mirror_;
+  const std::vector<Descriptor256> sample = SampleForVocabulary(first_submission);
+  if (sample.empty()) return nullptr;
+  auto trained = std::make_shared<const AppearanceVocabulary>(
+      AppearanceVocabulary::Train(sample, IndexVocabularyOptions()));
+  versions().PutSetting(kIndexVocabularySetting, trained->Encode());
+  index_vocabulary_ = std::move(trained);
+  return index_vocabulary_;
+}
+
+std::filesystem::path Repository::AppearanceDirectory() {
+  if (!options_.appearance_dir.empty()) return options_.appearance_dir;
+  const std::string uri = store_->uri();
+  if (uri.starts_with("sqlite:")) {
+    std::string path = uri.substr(std::string_view("sqlite:").size());
+    if (path.starts_with("//")) path = path.substr(2);
+    if (path != ":memory:" && !path.empty()) return path + ".appearance";
+  } else {
+    std::filesystem::path cache;
+    if (const char* dir = std::getenv("FLEETMAP_CACHE_DIR"); dir && *dir) {
+      cache = dir;
+    } else if (const char* xdg = std::getenv("XDG_CACHE_HOME"); xdg && *xdg) {
+      cache = std::filesystem::path(xdg) / "fleetmap";
+    } else if (const char* home = std::getenv("HOME"); home && *home) {
+      cache = std::filesystem::path(home) / ".cache" / "fleetmap";
+    }
+    if (!cache.empty()) {
+      char name[32];
+      std::snprintf(name, sizeof(name), "appearance-%016llx",
+                    static_cast<unsigned long long>(Fnv1a(uri)));
+      return cache / name;
+    }
+  }
+  // No directory to put it beside: a temporary one, removed with the repository.
+  if (temporary_appearance_dir_.empty()) {
+    std::string pattern =
+        (std::filesystem::temp_directory_path() / "fleetmap-appearance-XXXXXX").string();
+    if (::mkdtemp(pattern.data()) == nullptr) {
+      throw Error(ErrorCode::kBackend, "cannot make a temporary appearance index directory");
+    }
+    temporary_appearance_dir_ = pattern;
+  }
+  return temporary_appearance_dir_;
+}
+
+void Repository::UpdateAppearanceIndex() {
+  const std::shared_ptr<const AppearanceVocabulary> vocabulary = IndexVocabulary(nullptr);
+  const RevisionNumber head = versions().HeadRevision();
+  if (!vocabulary) return;  // an empty map: nothing to index
+  if (!appearance_) {
+    try {
+      appearance_ = DiskAppearanceIndex::Open(AppearanceDirectory());
+    } catch (const Error& error) {
+      if (error.code() != ErrorCode::kCorrupt) throw;
+      // Derived data: start it again rather than refuse to merge.
+      std::filesystem::remove_all(AppearanceDirectory());
+      appearance_ = DiskAppearanceIndex::Open(AppearanceDirectory());
+    }
+  }
+  if (vocabulary_fingerprint_ == 0) vocabulary_fingerprint_ = Fnv1a(vocabulary->Encode());
+  const DiskIndexMark& mark = appearance_->mark();
+  // An index of another vocabulary, or of a history this store does not have (a store
+  // recreated under the same name), starts again.
+  bool same_history =
+      mark.vocabulary_fingerprint == vocabulary_fingerprint_ && mark.revision <= head;
+  if (same_history && mark.revision > 0) {
+    const std::optional<Revision> covered = versions().FindRevision(mark.revision);
+    same_history = covered && covered->created_ns == mark.revision_stamp_ns;
+  }
+  if (!same_history) appearance_->Reset(DiskIndexMark{0, 0, vocabulary_fingerprint_});
+  std::vector<Uuid> nodes;
+  std::vector<std::vector<WordCount>> bags;
+  const auto flush = [&](RevisionNumber r) {
+    const std::optional<Revision> revision = versions().FindRevision(r);
+    appearance_->Append(
+        nodes, bags,
+        DiskIndexMark{r, revision ? revision->created_ns : 0, vocabulary_fingerprint_});
+    nodes.clear();
+    bags.clear();
+  };
+  for (RevisionNumber r = appearance_->mark().revision + 1; r <= head; ++r) {
+    const RevisionChanges added = versions().Changes(r - 1, r);
+    constexpr std::size_t kReadBatch = 1024;
+    for (std::size_t i = 0; i < added.nodes_added.size(); i += kReadBatch) {
+      const std::span<const Uuid> batch(added.nodes_added.data() + i,
+                                        std::min(kReadBatch, added.nodes_added.size() - i));
+      for (const Node& node : store_->GetNodes(batch)) {
+        nodes.push_back(node.id);
+        bags.push_back(BagOfWords(*vocabulary, DecodeLandmarks(node.landmarks_blob).descriptors));
+      }
+    }
+    // Segments of a few tens of thousands of nodes: memory stays at one batch of bags.
+    if (nodes.size() >= kIndexBatchNodes || r == head) flush(r);
+  }
 }
 
 MergeOutcome Repository::Merge(const Uuid& id, const MergeProgress& progress) {
@@ -333,11 +480,29 @@ MergeOutcome Repository::Merge(const Uuid& id, const MergeProgress& progress) {
       seen_elsewhere.insert(end);
     }
   }
-  Mirror& mirror = HeadMirror(&content);
+  // The region of the head this submission can reach, not the whole map (merge_region.h).
+  const RevisionNumber head = versions.HeadRevision();
+  std::shared_ptr<const AppearanceVocabulary> vocabulary = Vocabulary(&content);
+  if (!vocabulary) {
+    // An empty map and an empty submission: any vocabulary indexes nothing.
+    vocabulary = std::make_shared<const AppearanceVocabulary>(
+        AppearanceVocabulary::Train(std::vector<Descriptor256>(1)));
+  }
+  const std::shared_ptr<const AppearanceVocabulary> index_vocabulary = IndexVocabulary(&content);
+  UpdateAppearanceIndex();
+  std::unordered_set<Uuid> named;
+  for (const Edge& edge : content.edges) {
+    for (const Uuid& end : {edge.from, edge.to}) named.insert(end);
+  }
+  for (const auto& [node, stand_in] : stand_ins) named.insert(stand_in.stand_in);
+  MergeRegion region =
+      LoadMergeRegion(*store_, head, content, named, *appearance_, *index_vocabulary, vocabulary,
+                      RegionOptions(options_.merge));
+  outcome.region_nodes = region.map.size();
   ServerCatalogue catalogue{[&](const Uuid& edge) { return versions.VersionOf(edge).has_value(); },
                             [&](const Uuid& path) { return versions.VersionOf(path).has_value(); },
-                            // Not in the mirror but stored: hidden by a revert.
-                            [&](const Uuid& node) { return versions.VersionOf(node).has_value(); }};
+                            // Stored but hidden at the head by a revert.
+                            [&](const Uuid& node) { return region.hidden.contains(node); }};
   catalogue.stand_in = [&](const Uuid& node) -> std::optional<NodeStandIn> {
     const auto found = stand_ins.find(node);
     if (found == stand_ins.end()) return std::nullopt;
@@ -346,17 +511,16 @@ MergeOutcome Repository::Merge(const Uuid& id, const MergeProgress& progress) {
   catalogue.seen_elsewhere = [&](const Uuid& node) { return seen_elsewhere.contains(node); };
   MergeResult result;
   try {
-    result = fleetmap::Merge(mirror.map, content, catalogue, options_.merge, progress);
+    result = fleetmap::Merge(region.map, content, catalogue, options_.merge, progress);
   } catch (const Error& error) {
-    mirror_.reset();  // MERGE may have changed it before failing
     if (error.code() == ErrorCode::kCorrupt || error.code() == ErrorCode::kIntegrity) fail(error);
     throw;
   }
 
-  try {
+  {
     GraphStore::Transaction transaction = store_->Begin();
     Revision revision;
-    revision.number = mirror.revision + 1;
+    revision.number = head + 1;
     revision.created_ns = Now();
     revision.author = submission->author;
     revision.kind = RevisionKind::kMerge;
@@ -369,11 +533,7 @@ MergeOutcome Repository::Merge(const Uuid& id, const MergeProgress& progress) {
     versions.SetSubmissionState(id, SubmissionState::kMerged, revision.number, "");
     if (options_.before_merge_commit) options_.before_merge_commit(id);
     transaction.Commit();
-  } catch (...) {
-    mirror_.reset();  // holds additions that did not land
-    throw;
   }
-  mirror.revision = outcome.revision.number;
   outcome.report = result.report;
   outcome.seconds = SecondsSince(start);
   return outcome;
@@ -395,7 +555,6 @@ Revision Repository::Revert(RevisionNumber r, const std::string& author) {
   revision.kind = RevisionKind::kRevert;
   revision.reverted = r;
   revision.report = "revert of revision " + std::to_string(r);
-  mirror_.reset();
   return versions().AppendRevert(revision);
 }
 

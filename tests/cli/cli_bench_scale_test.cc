@@ -64,15 +64,20 @@ TEST(CliBenchScaleTest, MeasuresMergeDownloadAndStoreOnBothBackends) {
     EXPECT_EQ(D(row, "merge_nodes_pushed"), 200);
     EXPECT_LT(D(row, "merge_nodes_added"), 100) << "the revisit should mostly localise";
     EXPECT_GT(D(row, "merge_peak_rss_bytes"), D(row, "merge_rss_before_bytes"));
+    // The merge loaded the revisited place, not the map; the index beside the store has it.
+    EXPECT_GE(D(row, "merge_region_nodes"), 200);
+    EXPECT_LT(D(row, "merge_region_nodes"), nodes / 2);
+    EXPECT_GT(D(row, "index_bytes"), 0);
     EXPECT_GT(D(row, "download_s"), 0);
     EXPECT_GT(D(row, "download_peak_rss_bytes"), 0);
     EXPECT_LE(D(row, "download_nodes"), nodes / 2) << "a subset, not the map";
   }
   EXPECT_EQ(per_backend["sqlite"], 2);
   EXPECT_EQ(per_backend["postgresql"], 2);
-  // Scratch stores are gone: no SQLite file, no scratch database.
+  // Scratch stores are gone: no SQLite file, no appearance index, no scratch database.
   for (const auto& entry : std::filesystem::directory_iterator(dir / "out")) {
     EXPECT_EQ(entry.path().string().find(".db"), std::string::npos) << entry.path();
+    EXPECT_EQ(entry.path().string().find(".appearance"), std::string::npos) << entry.path();
   }
   pqxx::connection connection(std::getenv("FLEETMAP_TEST_PG_URI"));
   pqxx::nontransaction t(connection);

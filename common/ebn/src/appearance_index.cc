@@ -277,12 +277,12 @@ AppearanceIndex::AppearanceIndex(std::shared_ptr<const AppearanceVocabulary> voc
   postings_.resize(static_cast<std::size_t>(vocabulary_->word_count()));
 }
 
-std::vector<AppearanceIndex::WordCount> AppearanceIndex::BagOf(
-    std::span<const Descriptor256> descriptors) const {
-  std::vector<int> words = vocabulary_->WordsOf(descriptors);
+std::vector<WordCount> BagOfWords(const AppearanceVocabulary& vocabulary,
+                                  std::span<const Descriptor256> descriptors) {
+  std::vector<int> words = vocabulary.WordsOf(descriptors);
   std::sort(words.begin(), words.end());
   std::vector<WordCount> bag;
-  for (int word : words) {
+  for (const int word : words) {
     if (bag.empty() || bag.back().word != word) bag.push_back({word, 0});
     ++bag.back().count;
   }
@@ -339,7 +339,7 @@ void AppearanceIndex::Add(const Uuid& node, std::span<const Descriptor256> descr
                 "appearance index: node " + node.ToString() + " has 2^31 or more descriptors");
   }
   // Quantise before touching the index, so nothing is half-done if this throws.
-  std::vector<WordCount> bag = BagOf(descriptors);
+  std::vector<WordCount> bag = BagOfWords(*vocabulary_, descriptors);
 
   const auto found = document_of_.find(node);
   std::uint32_t document = 0;
@@ -371,7 +371,7 @@ std::vector<AppearanceMatch> AppearanceIndex::Query(std::span<const Descriptor25
   // The query's tf-idf weights, L1-normalised. A word no node holds weighs as the rarest
   // indexed word (n = 1): it cannot be shared, but it must still dilute the shared ones, or a
   // frame of mostly unseen words would match whatever little it shares.
-  const std::vector<WordCount> bag = BagOf(descriptors);
+  const std::vector<WordCount> bag = BagOfWords(*vocabulary_, descriptors);
   const double log_n = Log(documents_.size());
   std::vector<double> idf(bag.size());
   double query_norm = 0.0;

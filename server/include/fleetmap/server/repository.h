@@ -6,8 +6,10 @@
 //   submission's new state, so a crash leaves either the old head or the new one;
 // - Checkout, Diff and Download read any revision; Revert hides what a revision added.
 //
-// The map at the head is mirrored in memory for MERGE (an ExperienceMap), loaded on first use
-// and reloaded when another writer moved the head.
+// MERGE does not load the map: it loads the region of the head a submission can reach
+// (merge_region.h), found through the map's appearance index, which is kept on disk beside
+// the store (DiskAppearanceIndex) and brought up to the head's revision before each merge by
+// indexing only the nodes of the revisions it has not seen.
 //
 // Threading: one thread at a time (like its GraphStore). Several processes may share one
 // PostgreSQL store: revision numbers are claimed in the database, and a merge that lost the
@@ -15,6 +17,7 @@
 #pragma once
 
 #include <cstdint>
+#include <filesystem>
 #include <functional>
 #include <memory>
 #include <optional>
@@ -23,6 +26,7 @@
 #include <vector>
 
 #include "fleetmap/ebn/appearance_index.h"
+#include "fleetmap/ebn/disk_appearance_index.h"
 #include "fleetmap/ebn/experience_map.h"
 #include "fleetmap/policies/download_policy.h"
 #include "fleetmap/policies/merge.h"
@@ -44,6 +48,11 @@ struct RepositoryOptions {
   // rolls the merge back: the map does not change and the submission stays queued. fleetmapd
   // uses it to abandon a merge when it drains, and as a test knob to hold a merge open.
   std::function<void(const Uuid& submission)> before_merge_commit;
+  // Where the map's appearance index lives (derived data: deleting it costs one rebuild).
+  // Empty: beside a SQLite store's file ("FILE.appearance"); for PostgreSQL under
+  // $FLEETMAP_CACHE_DIR, else $XDG_CACHE_HOME/fleetmap, else ~/.cache/fleetmap, named by the
+  // store's URI.
+  std::filesystem::path appearance_dir;
 };
 
 struct MergeOutcome {
@@ -53,7 +62,8 @@ struct MergeOutcome {
   // Not merged yet: the submission has edges to nodes of this earlier submission, still
   // queued, which must merge first (then this one's edges reach them or their stand-ins).
   std::optional<Uuid> waits_for;
-  double seconds = 0.0;  // the whole call: mirror, MERGE and the commit
+  double seconds = 0.0;          // the whole call: region, MERGE and the commit
+  std::size_t region_nodes = 0;  // the map's nodes MERGE loaded (merge_region.h)
 };
 
 struct Download {
@@ -143,14 +153,18 @@ class Repository {
   // The vocabulary MERGE indexes this repository's map with: the one given in the options,
   // else the one stored with the repository; null before the first merge has trained one.
   std::shared_ptr<const AppearanceVocabulary> StoredVocabulary();
+  // Brings the map's appearance index up to the head: indexes the nodes of every revision it
+  // has not seen (all of them, once, for an index that is missing or belongs to another
+  // history), training the vocabulary first if the repository has none. Merge calls it; a
+  // writer that appends revisions without merging (fleetmap bench scale) calls it after each.
+  // Throws as the store does, and Error(kBackend) when the index cannot be written.
+  void UpdateAppearanceIndex();
   const MergeOptions& merge_options() const { return options_.merge; }
 
   GraphStore& store() { return *store_; }
   VersionStore& versions() { return store_->versions(); }
 
  private:
-  struct Mirror;
-
   std::int64_t Now() const;
   // Push's content rules (see Push), for `map` pushed as submission `id`; throws the first
   // broken one.
@@ -158,15 +172,24 @@ class Repository {
   // Whether the server has seen `node` outside submission `submission`: stored, omitted by a
   // merge, or carried by another submission.
   bool SeenOutside(const Uuid& submission, const Uuid& node);
-  // The head's mirror, reloaded if another writer moved the head.
-  Mirror& HeadMirror(const GraphBatch* first_submission);
   std::shared_ptr<const AppearanceVocabulary> Vocabulary(const GraphBatch* first_submission);
+  // Descriptors to train a vocabulary from: the head's (its first revisions' when it is
+  // large), else the submission's.
+  std::vector<Descriptor256> SampleForVocabulary(const GraphBatch* first_submission);
+  // The finer vocabulary of the appearance index on disk, stored with the repository like
+  // Vocabulary and trained the same way on first use; null while there is nothing to learn.
+  std::shared_ptr<const AppearanceVocabulary> IndexVocabulary(const GraphBatch* first_submission);
   RevisionNumber Resolve(std::optional<RevisionNumber> r);
+  // Where the appearance index lives (RepositoryOptions::appearance_dir).
+  std::filesystem::path AppearanceDirectory();
 
   std::unique_ptr<GraphStore> store_;
   RepositoryOptions options_;
   std::shared_ptr<const AppearanceVocabulary> vocabulary_;
-  std::unique_ptr<Mirror> mirror_;
+  std::unique_ptr<DiskAppearanceIndex> appearance_;
+  std::filesystem::path temporary_appearance_dir_;  // for a store without a directory
+  std::shared_ptr<const AppearanceVocabulary> index_vocabulary_;
+  std::uint64_t vocabulary_fingerprint_ = 0;  // of index_vocabulary_, once computed
 };
 
 }  // namespace fleetmap

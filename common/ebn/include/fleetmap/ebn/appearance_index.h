@@ -89,6 +89,15 @@ class AppearanceVocabulary {
   int word_count_ = 0;
 };
 
+// A bag of words: (word, count) by ascending word, counts > 0.
+struct WordCount {
+  int word = 0;
+  int count = 0;
+};
+// The bag of `descriptors` in `vocabulary`'s words.
+std::vector<WordCount> BagOfWords(const AppearanceVocabulary& vocabulary,
+                                  std::span<const Descriptor256> descriptors);
+
 struct AppearanceMatch {
   Uuid node;
   double score = 0.0;  // L1 score in [0, 1], higher = more similar
@@ -137,10 +146,6 @@ class AppearanceIndex {
   const AppearanceVocabulary& vocabulary() const { return *vocabulary_; }
 
  private:
-  struct WordCount {
-    int word = 0;
-    int count = 0;
-  };
   struct Posting {
     std::uint32_t document = 0;
     std::uint32_t count = 0;  // n_di
@@ -150,8 +155,6 @@ class AppearanceIndex {
     std::vector<WordCount> words;  // by ascending word, counts > 0
     int descriptors = 0;           // D_d
   };
-  // The bag of `descriptors`: words ascending, each with its count.
-  std::vector<WordCount> BagOf(std::span<const Descriptor256> descriptors) const;
   // ln(n) for n <= size(), from a table grown by Add (the hot loops call no std::log).
   double Log(std::size_t n) const { return log_table_[n]; }
   void GrowLogTable(std::size_t n);
