@@ -78,6 +78,17 @@ int main(int argc, char** argv) {
                  "waits 500 ms, each next one twice as long)")
       ->capture_default_str()
       ->check(CLI::Range(std::int64_t{1}, std::int64_t{3'600'000}));
+  std::uint64_t download_cache_mib = options.download_cache_bytes >> 20;
+  std::uint64_t download_cache_entry_mib = options.download_cache_entry_bytes >> 20;
+  app.add_option("--download-cache-mib", download_cache_mib,
+                 "Memory for downloads kept once encoded, sent again without the store (0: none)")
+      ->capture_default_str()
+      ->check(CLI::Range(std::uint64_t{0}, std::uint64_t{1} << 20));
+  app.add_option("--download-cache-entry-mib", download_cache_entry_mib,
+                 "Largest download kept there; a bigger one is streamed from the store each "
+                 "time, so memory stays bounded whatever the map's size")
+      ->capture_default_str()
+      ->check(CLI::Range(std::uint64_t{0}, std::uint64_t{1} << 20));
   std::int64_t merge_lease_ms = options.merge_lease.count();
   std::int64_t merge_poll_ms = options.merge_poll.count();
   app.add_option("--instance", options.instance,
@@ -101,6 +112,11 @@ int main(int argc, char** argv) {
   // Likewise, after the claim and before MERGE: a test freezes the daemon there past its lease.
   app.add_option("--debug-merge-pause-ms", debug_merge_pause_ms)->group("");
   app.add_option("--debug-chunk-delay-ms", debug_chunk_delay_ms)->group("");
+  // And the size of a streamed download's batches, for tests and benchmarks of its memory.
+  std::size_t download_batch_kib = options.download_batch_bytes >> 10;
+  app.add_option("--debug-download-batch-kib", download_batch_kib)
+      ->group("")
+      ->check(CLI::Range(std::size_t{1}, std::size_t{1} << 20));
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -118,6 +134,9 @@ int main(int argc, char** argv) {
   options.hello_deadline =
       std::chrono::milliseconds(static_cast<std::int64_t>(hello_timeout_s * 1000.0));
   options.max_submission_bytes = max_submission_mib << 20;
+  options.download_cache_bytes = download_cache_mib << 20;
+  options.download_cache_entry_bytes = download_cache_entry_mib << 20;
+  options.download_batch_bytes = download_batch_kib << 10;
 
   auto logger = spdlog::stderr_logger_mt("fleetmapd");
   spdlog::set_default_logger(logger);

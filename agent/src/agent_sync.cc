@@ -1,8 +1,15 @@
 #include "fleetmap/agent/agent_sync.h"
 
 #include <algorithm>
+#include <condition_variable>
 #include <cstdio>
+#include <deque>
+#include <exception>
+#include <memory>
+#include <mutex>
+#include <optional>
 #include <random>
+#include <span>
 #include <thread>
 #include <utility>
 #include <vector>
@@ -19,6 +26,94 @@ using std::chrono::milliseconds;
 // Pauses between merge-status questions the server answered early (see FollowMerge).
 constexpr milliseconds kFirstStatusPause{100};
 constexpr milliseconds kMaxStatusPause{2'000};
+
+void Append(GraphBatch& to, GraphBatch&& part) {
+  for (Path& path : part.paths) to.paths.push_back(std::move(path));
+  for (Node& node : part.nodes) to.nodes.push_back(std::move(node));
+  for (Edge& edge : part.edges) to.edges.push_back(std::move(edge));
+}
+
+// Writes a full download into its installation on a thread of its own while the next chunks
+// arrive, so the link and SQLite work at once (each alone is about as fast as the other). At
+// most kQueuedChunks chunks (1 MiB each) wait in between: memory stays a few MB.
+class InstallWriter {
+ public:
+  static constexpr std::size_t kQueuedChunks = 8;
+
+  InstallWriter(MapInstallation& installation, std::string context)
+      : installation_(installation), context_(std::move(context)), thread_([this] { Run(); }) {}
+  ~InstallWriter() {
+    {
+      std::lock_guard lock(mutex_);
+      stopping_ = true;
+    }
+    changed_.notify_all();
+    thread_.join();
+  }
+  InstallWriter(const InstallWriter&) = delete;
+  InstallWriter& operator=(const InstallWriter&) = delete;
+
+  // Queues chunk `seq` (a serialised MapChunk), waiting while the queue is full. Throws what
+  // the writer failed with (it stops at its first error).
+  void Add(std::uint32_t seq, std::string data) {
+    std::unique_lock lock(mutex_);
+    changed_.wait(lock, [&] { return error_ || queue_.size() < kQueuedChunks; });
+    if (error_) std::rethrow_exception(error_);
+    queue_.emplace_back(seq, std::move(data));
+    changed_.notify_all();
+  }
+
+  // Waits until every queued chunk is written; throws the writer's error, if any.
+  void Finish() {
+    std::unique_lock lock(mutex_);
+    changed_.wait(lock, [&] { return error_ || (queue_.empty() && !busy_); });
+    if (error_) std::rethrow_exception(error_);
+  }
+
+ private:
+  void Run() {
+    for (;;) {
+      std::pair<std::uint32_t, std::string> chunk;
+      {
+        std::unique_lock lock(mutex_);
+        changed_.wait(lock, [&] { return stopping_ || !queue_.empty(); });
+        if (stopping_ || error_) return;
+        chunk = std::move(queue_.front());
+        queue_.pop_front();
+        busy_ = true;
+      }
+      changed_.notify_all();  // room in the queue
+      try {
+        GraphBatch part;
+        try {
+          part = DecodeMapChunks(std::span<const std::string>(&chunk.second, 1));
+        } catch (const Error& e) {
+          throw Error(ErrorCode::kCorrupt,
+                      context_ + ": chunk " + std::to_string(chunk.first) + ": " + e.message());
+        }
+        installation_.Add(part);
+      } catch (...) {
+        std::lock_guard lock(mutex_);
+        error_ = std::current_exception();
+      }
+      {
+        std::lock_guard lock(mutex_);
+        busy_ = false;
+      }
+      changed_.notify_all();
+    }
+  }
+
+  MapInstallation& installation_;
+  std::string context_;
+  std::mutex mutex_;
+  std::condition_variable changed_;
+  std::deque<std::pair<std::uint32_t, std::string>> queue_;  // guarded by mutex_
+  bool busy_ = false;                                        // guarded by mutex_
+  bool stopping_ = false;                                    // guarded by mutex_
+  std::exception_ptr error_;                                 // guarded by mutex_
+  std::thread thread_;  // last: starts once the rest is constructed
+};
 
 double SecondsSince(Clock::time_point start) {
   return std::chrono::duration<double>(Clock::now() - start).count();
@@ -86,11 +181,14 @@ class SyncRun {
     result_.push_seconds += SecondsSince(push_start);
     FollowMerges(client);
     const Clock::time_point download_start = Clock::now();
-    MapDownload download = Download(client);
+    Received received = Download(client);
     result_.download_seconds += SecondsSince(download_start);
 
+    // A full download is written already (download_seconds counts it): what is left is the
+    // commit. Changes since the installed revision are installed here.
     const Clock::time_point install_start = Clock::now();
-    const InstallReport report = map_.Install(download);
+    const InstallReport report =
+        received.installation ? received.installation->Commit() : map_.Install(received.download);
     result_.install_seconds += SecondsSince(install_start);
     result_.revision = report.revision;
     result_.incremental = report.incremental;
@@ -312,7 +410,13 @@ class SyncRun {
     }
   }
 
-  MapDownload Download(SyncClient& client) {
+  // A download as received: a full one written into its installation, changes in memory.
+  struct Received {
+    MapDownload download;  // full: what it is, no content
+    std::unique_ptr<MapInstallation> installation;
+  };
+
+  Received Download(SyncClient& client) {
     const DownloadParams& params = options_.download;
     const SyncState& state = map_.state();
     const std::int64_t base =
@@ -338,36 +442,99 @@ class SyncRun {
                   during + ": asked for changes since revision " + std::to_string(base) +
                       ", the server sent changes since " + std::to_string(header.base_revision()));
     }
+    const std::string of_revision = during + " of revision " + std::to_string(header.revision());
     Progress("downloading revision " + std::to_string(header.revision()) +
              (header.base_revision() != 0
                   ? " (changes since revision " + std::to_string(header.base_revision()) + ")"
                   : " (full)") +
-             ": " + std::to_string(header.chunk_count()) + " chunks, " + Mib(header.total_bytes()));
-    std::vector<std::string> chunks;
-    // chunk_count is the server's word: reserve for what a sane download has, grow past it.
-    chunks.reserve(std::min<std::uint32_t>(header.chunk_count(), 4096));
+             ": " + Counts(header.nodes(), header.edges(), header.paths()));
+    Received received;
+    MapDownload& download = received.download;
+    download.revision = header.revision();
+    download.base_revision = header.base_revision();
+    download.request = params;
+    download.nodes = header.nodes();
+    download.edges = header.edges();
+    download.paths = header.paths();
+    try {
+      for (const std::string& id : header.removed_nodes())
+        download.removed.nodes.insert(Uuid::FromBytes(id));
+      for (const std::string& id : header.removed_edges())
+        download.removed.edges.insert(Uuid::FromBytes(id));
+      for (const std::string& id : header.removed_paths())
+        download.removed.paths.insert(Uuid::FromBytes(id));
+    } catch (const Error& e) {
+      throw Error(ErrorCode::kCorrupt, of_revision + ": " + e.message());
+    }
+    // A full download goes into the next map as it arrives (memory: one chunk); changes since
+    // the installed revision are few and are installed whole at the end (LocalMap::Install).
+    std::optional<InstallWriter> writer;
+    if (download.base_revision == 0) {
+      received.installation = map_.BeginInstall(download);
+      writer.emplace(*received.installation, of_revision);
+    }
+
+    // Version 3: the chunks come numbered until DownloadEnd, which says what they add up to.
+    // Nothing is installed unless it all matches (the installation rolls back otherwise).
     MapContentDigest digest;
     std::uint64_t bytes = 0;
-    for (std::uint32_t seq = 0; seq < header.chunk_count(); ++seq) {
-      v1::SyncFrame chunk = client.Expect(v1::SyncFrame::kDownloadChunk, during);
-      if (chunk.download_chunk().seq() != seq) {
-        throw Error(ErrorCode::kCorrupt,
-                    during + ": chunk " + std::to_string(chunk.download_chunk().seq()) +
-                        " arrived where chunk " + std::to_string(seq) + " was due");
+    std::uint32_t seq = 0;
+    std::size_t nodes = 0;
+    std::size_t edges = 0;
+    std::size_t paths = 0;
+    v1::DownloadEnd end;
+    for (;;) {
+      v1::SyncFrame next = client.Receive(during, options_.download_timeout);
+      if (next.has_download_end()) {
+        end = next.download_end();
+        break;
       }
-      Progress("downloading chunk " + std::to_string(seq + 1) + "/" +
-               std::to_string(header.chunk_count()));
-      digest.Add(chunk.download_chunk().data());
-      bytes += chunk.download_chunk().data().size();
-      chunks.push_back(std::move(*chunk.mutable_download_chunk()->mutable_data()));
+      if (!next.has_download_chunk()) {
+        client.Close();
+        throw Error(ErrorCode::kCorrupt, during + " with " + server() +
+                                             ": expected download_chunk or download_end, the "
+                                             "server sent " +
+                                             std::string(SyncFrameName(next)));
+      }
+      const v1::DownloadChunk& chunk = next.download_chunk();
+      if (chunk.seq() != seq) {
+        throw Error(ErrorCode::kCorrupt, during + ": chunk " + std::to_string(chunk.seq()) +
+                                             " arrived where chunk " + std::to_string(seq) +
+                                             " was due");
+      }
+      digest.Add(chunk.data());
+      bytes += chunk.data().size();
+      ++seq;
+      if (writer) {
+        writer->Add(seq - 1, std::move(*next.mutable_download_chunk()->mutable_data()));
+      } else {
+        GraphBatch part;
+        try {
+          part = DecodeMapChunks(std::span<const std::string>(&chunk.data(), 1));
+        } catch (const Error& e) {
+          throw Error(ErrorCode::kCorrupt,
+                      of_revision + ": chunk " + std::to_string(seq - 1) + ": " + e.message());
+        }
+        nodes += part.nodes.size();
+        edges += part.edges.size();
+        paths += part.paths.size();
+        Append(download.content, std::move(part));
+      }
+      Progress("downloading chunk " + std::to_string(seq) + " (" + Mib(bytes) + ")");
     }
-    client.Expect(v1::SyncFrame::kDownloadEnd, during);
-    if (digest.value() != header.digest() || bytes != header.total_bytes()) {
-      throw Error(ErrorCode::kCorrupt, during + " of revision " +
-                                           std::to_string(header.revision()) + ": the chunks (" +
-                                           std::to_string(bytes) +
-                                           " bytes) do not match the header's digest and size (" +
-                                           std::to_string(header.total_bytes()) + " bytes)");
+    if (writer) {
+      writer->Finish();
+      writer.reset();
+      nodes = received.installation->nodes();
+      edges = received.installation->edges();
+      paths = received.installation->paths();
+    }
+    if (end.chunk_count() != seq || end.total_bytes() != bytes || end.digest() != digest.value()) {
+      throw Error(ErrorCode::kCorrupt,
+                  of_revision + ": the chunks received (" + std::to_string(seq) + ", " +
+                      std::to_string(bytes) + " bytes) do not match the end's count, size (" +
+                      std::to_string(end.chunk_count()) + ", " + std::to_string(end.total_bytes()) +
+                      " bytes) and digest; nothing installed");
     }
     v1::SyncFrame bye;
     bye.mutable_bye();
@@ -378,31 +545,12 @@ class SyncRun {
     }
     client.Close();
 
-    MapDownload download;
-    download.revision = header.revision();
-    download.base_revision = header.base_revision();
-    download.request = params;
-    try {
-      download.content = DecodeMapChunks(chunks);
-      for (const std::string& id : header.removed_nodes())
-        download.removed.nodes.insert(Uuid::FromBytes(id));
-      for (const std::string& id : header.removed_edges())
-        download.removed.edges.insert(Uuid::FromBytes(id));
-      for (const std::string& id : header.removed_paths())
-        download.removed.paths.insert(Uuid::FromBytes(id));
-    } catch (const Error& e) {
-      throw Error(ErrorCode::kCorrupt, during + " of revision " +
-                                           std::to_string(header.revision()) + ": " + e.message());
-    }
-    download.nodes = header.nodes();
-    download.edges = header.edges();
-    download.paths = header.paths();
-    result_.downloaded_nodes = download.content.nodes.size();
-    result_.downloaded_edges = download.content.edges.size();
-    result_.downloaded_paths = download.content.paths.size();
+    result_.downloaded_nodes = nodes;
+    result_.downloaded_edges = edges;
+    result_.downloaded_paths = paths;
     result_.removed_nodes = download.removed.nodes.size();
     result_.downloaded_bytes = bytes;
-    return download;
+    return received;
   }
 
   LocalMap& map_;

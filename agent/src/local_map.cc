@@ -155,6 +155,27 @@ std::string Counts(std::size_t nodes, std::size_t edges, std::size_t paths) {
          std::to_string(paths) + " paths";
 }
 
+// Unmerged submissions a download of `revision` reflects retire; the others' content stays.
+struct Retirement {
+  std::vector<UnmergedSubmission> still_unmerged;
+  ElementIds keep;  // their content
+  std::size_t failed_elements = 0;
+};
+
+Retirement Retire(const SyncState& state, std::int64_t revision) {
+  Retirement retirement;
+  for (const UnmergedSubmission& unmerged : state.unmerged) {
+    if (unmerged.merged_revision && *unmerged.merged_revision <= revision) continue;
+    if (unmerged.failed) retirement.failed_elements += unmerged.content.size();
+    retirement.still_unmerged.push_back(unmerged);
+    ElementIds& keep = retirement.keep;
+    keep.nodes.insert(unmerged.content.nodes.begin(), unmerged.content.nodes.end());
+    keep.edges.insert(unmerged.content.edges.begin(), unmerged.content.edges.end());
+    keep.paths.insert(unmerged.content.paths.begin(), unmerged.content.paths.end());
+  }
+  return retirement;
+}
+
 }  // namespace
 
 bool ElementIds::Contains(const ElementIds& other) const {
@@ -360,6 +381,29 @@ void LocalMap::Discard(const Uuid& submission) {
   SaveState();
 }
 
+void LocalMap::CommitNewMap(SyncState next_state) {
+  const fs::path new_map = dir_ / kNewMapFile;
+  if (HasLiveLog(new_map)) {  // closing the only connection should have checkpointed it
+    RemoveDatabaseFiles(new_map);
+    throw Error(ErrorCode::kBackend, new_map.string() + "-wal was not checkpointed on close");
+  }
+  SyncToDisk(new_map);
+  if (HasLiveLog(map_path())) {
+    RemoveDatabaseFiles(new_map);
+    throw Error(ErrorCode::kConflict, map_path().string() +
+                                          " is open in another process (its write-ahead log "
+                                          "is live); stop the map builder before a sync");
+  }
+  // Commit: the state that goes with the new map, then the map, then the state.
+  const fs::path next_state_path = dir_ / kNextStateFile;
+  WriteFileAtomically(next_state_path, SyncStateToJson(next_state));
+  Rename(new_map, map_path());
+  SyncToDisk(dir_);
+  Rename(next_state_path, dir_ / kStateFile);
+  SyncToDisk(dir_);
+  state_ = std::move(next_state);
+}
+
 InstallReport LocalMap::Install(const MapDownload& download) {
   RequireWritable("install");
   const bool incremental = download.base_revision != 0;
@@ -388,18 +432,10 @@ InstallReport LocalMap::Install(const MapDownload& download) {
     }
   };
 
-  // Unmerged submissions this download reflects retire; the others' content stays.
-  std::vector<UnmergedSubmission> still_unmerged;
-  ElementIds keep_unmerged;
-  std::size_t failed_elements = 0;
-  for (const UnmergedSubmission& unmerged : state_.unmerged) {
-    if (unmerged.merged_revision && *unmerged.merged_revision <= download.revision) continue;
-    if (unmerged.failed) failed_elements += unmerged.content.size();
-    still_unmerged.push_back(unmerged);
-    keep_unmerged.nodes.insert(unmerged.content.nodes.begin(), unmerged.content.nodes.end());
-    keep_unmerged.edges.insert(unmerged.content.edges.begin(), unmerged.content.edges.end());
-    keep_unmerged.paths.insert(unmerged.content.paths.begin(), unmerged.content.paths.end());
-  }
+  Retirement retirement = Retire(state_, download.revision);
+  std::vector<UnmergedSubmission>& still_unmerged = retirement.still_unmerged;
+  const ElementIds& keep_unmerged = retirement.keep;
+  const std::size_t failed_elements = retirement.failed_elements;
 
   InstallReport report;
   report.revision = download.revision;
@@ -492,18 +528,6 @@ InstallReport LocalMap::Install(const MapDownload& download) {
     }
     throw;
   }
-  if (HasLiveLog(new_map)) {  // closing the only connection should have checkpointed it
-    RemoveDatabaseFiles(new_map);
-    throw Error(ErrorCode::kBackend, new_map.string() + "-wal was not checkpointed on close");
-  }
-  SyncToDisk(new_map);
-  if (HasLiveLog(map_path())) {
-    RemoveDatabaseFiles(new_map);
-    throw Error(ErrorCode::kConflict, map_path().string() +
-                                          " is open in another process (its write-ahead log "
-                                          "is live); stop the map builder before a sync");
-  }
-
   // What the server has that the new map holds: the selection, and known elements kept
   // outside it (unmerged content and what kept content references).
   SyncState next_state = state_;
@@ -525,19 +549,226 @@ InstallReport LocalMap::Install(const MapDownload& download) {
   for (const auto& [id, path] : next.paths) {
     if (known_outside_selection(id, 2)) next_state.pushed.paths.insert(id);
   }
-
-  // Commit: the state that goes with the new map, then the map, then the state.
-  const fs::path next_state_path = dir_ / kNextStateFile;
-  WriteFileAtomically(next_state_path, SyncStateToJson(next_state));
-  Rename(new_map, map_path());
-  SyncToDisk(dir_);
-  Rename(next_state_path, dir_ / kStateFile);
-  SyncToDisk(dir_);
-  state_ = std::move(next_state);
+  CommitNewMap(std::move(next_state));
 
   report.nodes = selection.nodes.size();
   report.edges = selection.edges.size();
   report.paths = selection.paths.size();
+  return report;
+}
+
+// ---- Streamed install ----
+
+struct MapInstallation::State {
+  LocalMap* map = nullptr;
+  MapDownload download;  // what it is; no content
+  fs::path new_map;
+  std::unique_ptr<GraphStore> store;
+  std::optional<GraphStore::Transaction> transaction;
+  ElementIds selection;  // ids written so far
+  bool committed = false;
+};
+
+std::unique_ptr<MapInstallation> LocalMap::BeginInstall(const MapDownload& download) {
+  RequireWritable("install");
+  if (download.base_revision != 0) {
+    throw Error(ErrorCode::kInvalidArgument, "a streamed install takes a full download; revision " +
+                                                 std::to_string(download.revision) +
+                                                 " is changes since revision " +
+                                                 std::to_string(download.base_revision));
+  }
+  auto state = std::make_unique<MapInstallation::State>();
+  state->map = this;
+  state->download.revision = download.revision;
+  state->download.request = download.request;
+  state->download.nodes = download.nodes;
+  state->download.edges = download.edges;
+  state->download.paths = download.paths;
+  state->new_map = dir_ / kNewMapFile;
+  RemoveDatabaseFiles(state->new_map);
+  try {
+    StoreOptions options;
+    // Scratch: map.db.new is not the robot's map until the renames, and is fsynced whole
+    // before them; a crash before leaves a file Open deletes. Without the write-ahead log
+    // every page is written once, not twice.
+    options.durability = Durability::kScratch;
+    state->store = GraphStore::Open("sqlite:" + state->new_map.string(), options);
+    // One transaction for the whole map: SQLite's cost per commit, paid once.
+    state->transaction.emplace(state->store->Begin());
+  } catch (...) {
+    state->store.reset();
+    RemoveDatabaseFiles(state->new_map);
+    throw;
+  }
+  return std::unique_ptr<MapInstallation>(new MapInstallation(std::move(state)));
+}
+
+MapInstallation::MapInstallation(std::unique_ptr<State> state) : state_(std::move(state)) {}
+
+MapInstallation::~MapInstallation() {
+  if (state_->committed) return;
+  // Rolled back, closed, deleted: nothing of this download stays.
+  state_->transaction.reset();
+  state_->store.reset();
+  RemoveDatabaseFiles(state_->new_map);
+}
+
+std::size_t MapInstallation::nodes() const {
+  return state_->selection.nodes.size();
+}
+std::size_t MapInstallation::edges() const {
+  return state_->selection.edges.size();
+}
+std::size_t MapInstallation::paths() const {
+  return state_->selection.paths.size();
+}
+
+void MapInstallation::Add(const GraphBatch& part) {
+  State& s = *state_;
+  try {
+    s.store->Put(part);
+  } catch (const Error& e) {
+    if (e.code() == ErrorCode::kIntegrity || e.code() == ErrorCode::kConflict ||
+        e.code() == ErrorCode::kInvalidArgument) {
+      throw Error(ErrorCode::kCorrupt, "download of revision " +
+                                           std::to_string(s.download.revision) +
+                                           " is not an integral map: " + e.message());
+    }
+    throw;
+  }
+  for (const Path& path : part.paths) s.selection.paths.insert(path.id);
+  for (const Node& node : part.nodes) s.selection.nodes.insert(node.id);
+  for (const Edge& edge : part.edges) s.selection.edges.insert(edge.id);
+}
+
+InstallReport MapInstallation::Commit() {
+  State& s = *state_;
+  LocalMap& map = *s.map;
+  const MapDownload& download = s.download;
+  const SyncState& state = map.state_;
+  const ElementIds& selection = s.selection;
+  if (selection.nodes.size() != download.nodes || selection.edges.size() != download.edges ||
+      selection.paths.size() != download.paths) {
+    throw Error(ErrorCode::kCorrupt,
+                "full download of revision " + std::to_string(download.revision) + " gives " +
+                    Counts(selection.nodes.size(), selection.edges.size(), selection.paths.size()) +
+                    ", its header says " + Counts(download.nodes, download.edges, download.paths) +
+                    "; " + map.map_path().string() + " left as it was");
+  }
+  Retirement retirement = Retire(state, download.revision);
+
+  InstallReport report;
+  report.revision = download.revision;
+  report.nodes = selection.nodes.size();
+  report.edges = selection.edges.size();
+  report.paths = selection.paths.size();
+
+  // Local content the server does not have yet, and pushed content not merged yet, stays with
+  // whatever it references (as Install): read from map.db, which is mostly the last download
+  // and is not read whole.
+  auto unsynced = [&](const Uuid& id, int kind) {
+    return !InAny(state.installed, state.pushed, id, kind);
+  };
+  auto unmerged = [&](const Uuid& id, int kind) {
+    return OfKind(retirement.keep, kind).contains(id);
+  };
+  GraphBatch kept = ReadElements(map.map_uri(), [&](const Uuid& id, int kind) {
+    return !OfKind(selection, kind).contains(id) && (unsynced(id, kind) || unmerged(id, kind));
+  });
+  for (int kind = 0; kind < 3; ++kind) {
+    const auto count = [&](const auto& elements) {
+      for (const auto& element : elements) {
+        if (unsynced(element.id, kind)) {
+          ++report.kept_unsynced;
+        } else {
+          ++report.kept_unmerged;
+        }
+      }
+    };
+    if (kind == 0) count(kept.nodes);
+    if (kind == 1) count(kept.edges);
+    if (kind == 2) count(kept.paths);
+  }
+  report.kept_failed = std::min(retirement.failed_elements, report.kept_unmerged);
+  {
+    const std::unique_ptr<GraphStore> current = GraphStore::Open(map.map_uri());
+    std::set<Uuid> kept_nodes;
+    std::set<Uuid> kept_paths;
+    for (const Node& node : kept.nodes) kept_nodes.insert(node.id);
+    for (const Path& path : kept.paths) kept_paths.insert(path.id);
+    std::vector<Node> extra_nodes;
+    std::vector<Path> extra_paths;
+    std::optional<std::vector<Path>> current_paths;  // read when a kept edge needs one
+    for (const Edge& edge : kept.edges) {
+      for (const Uuid& end : {edge.from, edge.to}) {
+        if (selection.nodes.contains(end) || kept_nodes.contains(end)) continue;
+        if (std::optional<Node> node = current->FindNode(end)) {
+          extra_nodes.push_back(std::move(*node));
+          kept_nodes.insert(end);
+          ++report.kept_for_unsynced;
+        }
+      }
+      if (!edge.path.IsNil() && !selection.paths.contains(edge.path) &&
+          !kept_paths.contains(edge.path)) {
+        if (!current_paths) current_paths = current->ListPaths({});
+        for (const Path& path : *current_paths) {
+          if (path.id == edge.path) {
+            extra_paths.push_back(path);
+            kept_paths.insert(path.id);
+            ++report.kept_for_unsynced;
+          }
+        }
+      }
+    }
+    for (Node& node : extra_nodes) kept.nodes.push_back(std::move(node));
+    for (Path& path : extra_paths) kept.paths.push_back(std::move(path));
+  }
+
+  const fs::path& new_map = s.new_map;
+  try {
+    if (!kept.nodes.empty() || !kept.edges.empty() || !kept.paths.empty()) s.store->Put(kept);
+    const StoreStats stats = s.store->Stats();
+    const std::size_t nodes = selection.nodes.size() + kept.nodes.size();
+    const std::size_t edges = selection.edges.size() + kept.edges.size();
+    const std::size_t paths = selection.paths.size() + kept.paths.size();
+    if (static_cast<std::size_t>(stats.nodes) != nodes ||
+        static_cast<std::size_t>(stats.edges) != edges ||
+        static_cast<std::size_t>(stats.paths) != paths) {
+      throw Error(ErrorCode::kCorrupt, new_map.string() + " holds " +
+                                           Counts(stats.nodes, stats.edges, stats.paths) +
+                                           " after writing " + Counts(nodes, edges, paths));
+    }
+    s.transaction->Commit();
+    s.transaction.reset();
+    s.store.reset();  // closes: the write-ahead log goes into the file
+  } catch (const Error& e) {
+    if (e.code() == ErrorCode::kIntegrity) {
+      throw Error(ErrorCode::kCorrupt, "download of revision " + std::to_string(download.revision) +
+                                           " is not an integral map: " + e.message());
+    }
+    throw;
+  }
+
+  SyncState next_state = state;
+  next_state.revision = download.revision;
+  next_state.request = download.request;
+  next_state.installed = selection;
+  next_state.pushed = {};
+  next_state.unmerged = std::move(retirement.still_unmerged);
+  auto known = [&](const Uuid& id, int kind) {
+    return InAny(state.installed, state.pushed, id, kind);
+  };
+  for (const Node& node : kept.nodes) {
+    if (known(node.id, 0)) next_state.pushed.nodes.insert(node.id);
+  }
+  for (const Edge& edge : kept.edges) {
+    if (known(edge.id, 1)) next_state.pushed.edges.insert(edge.id);
+  }
+  for (const Path& path : kept.paths) {
+    if (known(path.id, 2)) next_state.pushed.paths.insert(path.id);
+  }
+  s.committed = true;  // from here CommitNewMap owns map.db.new (it removes it on failure)
+  map.CommitNewMap(std::move(next_state));
   return report;
 }
 

@@ -89,7 +89,7 @@ class SyncServer::Impl {
  public:
   explicit Impl(SyncServerOptions options)
       : options_(std::move(options)),
-        cache_(options_.download_cache_bytes),
+        cache_(options_.download_cache_bytes, options_.download_cache_entry_bytes),
         admission_(LimitsOf(options_)),
         acceptor_(asio::make_strand(ioc_)) {
     if (options_.io_threads < 1 || options_.store_threads < 1) {

@@ -1,5 +1,9 @@
 #include "sync_session.h"
 
+#ifdef __GLIBC__
+#include <malloc.h>
+#endif
+
 #include <spdlog/fmt/fmt.h>
 #include <spdlog/spdlog.h>
 
@@ -536,11 +540,15 @@ template <typename Stream>
 void SyncSession<Stream>::OnHello(const v1::Hello& hello) {
   hello_received_ = true;
   context_.admission.HelloReceived(admission_ticket_);  // it can no longer be evicted
-  if (hello.protocol_version() != kSyncProtocolVersion) {
+  if (hello.protocol_version() < kOldestSyncProtocolVersion ||
+      hello.protocol_version() > kSyncProtocolVersion) {
     return Fail(v1::ErrorFrame::UNSUPPORTED_VERSION,
                 "protocol version " + std::to_string(hello.protocol_version()) +
-                    ": this server speaks version " + std::to_string(kSyncProtocolVersion));
+                    ": this server speaks versions " + std::to_string(kOldestSyncProtocolVersion) +
+                    " to " + std::to_string(kSyncProtocolVersion));
   }
+  // An older robot is answered in its own version (sync.proto "Versions").
+  protocol_version_ = hello.protocol_version();
   if (hello.robot_id().size() != Uuid::kSize) {
     // The id's form, not whether it is registered: this says nothing a stranger may not know.
     return Fail(v1::ErrorFrame::INVALID, "hello: a robot id of " +
@@ -598,7 +606,7 @@ void SyncSession<Stream>::OnHello(const v1::Hello& hello) {
                      robot.ToString(), agent.empty() ? "agent unnamed" : agent);
         v1::SyncFrame frame;
         v1::Welcome& welcome = *frame.mutable_welcome();
-        welcome.set_protocol_version(kSyncProtocolVersion);
+        welcome.set_protocol_version(self->protocol_version_);
         welcome.set_head_revision(result.head);
         welcome.set_robot_name(self->robot_name_);
         welcome.set_max_frame_bytes(kMaxSyncFrameBytes);
@@ -833,44 +841,67 @@ void SyncSession<Stream>::OnDownloadRequest(const v1::DownloadRequest& request) 
   } catch (const Error& error) {
     return Fail(v1::ErrorFrame::INVALID, "download_request: " + error.message());
   }
+  // Either a whole download (from the cache, or encoded whole for a version 2 robot) or the
+  // plan of one to stream.
   struct Result {
     std::shared_ptr<const EncodedDownload> download;
+    std::shared_ptr<const DownloadPlan> plan;
+    std::string key;
     bool cached = false;
   };
   download_start_ = std::chrono::steady_clock::now();
   OnStore(
-      [request, &cache = context_.downloads](Repository& repository) {
+      [request, version = protocol_version_, &cache = context_.downloads](Repository& repository) {
         const RevisionNumber head = repository.Head();
-        const std::string key = DownloadCache::Key(head, request);
-        Result result{cache.Find(key), true};
-        if (!result.download) {
-          result.download = EncodeDownload(repository, request, head);
-          result.cached = false;
-          cache.Put(key, result.download);
+        Result result;
+        result.key = DownloadCache::Key(head, request, version);
+        DownloadCache::Entry kept = cache.Find(result.key);
+        result.cached = kept.encoded || kept.plan;
+        result.download = std::move(kept.encoded);
+        result.plan = std::move(kept.plan);
+        if (result.cached) return result;
+        if (version < 3) {
+          // Version 2 announces the totals in the header: it can only be sent encoded whole.
+          result.download = EncodeDownload(repository, request, head, version);
+          cache.Put(result.key, result.download);
+        } else {
+          result.plan = PlanDownload(repository, request, head);
         }
         return result;
       },
       [self = this->shared_from_this()](Result result) {
-        self->download_ = std::move(result.download);
-        self->download_cached_ = result.cached;
-        self->do_write_download(0);
+        if (result.download) {
+          self->download_ = std::move(result.download);
+          self->download_cached_ = result.cached;
+          return self->do_write_download(0);
+        }
+        self->StartStreaming(std::move(result.plan), std::move(result.key), result.cached);
       });
+}
+
+template <typename Stream>
+void SyncSession<Stream>::LogDownload(const DownloadReport& report,
+                                      const v1::DownloadHeader& header, std::uint32_t chunks,
+                                      std::uint64_t frame_bytes, const char* how) {
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - download_start_).count();
+  spdlog::info(
+      "download to {}: policy {}, revision {} (base {}), {} nodes, {} chunks, {} bytes in "
+      "{:.3f} s ({:.1f} MB/s){}",
+      Who(), report.policy, header.revision(), header.base_revision(), header.nodes(), chunks,
+      frame_bytes, seconds, seconds > 0 ? static_cast<double>(frame_bytes) / 1e6 / seconds : 0.0,
+      how);
+  context_.activity.DownloadSent(robot_);
 }
 
 template <typename Stream>
 void SyncSession<Stream>::do_write_download(std::size_t index) {
   if (index == download_->frames.size()) {
-    const double seconds =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - download_start_).count();
-    const v1::DownloadHeader& h = download_->header;
-    spdlog::info(
-        "download to {}: policy {}, revision {} (base {}), {} nodes, {} chunks, {} bytes in "
-        "{:.3f} s ({:.1f} MB/s){}",
-        Who(), download_->report.policy, h.revision(), h.base_revision(), h.nodes(),
-        h.chunk_count(), download_->frame_bytes, seconds,
-        seconds > 0 ? static_cast<double>(download_->frame_bytes) / 1e6 / seconds : 0.0,
-        download_cached_ ? ", from memory" : "");
-    context_.activity.DownloadSent(robot_);
+    LogDownload(download_->report, download_->header, download_->end.chunk_count(),
+                download_->frame_bytes,
+                download_cached_                  ? ", from memory"
+                : download_->protocol_version < 3 ? ", encoded whole (protocol version 2)"
+                                                  : "");
     download_.reset();
     return do_read_prefix();
   }
@@ -891,6 +922,170 @@ void SyncSession<Stream>::do_write_download(std::size_t index) {
         }
         self->do_write_download(index + 1);
       });
+}
+
+// ---- Streamed downloads (protocol version 3) ----
+//
+// Two batches at most are alive: the one being written and the next, being read and encoded on
+// a store worker meanwhile. The read after that starts only when the write ends (back-pressure:
+// a slow robot slows the reads, it does not pile batches up in memory).
+
+template <typename Stream>
+void SyncSession<Stream>::StartStreaming(std::shared_ptr<const DownloadPlan> plan, std::string key,
+                                         bool plan_cached) {
+  streaming_.emplace();
+  Streaming& s = *streaming_;
+  s.encoder =
+      std::make_shared<DownloadEncoder>(std::move(plan), context_.options.download_batch_bytes);
+  s.cache_key = std::move(key);
+  // Frames are kept for the cache only when the download looks small enough for it (node count
+  // times the map's mean node), so a big map never piles up frames it will drop; a guess too
+  // low is caught in on_stream_write.
+  const DownloadPlan& p = s.encoder->plan();
+  const std::uint64_t estimate =
+      p.nodes.size() * static_cast<std::uint64_t>(std::max<std::int64_t>(p.mean_node_bytes, 0)) +
+      (p.edges.size() + p.paths.size()) * 128;
+  s.keep_all = estimate <= context_.options.download_cache_entry_bytes;
+  s.plan_cached = plan_cached;
+  // A big download is not kept encoded; its plan is, so that asked again it streams at once,
+  // without a second selection (and its memory on top of the store's page caches).
+  if (!s.keep_all && !plan_cached)
+    context_.downloads.PutPlan(s.cache_key, s.encoder->shared_plan());
+  s.ready.emplace();
+  s.ready->push_back(HeaderFrame(s.encoder->plan().header));
+  PumpStream();
+}
+
+template <typename Stream>
+void SyncSession<Stream>::PumpStream() {
+  Streaming& s = *streaming_;
+  if (s.writing) return;  // on_stream_write pumps again
+  if (s.failed) {
+    // Only now, with no write in flight: the ErrorFrame must not land inside a chunk.
+    const auto [code, text] = *s.failed;
+    streaming_.reset();
+    return FailStore(code, text);
+  }
+  if (s.ready) {
+    std::vector<std::string> frames = std::move(*s.ready);
+    s.ready.reset();
+    if (!s.reading && !s.read_all && !s.end_sent) ReadStreamBatch();
+    return WriteStreamBatch(std::move(frames));
+  }
+  if (s.reading) return;  // the next batch is on its way
+  if (!s.read_all) return ReadStreamBatch();
+  if (!s.end_sent) {
+    s.end_sent = true;
+    std::vector<std::string> end;
+    end.push_back(EndFrame(s.encoder->End()));
+    return WriteStreamBatch(std::move(end));
+  }
+  FinishStreaming();
+}
+
+template <typename Stream>
+void SyncSession<Stream>::ReadStreamBatch() {
+  Streaming& s = *streaming_;
+  s.reading = true;
+  context_.store.Post(
+      [self = this->shared_from_this(), encoder = s.encoder](Repository& repository) {
+        std::vector<std::string> batch;
+        std::optional<std::pair<ErrorCode, std::string>> error;
+        try {
+          batch = encoder->NextBatch(repository);
+        } catch (const Error& e) {
+          error.emplace(e.code(), e.message());
+        } catch (const std::exception& e) {
+          error.emplace(ErrorCode::kBackend, e.what());
+        }
+        asio::post(self->executor_,
+                   [self, batch = std::move(batch), error = std::move(error)]() mutable {
+                     if (!self->streaming_) return;
+                     Streaming& stream = *self->streaming_;
+                     stream.reading = false;
+                     if (error) {
+                       stream.failed = std::move(error);
+                     } else if (batch.empty()) {
+                       stream.read_all = true;
+                     } else {
+                       stream.ready = std::move(batch);
+                     }
+                     self->PumpStream();
+                   });
+      });
+}
+
+template <typename Stream>
+void SyncSession<Stream>::WriteStreamBatch(std::vector<std::string> frames) {
+  Streaming& s = *streaming_;
+  s.writing = true;
+  s.frames = std::move(frames);
+  std::vector<asio::const_buffer> buffers;
+  buffers.reserve(s.frames.size());
+  for (const std::string& frame : s.frames) buffers.push_back(asio::buffer(frame));
+  Arm(context_.options.io_deadline);
+  asio::async_write(
+      stream_, buffers,
+      [self = this->shared_from_this()](boost::system::error_code ec, std::size_t bytes) {
+        self->on_stream_write(ec, bytes);
+      });
+}
+
+template <typename Stream>
+void SyncSession<Stream>::on_stream_write(const boost::system::error_code& ec, std::size_t bytes) {
+  Disarm();
+  context_.activity.BytesSent(bytes);
+  Streaming& s = *streaming_;
+  s.writing = false;
+  if (ec) {
+    close_reason_ = timed_out_ ? "the robot did not take a download frame within " +
+                                     Seconds(context_.options.io_deadline)
+                               : "download write failed: " + ec.message();
+    spdlog::warn("session {}: {}", Who(), close_reason_);
+    streaming_.reset();  // a read in flight finds no stream and drops its batch
+    return CloseSocket();
+  }
+  s.frame_bytes += bytes;
+  // Kept for the cache while the download stays small; a big one is sent and forgotten.
+  if (s.keep_all && s.frame_bytes <= context_.options.download_cache_entry_bytes) {
+    for (std::string& frame : s.frames) s.kept.push_back(std::move(frame));
+  } else {
+    s.keep_all = false;
+    s.kept.clear();
+    s.kept.shrink_to_fit();
+  }
+  s.frames.clear();
+  PumpStream();
+}
+
+template <typename Stream>
+void SyncSession<Stream>::FinishStreaming() {
+  Streaming& s = *streaming_;
+  DownloadReport report = s.encoder->plan().report;
+  report.bytes += s.encoder->landmark_bytes();
+  const v1::DownloadEnd end = s.encoder->End();
+  LogDownload(report, s.encoder->plan().header, end.chunk_count(), s.frame_bytes,
+              s.plan_cached ? ", selection from memory" : "");
+  if (s.keep_all) {
+    auto encoded = std::make_shared<EncodedDownload>();
+    encoded->protocol_version = protocol_version_;
+    encoded->header = s.encoder->plan().header;
+    encoded->end = end;
+    encoded->report = std::move(report);
+    encoded->frames = std::move(s.kept);
+    encoded->frame_bytes = s.frame_bytes;
+    context_.downloads.Put(s.cache_key, std::move(encoded));
+  }
+  const bool big = !s.keep_all;
+  streaming_.reset();
+#ifdef __GLIBC__
+  // A big download's batches were allocated on the store workers and freed here, in whichever
+  // malloc arenas those threads had at the time: each arena keeps the pages of its own peak,
+  // and over many downloads a few arenas each hold a batch's worth. Handing the free pages
+  // back keeps the server's footprint at one download's, not at the sum of the arenas' peaks.
+  if (big) malloc_trim(0);
+#endif
+  do_read_prefix();
 }
 
 template class SyncSession<tcp::socket>;

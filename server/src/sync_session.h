@@ -26,6 +26,8 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "connection_admission.h"
 #include "download_cache.h"
@@ -33,6 +35,7 @@
 #include "fleetmap/core/uuid.h"
 #include "fleetmap/server/sync_server.h"
 #include "fleetmap/sync.pb.h"
+#include "fleetmap/wire/sync_frame.h"
 #include "merge_queue.h"
 #include "server_activity.h"
 #include "session_tracker.h"
@@ -94,6 +97,16 @@ class SyncSession : public SessionControl,
   void do_write(std::shared_ptr<const std::string> frame, std::function<void()> next);
   void on_write(const boost::system::error_code& ec, std::size_t bytes);
   void do_write_download(std::size_t index);
+  // A streamed download (protocol version 3; see the .cc).
+  void StartStreaming(std::shared_ptr<const DownloadPlan> plan, std::string key, bool plan_cached);
+  void PumpStream();
+  void ReadStreamBatch();
+  void WriteStreamBatch(std::vector<std::string> frames);
+  void on_stream_write(const boost::system::error_code& ec, std::size_t bytes);
+  void FinishStreaming();
+  // The per-download log line and metric.
+  void LogDownload(const DownloadReport& report, const v1::DownloadHeader& header,
+                   std::uint32_t chunks, std::uint64_t frame_bytes, const char* how);
   void do_close();
   void CloseSocket();
   void do_drain();
@@ -163,7 +176,26 @@ class SyncSession : public SessionControl,
   std::size_t body_length_ = 0;  // announced
   std::shared_ptr<const std::string> out_;
   std::function<void()> after_write_;
+  std::uint32_t protocol_version_ = kSyncProtocolVersion;  // the hello's, once accepted
   std::shared_ptr<const EncodedDownload> download_;
+  // A download being streamed: touched on the strand only (the encoder on a store worker, one
+  // batch at a time, handed over through the job queue and the strand).
+  struct Streaming {
+    std::shared_ptr<DownloadEncoder> encoder;
+    std::string cache_key;
+    std::vector<std::string> frames;                // being written
+    std::optional<std::vector<std::string>> ready;  // read, waiting for the write to end
+    bool writing = false;
+    bool reading = false;   // a batch is being read on a store worker
+    bool read_all = false;  // the encoder is done
+    bool end_sent = false;  // DownloadEnd is written or being written
+    std::optional<std::pair<ErrorCode, std::string>> failed;  // a read failed: say so, close
+    std::uint64_t frame_bytes = 0;                            // written so far
+    bool keep_all = true;           // small so far: the frames are kept for the cache
+    bool plan_cached = false;       // the plan came from the cache
+    std::vector<std::string> kept;  // written frames, while keep_all
+  };
+  std::optional<Streaming> streaming_;
   std::chrono::steady_clock::time_point download_start_;
   bool download_cached_ = false;
   std::array<char, 16 * 1024> drain_buffer_{};

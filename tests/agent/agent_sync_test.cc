@@ -27,6 +27,7 @@
 #include "fleetmap/server/repository.h"
 #include "fleetmap/server/robot_registry.h"
 #include "fleetmap/store/graph_store.h"
+#include "fleetmap/wire/sync_frame.h"
 #include "scratch_dir.h"
 
 namespace fleetmap {
@@ -127,6 +128,108 @@ class CuttingRelay {
   std::uint16_t port_ = 0;
   std::atomic<bool> stop_{false};
   std::atomic<int> connections_{0};
+  std::thread thread_;
+};
+
+// A TCP relay on 127.0.0.1 to `upstream_port` that reads the server's frames and spoils the
+// download's end on every connection: kWrongDigest flips a bit of DownloadEnd's digest (the
+// chunks pass untouched); kCutBeforeEnd passes every chunk, then closes both sides instead of
+// forwarding DownloadEnd (a stream truncated after its last chunk, the most a robot could
+// mistake for whole). Everything else passes as it is.
+class SpoilingRelay {
+ public:
+  enum class Mode { kWrongDigest, kCutBeforeEnd };
+
+  SpoilingRelay(std::uint16_t upstream_port, Mode mode)
+      : upstream_port_(upstream_port), mode_(mode) {
+    listen_fd_ = ::socket(AF_INET, SOCK_STREAM, 0);
+    sockaddr_in address = Loopback(0);
+    socklen_t size = sizeof address;
+    EXPECT_EQ(::bind(listen_fd_, reinterpret_cast<sockaddr*>(&address), size), 0);
+    EXPECT_EQ(::listen(listen_fd_, 4), 0);
+    EXPECT_EQ(::getsockname(listen_fd_, reinterpret_cast<sockaddr*>(&address), &size), 0);
+    port_ = ntohs(address.sin_port);
+    thread_ = std::thread([this] { Serve(); });
+  }
+  ~SpoilingRelay() {
+    stop_ = true;
+    thread_.join();
+    ::close(listen_fd_);
+  }
+  std::uint16_t port() const { return port_; }
+  int spoiled() const { return spoiled_; }  // downloads spoiled so far
+  int chunks() const { return chunks_; }    // download chunks passed so far
+
+ private:
+  static sockaddr_in Loopback(std::uint16_t port) {
+    sockaddr_in address{};
+    address.sin_family = AF_INET;
+    address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    address.sin_port = htons(port);
+    return address;
+  }
+
+  static bool WriteAll(int fd, const std::string& bytes) {
+    std::size_t sent = 0;
+    while (sent < bytes.size()) {
+      const ssize_t n = ::write(fd, bytes.data() + sent, bytes.size() - sent);
+      if (n <= 0) return false;
+      sent += static_cast<std::size_t>(n);
+    }
+    return true;
+  }
+
+  void Serve() {
+    while (!stop_) {
+      pollfd listening{listen_fd_, POLLIN, 0};
+      if (::poll(&listening, 1, 100) <= 0) continue;
+      const int client = ::accept(listen_fd_, nullptr, nullptr);
+      if (client < 0) continue;
+      const int server = ::socket(AF_INET, SOCK_STREAM, 0);
+      sockaddr_in address = Loopback(upstream_port_);
+      if (::connect(server, reinterpret_cast<sockaddr*>(&address), sizeof address) == 0) {
+        Relay(client, server);
+      }
+      ::close(server);
+      ::close(client);
+    }
+  }
+
+  void Relay(int client, int server) {
+    SyncFrameDecoder from_server;
+    std::vector<char> buffer(256 * 1024);
+    while (!stop_) {
+      pollfd fds[2] = {{client, POLLIN, 0}, {server, POLLIN, 0}};
+      if (::poll(fds, 2, 100) <= 0) continue;
+      if (fds[0].revents & (POLLIN | POLLHUP | POLLERR)) {
+        const ssize_t n = ::read(client, buffer.data(), buffer.size());
+        if (n <= 0) return;
+        if (!WriteAll(server, std::string(buffer.data(), static_cast<std::size_t>(n)))) return;
+      }
+      if (fds[1].revents & (POLLIN | POLLHUP | POLLERR)) {
+        const ssize_t n = ::read(server, buffer.data(), buffer.size());
+        if (n <= 0) return;
+        from_server.Append(std::string_view(buffer.data(), static_cast<std::size_t>(n)));
+        while (std::optional<v1::SyncFrame> frame = from_server.Next()) {
+          if (frame->has_download_chunk()) ++chunks_;
+          if (frame->has_download_end()) {
+            ++spoiled_;
+            if (mode_ == Mode::kCutBeforeEnd) return;  // closes both sides
+            frame->mutable_download_end()->set_digest(frame->download_end().digest() ^ 1);
+          }
+          if (!WriteAll(client, EncodeSyncFrame(*frame))) return;
+        }
+      }
+    }
+  }
+
+  std::uint16_t upstream_port_;
+  Mode mode_;
+  int listen_fd_ = -1;
+  std::uint16_t port_ = 0;
+  std::atomic<bool> stop_{false};
+  std::atomic<int> spoiled_{0};
+  std::atomic<int> chunks_{0};
   std::thread thread_;
 };
 
@@ -509,6 +612,63 @@ TEST_F(AgentSyncTest, SyncsOverTlsVerifyingTheServer) {
   std::vector<std::string> insecure = SyncArgs(address_);
   insecure.push_back("--tls-insecure");
   EXPECT_EQ(RunAgent(insecure, token_).exit, 0);
+}
+
+// Streamed install (protocol version 3): a full download is written into map.db.new as it
+// arrives and made current only after DownloadEnd checks. A download whose end does not match
+// its chunks, or that stops before its end, leaves the installed map and its state exactly as
+// they were (and no map.db.new behind); the next good download installs normally.
+TEST_F(AgentSyncTest, ADownloadWithAWrongDigestOrCutBeforeItsEndLeavesTheMapAsItWas) {
+  StartServer();
+  WriteRobotMap(CorridorMap());
+  std::vector<std::string> args = SyncArgs(address_);
+  args.push_back("--wait-merge");
+  const AgentRun first = RunAgent(args, token_);
+  ASSERT_EQ(first.exit, 0) << Describe(first);
+  const fs::path map_path = map_dir_ / "map.db";
+  const GraphBatch before = GraphStore::Open("sqlite:" + map_path.string())->ReadMap();
+  ASSERT_GT(before.nodes.size(), 0u);
+  const std::string state_before = testing::ReadLog(map_dir_ / "sync.json");
+  ASSERT_FALSE(state_before.empty());
+
+  const std::uint16_t server_port =
+      static_cast<std::uint16_t>(std::stoi(address_.substr(address_.rfind(':') + 1)));
+  // Another mission start: other parameters than the installed download's, so a full one.
+  auto full_download_args = [&](const std::string& server) {
+    std::vector<std::string> a = SyncArgs(server);
+    for (const char* extra : {"--mission-start", "13:30", "--retry-for", "1"}) a.push_back(extra);
+    return a;
+  };
+  for (const SpoilingRelay::Mode mode :
+       {SpoilingRelay::Mode::kWrongDigest, SpoilingRelay::Mode::kCutBeforeEnd}) {
+    const bool wrong_digest = mode == SpoilingRelay::Mode::kWrongDigest;
+    SCOPED_TRACE(wrong_digest ? "wrong digest" : "cut before the end");
+    SpoilingRelay relay(server_port, mode);
+    const AgentRun spoiled =
+        RunAgent(full_download_args("127.0.0.1:" + std::to_string(relay.port())), token_);
+    EXPECT_NE(spoiled.exit, 0) << Describe(spoiled);
+    EXPECT_GE(relay.spoiled(), 1);
+    EXPECT_GE(relay.chunks(), 1);  // the chunks came, and were written into map.db.new
+    if (wrong_digest) {
+      EXPECT_TRUE(Contains(spoiled.err, "do not match")) << spoiled.err;
+    }
+    EXPECT_FALSE(fs::exists(map_dir_ / "map.db.new"));
+    EXPECT_FALSE(fs::exists(map_dir_ / "sync.json.next"));
+    EXPECT_EQ(testing::ReadLog(map_dir_ / "sync.json"), state_before);
+    const GraphBatch after = GraphStore::Open("sqlite:" + map_path.string())->ReadMap();
+    EXPECT_EQ(after.nodes, before.nodes);  // landmarks included
+    EXPECT_EQ(after.paths, before.paths);
+    ASSERT_EQ(after.edges.size(), before.edges.size());
+    for (std::size_t i = 0; i < after.edges.size(); ++i) {
+      EXPECT_TRUE(SameEdgeContent(after.edges[i], before.edges[i])) << i;
+    }
+  }
+
+  const AgentRun good = RunAgent(full_download_args(address_), token_);
+  ASSERT_EQ(good.exit, 0) << Describe(good);
+  EXPECT_EQ(good.result["incremental"], false);
+  EXPECT_EQ(LocalMapIds(), ServerHeadIds());
+  EXPECT_NE(testing::ReadLog(map_dir_ / "sync.json"), state_before);  // the new request
 }
 
 }  // namespace

@@ -1,12 +1,18 @@
 // Downloading a large map from a real fleetmapd over loopback (issue: ≥ 500 MB at ≥ 200 MB/s),
 // beside the ceiling of the same machine: the same bytes over a plain TCP socket on loopback.
 //
-// Setup, once: a SQLite central store holding a map of about 520 MB of landmarks (random, so
-// nothing compresses), a registered robot, and fleetmapd serving it. Then:
+// Setup, once: a SQLite central store holding a map of about 540 MB of landmarks (random, so
+// nothing compresses), a registered robot, and fleetmapd serving it (a child process). Then:
 //   SyncDownload/warm   a copy download streamed to a bare protocol client that reads every
-//                       frame and keeps none (what the link sustains once the server holds the
-//                       encoded selection; the first, cold download is reported as a counter);
-//   AgentPull           the same download by fleetmap-agent, installed into a fresh local map;
+//                       frame and keeps none. The first, cold download (selection, reads and
+//                       encoding from a freshly started server) is reported as counters:
+//                       cold_MBps, and the server's peak RSS (VmHWM of the fleetmapd process,
+//                       /proc/PID/status) at idle before it and its growth over idle after it
+//                       (server_growth_MB). A map this big is over the download cache's entry
+//                       cap, so warm downloads stream from the store again (its pages in the
+//                       OS cache);
+//   AgentPull           the same download by fleetmap-agent, installed into a fresh local map
+//                       (landmark_MBps: landmark bytes over the whole pull);
 //   RawLoopback         the same number of bytes written in 1 MiB pieces over one socket.
 // Run by hand: build/tests/benchmarks/sync_download_benchmark (about a minute of setup).
 #include <arpa/inet.h>
@@ -18,8 +24,12 @@
 
 #include <chrono>
 #include <cstdio>
+#include <fstream>
+#include <iterator>
 #include <memory>
+#include <sstream>
 #include <stdexcept>
+#include <string>
 #include <thread>
 
 #include "fleet_processes.h"
@@ -41,7 +51,38 @@ struct Fixture {
   std::int64_t landmark_bytes = 0;
   double cold_seconds = 0.0;
   std::uint64_t wire_bytes = 0;
+  std::int64_t idle_peak_rss = 0;  // VmHWM of fleetmapd before the first download
+  std::int64_t cold_peak_rss = 0;  // after it
+  double cold_cpu_seconds = 0.0;   // fleetmapd's CPU time (all threads) during it
 };
+
+// VmHWM of process `pid` (its peak resident memory so far), in bytes; 0 when unreadable.
+std::int64_t PeakRssBytes(int pid) {
+  std::ifstream status("/proc/" + std::to_string(pid) + "/status");
+  std::string line;
+  while (std::getline(status, line)) {
+    if (line.rfind("VmHWM:", 0) == 0) return std::stoll(line.substr(6)) * 1024;
+  }
+  return 0;
+}
+
+// CPU seconds process `pid` used so far (user + system, all threads); 0 when unreadable. On a
+// machine busy with other work wall time says little; MB per CPU second says what the server
+// itself costs.
+double CpuSeconds(int pid) {
+  std::ifstream stat("/proc/" + std::to_string(pid) + "/stat");
+  std::string text((std::istreambuf_iterator<char>(stat)), std::istreambuf_iterator<char>());
+  const std::size_t close = text.rfind(')');
+  if (close == std::string::npos) return 0.0;
+  std::istringstream fields(text.substr(close + 2));
+  std::string field;
+  double ticks = 0.0;
+  for (int i = 3; fields >> field; ++i) {  // field 3 is the state; 14 utime, 15 stime
+    if (i == 14 || i == 15) ticks += std::stod(field);
+    if (i == 15) break;
+  }
+  return ticks / static_cast<double>(sysconf(_SC_CLK_TCK));
+}
 
 // Made on first use, destroyed by main after the run: fleetmapd stops and the store goes.
 std::unique_ptr<Fixture> shared_fixture;
@@ -92,10 +133,15 @@ void SyncDownload(benchmark::State& state) {
     return;
   }
   if (f.wire_bytes == 0) {
+    const int pid = f.server.process->pid();
+    f.idle_peak_rss = PeakRssBytes(pid);
+    const double cpu_before = CpuSeconds(pid);
     const auto start = std::chrono::steady_clock::now();
-    f.wire_bytes = DownloadOnce(f);  // cold: selection, encoding, cache
+    f.wire_bytes = DownloadOnce(f);  // cold: selection, reads, encoding
     f.cold_seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    f.cold_peak_rss = PeakRssBytes(pid);
+    f.cold_cpu_seconds = CpuSeconds(pid) - cpu_before;
   }
   for (auto _ : state) benchmark::DoNotOptimize(DownloadOnce(f));
   state.SetBytesProcessed(static_cast<std::int64_t>(state.iterations() * f.wire_bytes));
@@ -103,6 +149,11 @@ void SyncDownload(benchmark::State& state) {
   state.counters["wire_MB"] = static_cast<double>(f.wire_bytes) / 1e6;
   state.counters["cold_s"] = f.cold_seconds;
   state.counters["cold_MBps"] = static_cast<double>(f.wire_bytes) / 1e6 / f.cold_seconds;
+  state.counters["cold_server_cpu_s"] = f.cold_cpu_seconds;
+  state.counters["server_idle_MB"] = static_cast<double>(f.idle_peak_rss) / 1e6;
+  state.counters["server_growth_MB"] = static_cast<double>(f.cold_peak_rss - f.idle_peak_rss) / 1e6;
+  state.counters["server_growth_after_warm_MB"] =
+      static_cast<double>(PeakRssBytes(f.server.process->pid()) - f.idle_peak_rss) / 1e6;
 }
 BENCHMARK(SyncDownload)
     ->Name("SyncDownload/warm")
@@ -115,7 +166,9 @@ BENCHMARK(SyncDownload)
 void AgentPull(benchmark::State& state) {
   Fixture& f = Shared();
   int run = 0;
+  double seconds = 0.0;
   for (auto _ : state) {
+    const auto start = std::chrono::steady_clock::now();
     TestRobot robot = f.robot;
     robot.map_dir = f.dir / ("pull-" + std::to_string(run++));
     std::filesystem::create_directories(robot.map_dir);
@@ -123,6 +176,7 @@ void AgentPull(benchmark::State& state) {
     std::unique_ptr<ChildProcess> agent = StartSync(robot, f.server.address, log, {"--quiet"});
     const SyncOutcome outcome = FinishSync(*agent, log, std::chrono::milliseconds(600'000));
     if (outcome.exit != 0) state.SkipWithError("the agent failed");
+    seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     state.counters["download_s"] = outcome.result.value("download_seconds", 0.0);
     state.counters["install_s"] = outcome.result.value("install_seconds", 0.0);
     state.PauseTiming();
@@ -130,6 +184,10 @@ void AgentPull(benchmark::State& state) {
     state.ResumeTiming();
   }
   state.SetBytesProcessed(static_cast<std::int64_t>(state.iterations() * f.wire_bytes));
+  state.counters["landmark_MBps"] = seconds > 0 ? static_cast<double>(f.landmark_bytes) *
+                                                      static_cast<double>(state.iterations()) /
+                                                      1e6 / seconds
+                                                : 0.0;
 }
 BENCHMARK(AgentPull)->Unit(benchmark::kMillisecond)->Iterations(2)->UseRealTime();
 

@@ -8,7 +8,9 @@
 #include <sqlite3.h>
 
 #include <chrono>
+#include <cstdio>
 #include <cstdlib>
+#include <fstream>
 #include <random>
 #include <set>
 #include <string>
@@ -122,11 +124,15 @@ std::optional<v1::SyncFrame> MergeStatus(RawSyncClient& client, const Uuid& id,
 
 struct Downloaded {
   v1::DownloadHeader header;
+  v1::DownloadEnd end;
   std::vector<std::string> chunks;
   GraphBatch map;
 };
 
-std::optional<Downloaded> DownloadCopy(RawSyncClient& client, std::int64_t base_revision = 0) {
+// A download in protocol version 3: chunks numbered from 0 until DownloadEnd, whose totals
+// must match them. In version 2 (`version` 2) the header announces the totals instead.
+std::optional<Downloaded> DownloadCopy(RawSyncClient& client, std::int64_t base_revision = 0,
+                                       std::uint32_t version = kSyncProtocolVersion) {
   v1::SyncFrame frame;
   frame.mutable_download_request()->set_policy("copy");
   frame.mutable_download_request()->set_base_revision(base_revision);
@@ -138,18 +144,28 @@ std::optional<Downloaded> DownloadCopy(RawSyncClient& client, std::int64_t base_
   }
   Downloaded result;
   result.header = reply->download_header();
-  for (std::uint32_t seq = 0; seq < result.header.chunk_count(); ++seq) {
+  for (std::uint32_t seq = 0;; ++seq) {
     reply = client.Receive();
+    if (reply && reply->has_download_end()) break;
     if (!reply || !reply->has_download_chunk() || reply->download_chunk().seq() != seq) {
       ADD_FAILURE() << "chunk " << seq << ": " << Describe(reply);
       return std::nullopt;
     }
     result.chunks.push_back(reply->download_chunk().data());
   }
-  reply = client.Receive();
-  if (!reply || !reply->has_download_end()) {
-    ADD_FAILURE() << "no download end: " << Describe(reply);
-    return std::nullopt;
+  result.end = reply->download_end();
+  std::uint64_t bytes = 0;
+  for (const std::string& chunk : result.chunks) bytes += chunk.size();
+  if (version >= 3) {
+    EXPECT_EQ(result.header.chunk_count(), 0u);  // version 3: the totals come at the end
+    EXPECT_EQ(result.end.chunk_count(), result.chunks.size());
+    EXPECT_EQ(result.end.total_bytes(), bytes);
+    EXPECT_EQ(result.end.digest(), DigestOfChunks(result.chunks));
+  } else {
+    EXPECT_EQ(result.header.chunk_count(), result.chunks.size());
+    EXPECT_EQ(result.header.total_bytes(), bytes);
+    EXPECT_EQ(result.header.digest(), DigestOfChunks(result.chunks));
+    EXPECT_EQ(result.end.ByteSizeLong(), 0u);  // version 2: an empty end
   }
   result.map = DecodeMapChunks(result.chunks);
   return result;
@@ -159,7 +175,7 @@ std::optional<Downloaded> DownloadCopy(RawSyncClient& client, std::int64_t base_
 void ExpectStillServes(RawSyncClient& client) {
   const std::optional<Downloaded> download = DownloadCopy(client);
   ASSERT_TRUE(download.has_value());
-  EXPECT_EQ(download->header.chunk_count(), download->chunks.size());
+  EXPECT_EQ(download->end.chunk_count(), download->chunks.size());
 }
 
 // Pushes `plan` whole in one session; returns PushAccepted.
@@ -295,7 +311,7 @@ TYPED_TEST(FleetmapdTest, PushMergeThenDownloadEqualsTheHead) {
   EXPECT_EQ(download->map.nodes.size(), head.nodes.size());
   EXPECT_EQ(NodeIds(download->map), NodeIds(head));
   EXPECT_EQ(download->map.edges.size(), head.edges.size());
-  EXPECT_EQ(DigestOfChunks(download->chunks), download->header.digest());
+  EXPECT_EQ(DigestOfChunks(download->chunks), download->end.digest());
 
   // Incremental from the head: nothing new, nothing removed.
   const std::optional<Downloaded> again = DownloadCopy(*client, 1);
@@ -407,9 +423,9 @@ TEST_F(FleetmapdSqliteTest, EachBadSessionGetsItsErrorWhileAGoodOneKeepsWorking)
     EXPECT_EQ(ErrorCodeOf(reply), v1::ErrorFrame::BAD_TOKEN) << Describe(reply);
   }
   ExpectStillServes(*good);
-  {  // an older protocol version
+  {  // a protocol version older than the oldest this server answers
     RawSyncClient bad(server.address);
-    const auto reply = bad.Hello(robot_, token_, kSyncProtocolVersion - 1);
+    const auto reply = bad.Hello(robot_, token_, kOldestSyncProtocolVersion - 1);
     EXPECT_EQ(ErrorCodeOf(reply), v1::ErrorFrame::UNSUPPORTED_VERSION) << Describe(reply);
   }
   ExpectStillServes(*good);
@@ -811,6 +827,109 @@ TEST_F(FleetmapdSqliteTest, AStoreThatCannotRecordTheLastSyncStillLetsTheRobotIn
   client.reset();
   server.Stop();
   EXPECT_EQ(RobotRegistry(Repository::Open(uri_)->versions()).List()[0].last_sync_ns, 0);
+}
+
+// ---- Streamed downloads (protocol version 3) ----
+
+// The map as revision 0 (outside version control, as a depot's imported map), in batches of
+// 2,000 nodes of `landmarks` each (200: about 9.3 KB of landmarks a node); its landmark bytes.
+std::int64_t PutRandomMap(const std::string& uri, const Uuid& robot, int nodes, int landmarks) {
+  const std::unique_ptr<GraphStore> store = GraphStore::Open(uri);
+  for (int from = 0; from < nodes; from += 2000) {
+    store->Put(RandomRobotMap(robot, std::min(2000, nodes - from), 500 + from, landmarks));
+  }
+  return store->Stats().landmark_bytes;
+}
+
+// The peak resident memory of process `pid` so far (VmHWM), in bytes; -1 when unreadable.
+std::int64_t PeakRssBytes(int pid) {
+  std::ifstream status("/proc/" + std::to_string(pid) + "/status");
+  std::string line;
+  while (std::getline(status, line)) {
+    if (line.rfind("VmHWM:", 0) == 0) return std::stoll(line.substr(6)) * 1024;
+  }
+  return -1;
+}
+
+// A robot that still speaks version 2 (a fleet upgrades gradually) is answered in version 2:
+// its Welcome says 2, its download has the totals in the header and an empty end, and it holds
+// what a version 3 robot gets. Small downloads are kept in memory per version.
+TEST_F(FleetmapdSqliteTest, AVersion2RobotIsAnsweredInVersion2WithTheTotalsInTheHeader) {
+  PutRandomMap(uri_, robot_, 300, 40);  // a few chunks
+  Fleetmapd server = Start();
+  ASSERT_FALSE(server.address.empty());
+  auto current = Connect(server);
+  const std::optional<Downloaded> streamed = DownloadCopy(*current);
+  ASSERT_TRUE(streamed.has_value());
+  EXPECT_GT(streamed->chunks.size(), 1u);
+
+  RawSyncClient old(server.address);
+  const std::optional<v1::SyncFrame> welcome = old.Hello(robot_, token_, 2);
+  ASSERT_TRUE(welcome && welcome->has_welcome()) << Describe(welcome) << server.Log();
+  EXPECT_EQ(welcome->welcome().protocol_version(), 2u);
+  const std::optional<Downloaded> whole = DownloadCopy(old, 0, 2);
+  ASSERT_TRUE(whole.has_value());
+  EXPECT_EQ(whole->chunks, streamed->chunks);
+  EXPECT_EQ(whole->header.digest(), streamed->end.digest());
+  EXPECT_EQ(NodeIds(whole->map), NodeIds(streamed->map));
+  EXPECT_EQ(whole->header.nodes(), 300u);
+  EXPECT_TRUE(server.LogContains("encoded whole (protocol version 2)")) << server.Log();
+
+  // Asked again in either version: from memory (it is small), in that version's frames.
+  ASSERT_TRUE(DownloadCopy(old, 0, 2).has_value());
+  const std::optional<Downloaded> again = DownloadCopy(*current);
+  ASSERT_TRUE(again.has_value());
+  EXPECT_EQ(again->chunks, streamed->chunks);
+  EXPECT_TRUE(server.LogContains("from memory")) << server.Log();
+}
+
+// The server streams a download as it reads it: its peak memory grows by a few batches (4 MB
+// each), the selection's bare elements and the SQLite page cache of each store connection that
+// reads (32 MiB each, two workers), not by the map: about 110-145 MB here, whatever the map's
+// size. Before streaming a cold copy download held the selection with its landmarks, then its
+// chunks, then its frames: growth of 2-3 times the map. The map here (about 350 MB) is some 80
+// batches; the bound is half of it. The cache keeps only the selection of a download this big.
+TEST_F(FleetmapdSqliteTest, AStreamedDownloadGrowsTheServerByAFewBatchesNotByTheMap) {
+  const std::int64_t map_bytes = PutRandomMap(uri_, robot_, 40'000, 200);
+  ASSERT_GT(map_bytes, 340'000'000);
+  Fleetmapd server = Start();
+  ASSERT_FALSE(server.address.empty());
+  auto client = Connect(server);
+  const int pid = server.process->pid();
+  const std::int64_t idle = PeakRssBytes(pid);
+  ASSERT_GT(idle, 0);
+
+  for (int round = 0; round < 2; ++round) {  // the second: not cached, streamed again
+    v1::SyncFrame request;
+    request.mutable_download_request()->set_policy("copy");
+    ASSERT_TRUE(client->Send(request));
+    std::optional<v1::SyncFrame> frame = client->Receive();
+    ASSERT_TRUE(frame && frame->has_download_header()) << Describe(frame);
+    EXPECT_EQ(frame->download_header().nodes(), 40'000u);
+    MapContentDigest digest;
+    std::uint32_t chunks = 0;
+    for (frame = client->Receive(); frame && frame->has_download_chunk();
+         frame = client->Receive()) {
+      EXPECT_EQ(frame->download_chunk().seq(), chunks);
+      digest.Add(frame->download_chunk().data());
+      ++chunks;
+    }
+    ASSERT_TRUE(frame && frame->has_download_end()) << Describe(frame);
+    EXPECT_EQ(frame->download_end().chunk_count(), chunks);
+    EXPECT_EQ(frame->download_end().digest(), digest.value());
+    EXPECT_GT(chunks, 320u);
+  }
+  const std::int64_t peak = PeakRssBytes(pid);
+  const std::int64_t growth = peak - idle;
+
+  std::printf(
+      "fleetmapd peak RSS: %.1f MB idle, %.1f MB after two downloads of a %.1f MB map "
+      "(growth %.1f MB)\n",
+      static_cast<double>(idle) / 1e6, static_cast<double>(peak) / 1e6,
+      static_cast<double>(map_bytes) / 1e6, static_cast<double>(growth) / 1e6);
+  EXPECT_LT(growth, map_bytes / 2) << server.Log();
+  // Asked again, it streamed from the store again, only its selection (plan) kept in memory.
+  EXPECT_TRUE(server.LogContains("selection from memory")) << server.Log();
 }
 
 }  // namespace

@@ -12,9 +12,13 @@
 //             ahead without it). The install keeps the content of those not merged by the
 //             downloaded revision, so the robot never drops what it just built.
 //   download  DownloadRequest with base_revision = the installed revision when the parameters
-//             are those of the installed download, else 0 (full); header, chunks, end;
-//             digest, byte total and counts verified
-//   install   LocalMap::Install (after the link is closed)
+//             are those of the installed download, else 0 (full); header, chunks, end
+//             (protocol version 3: the end carries the chunk count, bytes and digest, checked
+//             against what arrived; the counts are checked at the install). A full download is
+//             written into the next map as its chunks arrive (LocalMap::BeginInstall, on a
+//             writer thread beside the link), so download_seconds includes that writing
+//   install   MapInstallation::Commit for a full download, LocalMap::Install for changes
+//             (after the link is closed); nothing is installed unless the end matched
 //
 // Retries: a failure of the link (refused, reset, timed out) or a server's SHUTTING_DOWN,
 // INTERNAL or TIMEOUT restarts the sync from the connect after a backoff (first_backoff

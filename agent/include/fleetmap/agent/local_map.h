@@ -29,6 +29,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <memory>
 #include <optional>
 #include <set>
 #include <string>
@@ -134,6 +135,44 @@ struct InstallReport {
   std::size_t kept_for_unsynced = 0;
 };
 
+class LocalMap;
+class GraphStore;
+
+// A full download installed while it arrives (sync.proto version 3, seed 004 §V-B): the next
+// map is written into DIR/map.db.new chunk by chunk, inside one transaction, so that memory
+// holds one chunk and not the map. Commit then does what LocalMap::Install does for a full
+// download: checks the counts, adds the local content an install keeps, commits, fsyncs and
+// makes the new map current (the same crash-safe renames). Destroyed without a Commit that
+// returned (a wrong digest, a truncated stream, a chunk that does not decode or breaks the
+// model, a dropped link): the transaction rolls back and map.db.new goes; map.db and
+// sync.json stay exactly as they were.
+//
+// Threading: one thread; the LocalMap that began it must outlive it and take no other call
+// meanwhile.
+class MapInstallation {
+ public:
+  ~MapInstallation();
+  MapInstallation(const MapInstallation&) = delete;
+  MapInstallation& operator=(const MapInstallation&) = delete;
+
+  // Writes one chunk's elements. Throws Error(kCorrupt) for content the map cannot take (an
+  // edge whose end has not come, an id sent twice with different content), Error(kBackend)
+  // for I/O failures; the installation is then only good for destroying.
+  void Add(const GraphBatch& part);
+  // Elements added so far (distinct ids).
+  std::size_t nodes() const;
+  std::size_t edges() const;
+  std::size_t paths() const;
+  // Throws as LocalMap::Install; after a throw map.db is untouched.
+  InstallReport Commit();
+
+ private:
+  friend class LocalMap;
+  struct State;
+  explicit MapInstallation(std::unique_ptr<State> state);
+  std::unique_ptr<State> state_;
+};
+
 enum class LocalMapAccess {
   kExclusive,  // takes the lock, recovers an interrupted install, may write
   kReadOnly,   // no lock, no recovery, no writes (status while a daemon runs)
@@ -195,11 +234,20 @@ class LocalMap {
   // not the installed revision or whose parameters differ, Error(kConflict) when another process
   // has map.db open with a write-ahead log, Error(kBackend) for I/O failures.
   InstallReport Install(const MapDownload& download);
+  // Begins installing a full download as it arrives (MapInstallation): `download` says what it
+  // is (revision, request, counts of the selection); its content and removed sets are not used.
+  // REQUIRES: download.base_revision == 0 (else Error(kInvalidArgument)); an incremental
+  // download carries only changes and goes through Install.
+  std::unique_ptr<MapInstallation> BeginInstall(const MapDownload& download);
 
  private:
   LocalMap(std::filesystem::path dir, LocalMapAccess access, int lock_fd);
   void RequireWritable(const char* what) const;
   void SaveState();
+  friend class MapInstallation;
+  // Installs map.db.new (written, checked and closed) with `next_state`: fsync, then the
+  // renames of the file comment. Removes map.db.new and throws when it cannot.
+  void CommitNewMap(SyncState next_state);
 
   std::filesystem::path dir_;
   LocalMapAccess access_;

@@ -13,6 +13,7 @@
 #pragma once
 
 #include <chrono>
+#include <cstddef>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -76,8 +77,16 @@ struct SyncServerOptions {
   // How often an idle server looks in the store for queued submissions (pushed to another
   // instance, or left by one that died) and for merges other instances finished.
   std::chrono::milliseconds merge_poll{1'000};
-  // Encoded downloads kept in memory (the newest is always kept, whatever its size).
-  std::uint64_t download_cache_bytes = std::uint64_t{1} << 30;
+  // Downloads kept in memory once encoded, so the same one asked again (many robots on one
+  // mission, a robot retrying) streams without touching the store: only those of at most
+  // download_cache_entry_bytes each (a big map is streamed from the store every time, so the
+  // server's memory stays bounded whatever the map's size), the newest first, up to
+  // download_cache_bytes together.
+  std::uint64_t download_cache_bytes = std::uint64_t{256} << 20;
+  std::uint64_t download_cache_entry_bytes = std::uint64_t{32} << 20;
+  // A streamed download is read, encoded and written about this many bytes at a time (two such
+  // batches in memory per download at most).
+  std::size_t download_batch_bytes = std::size_t{4} << 20;
 };
 
 class SyncServer {

@@ -41,7 +41,13 @@ class AnnotationStore;
 // synchronous=FULL; PostgreSQL synchronous_commit=on). Buffered leaves writes to the OS
 // (SQLite synchronous=OFF; PostgreSQL synchronous_commit=off): a killed process loses
 // nothing committed, a power cut may lose the last commits but never corrupts the store.
-enum class Durability { kSynchronous, kBuffered };
+// kSynchronous: every commit is on disk when it returns. kBuffered: commits reach the OS at
+// once and the disk when it flushes (safe against a killed process, not a power cut).
+// kScratch: a SQLite file that is not live yet and is thrown away if anything fails before
+// its owner fsyncs and renames it into place (the agent's map.db.new): a rollback journal in
+// memory instead of the write-ahead log, so each page is written once instead of twice, and
+// no syncing. PostgreSQL treats it as kBuffered.
+enum class Durability { kSynchronous, kBuffered, kScratch };
 
 struct StoreOptions {
   Durability durability = Durability::kSynchronous;

@@ -14,8 +14,11 @@
 
 namespace fleetmap {
 
-// Hello.protocol_version this build speaks. A server refuses any other (UNSUPPORTED_VERSION).
-inline constexpr std::uint32_t kSyncProtocolVersion = 2;
+// Hello.protocol_version this build speaks: 3, downloads streamed (sync.proto "Versions").
+inline constexpr std::uint32_t kSyncProtocolVersion = 3;
+// The oldest version a server still answers (in that version): 2, downloads encoded whole before
+// the first byte. A server refuses anything outside [oldest, current] (UNSUPPORTED_VERSION).
+inline constexpr std::uint32_t kOldestSyncProtocolVersion = 2;
 // 64 MiB: far above a 1 MiB map chunk plus its envelope, far below what would hurt a server
 // holding one frame per session in memory.
 inline constexpr std::uint32_t kMaxSyncFrameBytes = std::uint32_t{64} << 20;
