@@ -479,15 +479,18 @@ TYPED_TEST(VersionStoreConformance, ClaimsGoOldestFirstEachToOneInstance) {
 
 TYPED_TEST(VersionStoreConformance, EndedLeaseIsTakenOverAndCannotBeRenewed) {
   const Submission queued = QueueSubmissions(this->versions(), 1)[0];
-  ASSERT_TRUE(this->versions().ClaimQueuedSubmission("slow", std::chrono::milliseconds(50)));
-  std::this_thread::sleep_for(std::chrono::milliseconds(150));
+  // A lease of 400 ms, waits of 600 ms: each check after a renewal or claim runs well inside
+  // the lease even on a loaded machine (50 ms once ran out between two statements in CI).
+  constexpr std::chrono::milliseconds kShortLease(400), kPastLease(600);
+  ASSERT_TRUE(this->versions().ClaimQueuedSubmission("slow", kShortLease));
+  std::this_thread::sleep_for(kPastLease);
   // Ended, but nobody took it: its holder was slow, not replaced, and may renew it.
-  EXPECT_TRUE(this->versions().RenewClaim(queued.id, "slow", std::chrono::milliseconds(50)));
+  EXPECT_TRUE(this->versions().RenewClaim(queued.id, "slow", kShortLease));
   EXPECT_EQ(this->versions().ClaimQueuedSubmission("other", kLongLease), std::nullopt);
-  std::this_thread::sleep_for(std::chrono::milliseconds(150));
-  ASSERT_TRUE(this->versions().ClaimQueuedSubmission("dies", std::chrono::milliseconds(50)));
+  std::this_thread::sleep_for(kPastLease);
+  ASSERT_TRUE(this->versions().ClaimQueuedSubmission("dies", kShortLease));
   EXPECT_EQ(this->versions().ClaimQueuedSubmission("other", kLongLease), std::nullopt);
-  std::this_thread::sleep_for(std::chrono::milliseconds(150));
+  std::this_thread::sleep_for(kPastLease);
 
   const std::optional<Submission> taken =
       this->versions().ClaimQueuedSubmission("other", kLongLease);
