@@ -55,6 +55,26 @@ std::uint16_t UnusedPort() {
   return ntohs(address.sin_port);
 }
 
+sockaddr_in Loopback(std::uint16_t port) {
+  sockaddr_in address{};
+  address.sin_family = AF_INET;
+  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  address.sin_port = htons(port);
+  return address;
+}
+
+// A socket listening on 127.0.0.1 at a port the kernel picks, written to `port`.
+int ListenOnLoopback(std::uint16_t& port) {
+  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in address = Loopback(0);
+  socklen_t size = sizeof address;
+  EXPECT_EQ(::bind(fd, reinterpret_cast<sockaddr*>(&address), size), 0);
+  EXPECT_EQ(::listen(fd, 4), 0);
+  EXPECT_EQ(::getsockname(fd, reinterpret_cast<sockaddr*>(&address), &size), 0);
+  port = ntohs(address.sin_port);
+  return fd;
+}
+
 // A TCP relay on 127.0.0.1 to `upstream_port` that cuts its first connection once the client
 // has sent `cut_after` bytes through it (a link dropped mid-push); later connections pass
 // whole. One connection at a time, as the agent makes them.
@@ -62,13 +82,7 @@ class CuttingRelay {
  public:
   CuttingRelay(std::uint16_t upstream_port, std::size_t cut_after)
       : upstream_port_(upstream_port), cut_after_(cut_after) {
-    listen_fd_ = ::socket(AF_INET, SOCK_STREAM, 0);
-    sockaddr_in address = Loopback(0);
-    socklen_t size = sizeof address;
-    EXPECT_EQ(::bind(listen_fd_, reinterpret_cast<sockaddr*>(&address), size), 0);
-    EXPECT_EQ(::listen(listen_fd_, 4), 0);
-    EXPECT_EQ(::getsockname(listen_fd_, reinterpret_cast<sockaddr*>(&address), &size), 0);
-    port_ = ntohs(address.sin_port);
+    listen_fd_ = ListenOnLoopback(port_);
     thread_ = std::thread([this] { Serve(); });
   }
   ~CuttingRelay() {
@@ -80,14 +94,6 @@ class CuttingRelay {
   int connections() const { return connections_; }
 
  private:
-  static sockaddr_in Loopback(std::uint16_t port) {
-    sockaddr_in address{};
-    address.sin_family = AF_INET;
-    address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    address.sin_port = htons(port);
-    return address;
-  }
-
   void Serve() {
     while (!stop_) {
       pollfd listening{listen_fd_, POLLIN, 0};
@@ -142,13 +148,7 @@ class SpoilingRelay {
 
   SpoilingRelay(std::uint16_t upstream_port, Mode mode)
       : upstream_port_(upstream_port), mode_(mode) {
-    listen_fd_ = ::socket(AF_INET, SOCK_STREAM, 0);
-    sockaddr_in address = Loopback(0);
-    socklen_t size = sizeof address;
-    EXPECT_EQ(::bind(listen_fd_, reinterpret_cast<sockaddr*>(&address), size), 0);
-    EXPECT_EQ(::listen(listen_fd_, 4), 0);
-    EXPECT_EQ(::getsockname(listen_fd_, reinterpret_cast<sockaddr*>(&address), &size), 0);
-    port_ = ntohs(address.sin_port);
+    listen_fd_ = ListenOnLoopback(port_);
     thread_ = std::thread([this] { Serve(); });
   }
   ~SpoilingRelay() {
@@ -161,14 +161,6 @@ class SpoilingRelay {
   int chunks() const { return chunks_; }    // download chunks passed so far
 
  private:
-  static sockaddr_in Loopback(std::uint16_t port) {
-    sockaddr_in address{};
-    address.sin_family = AF_INET;
-    address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    address.sin_port = htons(port);
-    return address;
-  }
-
   static bool WriteAll(int fd, const std::string& bytes) {
     std::size_t sent = 0;
     while (sent < bytes.size()) {
