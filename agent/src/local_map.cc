@@ -740,7 +740,7 @@ InstallReport MapInstallation::Commit() {
     }
     s.transaction->Commit();
     s.transaction.reset();
-    s.store.reset();  // closes: the write-ahead log goes into the file
+    s.store.reset();  // closed before CommitNewMap fsyncs and renames it
   } catch (const Error& e) {
     if (e.code() == ErrorCode::kIntegrity) {
       throw Error(ErrorCode::kCorrupt, "download of revision " + std::to_string(download.revision) +
