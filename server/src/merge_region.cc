@@ -90,8 +90,9 @@ MergeRegion LoadMergeRegion(GraphStore& store, RevisionNumber head, const GraphB
     const Landmarks landmarks = DecodeLandmarks(frame->landmarks_blob);
     const std::vector<WordCount> bag = BagOfWords(index_vocabulary, landmarks.descriptors);
     ++region.queries;
-    const std::vector<AppearanceMatch> matches = appearance.Query(
-        bag, std::max(options.crowd_rank, options.matches_per_frame), options.max_query_words);
+    const std::vector<AppearanceMatch> matches =
+        appearance.Query(bag, std::max(options.crowd_rank, options.matches_per_frame),
+                         options.max_query_words, options.max_query_postings);
     if (matches.empty()) continue;
     if (matches.size() == static_cast<std::size_t>(options.crowd_rank) &&
         matches.front().score < options.distinct_ratio * matches.back().score) {

@@ -36,8 +36,10 @@ struct MergeRegionOptions {
   double distinct_ratio = 1.5;
   int crowd_rank = 10;
   // Words of a frame queried, the heaviest first: each costs its postings, which the index
-  // vocabulary keeps few (Repository::IndexVocabulary), so a frame's words are all read.
+  // vocabulary keeps few (Repository::IndexVocabulary), so a small map's frame has all its
+  // words read; the postings bound keeps a query's cost from growing with a large map.
   int max_query_words = 1024;
+  std::uint64_t max_query_postings = kDefaultMaxQueryPostings;
   std::size_t max_nodes = 50'000;  // the search stops growing the region beyond this
 };
 

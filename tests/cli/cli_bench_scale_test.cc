@@ -44,10 +44,11 @@ double D(const std::map<std::string, std::string>& row, const std::string& name)
 TEST(CliBenchScaleTest, MeasuresMergeDownloadAndStoreOnBothBackends) {
   if (std::optional<std::string> why = PostgresBackend::Unavailable()) GTEST_FAIL() << *why;
   ScratchDir dir("fleetmap-bench-scale");
-  const CliRun run = RunFleetmapCli(dir.path(),
-                                    {"bench", "scale", "--sizes", "2000,4000", "--landmarks", "40",
-                                     "--submission-nodes", "200", "--out", (dir / "out").string()},
-                                    std::chrono::seconds(300));
+  const CliRun run = RunFleetmapCli(
+      dir.path(),
+      {"bench", "scale", "--sizes", "2000,4000", "--landmarks", "40", "--submission-nodes", "200",
+       "--merges", "2", "--out", (dir / "out").string()},
+      std::chrono::seconds(300));
   ASSERT_EQ(run.exit_code, 0) << run.out << run.err;
   EXPECT_NE(run.out.find("merge time x"), std::string::npos) << run.out;
   const auto rows = ReadCsv(dir / "out" / "scale_bench.csv");
@@ -61,6 +62,7 @@ TEST(CliBenchScaleTest, MeasuresMergeDownloadAndStoreOnBothBackends) {
     // 40 landmarks of 32-byte descriptors and 3 floats each, for every node.
     EXPECT_GT(D(row, "store_bytes"), nodes * 40 * 44);
     EXPECT_GT(D(row, "merge_s"), 0);
+    EXPECT_EQ(D(row, "merge_runs"), 2);
     EXPECT_EQ(D(row, "merge_nodes_pushed"), 200);
     EXPECT_LT(D(row, "merge_nodes_added"), 100) << "the revisit should mostly localise";
     EXPECT_GT(D(row, "merge_peak_rss_bytes"), D(row, "merge_rss_before_bytes"));

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <fstream>
+#include <map>
 #include <random>
 #include <vector>
 
@@ -54,13 +55,13 @@ struct Places {
 // The share of revisited places whose own node is among the best `k`, querying at most
 // `words` words of each.
 double Recall(const DiskAppearanceIndex& index, const Places& places, std::uint32_t seed, int k,
-              int words) {
+              int words, std::uint64_t max_postings = kDefaultMaxQueryPostings) {
   std::mt19937 rng(seed);
   int found = 0;
   for (std::size_t p = 0; p < kPlaces; ++p) {
     const std::vector<Descriptor256> revisit = RevisitPlace(places.descriptors[p], rng);
     for (const AppearanceMatch& match :
-         index.Query(BagOfWords(*places.vocabulary, revisit), k, words)) {
+         index.Query(BagOfWords(*places.vocabulary, revisit), k, words, max_postings)) {
       found += match.node == places.ids[p];
     }
   }
@@ -85,6 +86,40 @@ TEST(DiskAppearanceIndexTest, RevisitedPlacesAreFoundAmongMany) {
     // MERGE keeps per frame).
     EXPECT_GE(Recall(*index, places, seed + 100, 1, 100'000), 0.9) << "seed " << seed;
     EXPECT_GE(Recall(*index, places, seed + 100, 3, 64), 0.9) << "seed " << seed;
+  }
+}
+
+// A query's postings are bounded, so its cost does not grow with the map; the words it keeps
+// (the heaviest that fit) still find the revisited place. Here the bound lets a frame read
+// about 64 words' postings of its 100 or so, as kDefaultMaxQueryPostings does at 10^6 nodes;
+// with 16 words' worth recall would fall to about two thirds.
+TEST(DiskAppearanceIndexTest, BoundedPostingsStillFindRevisits) {
+  for (const std::uint32_t seed : {4u, 5u, 6u}) {
+    ScratchDir dir("disk-appearance");
+    const Places places(seed);
+    auto index = DiskAppearanceIndex::Open(dir.path());
+    places.Append(*index, 0, kPlaces, 1);
+    std::map<std::size_t, std::uint64_t> holders;  // postings per word
+    for (const auto& bag : places.bags) {
+      for (const WordCount& wc : bag) ++holders[wc.word];
+    }
+    std::uint64_t postings = 0;
+    for (const auto& [word, count] : holders) postings += count;
+    const std::uint64_t per_word = postings / holders.size();
+    EXPECT_GE(Recall(*index, places, seed + 100, 3, 100'000, 64 * per_word), 0.9)
+        << "seed " << seed;
+    // A bound below one word's postings still reads the heaviest word, never none: the place
+    // itself holds it as the query does, so it scores the whole query (1), as high as any.
+    const auto one_word = index->Query(places.bags[9], static_cast<int>(kPlaces), 100'000, 1);
+    ASSERT_FALSE(one_word.empty()) << "seed " << seed;
+    EXPECT_LT(one_word.size(), kPlaces) << "only the holders of one word";
+    bool found = false;
+    for (const AppearanceMatch& match : one_word) {
+      if (match.node != places.ids[9]) continue;
+      found = true;
+      EXPECT_NEAR(match.score, 1.0, 1e-5);
+    }
+    EXPECT_TRUE(found) << "seed " << seed;
   }
 }
 
@@ -122,6 +157,29 @@ TEST(DiskAppearanceIndexTest, AnswersSurviveReopeningAndSegmentMerges) {
     files += entry.path().extension() == ".fmai";
   }
   EXPECT_EQ(files, reopened->segment_count());
+}
+
+// Queries share scoring memory per thread (so a query costs its postings, not the map's
+// size): no score may leak from one query, or one index, into the next.
+TEST(DiskAppearanceIndexTest, QueriesLeaveNothingBehindForTheNext) {
+  const Places places(21);
+  ScratchDir big_dir("disk-appearance-big");
+  ScratchDir small_dir("disk-appearance-small");
+  auto big = DiskAppearanceIndex::Open(big_dir.path());
+  auto small = DiskAppearanceIndex::Open(small_dir.path());
+  places.Append(*big, 0, kPlaces, 1);
+  places.Append(*small, 0, kPlaces / 8, 1);
+  const auto first = small->Query(places.bags[3], 5);
+  ASSERT_FALSE(first.empty());
+  for (std::size_t p = 0; p < kPlaces; p += 7) big->Query(places.bags[p], 5);
+  for (std::size_t p = 0; p < kPlaces / 8; ++p) small->Query(places.bags[p], 5);
+  const auto again = small->Query(places.bags[3], 5);
+  ASSERT_EQ(again.size(), first.size());
+  for (std::size_t i = 0; i < first.size(); ++i) {
+    EXPECT_EQ(again[i].node, first[i].node) << "rank " << i;
+    EXPECT_FLOAT_EQ(again[i].score, first[i].score) << "rank " << i;
+  }
+  EXPECT_NEAR(again.front().score, 1.0, 1e-5);
 }
 
 TEST(DiskAppearanceIndexTest, ResetEmptiesAndRecordsTheNewMark) {

@@ -17,9 +17,12 @@
 // idf_i = ln(N / n_i) over the whole index. It is DBoW2's L1 score (Gálvez-López and Tardós,
 // T-RO 2012, Eq. 2) with each bag normalised by its descriptor count instead of its tf-idf mass,
 // which would need every node's whole bag at query time. The region's own AppearanceIndex
-// ranks exactly afterwards. A query reads only the postings of its own words (at most
-// `max_query_words` of them, the heaviest by n_qi idf_i), so its cost is those words' postings,
-// not the map.
+// ranks exactly afterwards. A query reads only the postings of its own words: the heaviest by
+// n_qi idf_i, at most `max_query_words` of them and, past the first, at most `max_postings`
+// postings together (a word that would exceed it is passed over for lighter ones). A word's
+// postings grow with the map (about N D / W), so without the second bound a query's cost
+// would too; with it, a query costs about the same at 10^5 nodes and at 10^6, where it reads
+// fewer, still distinctive words (fleetmap bench scale).
 //
 // Threading: one thread per object. Several processes may share a directory: writers take an
 // exclusive lock on it (flock on LOCK); a reader opens the segments the MANIFEST names when it
@@ -40,6 +43,14 @@ namespace fleetmap {
 
 // What the index covers: the store revision it was last brought up to, identified by that
 // revision's stamp, and the vocabulary its words come from.
+// The postings one query reads at most (past its first word): a cost bound, a few
+// milliseconds of scoring. A map's words hold about N D / W postings each (N nodes of D
+// descriptors over W words): with D = 200 and W = 10^5, a frame's 200 words hold about 40,000
+// postings at 10^5 nodes, under the bound, and 400,000 at 10^6, where the bound keeps the 64
+// or so heaviest: as many as a query of 64 words reads, which finds a noisy revisit among the
+// best three nine times in ten (DiskAppearanceIndexTest).
+inline constexpr std::uint64_t kDefaultMaxQueryPostings = std::uint64_t{1} << 17;
+
 struct DiskIndexMark {
   std::int64_t revision = 0;
   std::int64_t revision_stamp_ns = 0;
@@ -74,7 +85,8 @@ class DiskAppearanceIndex {
   // The best min(k, size()) nodes for a bag, by descending score (above), equal scores by
   // ascending Uuid; nodes sharing none of the query words are not returned.
   std::vector<AppearanceMatch> Query(std::span<const WordCount> bag, int k,
-                                     int max_query_words = 64) const;
+                                     int max_query_words = 64,
+                                     std::uint64_t max_postings = kDefaultMaxQueryPostings) const;
 
  private:
   class Segment;
