@@ -34,8 +34,10 @@ void Append(GraphBatch& to, GraphBatch&& part) {
 }
 
 // Writes a full download into its installation on a thread of its own while the next chunks
-// arrive, so the link and SQLite work at once (each alone is about as fast as the other). At
-// most kQueuedChunks chunks (1 MiB each) wait in between: memory stays a few MB.
+// arrive, so the link and SQLite work at once. Chunks are decoded on the receiving thread,
+// which otherwise waits on the link, and SQLite's inserts are all the writer does: it is the
+// slower of the two (fleetmap's sync_download_benchmark, AgentPull). At most kQueuedChunks
+// chunks (1 MiB each) wait in between: memory stays a few MB.
 class InstallWriter {
  public:
   static constexpr std::size_t kQueuedChunks = 8;
@@ -53,13 +55,21 @@ class InstallWriter {
   InstallWriter(const InstallWriter&) = delete;
   InstallWriter& operator=(const InstallWriter&) = delete;
 
-  // Queues chunk `seq` (a serialised MapChunk), waiting while the queue is full. Throws what
-  // the writer failed with (it stops at its first error).
-  void Add(std::uint32_t seq, std::string data) {
+  // Decodes chunk `seq` (a serialised MapChunk) and queues it, waiting while the queue is full.
+  // Throws Error(kCorrupt) for a chunk that does not decode, and what the writer failed with
+  // (it stops at its first error).
+  void Add(std::uint32_t seq, const std::string& data) {
+    GraphBatch part;
+    try {
+      part = DecodeMapChunks(std::span<const std::string>(&data, 1));
+    } catch (const Error& e) {
+      throw Error(ErrorCode::kCorrupt,
+                  context_ + ": chunk " + std::to_string(seq) + ": " + e.message());
+    }
     std::unique_lock lock(mutex_);
     changed_.wait(lock, [&] { return error_ || queue_.size() < kQueuedChunks; });
     if (error_) std::rethrow_exception(error_);
-    queue_.emplace_back(seq, std::move(data));
+    queue_.push_back(std::move(part));
     changed_.notify_all();
   }
 
@@ -73,24 +83,17 @@ class InstallWriter {
  private:
   void Run() {
     for (;;) {
-      std::pair<std::uint32_t, std::string> chunk;
+      GraphBatch part;
       {
         std::unique_lock lock(mutex_);
         changed_.wait(lock, [&] { return stopping_ || !queue_.empty(); });
         if (stopping_ || error_) return;
-        chunk = std::move(queue_.front());
+        part = std::move(queue_.front());
         queue_.pop_front();
         busy_ = true;
       }
       changed_.notify_all();  // room in the queue
       try {
-        GraphBatch part;
-        try {
-          part = DecodeMapChunks(std::span<const std::string>(&chunk.second, 1));
-        } catch (const Error& e) {
-          throw Error(ErrorCode::kCorrupt,
-                      context_ + ": chunk " + std::to_string(chunk.first) + ": " + e.message());
-        }
         installation_.Add(part);
       } catch (...) {
         std::lock_guard lock(mutex_);
@@ -108,11 +111,11 @@ class InstallWriter {
   std::string context_;
   std::mutex mutex_;
   std::condition_variable changed_;
-  std::deque<std::pair<std::uint32_t, std::string>> queue_;  // guarded by mutex_
-  bool busy_ = false;                                        // guarded by mutex_
-  bool stopping_ = false;                                    // guarded by mutex_
-  std::exception_ptr error_;                                 // guarded by mutex_
-  std::thread thread_;  // last: starts once the rest is constructed
+  std::deque<GraphBatch> queue_;  // decoded chunks; guarded by mutex_
+  bool busy_ = false;             // guarded by mutex_
+  bool stopping_ = false;         // guarded by mutex_
+  std::exception_ptr error_;      // guarded by mutex_
+  std::thread thread_;            // last: starts once the rest is constructed
 };
 
 double SecondsSince(Clock::time_point start) {
@@ -506,7 +509,7 @@ class SyncRun {
       bytes += chunk.data().size();
       ++seq;
       if (writer) {
-        writer->Add(seq - 1, std::move(*next.mutable_download_chunk()->mutable_data()));
+        writer->Add(seq - 1, chunk.data());
       } else {
         GraphBatch part;
         try {

@@ -164,8 +164,8 @@ DownloadEncoder::DownloadEncoder(std::shared_ptr<const DownloadPlan> plan, std::
   nodes_per_batch_ = std::clamp<std::size_t>(batch_bytes_ / mean, 1, kMaxNodesPerBatch);
 }
 
-void DownloadEncoder::Encode(const GraphBatch& map, std::vector<std::string>& frames) {
-  for (std::string& chunk : EncodeMapChunks(map)) {
+void DownloadEncoder::Encode(GraphBatch map, std::vector<std::string>& frames) {
+  for (std::string& chunk : EncodeMapChunks(std::move(map))) {
     digest_.Add(chunk);
     bytes_ += chunk.size();
     v1::SyncFrame frame;
@@ -186,7 +186,7 @@ std::vector<std::string> DownloadEncoder::NextBatch(Repository& repository) {
           GraphBatch map;
           map.paths.assign(plan.paths.begin() + static_cast<std::ptrdiff_t>(next_),
                            plan.paths.begin() + static_cast<std::ptrdiff_t>(end));
-          Encode(map, frames);
+          Encode(std::move(map), frames);
           next_ = end;
         } else {
           stage_ = Stage::kNodes;
@@ -209,12 +209,12 @@ std::vector<std::string> DownloadEncoder::NextBatch(Repository& repository) {
             group_bytes += node.landmarks_blob.size() + kNodeOverheadBytes;
             group.nodes.push_back(std::move(node));
             if (group_bytes >= kDefaultMapChunkBytes) {
-              Encode(group, frames);
-              group.nodes.clear();
+              Encode(std::move(group), frames);
+              group = GraphBatch{};
               group_bytes = 0;
             }
           }
-          if (!group.nodes.empty()) Encode(group, frames);
+          if (!group.nodes.empty()) Encode(std::move(group), frames);
           next_ = end;
         } else {
           stage_ = Stage::kEdges;
@@ -228,7 +228,7 @@ std::vector<std::string> DownloadEncoder::NextBatch(Repository& repository) {
           GraphBatch map;
           map.edges.assign(plan.edges.begin() + static_cast<std::ptrdiff_t>(next_),
                            plan.edges.begin() + static_cast<std::ptrdiff_t>(end));
-          Encode(map, frames);
+          Encode(std::move(map), frames);
           next_ = end;
         } else {
           stage_ = Stage::kDone;

@@ -77,8 +77,8 @@ class DownloadEncoder {
   const std::shared_ptr<const DownloadPlan>& shared_plan() const { return plan_; }
 
  private:
-  // Turns `map` into chunk frames appended to `frames`.
-  void Encode(const GraphBatch& map, std::vector<std::string>& frames);
+  // Turns `map` into chunk frames appended to `frames` (its landmarks moved into them).
+  void Encode(GraphBatch map, std::vector<std::string>& frames);
 
   std::shared_ptr<const DownloadPlan> plan_;
   std::size_t batch_bytes_;

@@ -12,13 +12,19 @@
 //                       cap, so warm downloads stream from the store again (its pages in the
 //                       OS cache);
 //   AgentPull           the same download by fleetmap-agent, installed into a fresh local map
-//                       (landmark_MBps: landmark bytes over the whole pull);
+//                       (landmark_MBps: landmark bytes over the whole pull; agent_cpu_s and
+//                       server_cpu_s: what each process spent per pull);
+//   RawSqliteInstall    the install's ceiling: the same map written by plain sqlite3 into the
+//                       agent's tables, one transaction, then fsynced (landmark_MBps);
 //   RawLoopback         the same number of bytes written in 1 MiB pieces over one socket.
 // Run by hand: build/tests/benchmarks/sync_download_benchmark (about a minute of setup).
 #include <arpa/inet.h>
 #include <benchmark/benchmark.h>
+#include <fcntl.h>
 #include <netinet/in.h>
 #include <netinet/tcp.h>
+#include <sqlite3.h>
+#include <sys/resource.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
@@ -34,6 +40,7 @@
 
 #include "fleet_processes.h"
 #include "fleetmap/wire/sync_frame.h"
+#include "random_robot_map.h"
 #include "raw_sync_client.h"
 #include "scratch_dir.h"
 
@@ -64,6 +71,16 @@ std::int64_t PeakRssBytes(int pid) {
     if (line.rfind("VmHWM:", 0) == 0) return std::stoll(line.substr(6)) * 1024;
   }
   return 0;
+}
+
+// CPU seconds of the children this process has waited for (user + system, all threads).
+double ChildrenCpuSeconds() {
+  rusage usage{};
+  getrusage(RUSAGE_CHILDREN, &usage);
+  const auto seconds = [](const timeval& t) {
+    return static_cast<double>(t.tv_sec) + static_cast<double>(t.tv_usec) / 1e6;
+  };
+  return seconds(usage.ru_utime) + seconds(usage.ru_stime);
 }
 
 // CPU seconds process `pid` used so far (user + system, all threads); 0 when unreadable. On a
@@ -167,14 +184,20 @@ void AgentPull(benchmark::State& state) {
   Fixture& f = Shared();
   int run = 0;
   double seconds = 0.0;
+  double agent_cpu = 0.0;   // the agents' CPU seconds (all threads)
+  double server_cpu = 0.0;  // fleetmapd's during the pulls
   for (auto _ : state) {
     const auto start = std::chrono::steady_clock::now();
     TestRobot robot = f.robot;
     robot.map_dir = f.dir / ("pull-" + std::to_string(run++));
     std::filesystem::create_directories(robot.map_dir);
     const std::filesystem::path log = robot.map_dir / "agent.log";
+    const double server_cpu_before = CpuSeconds(f.server.process->pid());
+    const double children_cpu_before = ChildrenCpuSeconds();
     std::unique_ptr<ChildProcess> agent = StartSync(robot, f.server.address, log, {"--quiet"});
     const SyncOutcome outcome = FinishSync(*agent, log, std::chrono::milliseconds(600'000));
+    agent_cpu += ChildrenCpuSeconds() - children_cpu_before;
+    server_cpu += CpuSeconds(f.server.process->pid()) - server_cpu_before;
     if (outcome.exit != 0) state.SkipWithError("the agent failed");
     seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     state.counters["download_s"] = outcome.result.value("download_seconds", 0.0);
@@ -184,12 +207,110 @@ void AgentPull(benchmark::State& state) {
     state.ResumeTiming();
   }
   state.SetBytesProcessed(static_cast<std::int64_t>(state.iterations() * f.wire_bytes));
+  // CPU per pull: on a busy machine wall time says little, and the two processes share the
+  // cores, so what each costs says where the time goes.
+  const double pulls = static_cast<double>(state.iterations());
+  state.counters["agent_cpu_s"] = agent_cpu / pulls;
+  state.counters["server_cpu_s"] = server_cpu / pulls;
   state.counters["landmark_MBps"] = seconds > 0 ? static_cast<double>(f.landmark_bytes) *
                                                       static_cast<double>(state.iterations()) /
                                                       1e6 / seconds
                                                 : 0.0;
 }
 BENCHMARK(AgentPull)->Unit(benchmark::kMillisecond)->Iterations(2)->UseRealTime();
+
+// The install's ceiling: the same map (nodes and edges, generated as the fixture's) written
+// through plain sqlite3 into a fresh file as the agent's tables hold it (the node table with
+// its three indexes, the edge table with its two), in one transaction with the journal in
+// memory, then fsynced: no link, no decoding, no digest, no checks. landmark_MBps compares
+// with AgentPull's.
+void RawSqliteInstall(benchmark::State& state) {
+  Fixture& f = Shared();
+  std::vector<GraphBatch> parts;
+  for (int batch = 0; batch < kNodes / 2000; ++batch) {
+    parts.push_back(RandomRobotMap(f.robot.id, 2000, 1000 + batch, kLandmarksPerNode));
+  }
+  std::int64_t landmark_bytes = 0;
+  for (const GraphBatch& part : parts) {
+    for (const Node& node : part.nodes) {
+      landmark_bytes += static_cast<std::int64_t>(node.landmarks_blob.size());
+    }
+  }
+  const std::filesystem::path file = f.dir / "raw-install.db";
+  const auto exec = [](sqlite3* db, const char* sql) {
+    char* error = nullptr;
+    if (sqlite3_exec(db, sql, nullptr, nullptr, &error) != SQLITE_OK) {
+      const std::string text = error ? error : "?";
+      sqlite3_free(error);
+      throw std::runtime_error(std::string(sql) + ": " + text);
+    }
+  };
+  double seconds = 0.0;
+  for (auto _ : state) {
+    std::filesystem::remove(file);
+    const auto start = std::chrono::steady_clock::now();
+    sqlite3* db = nullptr;
+    sqlite3_open(file.c_str(), &db);
+    exec(db,
+         "PRAGMA page_size=8192; PRAGMA journal_mode=MEMORY; PRAGMA synchronous=OFF;"
+         "PRAGMA cache_size=-32768;"
+         "CREATE TABLE nodes (seq INTEGER PRIMARY KEY, id BLOB NOT NULL UNIQUE,"
+         " stamp_ns INTEGER NOT NULL, robot BLOB NOT NULL, outing BLOB NOT NULL,"
+         " landmarks BLOB NOT NULL);"
+         "CREATE INDEX nodes_by_robot ON nodes (robot, stamp_ns);"
+         "CREATE INDEX nodes_by_outing ON nodes (outing, stamp_ns);"
+         "CREATE TABLE edges (id BLOB PRIMARY KEY NOT NULL, from_id BLOB NOT NULL,"
+         " to_id BLOB NOT NULL, kind INTEGER NOT NULL, tx REAL, ty REAL, tz REAL, qw REAL,"
+         " qx REAL, qy REAL, qz REAL, path_id BLOB) WITHOUT ROWID;"
+         "CREATE INDEX edges_by_from ON edges (from_id);"
+         "CREATE INDEX edges_by_to ON edges (to_id);"
+         "BEGIN");
+    sqlite3_stmt* node_row = nullptr;
+    sqlite3_stmt* edge_row = nullptr;
+    sqlite3_prepare_v2(db,
+                       "INSERT INTO nodes (id, stamp_ns, robot, outing, landmarks)"
+                       " VALUES (?1, ?2, ?3, ?4, ?5)",
+                       -1, &node_row, nullptr);
+    sqlite3_prepare_v2(
+        db, "INSERT INTO edges VALUES (?1, ?2, ?3, ?4, ?5, ?5, ?5, ?5, ?5, ?5, ?5, NULL)", -1,
+        &edge_row, nullptr);
+    for (const GraphBatch& part : parts) {
+      for (const Node& node : part.nodes) {
+        sqlite3_bind_blob(node_row, 1, node.id.bytes().data(), 16, SQLITE_STATIC);
+        sqlite3_bind_int64(node_row, 2, node.stamp_ns);
+        sqlite3_bind_blob(node_row, 3, node.robot.bytes().data(), 16, SQLITE_STATIC);
+        sqlite3_bind_blob(node_row, 4, node.outing.bytes().data(), 16, SQLITE_STATIC);
+        sqlite3_bind_blob64(node_row, 5, node.landmarks_blob.data(), node.landmarks_blob.size(),
+                            SQLITE_STATIC);
+        if (sqlite3_step(node_row) != SQLITE_DONE) throw std::runtime_error("node insert");
+        sqlite3_reset(node_row);
+      }
+      for (const Edge& edge : part.edges) {
+        sqlite3_bind_blob(edge_row, 1, edge.id.bytes().data(), 16, SQLITE_STATIC);
+        sqlite3_bind_blob(edge_row, 2, edge.from.bytes().data(), 16, SQLITE_STATIC);
+        sqlite3_bind_blob(edge_row, 3, edge.to.bytes().data(), 16, SQLITE_STATIC);
+        sqlite3_bind_int(edge_row, 4, 1);
+        sqlite3_bind_double(edge_row, 5, 1.0);
+        if (sqlite3_step(edge_row) != SQLITE_DONE) throw std::runtime_error("edge insert");
+        sqlite3_reset(edge_row);
+      }
+    }
+    sqlite3_finalize(node_row);
+    sqlite3_finalize(edge_row);
+    exec(db, "COMMIT");
+    sqlite3_close(db);
+    const int fd = ::open(file.c_str(), O_RDONLY);
+    ::fsync(fd);
+    ::close(fd);
+    seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  }
+  std::filesystem::remove(file);
+  state.counters["landmark_MBps"] = seconds > 0 ? static_cast<double>(landmark_bytes) *
+                                                      static_cast<double>(state.iterations()) /
+                                                      1e6 / seconds
+                                                : 0.0;
+}
+BENCHMARK(RawSqliteInstall)->Unit(benchmark::kMillisecond)->Iterations(2)->UseRealTime();
 
 // The ceiling: the same bytes through one loopback TCP connection, 1 MiB per write.
 void RawLoopback(benchmark::State& state) {

@@ -523,6 +523,11 @@ TYPED_TEST(GraphStoreConformance, GetNodesFollowsRequestOrderAndNamesMissing) {
   std::vector<Uuid> ids{g.nodes[7].id, g.nodes[2].id, g.nodes[9].id};
   const std::vector<Node> got = this->store_->GetNodes(ids);
   EXPECT_EQ(Ids(got), ids);
+  EXPECT_EQ(got, (std::vector<Node>{g.nodes[7], g.nodes[2], g.nodes[9]}));
+  // A repeated id gets the whole node each time (found nodes are moved into place once).
+  const std::vector<Node> twice = this->store_->GetNodes(
+      std::vector<Uuid>{g.nodes[4].id, g.nodes[5].id, g.nodes[4].id, g.nodes[4].id});
+  EXPECT_EQ(twice, (std::vector<Node>{g.nodes[4], g.nodes[5], g.nodes[4], g.nodes[4]}));
   const Uuid missing = Uuid::Generate();
   ids.push_back(missing);
   ExpectError(

@@ -1,6 +1,8 @@
 #include "fleetmap/core/map_chunks.h"
 
 #include <cstring>
+#include <type_traits>
+#include <utility>
 
 #include "fleetmap/core/error.h"
 #include "fleetmap/core/proto_convert.h"
@@ -14,12 +16,13 @@ class ChunkWriter {
  public:
   explicit ChunkWriter(std::size_t chunk_bytes) : chunk_bytes_(chunk_bytes) {}
 
-  template <typename Message, typename Element, typename Add>
-  void Write(const Element& element, Add add) {
-    const Message message = ToProto(element);
+  // `element` is copied into its message, or moved when it is an rvalue (a node's landmarks).
+  template <typename Element, typename Add>
+  void Write(Element&& element, Add add) {
+    auto message = ToProto(std::forward<Element>(element));
     const std::size_t size = message.ByteSizeLong();
     if (size_ > 0 && size_ + size > chunk_bytes_) Flush();
-    *add(current_) = message;
+    *add(current_) = std::move(message);
     size_ += size + 8;  // field tag and length prefix, roughly
   }
 
@@ -41,24 +44,36 @@ class ChunkWriter {
   std::vector<std::string> chunks_;
 };
 
+// Paths, nodes, edges, annotations of `map` (a GraphBatch, const or an rvalue) in chunks.
+template <typename Batch>
+std::vector<std::string> EncodeChunks(Batch&& map, std::size_t chunk_bytes) {
+  if (chunk_bytes == 0) throw Error(ErrorCode::kInvalidArgument, "map chunks: chunk size 0");
+  constexpr bool kMove = !std::is_lvalue_reference_v<Batch>;
+  ChunkWriter writer(chunk_bytes);
+  const auto write = [&](auto& elements, auto add) {
+    for (auto& element : elements) {
+      if constexpr (kMove) {
+        writer.Write(std::move(element), add);
+      } else {
+        writer.Write(element, add);
+      }
+    }
+  };
+  write(map.paths, [](v1::MapChunk& c) { return c.add_paths(); });
+  write(map.nodes, [](v1::MapChunk& c) { return c.add_nodes(); });
+  write(map.edges, [](v1::MapChunk& c) { return c.add_edges(); });
+  write(map.annotations, [](v1::MapChunk& c) { return c.add_annotations(); });
+  return writer.Finish();
+}
+
 }  // namespace
 
 std::vector<std::string> EncodeMapChunks(const GraphBatch& map, std::size_t chunk_bytes) {
-  if (chunk_bytes == 0) throw Error(ErrorCode::kInvalidArgument, "map chunks: chunk size 0");
-  ChunkWriter writer(chunk_bytes);
-  for (const Path& path : map.paths) {
-    writer.Write<v1::Path>(path, [](v1::MapChunk& c) { return c.add_paths(); });
-  }
-  for (const Node& node : map.nodes) {
-    writer.Write<v1::Node>(node, [](v1::MapChunk& c) { return c.add_nodes(); });
-  }
-  for (const Edge& edge : map.edges) {
-    writer.Write<v1::Edge>(edge, [](v1::MapChunk& c) { return c.add_edges(); });
-  }
-  for (const Annotation& annotation : map.annotations) {
-    writer.Write<v1::Annotation>(annotation, [](v1::MapChunk& c) { return c.add_annotations(); });
-  }
-  return writer.Finish();
+  return EncodeChunks(map, chunk_bytes);
+}
+
+std::vector<std::string> EncodeMapChunks(GraphBatch&& map, std::size_t chunk_bytes) {
+  return EncodeChunks(std::move(map), chunk_bytes);
 }
 
 GraphBatch DecodeMapChunks(std::span<const std::string> chunks) {
@@ -70,7 +85,8 @@ GraphBatch DecodeMapChunks(std::span<const std::string> chunks) {
     }
     try {
       for (const v1::Path& p : chunk.paths()) map.paths.push_back(FromProto(p));
-      for (const v1::Node& n : chunk.nodes()) map.nodes.push_back(FromProto(n));
+      // The chunk is ours: its nodes' landmarks are moved out, not copied.
+      for (v1::Node& n : *chunk.mutable_nodes()) map.nodes.push_back(FromProto(std::move(n)));
       for (const v1::Edge& e : chunk.edges()) map.edges.push_back(FromProto(e));
       for (const v1::Annotation& a : chunk.annotations()) map.annotations.push_back(FromProto(a));
     } catch (const Error& error) {

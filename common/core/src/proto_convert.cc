@@ -1,5 +1,7 @@
 #include "fleetmap/core/proto_convert.h"
 
+#include <utility>
+
 #include "fleetmap/core/error.h"
 
 namespace fleetmap {
@@ -45,23 +47,49 @@ Se3 FromProto(const v1::Se3& proto) {
   }
 }
 
-v1::Node ToProto(const Node& node) {
+namespace {
+
+// A node's message or model but for its landmarks, which the callers copy or move.
+v1::Node NodeHeaderToProto(const Node& node) {
   v1::Node proto;
   proto.set_uuid(UuidBytes(node.id));
   proto.set_stamp_ns(node.stamp_ns);
   proto.set_robot(UuidBytes(node.robot));
   proto.set_outing(UuidBytes(node.outing));
-  proto.set_landmarks(node.landmarks_blob);
   return proto;
 }
-
-Node FromProto(const v1::Node& proto) {
+Node NodeHeaderFromProto(const v1::Node& proto) {
   Node node;
   node.id = UuidField(proto.uuid(), "Node.uuid");
   node.stamp_ns = proto.stamp_ns();
   node.robot = UuidField(proto.robot(), "Node.robot");
   node.outing = UuidField(proto.outing(), "Node.outing");
+  return node;
+}
+
+}  // namespace
+
+v1::Node ToProto(const Node& node) {
+  v1::Node proto = NodeHeaderToProto(node);
+  proto.set_landmarks(node.landmarks_blob);
+  return proto;
+}
+
+v1::Node ToProto(Node&& node) {
+  v1::Node proto = NodeHeaderToProto(node);
+  proto.set_landmarks(std::move(node.landmarks_blob));
+  return proto;
+}
+
+Node FromProto(const v1::Node& proto) {
+  Node node = NodeHeaderFromProto(proto);
   node.landmarks_blob = proto.landmarks();
+  return node;
+}
+
+Node FromProto(v1::Node&& proto) {
+  Node node = NodeHeaderFromProto(proto);
+  node.landmarks_blob = std::move(*proto.mutable_landmarks());
   return node;
 }
 

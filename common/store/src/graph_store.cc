@@ -205,10 +205,20 @@ std::vector<Node> GraphStore::GetNodes(std::span<const Uuid> ids) {
     for (std::size_t i = 0; i < found.size(); ++i) index.emplace(found[i].id, i);
     std::vector<Node> ordered;
     ordered.reserve(ids.size());
+    // Where each found node went in `ordered`: it is moved there the first time (a node's
+    // landmarks are kilobytes) and copied from there for a repeated id.
+    constexpr std::size_t kNotYet = static_cast<std::size_t>(-1);
+    std::vector<std::size_t> placed(found.size(), kNotYet);
     for (const Uuid& id : ids) {
       auto it = index.find(id);
       if (it == index.end()) throw Error(ErrorCode::kNotFound, "no node " + id.ToString());
-      ordered.push_back(found[it->second]);
+      std::size_t& at = placed[it->second];
+      if (at == kNotYet) {
+        at = ordered.size();
+        ordered.push_back(std::move(found[it->second]));
+      } else {
+        ordered.push_back(ordered[at]);
+      }
     }
     return ordered;
   });

@@ -307,12 +307,23 @@ class SqliteGraphStore final : public GraphStore {
   }
 
   std::vector<Node> DoGetNodes(std::span<const Uuid> ids) override {
-    // In-process lookups are as cheap as one big query here: no round trip to save.
+    // In-process lookups are as cheap as one big query here: no round trip to save. They share
+    // one read transaction (a savepoint, which also nests in a caller's), so the write-ahead
+    // log's read lock is taken once per call instead of once per node (a streamed download
+    // asks for hundreds at a time; fcntl locking was about 7 % of its CPU).
+    ExecSql(db_, "SAVEPOINT fleetmap_read");
     std::vector<Node> nodes;
-    nodes.reserve(ids.size());
-    for (const Uuid& id : ids) {
-      if (std::optional<Node> n = DoFindNode(id)) nodes.push_back(std::move(*n));
+    try {
+      nodes.reserve(ids.size());
+      for (const Uuid& id : ids) {
+        if (std::optional<Node> n = DoFindNode(id)) nodes.push_back(std::move(*n));
+      }
+    } catch (...) {
+      ExecSql(db_, "ROLLBACK TO fleetmap_read");
+      ExecSql(db_, "RELEASE fleetmap_read");
+      throw;
     }
+    ExecSql(db_, "RELEASE fleetmap_read");
     return nodes;
   }
 

@@ -25,6 +25,10 @@ inline constexpr std::size_t kDefaultMapChunkBytes = std::size_t{1} << 20;
 // REQUIRES: chunk_bytes > 0, else throws Error(kInvalidArgument).
 std::vector<std::string> EncodeMapChunks(const GraphBatch& map,
                                          std::size_t chunk_bytes = kDefaultMapChunkBytes);
+// The same, moving nodes' landmarks into the chunks instead of copying them; `map` is left
+// without them.
+std::vector<std::string> EncodeMapChunks(GraphBatch&& map,
+                                         std::size_t chunk_bytes = kDefaultMapChunkBytes);
 
 // The map the chunks carry, in order. Throws Error(kCorrupt) naming the first chunk that does
 // not parse or holds a malformed element.

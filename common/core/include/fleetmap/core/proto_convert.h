@@ -20,4 +20,9 @@ Path FromProto(const v1::Path& proto);
 Annotation FromProto(const v1::Annotation& proto);
 Se3 FromProto(const v1::Se3& proto);
 
+// The same for a node that is not needed afterwards: its landmarks (nearly all of its bytes)
+// are moved, not copied. `node` or `proto` is left without them.
+v1::Node ToProto(Node&& node);
+Node FromProto(v1::Node&& proto);
+
 }  // namespace fleetmap

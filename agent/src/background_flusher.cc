@@ -1,0 +1,35 @@
+#include "background_flusher.h"
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <utility>
+
+namespace fleetmap::agent_internal {
+
+BackgroundFlusher::BackgroundFlusher(std::filesystem::path path, std::chrono::milliseconds period)
+    : path_(std::move(path)), period_(period), thread_([this] { Run(); }) {}
+
+BackgroundFlusher::~BackgroundFlusher() {
+  {
+    std::lock_guard lock(mutex_);
+    stopping_ = true;
+  }
+  stop_requested_.notify_all();
+  thread_.join();
+}
+
+void BackgroundFlusher::Run() {
+  // Its own descriptor: fdatasync flushes the file's pages whoever wrote them.
+  const int fd = ::open(path_.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return;
+  std::unique_lock lock(mutex_);
+  while (!stop_requested_.wait_for(lock, period_, [this] { return stopping_; })) {
+    lock.unlock();
+    ::fdatasync(fd);
+    lock.lock();
+  }
+  ::close(fd);
+}
+
+}  // namespace fleetmap::agent_internal
