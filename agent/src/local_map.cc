@@ -607,6 +607,7 @@ std::unique_ptr<MapInstallation> LocalMap::BeginInstall(const MapDownload& downl
     state->transaction.emplace(state->store->Begin());
     state->flusher.emplace(state->new_map, kFlushPeriod);
   } catch (...) {
+    state->transaction.reset();  // rolled back while its store is open
     state->store.reset();
     RemoveDatabaseFiles(state->new_map);
     throw;
