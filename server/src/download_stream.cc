@@ -97,6 +97,16 @@ void AddRemoved(const std::vector<Element>& base, const std::unordered_set<Uuid>
   for (const Uuid& id : ids) *removed->Add() = id.ToBytesString();
 }
 
+// Up to kSmallElementsPerBatch of `all` (paths or edges) from `next` on; `next` moves past them.
+template <typename Element>
+std::vector<Element> NextSlice(const std::vector<Element>& all, std::size_t& next) {
+  const std::size_t end = std::min(all.size(), next + kSmallElementsPerBatch);
+  std::vector<Element> slice(all.begin() + static_cast<std::ptrdiff_t>(next),
+                             all.begin() + static_cast<std::ptrdiff_t>(end));
+  next = end;
+  return slice;
+}
+
 std::string FrameOf(const v1::SyncFrame& frame) {
   return EncodeSyncFrame(frame);
 }
@@ -182,12 +192,9 @@ std::vector<std::string> DownloadEncoder::NextBatch(Repository& repository) {
     switch (stage_) {
       case Stage::kPaths: {
         if (next_ < plan.paths.size()) {
-          const std::size_t end = std::min(plan.paths.size(), next_ + kSmallElementsPerBatch);
           GraphBatch map;
-          map.paths.assign(plan.paths.begin() + static_cast<std::ptrdiff_t>(next_),
-                           plan.paths.begin() + static_cast<std::ptrdiff_t>(end));
+          map.paths = NextSlice(plan.paths, next_);
           Encode(std::move(map), frames);
-          next_ = end;
         } else {
           stage_ = Stage::kNodes;
           next_ = 0;
@@ -224,12 +231,9 @@ std::vector<std::string> DownloadEncoder::NextBatch(Repository& repository) {
       }
       case Stage::kEdges: {
         if (next_ < plan.edges.size()) {
-          const std::size_t end = std::min(plan.edges.size(), next_ + kSmallElementsPerBatch);
           GraphBatch map;
-          map.edges.assign(plan.edges.begin() + static_cast<std::ptrdiff_t>(next_),
-                           plan.edges.begin() + static_cast<std::ptrdiff_t>(end));
+          map.edges = NextSlice(plan.edges, next_);
           Encode(std::move(map), frames);
-          next_ = end;
         } else {
           stage_ = Stage::kDone;
           // A download with nothing in it is still one (empty) chunk, as EncodeMapChunks gives
