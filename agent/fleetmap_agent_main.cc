@@ -22,9 +22,11 @@
 #include "fleetmap/agent/agent_sync.h"
 #include "fleetmap/agent/local_map.h"
 #include "fleetmap/agent/sync_client.h"
+#include "fleetmap/core/chunk_memory.h"
 #include "fleetmap/core/error.h"
 #include "fleetmap/policies/download_policy.h"
 #include "fleetmap/store/graph_store.h"
+#include "fleetmap/store/sqlite_process_setup.h"
 
 namespace fleetmap {
 namespace {
@@ -501,6 +503,8 @@ int main(int argc, char** argv) {
   // A server that hangs up mid-write is a link error to retry, not a signal that kills us
   // (Asio already sends with MSG_NOSIGNAL; this covers any other write).
   signal(SIGPIPE, SIG_IGN);
+  KeepChunkMemory(32 << 20, 64 << 20);
+  TuneSqliteForThisProcess();
   CLI::App app{"fleetmap-agent: syncs a robot's experience map with fleetmapd."};
   app.require_subcommand(1);
   AgentArguments args;

@@ -18,11 +18,15 @@
 #include <iostream>
 #include <memory>
 
+#include "fleetmap/core/chunk_memory.h"
 #include "fleetmap/core/error.h"
 #include "fleetmap/server/status_http.h"
 #include "fleetmap/server/sync_server.h"
+#include "fleetmap/store/sqlite_process_setup.h"
 
 int main(int argc, char** argv) {
+  fleetmap::KeepChunkMemory(4 << 20, 16 << 20);
+  fleetmap::TuneSqliteForThisProcess();
   CLI::App app{"fleetmapd: the fleet's central map repository (sync server for fleetmap-agent)"};
   fleetmap::SyncServerOptions options;
   std::string http;
