@@ -21,6 +21,8 @@ void AddSubmissionCommands(CLI::App& app);
 void AddHistoryCommands(CLI::App& app);
 void AddDownloadCommand(CLI::App& app);
 void AddDreamCommand(CLI::App& app);
+// `fleetmap export`: a revision as PLY, g2o, GraphML or a TUM trajectory (export_command.cc).
+void AddExportCommand(CLI::App& app);
 // `fleetmap robot add|list`: the robots fleetmapd lets sync (robot_command.cc).
 void AddRobotCommands(CLI::App& app);
 // `fleetmap records split|cat|ingest|reindex`: record files of raw sensor data

@@ -18,6 +18,7 @@ int main(int argc, char** argv) {
   fleetmap::cli::AddHistoryCommands(app);
   fleetmap::cli::AddDownloadCommand(app);
   fleetmap::cli::AddDreamCommand(app);
+  fleetmap::cli::AddExportCommand(app);
   fleetmap::cli::AddRobotCommands(app);
   fleetmap::cli::AddRecordsCommands(app);
   fleetmap::cli::AddQueryCommand(app);

@@ -24,26 +24,12 @@ namespace {
 
 using RunResult = testing::CliRun;
 
-std::string ReadFile(const std::filesystem::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
+using testing::Contains;
+using testing::DescribeCliRun;
+using testing::ReadWholeFile;
 
 RunResult RunCli(const ScratchDir& dir, const std::vector<std::string>& args) {
   return testing::RunFleetmapCli(dir.path(), args);
-}
-
-std::string Describe(const std::vector<std::string>& args, const RunResult& r) {
-  std::string text = "fleetmap";
-  for (const std::string& arg : args) text += " " + arg;
-  return text + "\nexit " + std::to_string(r.exit_code) + "\nstdout:\n" + r.out + "stderr:\n" +
-         r.err;
-}
-
-bool Contains(const std::string& text, const std::string& part) {
-  return text.find(part) != std::string::npos;
 }
 
 // A robot's map of the given corridor outings (0: day, 1: night), built into a new SQLite
@@ -76,25 +62,10 @@ std::int64_t NodesIn(const std::string& uri) {
   return GraphStore::Open(uri)->Stats().nodes;
 }
 
-class CliRepositoryTest : public ::testing::Test {
+class CliRepositoryTest : public testing::FleetmapCliTest {
  protected:
-  // Runs the CLI; expects success unless told otherwise.
-  RunResult Run(const std::vector<std::string>& args, bool succeed = true) {
-    RunResult r = RunCli(dir_, args);
-    if (succeed) {
-      EXPECT_EQ(r.exit_code, 0) << Describe(args, r);
-    } else {
-      EXPECT_NE(r.exit_code, 0) << Describe(args, r);
-      EXPECT_TRUE(Contains(r.err, "fleetmap: ")) << Describe(args, r);
-    }
-    return r;
-  }
-  // Runs the CLI on the test's repository (--store appended).
-  RunResult RunOn(std::vector<std::string> args, bool succeed = true) {
-    args.push_back("--store");
-    args.push_back(store_);
-    return Run(args, succeed);
-  }
+  CliRepositoryTest() : FleetmapCliTest("fleetmap-cli-test") {}
+
   nlohmann::json Json(std::vector<std::string> args) {
     args.push_back("--json");
     const RunResult r = RunOn(args);
@@ -115,8 +86,6 @@ class CliRepositoryTest : public ::testing::Test {
     RunOn({"merge", "--all"});
   }
 
-  ScratchDir dir_{"fleetmap-cli-test"};
-  std::string store_ = "sqlite:" + (dir_ / "repository.db").string();
   const std::string day_ = Uuid::Generate().ToString();
   const std::string night_ = Uuid::Generate().ToString();
   const std::string robot_day_ = Uuid::Generate().ToString();
@@ -258,9 +227,9 @@ TEST_F(CliRepositoryTest, BadInputExitsNonZeroNamesTheProblemAndChangesNothing) 
     const RunResult r = Run(with_store, /*succeed=*/false);
     for (const std::string& mention : mentions) {
       EXPECT_TRUE(Contains(r.err, mention)) << "should mention '" << mention << "'\n"
-                                            << Describe(with_store, r);
+                                            << DescribeCliRun(with_store, r);
     }
-    EXPECT_FALSE(std::filesystem::exists(dir_ / "out.db")) << Describe(with_store, r);
+    EXPECT_FALSE(std::filesystem::exists(dir_ / "out.db")) << DescribeCliRun(with_store, r);
   };
 
   // An unknown submission: nothing merged, not even the known one named before it.
@@ -291,7 +260,7 @@ TEST_F(CliRepositoryTest, BadInputExitsNonZeroNamesTheProblemAndChangesNothing) 
   std::ofstream(text) << "not a map store\n";
   refused({"push", "--map", "sqlite:" + text.string(), "--robot", robot_day_},
           {"--map sqlite:" + text.string()});
-  EXPECT_EQ(ReadFile(text), "not a map store\n");
+  EXPECT_EQ(ReadWholeFile(text), "not a map store\n");
   refused({"push", "--map", "sqlite:" + (dir_ / "missing.db").string(), "--robot", robot_day_},
           {"missing.db"});
   EXPECT_FALSE(std::filesystem::exists(dir_ / "missing.db"));
@@ -318,11 +287,11 @@ TEST_F(CliRepositoryTest, PushRefusesAnEmptyMapFileAndLeavesItEmpty) {
   const std::vector<std::string> args = {"push",     "--map",   map,   "--robot",
                                          robot_day_, "--store", store_};
   const RunResult r = RunCli(dir_, args);
-  EXPECT_NE(r.exit_code, 0) << Describe(args, r);
-  EXPECT_TRUE(Contains(r.err, "fleetmap: ")) << Describe(args, r);
+  EXPECT_NE(r.exit_code, 0) << DescribeCliRun(args, r);
+  EXPECT_TRUE(Contains(r.err, "fleetmap: ")) << DescribeCliRun(args, r);
   EXPECT_TRUE(Contains(
       r.err, "--map " + map + " is not a fleetmap map store (empty file); nothing was pushed"))
-      << Describe(args, r);
+      << DescribeCliRun(args, r);
   EXPECT_EQ(std::filesystem::file_size(empty), 0u);
   EXPECT_FALSE(std::filesystem::exists(empty.string() + "-wal"));
   EXPECT_FALSE(std::filesystem::exists(empty.string() + "-journal"));
@@ -337,14 +306,14 @@ TEST_F(CliRepositoryTest, PushRefusesAnEmptyMapFileAndLeavesItEmpty) {
               SQLITE_OK);
     sqlite3_close(db);
   }
-  const std::string other_bytes = ReadFile(other);
+  const std::string other_bytes = ReadWholeFile(other);
   const std::vector<std::string> other_args = {
       "push", "--map", "sqlite:" + other.string(), "--robot", robot_day_, "--store", store_};
   const RunResult o = RunCli(dir_, other_args);
-  EXPECT_NE(o.exit_code, 0) << Describe(other_args, o);
+  EXPECT_NE(o.exit_code, 0) << DescribeCliRun(other_args, o);
   EXPECT_TRUE(Contains(o.err, "is not a fleetmap map store (an SQLite database without"))
-      << Describe(other_args, o);
-  EXPECT_TRUE(ReadFile(other) == other_bytes) << "refusing " << other << " changed it";
+      << DescribeCliRun(other_args, o);
+  EXPECT_TRUE(ReadWholeFile(other) == other_bytes) << "refusing " << other << " changed it";
   EXPECT_EQ(Snapshot(), before);
 }
 

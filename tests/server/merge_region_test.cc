@@ -8,6 +8,7 @@
 #include <random>
 
 #include "fleetmap/server/repository.h"
+#include "random_robot_map.h"
 #include "scratch_dir.h"
 #include "store_backends.h"
 
@@ -26,16 +27,7 @@ constexpr std::int64_t kSecondNs = 1'000'000'000;
 std::string PlaceLandmarks(std::size_t outing, std::size_t place) {
   std::seed_seq seed{static_cast<std::uint32_t>(outing), static_cast<std::uint32_t>(place)};
   std::mt19937 random(seed);
-  std::uniform_real_distribution<float> coordinate(-4.0f, 4.0f);
-  Landmarks view;
-  for (int l = 0; l < kLandmarks; ++l) {
-    view.points_camera.emplace_back(coordinate(random), coordinate(random),
-                                    3.0f + std::abs(coordinate(random)));
-    Descriptor256 descriptor;
-    for (std::uint8_t& byte : descriptor) byte = static_cast<std::uint8_t>(random());
-    view.descriptors.push_back(descriptor);
-  }
-  return EncodeLandmarks(view);
+  return EncodeLandmarks(testing::RandomView(random, kLandmarks));
 }
 
 // One drive through the first `count` places of outing `outing`'s street, 1 m apart, chained

@@ -18,26 +18,33 @@ inline std::int64_t WallNs() {
       .count();
 }
 
+// `landmarks` random landmarks, 3 to 7 m in front of the camera within 4 m either side, with
+// random descriptors: a view that looks like no other.
+inline Landmarks RandomView(std::mt19937& random, int landmarks) {
+  std::uniform_real_distribution<float> coordinate(-4.0f, 4.0f);
+  Landmarks view;
+  for (int l = 0; l < landmarks; ++l) {
+    view.points_camera.emplace_back(coordinate(random), coordinate(random),
+                                    3.0f + std::abs(coordinate(random)));
+    Descriptor256 descriptor;
+    for (auto& byte : descriptor) byte = static_cast<std::uint8_t>(random());
+    view.descriptors.push_back(descriptor);
+  }
+  return view;
+}
+
 // A robot's map of `nodes` experiences 1 m apart whose landmarks are random: it never localises
 // against another such map, so MERGE adds every node of it (exact counts), with metric edges
 // along the chain and one path through it (path memory, seed 002 §IV).
 inline GraphBatch RandomRobotMap(const Uuid& robot, int nodes, std::uint32_t seed,
                                  int landmarks = 60) {
   std::mt19937 random(seed);
-  std::uniform_real_distribution<float> coordinate(-4.0f, 4.0f);
   const Uuid outing = Uuid::Generate();
   const std::int64_t t0 = WallNs() - 3'600'000'000'000;
   GraphBatch map;
   map.paths.push_back(Path{Uuid::Generate(), robot, outing, t0, t0 + nodes * 500'000'000LL});
   for (int i = 0; i < nodes; ++i) {
-    Landmarks view;
-    for (int l = 0; l < landmarks; ++l) {
-      view.points_camera.emplace_back(coordinate(random), coordinate(random),
-                                      3.0f + std::abs(coordinate(random)));
-      Descriptor256 descriptor;
-      for (auto& byte : descriptor) byte = static_cast<std::uint8_t>(random());
-      view.descriptors.push_back(descriptor);
-    }
+    const Landmarks view = RandomView(random, landmarks);
     map.nodes.push_back(
         Node{Uuid::Generate(), t0 + i * 500'000'000LL, robot, outing, EncodeLandmarks(view)});
   }

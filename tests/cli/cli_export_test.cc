@@ -1,0 +1,283 @@
+// `fleetmap export` end to end: the built executable run as a subprocess on repositories made
+// with the CLI (init, push, merge) on SQLite and PostgreSQL, each format read back by the
+// tests' own readers (tests/support/*_reader.h) and checked against the surveyed poses of the
+// robot maps pushed; and bad input named in the error, with no output file left behind.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <fstream>
+#include <map>
+#include <set>
+#include <sstream>
+#include <tuple>
+
+#include "fleetmap/server/repository.h"
+#include "fleetmap/store/graph_store.h"
+#include "fleetmap_cli_run.h"
+#include "g2o_reader.h"
+#include "graphml_reader.h"
+#include "ply_reader.h"
+#include "scratch_dir.h"
+#include "store_backends.h"
+#include "surveyed_map.h"
+#include "tum_reader.h"
+
+namespace fleetmap {
+namespace {
+
+using testing::Contains;
+using testing::ReadWholeFile;
+
+double AngleBetween(const Eigen::Quaterniond& a, const Eigen::Quaterniond& b) {
+  return a.normalized().angularDistance(b.normalized());
+}
+
+class CliExportTest : public testing::FleetmapCliTest {
+ protected:
+  static constexpr std::int64_t kFirstStampNs = 1'700'000'000'250'000'000;
+  static constexpr int kLandmarks = 30;
+
+  CliExportTest() : FleetmapCliTest("fleetmap-cli-export") {
+    // Two robots that never met: robot A's outing of 5 nodes, then robot B's of 3, 100 m away.
+    testing::AddSurveyedOuting(robot_a_map_, robot_a_, outing_a_, kFirstStampNs,
+                               testing::WindingRoute(5, 0.0), kLandmarks);
+    testing::AddSurveyedOuting(robot_b_map_, robot_b_, outing_b_, kFirstStampNs + 60'000'000'000,
+                               testing::WindingRoute(3, 100.0), kLandmarks);
+    for (const testing::SurveyedMap* robot : {&robot_a_map_, &robot_b_map_}) {
+      for (const Node& node : robot->map.nodes) {
+        world_T_node_[node.id] = robot->world_T_node.at(node.id);
+        landmarks_[node.id] = robot->landmarks.at(node.id);
+        reference_[node.id] = robot->map.nodes.front().id;
+        component_[node.id] = robot == &robot_a_map_ ? 0 : 1;
+        numbered_.push_back({node.stamp_ns, node.id});
+      }
+    }
+    std::sort(numbered_.begin(), numbered_.end());
+  }
+
+  // The repository the exports read, made with the CLI: revision 1 is robot A's map, 2 robot B's.
+  void MakeRepository() {
+    const auto write_map = [&](const GraphBatch& map, const std::string& name) {
+      const std::string uri = "sqlite:" + (dir_ / name).string();
+      GraphStore::Open(uri)->Put(map);
+      return uri;
+    };
+    const std::string a = write_map(robot_a_map_.map, "robot-a.db");
+    const std::string b = write_map(robot_b_map_.map, "robot-b.db");
+    RunOn({"init"});
+    RunOn({"push", "--map", a, "--robot", robot_a_.ToString(), "--author", "robot-a"});
+    RunOn({"push", "--map", b, "--robot", robot_b_.ToString(), "--author", "robot-b"});
+    RunOn({"merge", "--all"});
+  }
+
+  Se3 ExpectedPose(const Uuid& node) const {
+    return world_T_node_.at(reference_.at(node)).inverse() * world_T_node_.at(node);
+  }
+
+  // Exports every format from the repository and reads each back.
+  void ExportAndReadBackEveryFormat() {
+    const GraphBatch head = Repository::Open(store_)->Checkout();
+    ASSERT_EQ(head.nodes.size(), numbered_.size()) << "MERGE should add every node";
+    std::size_t metric_edges = 0;
+    for (const Edge& edge : head.edges) metric_edges += edge.kind == EdgeKind::kMetric ? 1 : 0;
+    ASSERT_EQ(metric_edges, 4u + 2u);
+
+    // PLY: every landmark where layout_T_node * p_camera puts it.
+    const std::filesystem::path ply_file = dir_ / "map.ply";
+    const testing::CliRun ply_run =
+        RunOn({"export", "--format", "ply", "--out", ply_file.string()});
+    EXPECT_TRUE(Contains(ply_run.out, "exported revision 2 of ")) << ply_run.out;
+    EXPECT_TRUE(Contains(ply_run.out, "240 landmark points of 8 nodes; 2 components"))
+        << ply_run.out;
+    EXPECT_FALSE(std::filesystem::exists(ply_file.string() + ".tmp"));
+    const testing::PlyFile ply = testing::ReadPly(ReadWholeFile(ply_file));
+    EXPECT_EQ(ply.format, "binary_little_endian");
+    const testing::PlyElement& vertex = ply.Element("vertex");
+    ASSERT_EQ(vertex.count, numbered_.size() * kLandmarks);
+    std::size_t row = 0;
+    for (const auto& [stamp_ns, id] : numbered_) {
+      for (const Eigen::Vector3f& p_camera : landmarks_.at(id).points_camera) {
+        const Eigen::Vector3d p_layout = ExpectedPose(id) * p_camera.cast<double>();
+        for (int axis = 0; axis < 3; ++axis) {
+          EXPECT_NEAR(vertex.Scalar(row, std::string(1, "xyz"[axis])), p_layout[axis],
+                      1e-6 * std::max(1.0, std::abs(p_layout[axis])))
+              << "vertex " << row;
+        }
+        EXPECT_EQ(vertex.Scalar(row, "component"), component_.at(id));
+        ++row;
+      }
+    }
+
+    // g2o: vertices numbered by (stamp, UUID) at the surveyed poses, FIX per component, one
+    // edge per metric edge with the identity information matrix.
+    const std::filesystem::path g2o_file = dir_ / "map.g2o";
+    RunOn({"export", "--format", "g2o", "--out", g2o_file.string()});
+    const testing::G2oGraph g2o = testing::ReadG2o(ReadWholeFile(g2o_file));
+    ASSERT_EQ(g2o.vertices.size(), numbered_.size());
+    for (std::size_t i = 0; i < numbered_.size(); ++i) {
+      const Se3 expected = ExpectedPose(numbered_[i].second);
+      const testing::G2oPose& pose = g2o.vertices.at(static_cast<long long>(i));
+      EXPECT_LT((pose.translation - expected.translation()).norm(), 1e-6) << i;
+      EXPECT_NEAR(pose.rotation.norm(), 1.0, 1e-9) << i;
+      EXPECT_LT(AngleBetween(pose.rotation, Eigen::Quaterniond(expected.rotation())), 1e-6) << i;
+    }
+    EXPECT_EQ(g2o.fixed, (std::set<long long>{0, 5}));
+    ASSERT_EQ(g2o.edges.size(), metric_edges);
+    for (const testing::G2oEdge& edge : g2o.edges) {
+      EXPECT_EQ(edge.to, edge.from + 1);  // the chains, in order
+      const Se3 from_T_to = world_T_node_.at(numbered_[edge.from].second).inverse() *
+                            world_T_node_.at(numbered_[edge.to].second);
+      EXPECT_LT((edge.measurement.translation - from_T_to.translation()).norm(), 1e-6);
+      EXPECT_TRUE(edge.information == (Eigen::Matrix<double, 6, 6>::Identity()));
+    }
+
+    // GraphML: every node and edge of the head, positions from the layout.
+    const std::filesystem::path graphml_file = dir_ / "map.graphml";
+    RunOn({"export", "--format", "graphml", "--out", graphml_file.string()});
+    const testing::GraphMlGraph graphml = testing::ReadGraphMl(ReadWholeFile(graphml_file));
+    EXPECT_TRUE(Contains(graphml.description, "revision 2")) << graphml.description;
+    ASSERT_EQ(graphml.nodes.size(), numbered_.size());
+    EXPECT_EQ(graphml.edges.size(), head.edges.size());
+    for (std::size_t i = 0; i < numbered_.size(); ++i) {
+      const Uuid& id = numbered_[i].second;
+      EXPECT_EQ(graphml.nodes[i].Data("uuid"), id.ToString());
+      EXPECT_EQ(graphml.nodes[i].Data("landmarks"), std::to_string(kLandmarks));
+      EXPECT_NEAR(graphml.nodes[i].Number("x"), ExpectedPose(id).translation().x(), 1e-6);
+      EXPECT_NEAR(graphml.nodes[i].Number("z"), ExpectedPose(id).translation().z(), 1e-6);
+    }
+
+    // TUM: robot A's outing, chosen by --outing.
+    const std::filesystem::path tum_file = dir_ / "a.tum";
+    const testing::CliRun tum_run = RunOn({"export", "--format", "tum", "--outing",
+                                           outing_a_.ToString(), "--out", tum_file.string()});
+    EXPECT_TRUE(Contains(tum_run.out, "5 poses")) << tum_run.out;
+    const testing::TumTrajectory tum = testing::ReadTum(ReadWholeFile(tum_file));
+    ASSERT_EQ(tum.poses.size(), 5u);
+    const std::vector<std::string> stamps = {"1700000000.250000000", "1700000000.750000000",
+                                             "1700000001.250000000", "1700000001.750000000",
+                                             "1700000002.250000000"};
+    for (std::size_t i = 0; i < 5; ++i) {
+      EXPECT_EQ(tum.poses[i].timestamp_text, stamps[i]);
+      const Se3 expected = ExpectedPose(numbered_[i].second);
+      EXPECT_LT((tum.poses[i].translation - expected.translation()).norm(), 1e-6) << i;
+      EXPECT_LT(AngleBetween(tum.poses[i].rotation, Eigen::Quaterniond(expected.rotation())), 1e-6)
+          << i;
+    }
+
+    // An earlier revision: only robot A's map.
+    RunOn({"export", "--format", "g2o", "--revision", "1", "--out", g2o_file.string()});
+    EXPECT_EQ(testing::ReadG2o(ReadWholeFile(g2o_file)).vertices.size(), 5u);
+    // One outing in the map: --outing may be left out.
+    const testing::CliRun only =
+        RunOn({"export", "--format", "tum", "--revision", "1", "--out", tum_file.string()});
+    EXPECT_TRUE(Contains(only.out, "outing " + outing_a_.ToString())) << only.out;
+    EXPECT_EQ(testing::ReadTum(ReadWholeFile(tum_file)).poses.size(), 5u);
+  }
+
+  const Uuid robot_a_ = Uuid::Generate(), robot_b_ = Uuid::Generate();
+  const Uuid outing_a_ = Uuid::Generate(), outing_b_ = Uuid::Generate();
+  testing::SurveyedMap robot_a_map_, robot_b_map_;
+  std::map<Uuid, Se3> world_T_node_;
+  std::map<Uuid, Landmarks> landmarks_;
+  std::map<Uuid, Uuid> reference_;
+  std::map<Uuid, int> component_;
+  std::vector<std::pair<std::int64_t, Uuid>> numbered_;  // (stamp, id): the export's order
+};
+
+TEST_F(CliExportTest, ExportsEveryFormatFromSqlite) {
+  MakeRepository();
+  ExportAndReadBackEveryFormat();
+}
+
+TEST_F(CliExportTest, ExportsEveryFormatFromPostgres) {
+  if (auto why = testing::PostgresBackend::Unavailable()) GTEST_SKIP() << *why;
+  testing::PostgresBackend backend;
+  store_ = backend.Uri();
+  MakeRepository();
+  ExportAndReadBackEveryFormat();
+
+  // A database that is not a fleetmap repository is refused as it is.
+  testing::PostgresBackend empty;
+  const std::filesystem::path out = dir_ / "empty.ply";
+  const testing::CliRun r =
+      Run({"export", "--format", "ply", "--store", empty.Uri(), "--out", out.string()}, false);
+  EXPECT_TRUE(Contains(r.err, "is not a fleetmap map store")) << r.err;
+  EXPECT_FALSE(std::filesystem::exists(out));
+}
+
+TEST_F(CliExportTest, BadInputIsNamedAndLeavesNoOutputFile) {
+  MakeRepository();
+  const std::filesystem::path out = dir_ / "out.ply";
+  const auto refused = [&](std::vector<std::string> args,
+                           const std::vector<std::string>& mentions) {
+    if (std::find(args.begin(), args.end(), "--store") == args.end()) {
+      args.push_back("--store");
+      args.push_back(store_);
+    }
+    const testing::CliRun r = Run(args, /*succeed=*/false);
+    for (const std::string& mention : mentions) {
+      EXPECT_TRUE(Contains(r.err, mention)) << "should mention '" << mention << "'\n"
+                                            << testing::DescribeCliRun(args, r);
+    }
+    EXPECT_FALSE(std::filesystem::exists(out)) << testing::DescribeCliRun(args, r);
+    EXPECT_FALSE(std::filesystem::exists(out.string() + ".tmp"))
+        << testing::DescribeCliRun(args, r);
+  };
+  const std::string unknown = Uuid::Generate().ToString();
+  refused({"export", "--format", "obj", "--out", out.string()}, {"unknown --format 'obj'"});
+  refused({"export", "--format", "ply", "--revision", "9", "--out", out.string()},
+          {"no revision 9", "2 (the head)"});
+  refused({"export", "--format", "tum", "--outing", unknown, "--out", out.string()},
+          {"no outing " + unknown, "2 outings", outing_a_.ToString(), outing_b_.ToString()});
+  refused({"export", "--format", "tum", "--out", out.string()},
+          {"holds 2 outings", "--outing UUID", outing_a_.ToString(), outing_b_.ToString()});
+  refused({"export", "--format", "tum", "--outing", "robot-7", "--out", out.string()},
+          {"--outing 'robot-7' is not a UUID"});
+  refused({"export", "--format", "g2o", "--outing", unknown, "--out", out.string()},
+          {"--outing chooses the trajectory of --format tum"});
+  refused({"export", "--format", "ply", "--out", (dir_ / "no-such-dir" / "out.ply").string()},
+          {"cannot write --out " + (dir_ / "no-such-dir" / "out.ply").string(),
+           "No such file or directory"});
+  refused({"export", "--format", "ply", "--out", dir_.path().string()},
+          {"cannot write --out " + dir_.path().string(), "a directory"});
+
+  // Stores that are not repositories, left as they were.
+  const std::filesystem::path text = dir_ / "notes.txt";
+  std::ofstream(text) << "not a map store\n";
+  refused(
+      {"export", "--format", "ply", "--store", "sqlite:" + text.string(), "--out", out.string()},
+      {"--store sqlite:" + text.string(), "not a fleetmap map store"});
+  EXPECT_EQ(ReadWholeFile(text), "not a map store\n");
+  const std::filesystem::path empty = dir_ / "empty.db";
+  std::ofstream(empty).close();
+  refused(
+      {"export", "--format", "g2o", "--store", "sqlite:" + empty.string(), "--out", out.string()},
+      {"sqlite:" + empty.string(), "not a fleetmap map store (empty file)"});
+  EXPECT_EQ(std::filesystem::file_size(empty), 0u);
+  const std::filesystem::path missing = dir_ / "missing.db";
+  refused(
+      {"export", "--format", "g2o", "--store", "sqlite:" + missing.string(), "--out", out.string()},
+      {"sqlite:" + missing.string()});
+  EXPECT_FALSE(std::filesystem::exists(missing));
+
+  // A file already at --out stays as it was when an export fails, and is replaced when one
+  // succeeds.
+  std::ofstream(out) << "an older export\n";
+  const testing::CliRun failed = RunOn(
+      {"export", "--format", "ply", "--revision", "7", "--out", out.string()}, /*succeed=*/false);
+  EXPECT_EQ(ReadWholeFile(out), "an older export\n") << testing::DescribeCliRun({}, failed);
+  EXPECT_FALSE(std::filesystem::exists(out.string() + ".tmp"));
+  RunOn({"export", "--format", "ply", "--out", out.string()});
+  EXPECT_EQ(testing::ReadPly(ReadWholeFile(out)).Element("vertex").count, 240u);
+}
+
+TEST_F(CliExportTest, HelpStatesTheEncodingsTheVertexOrderAndTheInformationMatrix) {
+  const testing::CliRun help = Run({"export", "--help"});
+  for (const char* fact : {"binary_little_endian", "(stamp_ns, UUID)", "identity",
+                           "information matrix", "FIX", "--outing", "FILE.tmp"}) {
+    EXPECT_TRUE(Contains(help.out, fact)) << "--help should state '" << fact << "'\n" << help.out;
+  }
+}
+
+}  // namespace
+}  // namespace fleetmap
