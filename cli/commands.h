@@ -45,4 +45,8 @@ void AddAnnotationCommands(CLI::App& app);
 // pairs in the sensor-data repository (images_command.cc).
 void AddImagesCommand(CLI::App& app);
 
+// `fleetmap info STORE` and `fleetmap doctor STORE`: what a store holds and what is wrong
+// with it (store_inspection_commands.cc).
+void AddStoreInspectionCommands(CLI::App& app);
+
 }  // namespace fleetmap::cli

@@ -26,6 +26,7 @@ int main(int argc, char** argv) {
   fleetmap::cli::AddBenchScaleCommand(app);
   fleetmap::cli::AddAnnotationCommands(app);
   fleetmap::cli::AddImagesCommand(app);
+  fleetmap::cli::AddStoreInspectionCommands(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -1,8 +1,9 @@
-// `fleetmap records split` and `fleetmap records cat`: cut a record file (record_file.h) into
-// pieces and join record files, at record boundaries (seed 000 §5.1: record files are built,
-// cut and joined without an index). Both copy only whole, checking records; every
-// corrupt stretch of the input is printed (file, offset, length, what) and makes the exit
-// status 2, after the output of the good records has been written.
+// `fleetmap records split`, `fleetmap records cat` and `fleetmap records info`: cut a record
+// file (record_file.h) into pieces, join record files, at record boundaries (seed 000 §5.1:
+// record files are built, cut and joined without an index), and say what a file holds
+// (record_file_summary.h). Split and cat copy only whole, checking records; every corrupt
+// stretch of the input is printed (file, offset, length, what) and makes the exit status 2,
+// after the output of the good records has been written (info: after its report).
 #include <CLI/CLI.hpp>
 #include <cstdio>
 #include <filesystem>
@@ -13,6 +14,8 @@
 #include "commands.h"
 #include "fleetmap/core/error.h"
 #include "fleetmap/records/record_file.h"
+#include "fleetmap/records/record_file_summary.h"
+#include "repository_arguments.h"
 
 namespace fleetmap::cli {
 namespace {
@@ -30,6 +33,10 @@ struct SplitArgs {
 struct CatArgs {
   std::vector<std::string> files;
   std::string out;
+};
+
+struct InfoArgs {
+  std::vector<std::string> files;
 };
 
 // Records and bytes of a file just written (its pieces are in the page cache, so this is
@@ -87,12 +94,39 @@ void RunCat(const CatArgs& args) {
   ReportProblems(problems);
 }
 
+void RunInfo(const InfoArgs& args) {
+  std::vector<RecordProblem> problems;
+  for (const std::string& name : args.files) {
+    const RecordFileSummary s = SummariseRecordFile(name);
+    std::printf("%s\n  %llu records, %llu bytes\n", s.file.c_str(),
+                static_cast<unsigned long long>(s.records),
+                static_cast<unsigned long long>(s.bytes));
+    if (s.first_ns) {
+      std::printf("  %s to %s (%.3f s)%s\n", FormatUtc(*s.first_ns).c_str(),
+                  FormatUtc(*s.last_ns).c_str(),
+                  static_cast<double>(*s.last_ns - *s.first_ns) / 1e9,
+                  s.out_of_order > 0 ? (", " + std::to_string(s.out_of_order) +
+                                        " records earlier than the one "
+                                        "before them")
+                                           .c_str()
+                                     : "");
+    }
+    for (const auto& [type, t] : s.types) {
+      std::printf("  %-40s %8llu records %12llu payload bytes\n", type.c_str(),
+                  static_cast<unsigned long long>(t.records),
+                  static_cast<unsigned long long>(t.payload_bytes));
+    }
+    problems.insert(problems.end(), s.problems.begin(), s.problems.end());
+  }
+  ReportProblems(problems);
+}
+
 }  // namespace
 
 void AddRecordsCommands(CLI::App& app) {
   CLI::App* records = app.add_subcommand(
       "records",
-      "Raw sensor data: record files (split, cat) and their SQL index (ingest, reindex)");
+      "Raw sensor data: record files (split, cat, info) and their SQL index (ingest, reindex)");
   records->require_subcommand(1);
   records->footer(
       "Record files hold raw sensor messages, framed and CRC-checked (seed 000 §5.1); the "
@@ -127,6 +161,16 @@ void AddRecordsCommands(CLI::App& app) {
   cat->add_option("files", cat_args->files, "Record files")->required()->check(CLI::ExistingFile);
   cat->add_option("--out", cat_args->out, "The new record file")->required();
   cat->callback([cat_args] { RunCat(*cat_args); });
+
+  auto info_args = std::make_shared<InfoArgs>();
+  CLI::App* info = records->add_subcommand("info", "What record files hold");
+  info->footer(
+      "Per file, in one linear scan: records and bytes, the time span (UTC) and how many records "
+      "are stamped earlier than the one before them, and records and payload bytes per message "
+      "type. Corrupt stretches and a torn tail are printed with their file and offset; the exit "
+      "status is then 2. A file that does not exist or cannot be read: exit 1.");
+  info->add_option("files", info_args->files, "Record files")->required();
+  info->callback([info_args] { RunInfo(*info_args); });
 
   AddRecordsIndexCommands(*records);
 }

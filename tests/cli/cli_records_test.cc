@@ -5,6 +5,7 @@
 
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <string>
 #include <vector>
 
@@ -83,6 +84,29 @@ TEST_F(CliRecordsTest, SplitThenCatGivesBackEveryRecord) {
   ASSERT_EQ(joined_run.exit_code, 0) << joined_run.err;
   EXPECT_EQ(CountRecords(joined), kRecords);
   EXPECT_EQ(std::filesystem::file_size(joined), std::filesystem::file_size(file));
+}
+
+TEST_F(CliRecordsTest, InfoSaysWhatAFileHoldsAndNamesItsDamage) {
+  const std::filesystem::path file = WriteRecordFile();
+  const CliRun whole = Run({"records", "info", file.string()});
+  ASSERT_EQ(whole.exit_code, 0) << whole.err;
+  EXPECT_NE(whole.out.find("40 records"), std::string::npos) << whole.out;
+  EXPECT_NE(whole.out.find("2023-11-14T22:13:20Z to 2023-11-14T22:13:20Z (0.039 s)"),
+            std::string::npos)
+      << whole.out;
+  EXPECT_NE(whole.out.find("test.Blob"), std::string::npos) << whole.out;
+
+  // Half a header appended: a torn tail, reported with its offset; exit 2 after the report.
+  const auto size = std::filesystem::file_size(file);
+  std::ofstream(file, std::ios::app | std::ios::binary).write("FMRC", 4);
+  const CliRun torn = Run({"records", "info", file.string()});
+  EXPECT_EQ(torn.exit_code, 2) << torn.err;
+  EXPECT_NE(torn.out.find("40 records"), std::string::npos) << torn.out;
+  EXPECT_NE(torn.err.find("offset " + std::to_string(size)), std::string::npos) << torn.err;
+
+  const CliRun missing = Run({"records", "info", (scratch_ / "nothing.rec").string()});
+  EXPECT_EQ(missing.exit_code, 1);
+  EXPECT_NE(missing.err.find("nothing.rec"), std::string::npos) << missing.err;
 }
 
 TEST_F(CliRecordsTest, IngestAndReindexFillTheSensorIndex) {

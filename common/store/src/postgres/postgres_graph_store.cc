@@ -31,6 +31,7 @@
 #include "postgres/pg_session.h"
 #include "postgres/postgres_annotation_store.h"
 #include "postgres/postgres_sensor_index.h"
+#include "postgres/postgres_store_health.h"
 #include "postgres/postgres_version_store.h"
 
 namespace fleetmap::internal {
@@ -103,6 +104,7 @@ class PostgresGraphStore final : public GraphStore {
     versions_ = NewPostgresVersionStore(session_);
     sensors_ = NewPostgresSensorIndex(session_);
     annotations_ = NewPostgresAnnotationStore(session_);
+    health_ = NewPostgresStoreHealth(session_);
     if (options.read_only) {
       // Only now: the session-local staging tables above are created with CREATE TEMP TABLE,
       // which a read-only transaction refuses (they change nothing of the database's own).
@@ -118,6 +120,7 @@ class PostgresGraphStore final : public GraphStore {
   VersionStore& versions() override { return *versions_; }
   SensorIndex& sensors() override { return *sensors_; }
   AnnotationStore& annotations() override { return *annotations_; }
+  StoreHealth& health() override { return *health_; }
 
   int schema_version() override {
     return session_.Autocommit("schema version", [&](pqxx::transaction_base& t) {
@@ -670,6 +673,7 @@ class PostgresGraphStore final : public GraphStore {
   std::unique_ptr<VersionStore> versions_;        // shares session_, so declared after it
   std::unique_ptr<SensorIndex> sensors_;          // shares session_, so declared after it
   std::unique_ptr<AnnotationStore> annotations_;  // shares session_, so declared after it
+  std::unique_ptr<StoreHealth> health_;           // shares session_, so declared after it
 };
 
 }  // namespace

@@ -26,6 +26,7 @@
 #include "sqlite/element_rows.h"
 #include "sqlite/sqlite_annotation_store.h"
 #include "sqlite/sqlite_sensor_index.h"
+#include "sqlite/sqlite_store_health.h"
 #include "sqlite/sqlite_version_store.h"
 #include "sqlite/statement.h"
 
@@ -147,7 +148,9 @@ class SqliteGraphStore final : public GraphStore {
       versions_ = NewSqliteVersionStore(db_);
       sensors_ = NewSqliteSensorIndex(db_);
       annotations_ = NewSqliteAnnotationStore(db_);
+      health_ = NewSqliteStoreHealth(db_, path_);
     } catch (...) {
+      health_.reset();
       annotations_.reset();
       sensors_.reset();
       versions_.reset();
@@ -159,6 +162,7 @@ class SqliteGraphStore final : public GraphStore {
 
   ~SqliteGraphStore() override {
     // Prepared statements first: sqlite3_close refuses a connection that still has some.
+    health_.reset();
     annotations_.reset();
     sensors_.reset();
     versions_.reset();
@@ -171,6 +175,7 @@ class SqliteGraphStore final : public GraphStore {
   VersionStore& versions() override { return *versions_; }
   SensorIndex& sensors() override { return *sensors_; }
   AnnotationStore& annotations() override { return *annotations_; }
+  StoreHealth& health() override { return *health_; }
 
   int schema_version() override {
     return CheckedSchemaVersion(uri(), SchemaRows(), static_cast<int>(SqliteMigrations().size()));
@@ -647,6 +652,7 @@ class SqliteGraphStore final : public GraphStore {
   std::unique_ptr<VersionStore> versions_;        // on db_, sharing its transactions
   std::unique_ptr<SensorIndex> sensors_;          // on db_, sharing its transactions
   std::unique_ptr<AnnotationStore> annotations_;  // on db_, sharing its transactions
+  std::unique_ptr<StoreHealth> health_;           // on db_
 };
 
 }  // namespace

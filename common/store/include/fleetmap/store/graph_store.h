@@ -36,6 +36,7 @@ namespace fleetmap {
 class VersionStore;
 class SensorIndex;
 class AnnotationStore;
+class StoreHealth;
 
 // Seed 000 §6.1: synchronous flushes every commit to stable storage (SQLite WAL with
 // synchronous=FULL; PostgreSQL synchronous_commit=on). Buffered leaves writes to the OS
@@ -206,6 +207,10 @@ class GraphStore : public GraphReader, public GraphWriter {
   // The annotation layer over this store (annotation_store.h): annotations on data of the
   // sensor index, typed payload tables, compound queries. Same connection and Transactions.
   virtual AnnotationStore& annotations() = 0;
+
+  // What the engine says about the store (store_health.h): size on disk, its own integrity
+  // check, references that do not resolve. Same connection; only reads.
+  virtual StoreHealth& health() = 0;
 
  protected:
   GraphStore() = default;

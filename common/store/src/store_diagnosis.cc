@@ -1,0 +1,178 @@
+#include "fleetmap/store/store_diagnosis.h"
+
+#include <chrono>
+#include <string>
+#include <unordered_set>
+#include <vector>
+
+#include "fleetmap/store/store_health.h"
+#include "fleetmap/store/version_store.h"
+
+namespace fleetmap {
+
+namespace {
+
+std::string Ids(const std::vector<Uuid>& ids) {
+  std::string text;
+  for (const Uuid& id : ids) text += (text.empty() ? "" : ", ") + id.ToString();
+  return text;
+}
+
+std::string Hours(std::chrono::minutes age) {
+  return std::to_string(age.count() / 60) + " h " + std::to_string(age.count() % 60) + " min";
+}
+
+void CheckEngine(GraphStore& store, std::vector<StoreProblem>& problems) {
+  for (const std::string& line : store.health().EngineProblems()) {
+    problems.push_back({"engine", line,
+                        "the store's files are damaged: stop the services that write it, copy "
+                        "it aside, and restore the last backup (for SQLite, `sqlite3 FILE "
+                        ".recover` salvages what it can into a new file)"});
+  }
+}
+
+void CheckReferences(GraphStore& store, const DiagnosisOptions& options,
+                     std::vector<StoreProblem>& problems) {
+  const IdSample dangling = store.health().DanglingEdges(options.examples);
+  if (dangling.count > 0) {
+    problems.push_back(
+        {"dangling edges",
+         std::to_string(dangling.count) +
+             " stored edges name a node or path that is not stored (first: " +
+             Ids(dangling.examples) + ")",
+         "written around the store's checks (by hand, or by a tool with foreign keys off): "
+         "restore a backup, or push again the robot maps that hold those nodes"});
+  }
+  const IdSample orphans = store.health().OrphanVersions(options.examples);
+  if (orphans.count > 0) {
+    problems.push_back(
+        {"orphan versions",
+         std::to_string(orphans.count) +
+             " version records name an element that is not stored or a revision after the head "
+             "(first: " +
+             Ids(orphans.examples) + ")",
+         "the history and the map disagree, so checkouts of some revisions are not what was "
+         "merged: restore a backup; do not merge into this store until then"});
+  }
+}
+
+void CheckHead(GraphStore& store, const DiagnosisOptions& options,
+               std::vector<StoreProblem>& problems) {
+  VersionStore& versions = store.versions();
+  const RevisionNumber head = versions.HeadRevision();
+  std::unordered_set<Uuid> nodes;
+  for (const Node& node : versions.NodesAt(head, false)) nodes.insert(node.id);
+  std::unordered_set<Uuid> paths;
+  for (const Path& path : versions.PathsAt(head)) paths.insert(path.id);
+  std::int64_t count = 0;
+  std::vector<Uuid> examples;
+  for (const Edge& edge : versions.EdgesAt(head)) {
+    const bool ends = nodes.contains(edge.from) && nodes.contains(edge.to);
+    const bool path = edge.path.IsNil() || paths.contains(edge.path);
+    if (ends && path) continue;
+    if (examples.size() < options.examples) examples.push_back(edge.id);
+    ++count;
+  }
+  if (count > 0) {
+    problems.push_back(
+        {"head",
+         std::to_string(count) + " edges visible at revision " + std::to_string(head) +
+             " end in a node or path that is hidden there (first: " + Ids(examples) + ")",
+         "a revision hid nodes without their edges: `fleetmap log` shows which; revert it "
+         "(`fleetmap revert`) and merge its submission again"});
+  }
+}
+
+void CheckHistory(GraphStore& store, std::vector<StoreProblem>& problems) {
+  VersionStore& versions = store.versions();
+  const std::vector<Revision> revisions = versions.ListRevisions();
+  const RevisionNumber head = versions.HeadRevision();
+  const auto problem = [&](const std::string& what) {
+    problems.push_back({"history", what,
+                        "the revision tables were changed outside fleetmap: restore a backup; "
+                        "do not merge into this store until then"});
+  };
+  for (std::size_t i = 0; i < revisions.size(); ++i) {
+    const RevisionNumber expected = static_cast<RevisionNumber>(i) + 1;
+    if (revisions[i].number != expected) {
+      problem("revision " + std::to_string(expected) + " is missing: the history jumps to " +
+              std::to_string(revisions[i].number));
+      break;
+    }
+  }
+  for (const Revision& revision : revisions) {
+    if (revision.kind != RevisionKind::kMerge) continue;
+    const std::optional<Submission> submission = versions.FindSubmission(revision.submission);
+    if (!submission) {
+      problem("revision " + std::to_string(revision.number) + " merged submission " +
+              revision.submission.ToString() + ", which is not stored");
+    } else if (submission->state != SubmissionState::kMerged ||
+               submission->revision != revision.number) {
+      problem("revision " + std::to_string(revision.number) + " merged submission " +
+              revision.submission.ToString() + ", which says it is " +
+              std::string(SubmissionStateName(submission->state)) +
+              (submission->state == SubmissionState::kMerged
+                   ? " into revision " + std::to_string(submission->revision)
+                   : ""));
+    }
+  }
+  for (const Submission& submission : versions.ListSubmissions()) {
+    if (submission.state != SubmissionState::kMerged) continue;
+    if (submission.revision < 1 || submission.revision > head) {
+      problem("submission " + submission.id.ToString() + " says it became revision " +
+              std::to_string(submission.revision) + ", which does not exist (head " +
+              std::to_string(head) + ")");
+    }
+  }
+}
+
+void CheckSubmissions(GraphStore& store, const DiagnosisOptions& options,
+                      std::vector<StoreProblem>& problems) {
+  VersionStore& versions = store.versions();
+  const auto age = [&](const Submission& s) {
+    return std::chrono::duration_cast<std::chrono::minutes>(
+        std::chrono::nanoseconds(options.now_ns - s.received_ns));
+  };
+  for (const Submission& submission : versions.ListSubmissions()) {
+    const std::string name = "submission " + submission.id.ToString() + " from robot " +
+                             submission.robot.ToString() + " (" + submission.author + ")";
+    if (submission.state == SubmissionState::kReceiving &&
+        age(submission) >= options.receiving_stuck_after) {
+      problems.push_back(
+          {"submissions",
+           name + " has been receiving for " + Hours(age(submission)) + ", stopped after " +
+               std::to_string(submission.chunk_count) + " chunks (" +
+               std::to_string(submission.bytes) + " bytes)",
+           "its robot's agent resumes the push at its next sync (the map stays on the robot "
+           "until then); nothing is deleted, so a robot that never returns leaves it as a "
+           "record of what it sent"});
+    }
+    if (submission.state == SubmissionState::kQueued &&
+        age(submission) >= options.queued_stuck_after) {
+      const std::optional<SubmissionClaim> claim = versions.FindClaim(submission.id);
+      if (claim && claim->lease_until_ns > options.now_ns) continue;  // being merged
+      problems.push_back(
+          {"submissions",
+           name + " has waited to be merged for " + Hours(age(submission)) +
+               (claim ? ", last claimed by " + claim->instance : ", never claimed") +
+               (submission.error.empty() ? "" : "; last attempt: " + submission.error),
+           "no fleetmapd merges this store: start `fleetmapd --store " + store.uri() +
+               "` (it merges what is queued), or merge it by hand with `fleetmap merge --store " +
+               store.uri() + " " + submission.id.ToString() + "`"});
+    }
+  }
+}
+
+}  // namespace
+
+std::vector<StoreProblem> DiagnoseStore(GraphStore& store, const DiagnosisOptions& options) {
+  std::vector<StoreProblem> problems;
+  CheckEngine(store, problems);
+  CheckReferences(store, options, problems);
+  CheckHead(store, options, problems);
+  CheckHistory(store, problems);
+  CheckSubmissions(store, options, problems);
+  return problems;
+}
+
+}  // namespace fleetmap
