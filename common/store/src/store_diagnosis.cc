@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <string>
+#include <unordered_map>
 #include <unordered_set>
 #include <vector>
 
@@ -83,7 +84,8 @@ void CheckHead(GraphStore& store, const DiagnosisOptions& options,
   }
 }
 
-void CheckHistory(GraphStore& store, std::vector<StoreProblem>& problems) {
+void CheckHistory(GraphStore& store, const std::vector<Submission>& submissions,
+                  std::vector<StoreProblem>& problems) {
   VersionStore& versions = store.versions();
   const std::vector<Revision> revisions = versions.ListRevisions();
   const RevisionNumber head = versions.HeadRevision();
@@ -100,10 +102,13 @@ void CheckHistory(GraphStore& store, std::vector<StoreProblem>& problems) {
       break;
     }
   }
+  std::unordered_map<Uuid, const Submission*> by_id;
+  for (const Submission& submission : submissions) by_id.emplace(submission.id, &submission);
   for (const Revision& revision : revisions) {
     if (revision.kind != RevisionKind::kMerge) continue;
-    const std::optional<Submission> submission = versions.FindSubmission(revision.submission);
-    if (!submission) {
+    const auto found = by_id.find(revision.submission);
+    const Submission* submission = found == by_id.end() ? nullptr : found->second;
+    if (submission == nullptr) {
       problem("revision " + std::to_string(revision.number) + " merged submission " +
               revision.submission.ToString() + ", which is not stored");
     } else if (submission->state != SubmissionState::kMerged ||
@@ -116,7 +121,7 @@ void CheckHistory(GraphStore& store, std::vector<StoreProblem>& problems) {
                    : ""));
     }
   }
-  for (const Submission& submission : versions.ListSubmissions()) {
+  for (const Submission& submission : submissions) {
     if (submission.state != SubmissionState::kMerged) continue;
     if (submission.revision < 1 || submission.revision > head) {
       problem("submission " + submission.id.ToString() + " says it became revision " +
@@ -126,14 +131,14 @@ void CheckHistory(GraphStore& store, std::vector<StoreProblem>& problems) {
   }
 }
 
-void CheckSubmissions(GraphStore& store, const DiagnosisOptions& options,
-                      std::vector<StoreProblem>& problems) {
+void CheckSubmissions(GraphStore& store, const std::vector<Submission>& submissions,
+                      const DiagnosisOptions& options, std::vector<StoreProblem>& problems) {
   VersionStore& versions = store.versions();
   const auto age = [&](const Submission& s) {
     return std::chrono::duration_cast<std::chrono::minutes>(
         std::chrono::nanoseconds(options.now_ns - s.received_ns));
   };
-  for (const Submission& submission : versions.ListSubmissions()) {
+  for (const Submission& submission : submissions) {
     const std::string name = "submission " + submission.id.ToString() + " from robot " +
                              submission.robot.ToString() + " (" + submission.author + ")";
     if (submission.state == SubmissionState::kReceiving &&
@@ -170,8 +175,11 @@ std::vector<StoreProblem> DiagnoseStore(GraphStore& store, const DiagnosisOption
   CheckEngine(store, problems);
   CheckReferences(store, options, problems);
   CheckHead(store, options, problems);
-  CheckHistory(store, problems);
-  CheckSubmissions(store, options, problems);
+  // Read once for both checks: a submission lookup per revision would be a round trip each
+  // on PostgreSQL, thousands for a long history.
+  const std::vector<Submission> submissions = store.versions().ListSubmissions();
+  CheckHistory(store, submissions, problems);
+  CheckSubmissions(store, submissions, options, problems);
   return problems;
 }
 
