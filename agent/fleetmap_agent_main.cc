@@ -14,6 +14,7 @@
 #include <atomic>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <iostream>
 #include <nlohmann/json.hpp>
@@ -117,12 +118,15 @@ std::string ReadToken(const AgentArguments& args) {
       throw Error(ErrorCode::kInvalidArgument, "--token-file " + args.token_file + " is empty");
     return token;
   }
-  if (args.token.empty()) {
-    throw Error(
-        ErrorCode::kInvalidArgument,
-        "no token: give --token, --token-file or FLEETMAP_TOKEN (printed by `fleetmap robot add`)");
+  if (!args.token.empty()) return args.token;
+  // The environment only fills in when no token was given: a service whose environment happens
+  // to carry FLEETMAP_TOKEN still takes the --token-file its unit names.
+  if (const char* token = std::getenv("FLEETMAP_TOKEN"); token != nullptr && *token != '\0') {
+    return token;
   }
-  return args.token;
+  throw Error(
+      ErrorCode::kInvalidArgument,
+      "no token: give --token-file, FLEETMAP_TOKEN or --token (printed by `fleetmap robot add`)");
 }
 
 // The checked options of one sync. Throws Error(kInvalidArgument) naming what is wrong.
@@ -461,12 +465,14 @@ void AddSyncOptions(CLI::App& command, AgentArguments& args) {
       ->required();
   CLI::Option* token_file =
       command.add_option("--token-file", args.token_file, "file whose first line is the token");
+  // Not from a --config file either: config files are readable by every user.
   command
       .add_option("--token", args.token,
-                  "the robot's token; prefer --token-file or FLEETMAP_TOKEN: a token on the "
-                  "command line shows in `ps` to every user of the machine")
-      ->envname("FLEETMAP_TOKEN")
-      ->excludes(token_file);
+                  "the robot's token; prefer --token-file or FLEETMAP_TOKEN (read when neither "
+                  "option is given): a token on the command line shows in `ps` to every user "
+                  "of the machine")
+      ->excludes(token_file)
+      ->configurable(false);
   command.add_option("--map-dir", args.map_dir, "the robot's map directory")->capture_default_str();
   command
       .add_option("--mission-start", args.mission_start,
@@ -507,23 +513,42 @@ int main(int argc, char** argv) {
   TuneSqliteForThisProcess();
   CLI::App app{"fleetmap-agent: syncs a robot's experience map with fleetmapd."};
   app.require_subcommand(1);
-  AgentArguments args;
+  // A subcommand's options can also come from a TOML file, in a section named after it
+  // ([daemon], [sync], ...; keys are the long option names without "--", as in
+  // packaging/config/agent.toml); an option on the command line wins over the file. An unknown
+  // key or section is an error naming it: a misspelt key silently ignored would run the robot's
+  // service with a default nobody chose.
+  app.set_config("--config", "",
+                 "TOML file with a [SUBCOMMAND] section of that subcommand's options (key = "
+                 "value, keys without \"--\"); the command line wins over the file");
+  app.allow_config_extras(CLI::config_extras_mode::error);
+  // Each subcommand fills its own arguments: a [daemon] section in the file must not leak into
+  // a `sync` run on the same command line.
+  AgentArguments sync_args;
+  AgentArguments daemon_args;
+  AgentArguments status_args;
+  AgentArguments discard_args;
   CLI::App* sync = app.add_subcommand("sync", "sync now: push, (wait for the merge,) download");
-  AddSyncOptions(*sync, args);
+  AddSyncOptions(*sync, sync_args);
   CLI::App* daemon = app.add_subcommand("daemon", "sync each time the dock file appears");
-  AddSyncOptions(*daemon, args);
-  daemon->add_option("--dock-file", args.dock_file, "appears when the robot docks")->required();
+  AddSyncOptions(*daemon, daemon_args);
+  daemon->add_option("--dock-file", daemon_args.dock_file, "appears when the robot docks")
+      ->required();
   CLI::App* status = app.add_subcommand("status", "what the map directory holds");
-  status->add_option("--map-dir", args.map_dir, "the robot's map directory")->capture_default_str();
-  status->add_flag("--json", args.json, "print one JSON object on stdout");
+  status->add_option("--map-dir", status_args.map_dir, "the robot's map directory")
+      ->capture_default_str();
+  status->add_flag("--json", status_args.json, "print one JSON object on stdout");
   CLI::App* discard = app.add_subcommand(
       "discard",
       "drop a FAILED submission's content from this robot's map at the next sync (the server "
       "keeps it); nothing else ever removes what the robot built");
-  discard->add_option("SUBMISSION", args.discard, "the failed submission's UUID (see status)")
+  discard
+      ->add_option("SUBMISSION", discard_args.discard, "the failed submission's UUID (see status)")
       ->required();
-  discard->add_option("--map-dir", args.map_dir, "the robot's map directory")
+  discard->add_option("--map-dir", discard_args.map_dir, "the robot's map directory")
       ->capture_default_str();
+  // `fleetmap-agent daemon --config FILE` reads as well as `fleetmap-agent --config FILE daemon`.
+  for (CLI::App* command : {sync, daemon, status, discard}) command->fallthrough();
   // A token typed on the command line is readable by every user through `ps`.
   for (int i = 1; i < argc; ++i) {
     const std::string_view arg = argv[i];
@@ -538,12 +563,17 @@ int main(int argc, char** argv) {
     return app.exit(e);
   } catch (const CLI::CallForAllHelp& e) {
     return app.exit(e);
+  } catch (const CLI::ConfigError& e) {
+    Say("--config " + app["--config"]->as<std::string>() + ": " + e.what() +
+        " (a [SUBCOMMAND] section's keys are the long options of `fleetmap-agent SUBCOMMAND "
+        "--help` without \"--\"; a token goes in a --token-file, never in this file)");
+    return kExitRefused;
   } catch (const CLI::ParseError& e) {
     app.exit(e);
     return kExitRefused;
   }
-  if (sync->parsed()) return SyncCommand(args);
-  if (daemon->parsed()) return DaemonCommand(args);
-  if (discard->parsed()) return DiscardCommand(args);
-  return StatusCommand(args);
+  if (sync->parsed()) return SyncCommand(sync_args);
+  if (daemon->parsed()) return DaemonCommand(daemon_args);
+  if (discard->parsed()) return DiscardCommand(discard_args);
+  return StatusCommand(status_args);
 }

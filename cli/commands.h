@@ -21,8 +21,12 @@ void AddSubmissionCommands(CLI::App& app);
 void AddHistoryCommands(CLI::App& app);
 void AddDownloadCommand(CLI::App& app);
 void AddDreamCommand(CLI::App& app);
+// `fleetmap dream-now`, `candidates` and `promote` (dream_candidate_commands.cc).
+void AddDreamCandidateCommands(CLI::App& app);
 // `fleetmap export`: a revision as PLY, g2o, GraphML or a TUM trajectory (export_command.cc).
 void AddExportCommand(CLI::App& app);
+// `fleetmap render`: the map at a revision drawn from above as PNG or SVG (render_command.cc).
+void AddRenderCommand(CLI::App& app);
 // `fleetmap robot add|list`: the robots fleetmapd lets sync (robot_command.cc).
 void AddRobotCommands(CLI::App& app);
 // `fleetmap records split|cat|ingest|reindex`: record files of raw sensor data
@@ -30,6 +34,9 @@ void AddRobotCommands(CLI::App& app);
 // AddRecordsCommands on its `records` subcommand).
 void AddRecordsCommands(CLI::App& app);
 void AddRecordsIndexCommands(CLI::App& records);
+// `fleetmap records import-bag`: a ROS 1 bag into record files and the index
+// (records_import_bag_command.cc); registered by AddRecordsCommands.
+void AddRecordsImportBagCommand(CLI::App& records);
 // `fleetmap query datum|nearest|join|batch-join`: seed 000 Eqs. 1-2 (query_command.cc).
 void AddQueryCommand(CLI::App& app);
 // `fleetmap bench index`: seed 000 Table 1 (bench_index_command.cc). Registers after

@@ -3,14 +3,8 @@
 // GraphML, one outing's trajectory as TUM lines. Poses come from the graph layout
 // (fleetmap/interchange/graph_layout.h): metric edges composed from the earliest node of each
 // connected component.
-#include <fcntl.h>
-#include <unistd.h>
-
-#include <cerrno>
 #include <cstdio>
-#include <cstring>
 #include <filesystem>
-#include <fstream>
 #include <iostream>
 #include <optional>
 #include <string>
@@ -24,6 +18,7 @@
 #include "fleetmap/interchange/ply_writer.h"
 #include "fleetmap/interchange/tum_writer.h"
 #include "repository_arguments.h"
+#include "staged_output_file.h"
 
 namespace fleetmap::cli {
 namespace {
@@ -46,83 +41,6 @@ struct ExportArgs {
   std::string outing;
   std::string out;
 };
-
-// The export is written to FILE.tmp and renamed over FILE only once it is whole and on disk, so
-// a failed or interrupted export never leaves a half-written FILE: a file already there stays
-// as it was, and the .tmp is removed on the way out of a failure.
-class StagedOutputFile {
- public:
-  explicit StagedOutputFile(const std::string& path) : path_(path), staging_(path + ".tmp") {
-    if (std::filesystem::is_directory(path_)) {
-      throw Error(ErrorCode::kInvalidArgument, "cannot write --out " + path + ": a directory");
-    }
-    stream_.open(staging_, std::ios::binary | std::ios::trunc);
-    if (!stream_.is_open()) Fail("cannot create " + staging_.string(), errno);
-  }
-  ~StagedOutputFile() {
-    if (committed_) return;
-    stream_.close();
-    std::error_code ignored;
-    std::filesystem::remove(staging_, ignored);
-  }
-  StagedOutputFile(const StagedOutputFile&) = delete;
-  StagedOutputFile& operator=(const StagedOutputFile&) = delete;
-
-  std::ostream& stream() { return stream_; }
-
-  // Flushes, syncs and renames FILE.tmp over FILE. Throws, naming FILE, when any step fails.
-  void Commit() {
-    stream_.flush();
-    if (!stream_) Fail("cannot write " + staging_.string(), errno);
-    stream_.close();
-    if (stream_.fail()) Fail("cannot close " + staging_.string(), errno);
-    // Durable before it is renamed into place, so a power cut cannot leave FILE empty.
-    const int fd = ::open(staging_.c_str(), O_RDONLY | O_CLOEXEC);
-    if (fd < 0 || ::fsync(fd) != 0) {
-      const int error = errno;
-      if (fd >= 0) ::close(fd);
-      Fail("cannot sync " + staging_.string(), error);
-    }
-    ::close(fd);
-    std::error_code renamed;
-    std::filesystem::rename(staging_, path_, renamed);
-    if (renamed) {
-      throw Error(ErrorCode::kInvalidArgument, "cannot write --out " + path_.string() +
-                                                   ": cannot rename " + staging_.string() +
-                                                   " into place: " + renamed.message());
-    }
-    committed_ = true;
-  }
-
- private:
-  [[noreturn]] void Fail(const std::string& what, int error) const {
-    throw Error(ErrorCode::kInvalidArgument,
-                "cannot write --out " + path_.string() + ": " + what +
-                    (error != 0 ? std::string(": ") + std::strerror(error) : std::string()));
-  }
-
-  std::filesystem::path path_;
-  std::filesystem::path staging_;
-  std::ofstream stream_;
-  bool committed_ = false;
-};
-
-// The repository at `uri`, which must exist already: an empty file or another program's
-// database is refused as it is, not migrated into an empty repository by a command that only
-// reads.
-std::unique_ptr<Repository> OpenExistingRepository(const std::string& uri) {
-  RepositoryOptions options;
-  options.store.create_if_missing = false;
-  try {
-    return Repository::Open(uri, options);
-  } catch (const Error& error) {
-    // The store says "URI is not a fleetmap map store (why)", which reads best as it is.
-    if (error.message().find(" is not a fleetmap map store (") != std::string::npos) {
-      throw Error(error.code(), "--store " + error.message());
-    }
-    throw InContext(error, "--store " + uri + " cannot be read");
-  }
-}
 
 std::string DescribeOuting(const OutingSummary& outing) {
   return outing.outing.ToString() + "  robot " + outing.robot.ToString() + "  " +

@@ -18,7 +18,9 @@ int main(int argc, char** argv) {
   fleetmap::cli::AddHistoryCommands(app);
   fleetmap::cli::AddDownloadCommand(app);
   fleetmap::cli::AddDreamCommand(app);
+  fleetmap::cli::AddDreamCandidateCommands(app);
   fleetmap::cli::AddExportCommand(app);
+  fleetmap::cli::AddRenderCommand(app);
   fleetmap::cli::AddRobotCommands(app);
   fleetmap::cli::AddRecordsCommands(app);
   fleetmap::cli::AddQueryCommand(app);

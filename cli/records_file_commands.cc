@@ -126,7 +126,8 @@ void RunInfo(const InfoArgs& args) {
 void AddRecordsCommands(CLI::App& app) {
   CLI::App* records = app.add_subcommand(
       "records",
-      "Raw sensor data: record files (split, cat, info) and their SQL index (ingest, reindex)");
+      "Raw sensor data: record files (split, cat, info), their SQL index (ingest, reindex), "
+      "ROS bags (import-bag)");
   records->require_subcommand(1);
   records->footer(
       "Record files hold raw sensor messages, framed and CRC-checked (seed 000 §5.1); the "
@@ -173,6 +174,7 @@ void AddRecordsCommands(CLI::App& app) {
   info->callback([info_args] { RunInfo(*info_args); });
 
   AddRecordsIndexCommands(*records);
+  AddRecordsImportBagCommand(*records);
 }
 
 }  // namespace fleetmap::cli

@@ -36,6 +36,20 @@ std::unique_ptr<Repository> OpenRepository(const std::string& uri, bool create) 
   return Repository::Open(uri);
 }
 
+std::unique_ptr<Repository> OpenExistingRepository(const std::string& uri) {
+  RepositoryOptions options;
+  options.store.create_if_missing = false;
+  try {
+    return Repository::Open(uri, options);
+  } catch (const Error& error) {
+    // The store says "URI is not a fleetmap map store (why)", which reads best as it is.
+    if (error.message().find(" is not a fleetmap map store (") != std::string::npos) {
+      throw Error(error.code(), "--store " + error.message());
+    }
+    throw InContext(error, "--store " + uri + " cannot be read");
+  }
+}
+
 Uuid ParseUuidArgument(std::string_view text, std::string_view what) {
   try {
     return Uuid::Parse(text);

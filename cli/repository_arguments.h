@@ -27,6 +27,12 @@ void AddStoreOption(CLI::App& command, std::string& uri);
 // quietly become an empty repository. (A PostgreSQL database has to exist to be connected to.)
 std::unique_ptr<Repository> OpenRepository(const std::string& uri, bool create = false);
 
+// The repository at `uri`, which must exist already, for a command that only reads (`export`,
+// `render`): an empty file or another program's database is refused as it is ("--store URI is
+// not a fleetmap map store (why)"), not migrated into an empty repository; any other failure
+// to open it is named "--store URI cannot be read: why".
+std::unique_ptr<Repository> OpenExistingRepository(const std::string& uri);
+
 // The path of an `sqlite:PATH` (or sqlite://PATH) URI; empty for any other scheme.
 std::string SqlitePath(std::string_view uri);
 

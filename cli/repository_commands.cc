@@ -10,6 +10,7 @@
 
 #include "commands.h"
 #include "fleetmap/core/error.h"
+#include "fleetmap/server/dream_candidates.h"
 #include "new_store.h"
 #include "repository_arguments.h"
 
@@ -40,8 +41,19 @@ struct LogArgs {
 };
 
 std::string Source(const Revision& r) {
-  return r.kind == RevisionKind::kMerge ? "submission " + r.submission.ToString()
-                                        : "revision " + std::to_string(r.reverted);
+  switch (r.kind) {
+    case RevisionKind::kMerge:
+      return "submission " + r.submission.ToString();
+    case RevisionKind::kRevert:
+      return "revision " + std::to_string(r.reverted);
+    case RevisionKind::kPromote:
+      break;
+  }
+  try {
+    return "dream candidate " + DreamCandidateFromJson(r.report).id.ToString();
+  } catch (const Error&) {
+    return "a dream candidate";
+  }
 }
 
 void RunLog(const LogArgs& args) {
@@ -58,6 +70,7 @@ void RunLog(const LogArgs& args) {
       entry["kind"] = RevisionKindName(r.kind);
       if (r.kind == RevisionKind::kMerge) entry["submission"] = r.submission.ToString();
       if (r.kind == RevisionKind::kRevert) entry["reverted"] = r.reverted;
+      if (r.kind == RevisionKind::kPromote) entry["source"] = Source(r);
       entry["added"] = {
           {"nodes", r.nodes_added}, {"edges", r.edges_added}, {"paths", r.paths_added}};
       entry["hidden"] = {

@@ -26,7 +26,10 @@ set(fleetmap_exported fleetmap_proto ${fleetmap_libraries})
 install(TARGETS ${fleetmap_exported} EXPORT fleetmapTargets
         ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}
         LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR})
-install(TARGETS fleetmap fleetmapd fleetmap-agent RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
+# The programs are the install component `runtime`, with the services (FleetmapServices.cmake):
+# what the Debian package holds.
+install(TARGETS fleetmap fleetmapd fleetmap-agent RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR}
+        COMPONENT runtime)
 install(EXPORT fleetmapTargets NAMESPACE fleetmap:: DESTINATION ${FLEETMAP_INSTALL_CMAKEDIR})
 
 # The targets the exported libraries link that are not fleetmap's own (protobuf::libprotobuf,

@@ -5,7 +5,8 @@
 // Prints exactly one line to stdout once it serves, "fleetmapd listening on HOST:PORT" (and
 // "http on HOST:PORT" with --http), so scripts and tests learn the bound ports; everything
 // else goes to the log on stderr. SIGTERM or SIGINT drains (sync_server.h Stop()) and exits 0.
-// Exit 2: bad options, a store that cannot be opened, unreadable TLS files, a busy address.
+// Exit 2: bad options (or a bad --config file), a store that cannot be opened, unreadable TLS
+// files, a busy address.
 #include <signal.h>
 #include <spdlog/sinks/stdout_sinks.h>
 #include <spdlog/spdlog.h>
@@ -37,6 +38,14 @@ int main(int argc, char** argv) {
   int debug_chunk_delay_ms = 0;
   double hello_timeout_s = 5.0;
   std::uint64_t max_submission_mib = options.max_submission_bytes >> 20;
+  // Every option below can also come from a TOML file, one `key = value` per long option name
+  // without "--" (packaging/config/fleetmapd.toml); an option on the command line wins over the
+  // file. An unknown key is an error naming it: in a service's config a misspelt key silently
+  // ignored would run the server with a default nobody chose.
+  app.set_config("--config", "",
+                 "TOML file of these options (key = value, keys without \"--\"); the command "
+                 "line wins over the file");
+  app.allow_config_extras(CLI::config_extras_mode::error);
   app.add_option("--store", options.store_uri, "Repository store URI")->capture_default_str();
   app.add_option("--listen", options.listen, "Sync address HOST:PORT (port 0: any free port)")
       ->capture_default_str();
@@ -110,6 +119,23 @@ int main(int argc, char** argv) {
                  "the others or left by one that died, and for merges the others finished")
       ->capture_default_str()
       ->check(CLI::Range(std::int64_t{10}, std::int64_t{600'000}));
+  std::string dream_at;
+  std::size_t dream_max_orders = 0;
+  app.add_option("--dream-at", dream_at,
+                 "Dream every day at this UTC time HH:MM (default: never): the submissions "
+                 "merged since the last dream are merged again in every order into the map "
+                 "before them, judged by the newest one, which is held out; the best map is "
+                 "kept as a candidate (`fleetmap candidates`), never the head, until "
+                 "`fleetmap promote` makes it the next revision. Runs beside pushes and "
+                 "downloads, on a store connection of its own; progress in /metrics");
+  app.add_option("--dream-max-groups", options.dream.max_groups,
+                 "Submissions a dream merges in every order at most (the newest before the "
+                 "held-out one); k groups make k! orders")
+      ->capture_default_str()
+      ->check(CLI::Range(std::size_t{1}, std::size_t{11}));
+  app.add_option("--dream-max-orders", dream_max_orders,
+                 "Explore at most this many orders, a sample seeded by the head revision "
+                 "(default 0: all of them)");
   // A test knob, hidden from --help: each merge holds its transaction this long before the
   // commit, so a test can kill the daemon mid-merge.
   app.add_option("--debug-merge-delay-ms", debug_merge_delay_ms)->group("");
@@ -123,10 +149,23 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(std::size_t{1}, std::size_t{1} << 20));
   try {
     app.parse(argc, argv);
+  } catch (const CLI::ConfigError& e) {
+    std::cerr << "fleetmapd: --config " << app["--config"]->as<std::string>() << ": " << e.what()
+              << " (keys are the long options of fleetmapd --help without \"--\")\n";
+    return 2;
   } catch (const CLI::ParseError& e) {
     const int code = app.exit(e);
     return code == 0 ? 0 : 2;
   }
+  if (!dream_at.empty()) {
+    try {
+      options.dream_at_minute = fleetmap::ParseDreamTime(dream_at);
+    } catch (const fleetmap::Error& e) {
+      std::cerr << "fleetmapd: " << e.what() << "\n";
+      return 2;
+    }
+  }
+  if (dream_max_orders > 0) options.dream.max_orders = dream_max_orders;
   options.merge_lease = std::chrono::milliseconds(merge_lease_ms);
   options.merge_poll = std::chrono::milliseconds(merge_poll_ms);
   options.debug_merge_delay = std::chrono::milliseconds(debug_merge_delay_ms);

@@ -111,6 +111,33 @@ std::string FleetMetricsText(const FleetStatus& status) {
   Counter(out, "fleetmap_last_sync_write_failures_total",
           "Hellos whose last-sync time the store would not take (kept in memory only).",
           status.last_sync_write_failures);
+  if (status.dream.scheduled) {
+    const DreamStatus& dream = status.dream;
+    out.Family("fleetmap_dream_next_time_seconds", kGauge,
+               "Unix time of the next nightly dream (--dream-at).");
+    out.Sample("fleetmap_dream_next_time_seconds", UnixSeconds(dream.next_ns));
+    Gauge(out, "fleetmap_dream_running", "1 while a nightly dream runs, else 0.",
+          dream.running ? 1 : 0);
+    Gauge(out, "fleetmap_dream_steps_done", "Merges the running dream has done.", dream.steps_done);
+    Gauge(out, "fleetmap_dream_steps", "Merges the running dream does in all.", dream.steps_all);
+    Counter(out, "fleetmap_dreams_total",
+            "Nightly dreams that left a candidate since the server started.", dream.runs);
+    Counter(out, "fleetmap_dreams_skipped_total",
+            "Nightly dreams skipped for too little to dream over since the server started.",
+            dream.skipped);
+    Counter(out, "fleetmap_dreams_failed_total",
+            "Nightly dreams that failed or were abandoned since the server started.", dream.failed);
+    if (!dream.last_candidate.empty()) {
+      out.Family("fleetmap_dream_last_score", kGauge,
+                 "Held-out score of the last dream's candidate (lower is better), by candidate.");
+      out.Sample("fleetmap_dream_last_score", dream.last_score,
+                 {{"candidate", dream.last_candidate}});
+      out.Family("fleetmap_dream_last_p_gap_exceeds", kGauge,
+                 "P(gap > 10 m) of the held-out data in the last dream's candidate.");
+      out.Sample("fleetmap_dream_last_p_gap_exceeds", dream.last_p_gap_exceeds,
+                 {{"candidate", dream.last_candidate}});
+    }
+  }
   out.Family("fleetmap_instance_info", kGauge,
              "1, labelled with this server's name among the servers sharing its store.");
   out.Sample("fleetmap_instance_info", std::uint64_t{1}, {{"instance", status.instance}});

@@ -38,6 +38,10 @@ dl.totals { display: grid; grid-template-columns: max-content auto; gap: 4px 24p
 dl.totals dt { color: #5b6b7c; }
 dl.totals dd { margin: 0; font-variant-numeric: tabular-nums; }
 .empty { color: #5b6b7c; font-style: italic; }
+figure.map { margin: 0; background: #fff; border: 1px solid #dde3ea; border-radius: 8px;
+  padding: 8px; }
+figure.map img { display: block; max-width: 100%; max-height: 70vh; width: auto; height: auto; }
+figure.map figcaption { font-size: 13px; color: #5b6b7c; margin-top: 4px; }
 )css";
 
 std::string Bytes(std::int64_t bytes) {
@@ -105,6 +109,51 @@ void RobotsTable(std::string& html, const FleetStatus& status) {
   html += "</tbody>\n</table>\n";
   if (status.robots.empty()) {
     html += "<p class=\"empty\">No robots registered.</p>\n";
+  }
+}
+
+// The head's picture (GET /map.svg). Its address names the revision it shows, so a browser
+// fetches a picture once per revision, as the page reloads, and never shows an older one from
+// its cache.
+void MapFigure(std::string& html, const FleetStatus& status) {
+  html += "<h2>Map</h2>\n";
+  if (!status.head_picture_svg) {
+    html += "<p class=\"empty\" id=\"map\">The picture of revision " +
+            std::to_string(status.head_revision) + " is being drawn.</p>\n";
+    return;
+  }
+  const std::string revision = std::to_string(status.picture_revision);
+  html += "<figure class=\"map\" id=\"map\"><img src=\"/map.svg?r=" + revision +
+          "\" alt=\"the map at revision " + revision + " seen from above\"><figcaption>Revision " +
+          revision;
+  if (status.picture_revision != status.head_revision) {
+    html += " (revision " + std::to_string(status.head_revision) + " is being drawn)";
+  }
+  html +=
+      ": each connected component in its own frame, nodes coloured by the UTC time of day "
+      "they were captured, metric edges dark, path-memory edges faint.</figcaption></figure>\n";
+}
+
+// The latest revisions, newest first: who made each, when, and what it added and hid.
+void HistoryTable(std::string& html, const FleetStatus& status) {
+  html += "<h2>History (latest " + std::to_string(status.recent_revisions.size()) + " of " +
+          std::to_string(status.head_revision) + ")</h2>\n";
+  html +=
+      "<table id=\"history\">\n<thead><tr><th class=\"num\">Revision</th><th>Kind</th>"
+      "<th>Robot</th><th>Author</th><th>When (UTC)</th><th class=\"num\">Nodes added</th>"
+      "<th class=\"num\">Nodes hidden</th></tr></thead>\n<tbody>\n";
+  for (const RevisionRow& row : status.recent_revisions) {
+    const std::string when = UtcIsoTime(row.created_ns);
+    html += "<tr><td class=\"num\">" + std::to_string(row.revision) + "</td><td>" +
+            EscapeHtml(row.kind) + "</td><td>" + EscapeHtml(row.robot) + "</td><td>" +
+            EscapeHtml(row.author) + "</td><td><time datetime=\"" + when + "\">" + when +
+            "</time><span class=\"ago\">" + TimeAgo(row.created_ns, status.now_ns) +
+            "</span></td><td class=\"num\">" + std::to_string(row.nodes_added) +
+            "</td><td class=\"num\">" + std::to_string(row.nodes_hidden) + "</td></tr>\n";
+  }
+  html += "</tbody>\n</table>\n";
+  if (status.recent_revisions.empty()) {
+    html += "<p class=\"empty\">No revisions yet.</p>\n";
   }
 }
 
@@ -190,10 +239,21 @@ std::string FleetStatusPage(const FleetStatus& status) {
   Card(html, "Merge queue", std::to_string(status.queue_length),
        status.merging ? "merging " + status.merging->submission + " from " + status.merging->robot
                       : std::string("idle"));
+  if (status.dream.scheduled) {
+    // The nightly dream (--dream-at): its progress while it runs, else what the last one left.
+    const DreamStatus& dream = status.dream;
+    Card(html, "Nightly dream", dream.running ? std::string("running") : dream.at + " UTC",
+         dream.running ? std::to_string(dream.steps_done) + " of " +
+                             std::to_string(dream.steps_all) + " merges"
+         : dream.last_result.empty() ? "next " + UtcIsoTime(dream.next_ns)
+                                     : "last: " + dream.last_result);
+  }
   Card(html, "Sessions open", std::to_string(status.sessions_open),
        std::to_string(status.sessions_total) + " since start");
   html += "</section>\n";
 
+  MapFigure(html, status);
+  HistoryTable(html, status);
   RobotsTable(html, status);
 
   html += "<h2>Totals since start</h2>\n<dl class=\"totals\" id=\"totals\">\n";

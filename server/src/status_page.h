@@ -2,7 +2,10 @@
 // document (inline CSS, no scripts, no external assets) with the facts of a FleetStatus —
 // a summary (revision, map size, merge queue, sessions), the robots in
 // <table id="robots"> (a header row in <thead>, one row per robot in <tbody>: name, UUID, last
-// sync as UTC ISO time and "N min ago", pushes, downloads) and the totals since start.
+// sync as UTC ISO time and "N min ago", pushes, downloads) and the totals since start; above
+// the robots, the head's picture (<figure id="map"> with <img src="/map.svg?r=REVISION">, or a
+// line saying it is being drawn) and the latest revisions in <table id="history"> (revision,
+// kind, robot, author, time, nodes added and hidden).
 //
 // Every string that comes from the fleet (robot names, UUIDs, error codes, addresses) is
 // HTML-escaped. Relative times ("5 min ago") are taken against status.now_ns.

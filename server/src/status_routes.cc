@@ -56,7 +56,7 @@ HttpResponse RouteStatusRequest(const HttpRequest& request,
   if (const auto query = path.find('?'); query != std::string_view::npos) {
     path = path.substr(0, query);
   }
-  const bool known = path == "/" || path == "/metrics" || path == "/healthz";
+  const bool known = path == "/" || path == "/metrics" || path == "/healthz" || path == "/map.svg";
   if (request.method() != http::verb::get) {
     HttpResponse response =
         PlainTextResponse(http::status::method_not_allowed, version, keep_alive,
@@ -65,14 +65,25 @@ HttpResponse RouteStatusRequest(const HttpRequest& request,
     return response;
   }
   if (!known) {
-    return PlainTextResponse(http::status::not_found, version, keep_alive,
-                             "no page at " + std::string(path) + " (try /, /metrics, /healthz)");
+    return PlainTextResponse(
+        http::status::not_found, version, keep_alive,
+        "no page at " + std::string(path) + " (try /, /metrics, /healthz, /map.svg)");
   }
   if (path == "/healthz") {
     return Response(http::status::ok, version, keep_alive, "text/plain; charset=utf-8", "ok");
   }
   try {
     const FleetStatus status = Snapshot(status_source);
+    if (path == "/map.svg") {
+      // Drawn once per head revision off this thread (head_picture.h); here only copied out.
+      if (!status.head_picture_svg) {
+        return PlainTextResponse(http::status::service_unavailable, version, keep_alive,
+                                 "the picture of revision " + std::to_string(status.head_revision) +
+                                     " is being drawn; ask again in a moment");
+      }
+      return Response(http::status::ok, version, keep_alive, "image/svg+xml",
+                      *status.head_picture_svg);
+    }
     if (path == "/metrics") {
       return Response(http::status::ok, version, keep_alive,
                       "text/plain; version=0.0.4; charset=utf-8", FleetMetricsText(status));

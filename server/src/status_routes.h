@@ -13,8 +13,9 @@ namespace fleetmap {
 using HttpRequest = boost::beast::http::request<boost::beast::http::string_body>;
 using HttpResponse = boost::beast::http::response<boost::beast::http::string_body>;
 
-// GET / → status page, GET /metrics → Prometheus text, GET /healthz → "ok"; other paths 404,
-// other methods 405 (with Allow: GET). `status_source` is called for / and /metrics only;
+// GET / → status page, GET /metrics → Prometheus text, GET /healthz → "ok", GET /map.svg →
+// the head's picture as FleetStatus holds it (503 until the first is drawn); other paths 404,
+// other methods 405 (with Allow: GET). `status_source` is called for all but /healthz;
 // when it throws, 500 with its message. The response keeps the request's HTTP version and
 // keep-alive choice and has its Content-Length set.
 HttpResponse RouteStatusRequest(const HttpRequest& request,

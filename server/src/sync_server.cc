@@ -16,8 +16,10 @@
 
 #include "connection_admission.h"
 #include "download_cache.h"
+#include "dream_schedule.h"
 #include "fleetmap/core/error.h"
 #include "fleetmap/server/robot_registry.h"
+#include "head_picture.h"
 #include "merge_queue.h"
 #include "server_activity.h"
 #include "session_tracker.h"
@@ -132,6 +134,10 @@ class SyncServer::Impl {
         options_.store_uri, merge_options,
         [this](const server::MergeDone& done) { OnMergeDone(done); });
     activity_.SetInstance(merge_options.instance);
+    if (options_.dream_at_minute) {
+      dream_ = std::make_unique<server::DreamSchedule>(options_.store_uri, store_options,
+                                                       *options_.dream_at_minute, options_.dream);
+    }
     context_.emplace(server::SessionContext{options_, *store_, *merges_, cache_, activity_,
                                             tracker_, admission_, draining_});
   }
@@ -144,6 +150,7 @@ class SyncServer::Impl {
     spdlog::info("merge queue: instance {}, {} submissions queued in the store",
                  merges_->instance(), queued);
     RefreshFromStore();
+    if (dream_) dream_->Start();
     do_accept();
     for (int i = 0; i < options_.io_threads; ++i) {
       threads_.emplace_back([this] { ioc_.run(); });
@@ -153,7 +160,8 @@ class SyncServer::Impl {
   void Stop() {
     if (stopped_.exchange(true)) return;
     draining_ = true;
-    if (threads_.empty()) {  // never started
+    if (dream_) dream_->Stop();  // abandons a dream in progress: it leaves no candidate
+    if (threads_.empty()) {      // never started
       merges_->Stop();
       store_->Stop();
       return;
@@ -188,6 +196,8 @@ class SyncServer::Impl {
     status.draining = draining_.load();
     status.queue_length = merges_->Length();
     status.merge_backing_off = merges_->backing_off();
+    if (dream_) status.dream = dream_->Status();
+    picture_.AddTo(status);
     if (const auto running = merges_->Merging()) {
       status.merging = MergingSubmission{running->submission.ToString(),
                                          activity_.RobotName(running->robot), running->started_ns};
@@ -236,6 +246,19 @@ class SyncServer::Impl {
         spdlog::error("reading robots and the head for the status: {}", error.what());
       }
     });
+    RefreshPicture();
+  }
+
+  // The status page's picture of the head, drawn on a store thread when the head has moved
+  // (head_picture.h), in a job of its own so the robots and counts above never wait for it.
+  void RefreshPicture() {
+    store_->Post([this](Repository& repository) {
+      try {
+        picture_.Refresh(repository);
+      } catch (const std::exception& error) {
+        spdlog::error("drawing the head's picture for the status page: {}", error.what());
+      }
+    });
   }
 
   void OnMergeDone(const server::MergeDone& done) {
@@ -243,6 +266,7 @@ class SyncServer::Impl {
       activity_.MergeFinished(true);
       activity_.MergeRan(done.submission, done.revision, done.seconds, NowNs());
       activity_.SetHead(done.revision, done.head_stats);
+      RefreshPicture();
       spdlog::info("merge {}: revision {}, {} nodes added, {:.3f} s", done.submission.ToString(),
                    done.revision, done.nodes_added, done.seconds);
     } else if (done.transient) {
@@ -302,10 +326,12 @@ class SyncServer::Impl {
 
   SyncServerOptions options_;
   server::ServerActivity activity_;
+  server::HeadPicture picture_;
   server::SessionTracker tracker_;
   server::DownloadCache cache_;
   server::ConnectionAdmission admission_;
   std::unique_ptr<server::MergeQueue> merges_;
+  std::unique_ptr<server::DreamSchedule> dream_;  // null without --dream-at
   std::unique_ptr<server::StoreWorkers> store_;
   std::atomic<bool> draining_{false};
   std::atomic<bool> stopped_{false};

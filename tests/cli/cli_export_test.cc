@@ -208,20 +208,9 @@ TEST_F(CliExportTest, ExportsEveryFormatFromPostgres) {
 TEST_F(CliExportTest, BadInputIsNamedAndLeavesNoOutputFile) {
   MakeRepository();
   const std::filesystem::path out = dir_ / "out.ply";
-  const auto refused = [&](std::vector<std::string> args,
+  const auto refused = [&](const std::vector<std::string>& args,
                            const std::vector<std::string>& mentions) {
-    if (std::find(args.begin(), args.end(), "--store") == args.end()) {
-      args.push_back("--store");
-      args.push_back(store_);
-    }
-    const testing::CliRun r = Run(args, /*succeed=*/false);
-    for (const std::string& mention : mentions) {
-      EXPECT_TRUE(Contains(r.err, mention)) << "should mention '" << mention << "'\n"
-                                            << testing::DescribeCliRun(args, r);
-    }
-    EXPECT_FALSE(std::filesystem::exists(out)) << testing::DescribeCliRun(args, r);
-    EXPECT_FALSE(std::filesystem::exists(out.string() + ".tmp"))
-        << testing::DescribeCliRun(args, r);
+    ExpectRefusedWithoutOutput(args, out, mentions);
   };
   const std::string unknown = Uuid::Generate().ToString();
   refused({"export", "--format", "obj", "--out", out.string()}, {"unknown --format 'obj'"});

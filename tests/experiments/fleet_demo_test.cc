@@ -6,10 +6,16 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <fstream>
+#include <opencv2/imgcodecs.hpp>
 
+#include "fleetmap/interchange/map_picture.h"
+#include "fleetmap/server/repository.h"
+#include "fleetmap/server/revision_picture.h"
 #include "fleetmap/store/graph_store.h"
 #include "fleetmap/store/version_store.h"
+#include "fleetmap_cli_run.h"
 #include "scratch_dir.h"
 
 namespace fleetmap {
@@ -64,6 +70,44 @@ TEST(FleetDemo, TwoRobotsShareWhatTheyLearnAndTheServerStopsCleanly) {
   std::unique_ptr<GraphStore> store =
       GraphStore::Open("sqlite:" + (options.work_dir / "central.db").string());
   EXPECT_EQ(store->versions().HeadRevision(), second.server_revision);
+  store.reset();
+
+  // The demo's head rendered by `fleetmap render` (issue "Fleet operations"): the PNG decodes,
+  // is not blank, and every connected component's box holds coloured nodes.
+  const std::string uri = "sqlite:" + (options.work_dir / "central.db").string();
+  const std::filesystem::path png = dir / "head.png";
+  const std::vector<std::string> args = {"render", "--store", uri, "--out", png.string()};
+  const testing::CliRun render = testing::RunFleetmapCli(dir.path(), args);
+  ASSERT_EQ(render.exit_code, 0) << testing::DescribeCliRun(args, render);
+  const cv::Mat image = cv::imread(png.string(), cv::IMREAD_COLOR);
+  ASSERT_FALSE(image.empty()) << "the PNG does not decode";
+  const std::unique_ptr<Repository> repository = Repository::Open(uri);
+  const MapPicture picture =
+      ComposeRevisionPicture(*repository, second.server_revision, NodeColouring::kTimeOfDay, "");
+  EXPECT_EQ(image.cols, picture.width_px());
+  EXPECT_EQ(image.rows, picture.height_px());
+  ASSERT_FALSE(picture.component_boxes().empty());
+  const auto coloured = [&](int x0, int y0, int x1, int y1) {
+    int n = 0;
+    for (int y = std::max(0, y0); y < std::min(image.rows, y1); ++y) {
+      for (int x = std::max(0, x0); x < std::min(image.cols, x1); ++x) {
+        const cv::Vec3b px = image.at<cv::Vec3b>(y, x);
+        n += std::max({px[0], px[1], px[2]}) - std::min({px[0], px[1], px[2]}) > 80;
+      }
+    }
+    return n;
+  };
+  EXPECT_GT(coloured(0, 0, image.cols, image.rows), image.rows * image.cols / 200)
+      << "a blank picture";
+  for (std::size_t c = 0; c < picture.component_boxes().size(); ++c) {
+    const PictureBox& box = picture.component_boxes()[c];
+    EXPECT_GT(
+        coloured(static_cast<int>(box.left), static_cast<int>(box.top),
+                 static_cast<int>(box.left + box.width), static_cast<int>(box.top + box.height)),
+        20)
+        << "component " << c << " of " << picture.component_boxes().size()
+        << " shows no coloured nodes";
+  }
 }
 
 }  // namespace

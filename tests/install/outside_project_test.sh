@@ -15,31 +15,9 @@ if [ $# -ne 7 ]; then
 fi
 build_dir=$1 source_dir=$2 work_parent=$3 cmake=$4 ninja=$5 cxx=$6 build_type=$7
 
-mkdir -p "$work_parent"
-work=$(mktemp -d "$work_parent/outside_project.XXXXXX")
+source "$(dirname "$0")/install_test_steps.sh"
+install_test_start "$work_parent" outside_project
 prefix=$work/prefix
-log=$work/step.log
-step="setup"
-on_exit() {
-  local rc=$?
-  if [ $rc -ne 0 ]; then
-    echo "FAILED at step: $step (exit $rc)" >&2
-    if [ -s "$log" ]; then
-      echo "--- output of that step (last 60 lines) ---" >&2
-      tail -n 60 "$log" >&2
-    fi
-  fi
-  rm -rf "$work"
-}
-trap on_exit EXIT
-
-# Runs one step with its output in $log: shown only if the step fails.
-run() {
-  step=$1
-  shift
-  echo "== $step"
-  "$@" >"$log" 2>&1
-}
 
 run "cmake --install $build_dir --prefix <tmp>" "$cmake" --install "$build_dir" --prefix "$prefix"
 

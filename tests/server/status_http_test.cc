@@ -30,6 +30,11 @@
 #include <vector>
 
 #include "expect_error.h"
+#include "fleet_processes.h"
+#include "fleetmap/interchange/graph_layout.h"
+#include "fleetmap/interchange/map_picture.h"
+#include "fleetmap/interchange/svg_canvas.h"
+#include "random_robot_map.h"
 #include "scratch_dir.h"
 
 namespace fleetmap {
@@ -146,6 +151,31 @@ std::string RobotsTable(const std::string& html) {
   return html.substr(begin, end == std::string::npos ? std::string::npos : end - begin);
 }
 
+// FixedStatus with the head's picture (a real one, of a small map) and three revisions.
+FleetStatus StatusWithPictureAndHistory() {
+  FleetStatus status = FixedStatus();
+  const GraphBatch map = testing::RandomRobotMap(Uuid::Generate(), 6, 3, 10);
+  SvgCanvas canvas("the head");
+  MapPicture::Compose(GraphLayout::Compute(map.nodes, map.edges), map.edges, {}).Draw(canvas);
+  status.head_picture_svg = std::make_shared<const std::string>(canvas.svg());
+  status.picture_revision = 6;  // the head (7) is still being drawn
+  status.recent_revisions = {
+      {7, "revert", "ops", "", kRobotSyncNs, 0, 4},
+      {6, "merge", "<r&d>", "<r&d>", kRobotSyncNs - 600 * kSecond, 12, 0},
+      {5, "merge", "scout", "0b7e2d6c-1f4a-4c2e-9d3b-5a6f7e8d9c02", kRobotSyncNs - 7200 * kSecond,
+       4, 0},
+  };
+  return status;
+}
+
+// The part of `html` inside <table id="history">...</table>.
+std::string HistoryTable(const std::string& html) {
+  const auto begin = html.find("<table id=\"history\"");
+  if (begin == std::string::npos) return "";
+  const auto end = html.find("</table>", begin);
+  return html.substr(begin, end == std::string::npos ? std::string::npos : end - begin);
+}
+
 class StatusHttpTest : public ::testing::Test {
  protected:
   StatusHttpServer server_{"127.0.0.1:0", [] { return FixedStatus(); }};
@@ -234,6 +264,35 @@ TEST_F(StatusHttpTest, PageShowsTheFactsWithRobotStringsEscaped) {
   EXPECT_NE(html.find(">7</div>"), std::string::npos);
   EXPECT_NE(html.find(">1234</div>"), std::string::npos);
   EXPECT_NE(html.find("BAD_TOKEN × 3"), std::string::npos);
+}
+
+TEST(StatusHttpServerTest, PageShowsTheHeadsPictureAndTheHistory) {
+  const FleetStatus status = StatusWithPictureAndHistory();
+  StatusHttpServer server("127.0.0.1:0", [&status] { return status; });
+  const Response page = MustGet(server.port(), "/");
+  const std::string& html = page.body();
+  // The picture's address names its revision, so a browser fetches each revision's once.
+  EXPECT_NE(html.find("<img src=\"/map.svg?r=6\""), std::string::npos) << html;
+  EXPECT_NE(html.find("(revision 7 is being drawn)"), std::string::npos);
+  const std::string history = HistoryTable(html);
+  ASSERT_FALSE(history.empty()) << html;
+  EXPECT_EQ(Count(history, "<tr>"), 4u) << "a header row and one row per revision:\n" << history;
+  EXPECT_NE(history.find("&lt;r&amp;d&gt;"), std::string::npos);
+  EXPECT_EQ(history.find("<r&d>"), std::string::npos) << "unescaped author in the page";
+  EXPECT_NE(history.find("2024-05-01T12:41:30Z"), std::string::npos) << history;
+  EXPECT_NE(history.find("15 min ago"), std::string::npos) << history;
+  EXPECT_LT(history.find(">7</td>"), history.find(">6</td>")) << "newest first";
+
+  const Response picture = MustGet(server.port(), "/map.svg?r=6");
+  EXPECT_EQ(picture.result(), http::status::ok);
+  EXPECT_EQ(std::string(picture[http::field::content_type]), "image/svg+xml");
+  EXPECT_EQ(picture.body(), *status.head_picture_svg);
+}
+
+TEST_F(StatusHttpTest, BeforeTheFirstPictureIsDrawnThePageSaysSoAndMapSvgIs503) {
+  EXPECT_NE(MustGet(server_.port(), "/").body().find("The picture of revision 7 is being drawn"),
+            std::string::npos);
+  EXPECT_EQ(MustGet(server_.port(), "/map.svg").result(), http::status::service_unavailable);
 }
 
 TEST_F(StatusHttpTest, HealthzSaysOk) {
@@ -439,6 +498,81 @@ TEST_F(StatusHttpTest, ChromiumBuildsTheRobotsTable) {
   // The DOM serializer escapes <, > and & in text, as the page did; quotes in text stay plain.
   EXPECT_NE(table.find("&lt;r&amp;d&gt;"), std::string::npos) << table;
   EXPECT_NE(table.find("scout \"two\""), std::string::npos) << table;
+}
+
+// A real fleetmapd after a real agent's push made revision 1: the page in Chromium shows the
+// head's picture and the history row of that revision, the picture itself renders in
+// Chromium with coloured nodes, and the screenshot of the page is not blank.
+TEST(StatusPageInChromiumTest, ShowsTheHeadsPictureAndHistoryAfterAPush) {
+  ScratchDir scratch("fleetmap-status-push");
+  const std::string store = "sqlite:" + (scratch / "fleet.db").string();
+  GraphStore::Open(store);  // created and migrated before the robot is registered in it
+  const testing::TestRobot robot = testing::RegisterRobot(store, "scout-1", scratch / "robot");
+  testing::WriteLocalMap(robot, testing::RandomRobotMap(robot.id, 8, 5, 20));
+  testing::Fleetmapd server =
+      testing::StartFleetmapd(store, scratch / "fleetmapd.log", {"--http", "127.0.0.1:0"});
+  ASSERT_FALSE(server.address.empty());
+  const std::optional<std::string> line =
+      server.process->ReadLineContaining("http on", std::chrono::milliseconds(10'000));
+  ASSERT_TRUE(line.has_value()) << server.Log();
+  const std::string http_address = line->substr(line->rfind(' ') + 1);
+  const std::uint16_t port =
+      static_cast<std::uint16_t>(std::stoi(http_address.substr(http_address.rfind(':') + 1)));
+
+  const auto agent = testing::StartSync(robot, server.address, scratch / "agent.log");
+  const testing::SyncOutcome synced = testing::FinishSync(*agent, scratch / "agent.log");
+  ASSERT_EQ(synced.exit, 0);
+
+  // The merge made revision 1; its picture is drawn off the HTTP thread, so wait (bounded).
+  std::string svg;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+  while (std::chrono::steady_clock::now() < deadline) {
+    const Response picture = MustGet(port, "/map.svg");
+    if (picture.result() == http::status::ok &&
+        picture.body().find("revision 1 (the head)") != std::string::npos) {
+      svg = picture.body();
+      break;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  ASSERT_FALSE(svg.empty()) << "no picture of revision 1 within 20 s\n" << server.Log();
+  EXPECT_EQ(Count(svg, "<circle"), 8u) << "one disc per node";
+
+  const std::string url = "http://127.0.0.1:" + std::to_string(port) + "/";
+  const std::string dom = RunChromium(scratch, "--dump-dom", url);
+  EXPECT_NE(dom.find("<img src=\"/map.svg?r=1\""), std::string::npos) << dom.substr(0, 4000);
+  const std::string history = HistoryTable(dom);
+  ASSERT_FALSE(history.empty()) << dom.substr(0, 4000);
+  const auto body = history.find("<tbody>");
+  ASSERT_NE(body, std::string::npos) << history;
+  EXPECT_EQ(Count(history.substr(body), "<tr>"), 1u) << "one row for revision 1:\n" << history;
+  EXPECT_NE(history.find("scout-1"), std::string::npos) << history;
+  EXPECT_NE(history.find(">merge<"), std::string::npos) << history;
+  EXPECT_NE(history.find(">8</td>"), std::string::npos) << "8 nodes added:\n" << history;
+
+  // The page's screenshot is not blank, and the picture, rendered by Chromium on its own,
+  // shows coloured nodes (the rest of the picture is white and greys).
+  const auto page_png = scratch / "page.png";
+  RunChromium(scratch, "--screenshot=" + page_png.string(), url);
+  const cv::Mat page = cv::imread(page_png.string(), cv::IMREAD_GRAYSCALE);
+  ASSERT_FALSE(page.empty()) << "the screenshot does not decode: " << page_png;
+  std::vector<int> histogram(256, 0);
+  for (int y = 0; y < page.rows; ++y) {
+    for (int x = 0; x < page.cols; ++x) ++histogram[page.at<std::uint8_t>(y, x)];
+  }
+  EXPECT_GT(std::count_if(histogram.begin(), histogram.end(), [](int n) { return n > 0; }), 32);
+  const auto map_png = scratch / "map.png";
+  RunChromium(scratch, "--screenshot=" + map_png.string(), url + "map.svg");
+  const cv::Mat map = cv::imread(map_png.string(), cv::IMREAD_COLOR);
+  ASSERT_FALSE(map.empty()) << "the screenshot does not decode: " << map_png;
+  int coloured = 0;
+  for (int y = 0; y < map.rows; ++y) {
+    for (int x = 0; x < map.cols; ++x) {
+      const cv::Vec3b px = map.at<cv::Vec3b>(y, x);
+      coloured += std::max({px[0], px[1], px[2]}) - std::min({px[0], px[1], px[2]}) > 80;
+    }
+  }
+  EXPECT_GT(coloured, 8 * 15) << "the nodes' discs (and the legend's colour bar)";
 }
 
 }  // namespace

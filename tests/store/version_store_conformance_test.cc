@@ -1002,6 +1002,114 @@ TYPED_TEST(VersionStoreConformance, VersionOfUnknownAndUnversionedElements) {
   EXPECT_EQ(this->versions().VersionOf(versioned.edges[0].id), (ElementVersion{1, std::nullopt}));
 }
 
+// --- Promotions (a dream's candidate made the map) ----------------------------------------
+
+Revision Promotion(RevisionNumber number) {
+  Revision r;
+  r.number = number;
+  r.created_ns = 7000 + number;
+  r.author = "operator";
+  r.kind = RevisionKind::kPromote;
+  r.report = "{\"candidate\": \"c\"}";
+  return r;
+}
+
+TYPED_TEST(VersionStoreConformance, PromotionAddsHidesAndLeavesNoDanglingEdge) {
+  const History h = this->MakeHistory();
+  // The candidate kept n1 but not n2 or n3, and placed a node of its own after n1.
+  const Node n4 = MakeNode(h.n1.robot, h.n1.outing, 300, "n4");
+  const Edge e14 = MetricEdge(h.n1.id, n4.id);
+  const GraphBatch additions{{}, {n4}, {e14}, {}};
+  Revision r3;
+  {
+    auto txn = this->store_->Begin();
+    r3 = this->versions().AppendPromotion(Promotion(3), additions, {h.n2.id, h.n3.id});
+    this->store_->Put(additions);
+    txn.Commit();
+  }
+  EXPECT_EQ(r3.kind, RevisionKind::kPromote);
+  EXPECT_EQ(RevisionKindName(r3.kind), "promote");
+  EXPECT_EQ(r3.nodes_added, 1);
+  EXPECT_EQ(r3.edges_added, 1);
+  EXPECT_EQ(r3.nodes_hidden, 2);
+  EXPECT_EQ(r3.edges_hidden, 2);  // e12 (n1 -> n2) and e23 (n2 -> n3)
+  EXPECT_EQ(this->versions().FindRevision(3), r3);
+  EXPECT_EQ(SortedIds(this->versions().NodesAt(3)),
+            Sorted({h.base.nodes[0].id, h.base.nodes[1].id, h.base.nodes[2].id, h.n1.id, n4.id}));
+  std::set<Uuid> visible;
+  for (const Node& n : this->versions().NodesAt(3)) visible.insert(n.id);
+  for (const Edge& e : this->versions().EdgesAt(3)) {
+    EXPECT_TRUE(visible.count(e.from) && visible.count(e.to)) << e.id.ToString();
+  }
+  // Earlier revisions check out as before; hiding deletes nothing.
+  EXPECT_EQ(SortedIds(this->versions().NodesAt(2)),
+            Sorted({h.base.nodes[0].id, h.base.nodes[1].id, h.base.nodes[2].id, h.n1.id, h.n2.id,
+                    h.n3.id}));
+  EXPECT_EQ(this->versions().VersionOf(h.n2.id), (ElementVersion{1, 3}));
+  EXPECT_EQ(this->store_->GetNode(h.n3.id), h.n3);
+  const RevisionChanges changes = this->versions().Changes(2, 3);
+  EXPECT_EQ(changes.nodes_added, std::vector<Uuid>{n4.id});
+  EXPECT_EQ(changes.nodes_removed, Sorted({h.n2.id, h.n3.id}));
+}
+
+TYPED_TEST(VersionStoreConformance, PromotionRefusesWhatItCannotRecord) {
+  const History h = this->MakeHistory();
+  const GraphBatch additions = Chain(2, 400);
+  {
+    auto txn = this->store_->Begin();
+    // Another kind, a stale number, a node both added and hidden, an element already stored.
+    ExpectError(
+        ErrorCode::kInvalidArgument,
+        [&] { this->versions().AppendPromotion(Merge(3), additions, {}); }, "promotions only");
+    ExpectError(
+        ErrorCode::kConflict,
+        [&] { this->versions().AppendPromotion(Promotion(2), additions, {}); }, "the head is 2");
+    ExpectError(
+        ErrorCode::kInvalidArgument,
+        [&] { this->versions().AppendPromotion(Promotion(3), additions, {additions.nodes[0].id}); },
+        "both added and hidden");
+    ExpectError(
+        ErrorCode::kConflict,
+        [&] {
+          this->versions().AppendPromotion(Promotion(3), GraphBatch{{}, {h.n1}, {}, {}}, {});
+        },
+        "already stored");
+  }
+  // Outside a transaction, nothing is recorded.
+  ExpectError(
+      ErrorCode::kInvalidArgument,
+      [&] { this->versions().AppendPromotion(Promotion(3), additions, {}); }, "Transaction");
+  EXPECT_EQ(this->versions().HeadRevision(), 2);
+  EXPECT_EQ(this->versions().VersionOf(h.n2.id), (ElementVersion{1, std::nullopt}));
+}
+
+// A schema-6 store (before promotions) keeps its history, stand-ins and reverts through the
+// migration, and can then record a promotion.
+TYPED_TEST(VersionStoreConformance, SchemaSixStoreMigratesWithItsHistoryIntact) {
+  const History h = this->MakeHistory();
+  const NodeStandIn stand_in{Uuid::Generate(), h.n1.id, Se3::Identity(), 1};
+  {
+    auto txn = this->store_->Begin();
+    this->versions().PutStandIns({stand_in});
+    txn.Commit();
+  }
+  this->Revert(2);
+  const std::vector<Revision> revisions = this->versions().ListRevisions();
+  this->store_.reset();
+  this->backend_->ExecRaw("UPDATE fleetmap_schema SET version = 6");
+  this->store_ = GraphStore::Open(this->backend_->Uri());
+  EXPECT_EQ(this->store_->schema_version(), GraphStore::LatestSchemaVersion());
+  EXPECT_EQ(this->versions().ListRevisions(), revisions);
+  EXPECT_EQ(this->versions().FindStandIn(stand_in.node), stand_in);
+  // The revert is still recorded as one: reverting it again is refused.
+  ExpectError(
+      ErrorCode::kConflict, [&] { this->Revert(2); }, "already reverted");
+  auto txn = this->store_->Begin();
+  EXPECT_EQ(this->versions().AppendPromotion(Promotion(4), Chain(1, 900), {h.n1.id}).number, 4);
+  txn.Commit();
+  EXPECT_EQ(this->versions().VersionOf(h.n1.id), (ElementVersion{1, 4}));
+}
+
 // --- Settings -----------------------------------------------------------------------------
 
 TYPED_TEST(VersionStoreConformance, SettingsPutReplaceFind) {

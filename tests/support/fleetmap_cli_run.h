@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
 #include <filesystem>
 #include <fstream>
@@ -13,46 +14,20 @@
 #include <string>
 #include <vector>
 
-#include "fleetmap/core/child_process.h"
+#include "program_run.h"
 #include "scratch_dir.h"
 
 namespace fleetmap::testing {
 
-struct CliRun {
-  int exit_code = -1;  // -1 when it did not end in time (it is killed then)
-  std::string out, err;
-};
+using CliRun = ProgramRun;
 
-// Runs `fleetmap ARGS...`; stderr goes through a file in `scratch_dir` so a chatty command never
-// blocks on a pipe. Waits at most `timeout` for it to finish.
+// Runs `fleetmap ARGS...` (RunProgram).
 inline CliRun RunFleetmapCli(const std::filesystem::path& scratch_dir,
                              const std::vector<std::string>& args,
                              std::chrono::seconds timeout = std::chrono::seconds(120)) {
-  const std::filesystem::path err_file = scratch_dir / "cli.stderr";
-  std::filesystem::remove(err_file);
   std::vector<std::string> argv{FLEETMAP_CLI};
   argv.insert(argv.end(), args.begin(), args.end());
-  CliRun run;
-  {
-    ChildProcess child(argv, {.stderr_file = err_file, .environment = {}});
-    run.out = child.ReadRest(timeout);
-    run.exit_code = child.Wait(std::chrono::seconds(10)).value_or(-1);
-  }  // a child still running is killed here, before its stderr is read
-  std::ifstream err(err_file, std::ios::binary);
-  run.err.assign(std::istreambuf_iterator<char>(err), std::istreambuf_iterator<char>());
-  return run;
-}
-
-// The whole file as bytes ("" when it cannot be read): what a command wrote, or left alone.
-inline std::string ReadWholeFile(const std::filesystem::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream bytes;
-  bytes << in.rdbuf();
-  return bytes.str();
-}
-
-inline bool Contains(const std::string& text, const std::string& part) {
-  return text.find(part) != std::string::npos;
+  return RunProgram(scratch_dir, argv, {}, timeout);
 }
 
 // The command line, its exit code and both streams: what a failed expectation should show.
@@ -92,6 +67,26 @@ class FleetmapCliTest : public ::testing::Test {
     args.push_back("--store");
     args.push_back(store_);
     return Run(args, succeed);
+  }
+
+  // Runs the CLI expecting it to fail (on the test's repository unless `args` name a --store),
+  // naming each of `mentions` on stderr and leaving neither `out_file` nor `out_file`.tmp:
+  // what a command that writes one file (`export`, `render`) must do with bad input.
+  CliRun ExpectRefusedWithoutOutput(std::vector<std::string> args,
+                                    const std::filesystem::path& out_file,
+                                    const std::vector<std::string>& mentions) {
+    if (std::find(args.begin(), args.end(), "--store") == args.end()) {
+      args.push_back("--store");
+      args.push_back(store_);
+    }
+    CliRun r = Run(args, /*succeed=*/false);
+    for (const std::string& mention : mentions) {
+      EXPECT_TRUE(Contains(r.err, mention)) << "should mention '" << mention << "'\n"
+                                            << DescribeCliRun(args, r);
+    }
+    EXPECT_FALSE(std::filesystem::exists(out_file)) << DescribeCliRun(args, r);
+    EXPECT_FALSE(std::filesystem::exists(out_file.string() + ".tmp")) << DescribeCliRun(args, r);
+    return r;
   }
 
   ScratchDir dir_;

@@ -11,6 +11,7 @@ namespace fleetmap {
 namespace {
 
 using interchange_internal::AppendNumber;
+using interchange_internal::AppendXmlEscaped;
 
 struct KeyDeclaration {
   const char* domain;  // GraphML's `for`: node or edge
@@ -28,40 +29,11 @@ constexpr std::array<KeyDeclaration, 19> kKeys{{
     {"edge", "qz", "double"},
 }};
 
-// Text as XML character data or an attribute value. The five special characters become
-// entities; the control characters XML 1.0 does not allow at all (not even as references)
-// become spaces.
-void AppendEscaped(std::string& out, std::string_view text) {
-  for (const char c : text) {
-    switch (c) {
-      case '&':
-        out += "&amp;";
-        break;
-      case '<':
-        out += "&lt;";
-        break;
-      case '>':
-        out += "&gt;";
-        break;
-      case '"':
-        out += "&quot;";
-        break;
-      case '\'':
-        out += "&apos;";
-        break;
-      default:
-        const bool allowed =
-            static_cast<unsigned char>(c) >= 0x20 || c == '\t' || c == '\n' || c == '\r';
-        out += allowed ? c : ' ';
-    }
-  }
-}
-
 void AppendData(std::string& out, std::string_view key, std::string_view value) {
   out += "      <data key=\"";
   out += key;
   out += "\">";
-  AppendEscaped(out, value);
+  AppendXmlEscaped(out, value);
   out += "</data>\n";
 }
 
@@ -98,7 +70,7 @@ void WriteGraphMl(const GraphBatch& map, const GraphLayout& layout, std::string_
   text += "  <graph id=\"map\" edgedefault=\"directed\">\n";
   if (!description.empty()) {
     text += "    <desc>";
-    AppendEscaped(text, description);
+    AppendXmlEscaped(text, description);
     text += "</desc>\n";
   }
   out << text;

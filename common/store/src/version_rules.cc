@@ -96,6 +96,48 @@ void RequireInHistory(RevisionNumber r, RevisionNumber head) {
                                         std::to_string(head) + ")");
 }
 
+Revision PromotionAsRecorded(const Revision& revision, const GraphBatch& additions,
+                             const std::vector<Uuid>& hide_nodes, bool in_transaction) {
+  const std::string name = "revision " + std::to_string(revision.number);
+  if (revision.kind != RevisionKind::kPromote) {
+    throw Error(ErrorCode::kInvalidArgument,
+                name + ": AppendPromotion records promotions only (kind promote)");
+  }
+  if (!in_transaction) {
+    throw Error(ErrorCode::kInvalidArgument,
+                name +
+                    ": AppendPromotion needs a Transaction open on its GraphStore, in which "
+                    "the caller also Puts the additions");
+  }
+  std::vector<Uuid> hidden = hide_nodes;
+  std::sort(hidden.begin(), hidden.end());
+  for (const Node& node : additions.nodes) {
+    if (std::binary_search(hidden.begin(), hidden.end(), node.id)) {
+      throw Error(ErrorCode::kInvalidArgument,
+                  name + ": node " + node.id.ToString() + " is both added and hidden");
+    }
+  }
+  Revision recorded = revision;
+  recorded.submission = Uuid();
+  recorded.reverted = 0;
+  recorded.nodes_hidden = recorded.edges_hidden = recorded.paths_hidden = 0;
+  return recorded;
+}
+
+void SetHiddenCount(Revision& recorded, VersionedKind kind, std::int64_t count) {
+  switch (kind) {
+    case VersionedKind::kNode:
+      recorded.nodes_hidden = count;
+      break;
+    case VersionedKind::kEdge:
+      recorded.edges_hidden = count;
+      break;
+    case VersionedKind::kPath:
+      recorded.paths_hidden = count;
+      break;
+  }
+}
+
 Revision RevertAsRecorded(const Revision& revision) {
   Revision recorded = revision;
   recorded.kind = RevisionKind::kRevert;
@@ -113,6 +155,12 @@ void RequireRevertable(RevisionNumber reverted, const std::optional<Revision>& t
                 "revision 0 (the map before the first revision) cannot be reverted");
   }
   if (!target) throw Error(ErrorCode::kNotFound, "no " + name + " to revert");
+  if (target->kind == RevisionKind::kPromote) {
+    throw Error(ErrorCode::kInvalidArgument,
+                name +
+                    " is a promotion; it cannot be reverted (it hid nodes, and nothing un-hides): "
+                    "promote another candidate instead");
+  }
   if (target->kind == RevisionKind::kRevert) {
     throw Error(ErrorCode::kInvalidArgument,
                 name + " is a revert; a revert cannot be reverted (nothing un-hides)");

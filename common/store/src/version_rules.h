@@ -49,6 +49,15 @@ void RequireInHistory(RevisionNumber r, RevisionNumber head);
 // and for a large map (500 MB) that sort (spilled to disk) was most of a cold download.
 void OrderNodesAt(std::vector<Node>& nodes);
 
+// AppendPromotion's checks: a kPromote inside a Transaction, no node both added and hidden.
+// Returns the revision as recorded before its hidden counts are known (no revert, no
+// submission).
+Revision PromotionAsRecorded(const Revision& revision, const GraphBatch& additions,
+                             const std::vector<Uuid>& hide_nodes, bool in_transaction);
+
+// Records that a revision hid `count` elements of `kind` (the store's hidden counts, per kind).
+void SetHiddenCount(Revision& recorded, VersionedKind kind, std::int64_t count);
+
 // AppendRevert's revision before its hidden counts are known: a kRevert with no submission
 // and nothing counted yet, whatever the caller filled in.
 Revision RevertAsRecorded(const Revision& revision);

@@ -8,6 +8,8 @@ std::string_view RevisionKindName(RevisionKind kind) {
       return "merge";
     case RevisionKind::kRevert:
       return "revert";
+    case RevisionKind::kPromote:
+      return "promote";
   }
   return "unknown";
 }

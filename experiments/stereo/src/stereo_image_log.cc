@@ -2,87 +2,22 @@
 // (stereo_image_log.h, seed 000 §5.1).
 #include "fleetmap/stereo/stereo_image_log.h"
 
-#include <fcntl.h>
-#include <unistd.h>
-
-#include <cerrno>
-#include <cstring>
-#include <memory>
 #include <string_view>
 #include <system_error>
-#include <utility>
-#include <vector>
 
 #include "fleetmap/core/error.h"
-#include "fleetmap/records/record_file.h"
 #include "fleetmap/records/record_layout.h"
 #include "fleetmap/sensors.pb.h"
+#include "written_paths.h"
 
 namespace fleetmap {
 namespace {
 
 namespace fs = std::filesystem;
+using internal::StagedRecordFile;
+using internal::WrittenPaths;
 
 constexpr std::string_view kPngSignature("\x89PNG\r\n\x1a\n", 8);
-
-// What an ingest has put on disk so far, removed again unless Keep() is reached: files first,
-// then the directories it created, deepest first (fs::remove leaves a directory that something
-// else has put a file into meanwhile).
-class WrittenPaths {
- public:
-  WrittenPaths() = default;
-  WrittenPaths(const WrittenPaths&) = delete;
-  WrittenPaths& operator=(const WrittenPaths&) = delete;
-  ~WrittenPaths() {
-    if (kept_) return;
-    std::error_code ignored;  // clean-up of a failure must not hide the failure
-    for (auto it = files_.rbegin(); it != files_.rend(); ++it) fs::remove(*it, ignored);
-    for (auto it = dirs_.rbegin(); it != dirs_.rend(); ++it) fs::remove(*it, ignored);
-  }
-
-  // Creates `dir` and any missing parents, remembering each one it made.
-  void CreateDirectories(const fs::path& dir) {
-    std::vector<fs::path> missing;
-    for (fs::path p = dir; !p.empty() && !fs::exists(p); p = p.parent_path()) {
-      missing.push_back(p);
-      if (p == p.parent_path()) break;
-    }
-    for (auto it = missing.rbegin(); it != missing.rend(); ++it) {
-      std::error_code ec;
-      fs::create_directory(*it, ec);
-      if (ec) {
-        throw Error(ErrorCode::kBackend,
-                    "cannot create directory " + it->string() + ": " + ec.message());
-      }
-      dirs_.push_back(*it);
-    }
-  }
-  void AddFile(const fs::path& file) { files_.push_back(file); }
-  // `from` was renamed to `to`: remove `to` on failure instead.
-  void Renamed(const fs::path& from, const fs::path& to) {
-    for (fs::path& f : files_) {
-      if (f == from) f = to;
-    }
-  }
-  void Keep() { kept_ = true; }
-
- private:
-  std::vector<fs::path> files_;
-  std::vector<fs::path> dirs_;
-  bool kept_ = false;
-};
-
-// Makes a rename in `dir` durable: the new directory entry survives a power cut.
-void SyncDirectory(const fs::path& dir) {
-  const int fd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-  const bool failed = fd < 0 || ::fsync(fd) != 0;
-  const int saved_errno = errno;
-  if (fd >= 0) ::close(fd);
-  if (failed) {
-    throw Error(ErrorCode::kBackend,
-                "cannot sync directory " + dir.string() + ": " + std::strerror(saved_errno));
-  }
-}
 
 // Reads, decodes and checks one image; returns its bytes as stored.
 std::string CheckedImageBytes(const fs::path& file, const PinholeCamera& camera) {
@@ -150,30 +85,19 @@ StereoImageIngestResult IngestStereoImages(
   }
 
   StereoImageIngestResult result;
-  result.record_file =
-      (fs::absolute(root) / RecordFilePath(platform, sensor, sequence.pairs.front().stamp_ns))
-          .lexically_normal();
-  result.left_calibration = StereoCalibrationPath(result.record_file, 0);
-  result.right_calibration = StereoCalibrationPath(result.record_file, 1);
-  const auto refuse_existing = [&] {
-    if (fs::exists(result.record_file)) {
-      throw Error(ErrorCode::kConflict,
-                  "record file " + result.record_file.string() +
-                      " already exists: this sequence (or another whose first pair falls in the "
-                      "same second) was ingested before");
-    }
-  };
-  refuse_existing();
-
+  // Refused before any image is read when the log is there already; StagedRecordFile checks
+  // again at its first record and when it publishes.
+  if (const fs::path existing =
+          fs::absolute(root) / RecordFilePath(platform, sensor, sequence.pairs.front().stamp_ns);
+      fs::exists(existing)) {
+    throw Error(ErrorCode::kConflict,
+                "record file " + existing.lexically_normal().string() +
+                    " already exists: this sequence (or another whose first pair falls in the "
+                    "same second) was ingested before");
+  }
   WrittenPaths written;
-  written.CreateDirectories(result.record_file.parent_path());
-  const fs::path partial =
-      result.record_file.parent_path() /
-      ("." + result.record_file.filename().string() + ".partial-" + std::to_string(::getpid()));
+  StagedRecordFile log(root, platform, sensor, written);
   {
-    fs::remove(partial);  // a leftover of a killed process that had this pid
-    written.AddFile(partial);
-    RecordWriter writer(partial);
     const std::string type = v1::StereoImagePair::descriptor()->full_name();
     const auto total = static_cast<std::int64_t>(sequence.pairs.size());
     v1::StereoImagePair record;
@@ -189,24 +113,16 @@ StereoImageIngestResult IngestStereoImages(
       record.set_left_image(CheckedImageBytes(pair.left_image, left));
       record.set_right_image(CheckedImageBytes(pair.right_image, right));
       record.SerializeToString(&payload);
-      writer.Append(pair.stamp_ns, type, payload);
+      log.Append(pair.stamp_ns, type, payload);
       if (progress) progress(i + 1, total);
     }
-    writer.Sync();
   }
+  result.record_file = log.final_path();
+  result.left_calibration = StereoCalibrationPath(result.record_file, 0);
+  result.right_calibration = StereoCalibrationPath(result.record_file, 1);
   StoreCalibration(sequence, 0, result.left_calibration, written);
   StoreCalibration(sequence, 1, result.right_calibration, written);
-
-  // Another ingest may have finished meanwhile; rename would silently replace its log.
-  refuse_existing();
-  std::error_code ec;
-  fs::rename(partial, result.record_file, ec);
-  if (ec) {
-    throw Error(ErrorCode::kBackend, "cannot rename " + partial.string() + " to " +
-                                         result.record_file.string() + ": " + ec.message());
-  }
-  written.Renamed(partial, result.record_file);
-  SyncDirectory(result.record_file.parent_path());
+  log.Publish();
 
   result.pairs = static_cast<std::int64_t>(sequence.pairs.size());
   result.bytes = fs::file_size(result.record_file);

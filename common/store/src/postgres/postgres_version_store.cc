@@ -257,29 +257,31 @@ class PostgresVersionStore final : public VersionStore {
     recorded.reverted = 0;
     recorded.nodes_hidden = recorded.edges_hidden = recorded.paths_hidden = 0;
     const std::vector<VersionedElement> elements = VersionedElementsOf(additions, recorded);
-    std::vector<Uuid> ids;
-    std::string kinds = "{";
-    ids.reserve(elements.size());
-    for (const VersionedElement& e : elements) {
-      ids.push_back(e.id);
-      if (kinds.size() > 1) kinds += ',';
-      kinds += static_cast<char>('0' + static_cast<int>(e.kind));
-    }
-    kinds += '}';
-    const std::string id_array = UuidArray(ids);
     session_.Atomically("append " + RevisionName(revision.number), [&](pqxx::transaction_base& t) {
       RequireNextRevision(revision.number, Head(t));
       // First, so that a writer racing for the same number waits here and then fails.
       InsertRevision(t, recorded);
-      if (!ids.empty()) {
-        const pqxx::result stored = t.exec_prepared("version_stored_among", id_array);
-        if (!stored.empty()) {
-          throw AlreadyStored(StoredVersionedKind(stored[0][0].as<int>(), UuidField(stored[0][1])),
-                              UuidField(stored[0][1]), revision.number);
-        }
-        t.exec_prepared("version_add_elements", id_array, kinds, revision.number);
-      }
+      AddElements(t, revision.number, elements);
     });
+    return recorded;
+  }
+
+  Revision AppendPromotion(const Revision& revision, const GraphBatch& additions,
+                           const std::vector<Uuid>& hide_nodes) override {
+    Revision recorded =
+        PromotionAsRecorded(revision, additions, hide_nodes, session_.transaction() != nullptr);
+    const std::vector<VersionedElement> elements = VersionedElementsOf(additions, recorded);
+    const std::string hidden = UuidArray(hide_nodes);
+    session_.Atomically("append promotion " + RevisionName(revision.number),
+                        [&](pqxx::transaction_base& t) {
+                          RequireNextRevision(revision.number, Head(t));
+                          InsertRevision(t, recorded);
+                          AddElements(t, revision.number, elements);
+                          if (!hide_nodes.empty()) {
+                            t.exec_prepared("version_hide_nodes", revision.number, hidden);
+                          }
+                          HideTouchingAndCount(t, recorded);
+                        });
     return recorded;
   }
 
@@ -296,24 +298,7 @@ class PostgresVersionStore final : public VersionStore {
           RequireRevertable(revision.reverted, Find(t, revision.reverted), reverted_by);
           InsertRevision(t, recorded);
           t.exec_prepared("version_hide_added", number, revision.reverted);
-          t.exec_prepared("version_hide_touching_versioned", number);
-          t.exec_prepared("version_hide_touching_unversioned", number);
-          for (const pqxx::row& row : t.exec_prepared("version_hidden_counts", number)) {
-            const std::int64_t count = row[1].as<std::int64_t>();
-            switch (StoredVersionedKind(row[0].as<int>(), Uuid())) {
-              case VersionedKind::kNode:
-                recorded.nodes_hidden = count;
-                break;
-              case VersionedKind::kEdge:
-                recorded.edges_hidden = count;
-                break;
-              case VersionedKind::kPath:
-                recorded.paths_hidden = count;
-                break;
-            }
-          }
-          t.exec_prepared("version_set_hidden_counts", number, recorded.nodes_hidden,
-                          recorded.edges_hidden, recorded.paths_hidden);
+          HideTouchingAndCount(t, recorded);
         });
     return recorded;
   }
@@ -485,6 +470,42 @@ class PostgresVersionStore final : public VersionStore {
   }
 
  private:
+  // Refuses elements already stored, then records revision `number` as having added them.
+  void AddElements(pqxx::transaction_base& t, RevisionNumber number,
+                   const std::vector<VersionedElement>& elements) {
+    if (elements.empty()) return;
+    std::vector<Uuid> ids;
+    std::string kinds = "{";
+    ids.reserve(elements.size());
+    for (const VersionedElement& e : elements) {
+      ids.push_back(e.id);
+      if (kinds.size() > 1) kinds += ',';
+      kinds += static_cast<char>('0' + static_cast<int>(e.kind));
+    }
+    kinds += '}';
+    const std::string id_array = UuidArray(ids);
+    const pqxx::result stored = t.exec_prepared("version_stored_among", id_array);
+    if (!stored.empty()) {
+      throw AlreadyStored(StoredVersionedKind(stored[0][0].as<int>(), UuidField(stored[0][1])),
+                          UuidField(stored[0][1]), number);
+    }
+    t.exec_prepared("version_add_elements", id_array, kinds, number);
+  }
+
+  // After revision `recorded` hid nodes or paths: hides every visible edge left touching them
+  // and records what the revision hid in all.
+  void HideTouchingAndCount(pqxx::transaction_base& t, Revision& recorded) {
+    const RevisionNumber number = recorded.number;
+    t.exec_prepared("version_hide_touching_versioned", number);
+    t.exec_prepared("version_hide_touching_unversioned", number);
+    for (const pqxx::row& row : t.exec_prepared("version_hidden_counts", number)) {
+      SetHiddenCount(recorded, StoredVersionedKind(row[0].as<int>(), Uuid()),
+                     row[1].as<std::int64_t>());
+    }
+    t.exec_prepared("version_set_hidden_counts", number, recorded.nodes_hidden,
+                    recorded.edges_hidden, recorded.paths_hidden);
+  }
+
   static RevisionNumber Head(pqxx::transaction_base& t) {
     return t.exec_prepared1("version_head")[0].as<std::int64_t>();
   }
@@ -599,6 +620,9 @@ class PostgresVersionStore final : public VersionStore {
               Cat({"UPDATE element_versions v SET hidden_rev = $1 WHERE v.added_rev = $2"
                    " AND v.hidden_rev IS NULL AND ",
                    kElementStored}));
+    c.prepare("version_hide_nodes",
+              "UPDATE element_versions SET hidden_rev = $1"
+              " WHERE id = ANY($2::uuid[]) AND kind = 1 AND hidden_rev IS NULL");
     c.prepare("version_hide_touching_versioned",
               Cat({kEdgesTouchingHiddenAt1,
                    "UPDATE element_versions SET hidden_rev = $1 WHERE hidden_rev IS NULL"

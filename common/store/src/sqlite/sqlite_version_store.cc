@@ -309,35 +309,30 @@ class SqliteVersionStore final : public VersionStore {
     const std::vector<VersionedElement> elements = VersionedElementsOf(additions, recorded);
     Atomically([&] {
       RequireNextRevision(revision.number, Head());
-      for (std::size_t i = 0; i < elements.size(); i += kChunk) {
-        StatementUse s(s_.stored_among);
-        for (std::size_t j = i; j < std::min(i + kChunk, elements.size()); ++j) {
-          s->Bind(static_cast<int>(j - i + 1), elements[j].id);
-        }
-        if (s->Step()) {
-          const Uuid stored = s->UuidAt(1);
-          throw AlreadyStored(StoredVersionedKind(s->Int64(0), stored), stored, revision.number);
-        }
-      }
+      RequireNoneStored(elements, revision.number);
       InsertRevision(recorded);
-      const std::int64_t number = revision.number;
-      std::size_t i = 0;
-      for (; i + kChunk <= elements.size(); i += kChunk) {
-        StatementUse s(s_.add_elements);
-        s->Bind(1, number);
-        for (int j = 0; j < kChunk; ++j) {
-          s->Bind(2 + 2 * j, elements[i + j].id);
-          s->Bind(3 + 2 * j, static_cast<std::int64_t>(elements[i + j].kind));
-        }
+      AddElements(revision.number, elements);
+    });
+    return recorded;
+  }
+
+  Revision AppendPromotion(const Revision& revision, const GraphBatch& additions,
+                           const std::vector<Uuid>& hide_nodes) override {
+    Revision recorded =
+        PromotionAsRecorded(revision, additions, hide_nodes, !sqlite3_get_autocommit(db_));
+    const std::vector<VersionedElement> elements = VersionedElementsOf(additions, recorded);
+    Atomically([&] {
+      RequireNextRevision(revision.number, Head());
+      RequireNoneStored(elements, revision.number);
+      InsertRevision(recorded);
+      AddElements(revision.number, elements);
+      for (const Uuid& node : hide_nodes) {
+        StatementUse s(s_.hide_node);
+        s->Bind(1, revision.number);
+        s->Bind(2, node);
         s->Run();
       }
-      for (; i < elements.size(); ++i) {
-        StatementUse s(s_.add_element);
-        s->Bind(1, number);
-        s->Bind(2, elements[i].id);
-        s->Bind(3, static_cast<std::int64_t>(elements[i].kind));
-        s->Run();
-      }
+      HideTouchingAndCount(recorded);
     });
     return recorded;
   }
@@ -361,35 +356,7 @@ class SqliteVersionStore final : public VersionStore {
         s->Bind(2, revision.reverted);
         s->Run();
       }
-      for (Statement* statement : {&s_.hide_touching_versioned, &s_.hide_touching_unversioned}) {
-        StatementUse s(*statement);
-        s->Bind(1, number);
-        s->Run();
-      }
-      {
-        StatementUse s(s_.hidden_counts);
-        s->Bind(1, number);
-        while (s->Step()) {
-          const std::int64_t count = s->Int64(1);
-          switch (StoredVersionedKind(s->Int64(0), Uuid())) {
-            case VersionedKind::kNode:
-              recorded.nodes_hidden = count;
-              break;
-            case VersionedKind::kEdge:
-              recorded.edges_hidden = count;
-              break;
-            case VersionedKind::kPath:
-              recorded.paths_hidden = count;
-              break;
-          }
-        }
-      }
-      StatementUse s(s_.set_hidden_counts);
-      s->Bind(1, number);
-      s->Bind(2, recorded.nodes_hidden);
-      s->Bind(3, recorded.edges_hidden);
-      s->Bind(4, recorded.paths_hidden);
-      s->Run();
+      HideTouchingAndCount(recorded);
     });
     return recorded;
   }
@@ -586,6 +553,9 @@ class SqliteVersionStore final : public VersionStore {
                               " WHERE v.added_rev = ?2 AND v.hidden_rev IS NULL AND ",
                               kElementStored})
                              .c_str()),
+          hide_node(db,
+                    "UPDATE element_versions SET hidden_rev = ?1"
+                    " WHERE id = ?2 AND kind = 1 AND hidden_rev IS NULL"),
           hide_touching_versioned(db, Sql({kEdgesTouchingHiddenAt1,
                                            "UPDATE element_versions SET hidden_rev = ?1"
                                            " WHERE hidden_rev IS NULL"
@@ -679,7 +649,8 @@ class SqliteVersionStore final : public VersionStore {
     Statement head, find_revision, list_revisions, reverted_by, insert_revision;
     Statement set_hidden_counts;
     Statement stored_among, add_elements, add_element;
-    Statement hide_added, hide_touching_versioned, hide_touching_unversioned, hidden_counts;
+    Statement hide_added, hide_node, hide_touching_versioned, hide_touching_unversioned,
+        hidden_counts;
     Statement nodes_at, nodes_at_bare, edges_at, paths_at, stats_at, changed_between;
     Statement version_of;
     Statement find_setting, put_setting, list_settings;
@@ -737,6 +708,65 @@ class SqliteVersionStore final : public VersionStore {
     std::optional<Submission> found = Find(id);
     if (!found) throw NoSubmission(id);
     return std::move(*found);
+  }
+
+  // Throws AlreadyStored for the first of `elements` that is stored already.
+  void RequireNoneStored(const std::vector<VersionedElement>& elements, RevisionNumber number) {
+    for (std::size_t i = 0; i < elements.size(); i += kChunk) {
+      StatementUse s(s_.stored_among);
+      for (std::size_t j = i; j < std::min(i + kChunk, elements.size()); ++j) {
+        s->Bind(static_cast<int>(j - i + 1), elements[j].id);
+      }
+      if (s->Step()) {
+        const Uuid stored = s->UuidAt(1);
+        throw AlreadyStored(StoredVersionedKind(s->Int64(0), stored), stored, number);
+      }
+    }
+  }
+
+  // Records revision `number` as having added `elements`.
+  void AddElements(RevisionNumber number, const std::vector<VersionedElement>& elements) {
+    std::size_t i = 0;
+    for (; i + kChunk <= elements.size(); i += kChunk) {
+      StatementUse s(s_.add_elements);
+      s->Bind(1, number);
+      for (int j = 0; j < kChunk; ++j) {
+        s->Bind(2 + 2 * j, elements[i + j].id);
+        s->Bind(3 + 2 * j, static_cast<std::int64_t>(elements[i + j].kind));
+      }
+      s->Run();
+    }
+    for (; i < elements.size(); ++i) {
+      StatementUse s(s_.add_element);
+      s->Bind(1, number);
+      s->Bind(2, elements[i].id);
+      s->Bind(3, static_cast<std::int64_t>(elements[i].kind));
+      s->Run();
+    }
+  }
+
+  // After revision `recorded` hid nodes or paths: hides every visible edge left touching them
+  // and records what the revision hid in all.
+  void HideTouchingAndCount(Revision& recorded) {
+    const RevisionNumber number = recorded.number;
+    for (Statement* statement : {&s_.hide_touching_versioned, &s_.hide_touching_unversioned}) {
+      StatementUse s(*statement);
+      s->Bind(1, number);
+      s->Run();
+    }
+    {
+      StatementUse s(s_.hidden_counts);
+      s->Bind(1, number);
+      while (s->Step()) {
+        SetHiddenCount(recorded, StoredVersionedKind(s->Int64(0), Uuid()), s->Int64(1));
+      }
+    }
+    StatementUse s(s_.set_hidden_counts);
+    s->Bind(1, number);
+    s->Bind(2, recorded.nodes_hidden);
+    s->Bind(3, recorded.edges_hidden);
+    s->Bind(4, recorded.paths_hidden);
+    s->Run();
   }
 
   void InsertRevision(const Revision& v) {

@@ -8,6 +8,7 @@
 
 #include <cstdint>
 #include <map>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -39,6 +40,37 @@ struct MergeRun {
   std::int64_t finished_ns = 0;
 };
 
+// One revision of the history, as the status page lists it.
+struct RevisionRow {
+  std::int64_t revision = 0;
+  std::string kind;    // "merge" or "revert"
+  std::string author;  // who made it: the robot that pushed (as it named itself), or a user
+  std::string robot;   // merges: the name of the robot whose submission it was (its UUID text
+                       // when unregistered); empty for reverts
+  std::int64_t created_ns = 0;
+  std::int64_t nodes_added = 0;
+  std::int64_t nodes_hidden = 0;
+};
+
+// The nightly dream (`--dream-at`, nightly_dream.h): when it runs next, whether one runs now
+// and how far it is, and what the last one left.
+struct DreamStatus {
+  bool scheduled = false;    // --dream-at given
+  std::string at;            // "HH:MM" UTC
+  std::int64_t next_ns = 0;  // the next run
+  bool running = false;
+  std::uint64_t steps_done = 0, steps_all = 0;  // of the running dream's merges
+  std::uint64_t runs = 0;                       // dreams that left a candidate
+  std::uint64_t skipped = 0;                    // runs with too little to dream over
+  std::uint64_t failed = 0;                     // runs that threw (the store, a corrupt submission)
+  std::int64_t last_finished_ns = 0;
+  double last_seconds = 0.0;
+  std::string last_result;     // for people: the candidate and its score, or why not
+  std::string last_candidate;  // its UUID text; empty when none
+  double last_score = 0.0;     // its held-out score (HeldOutScore, lower is better)
+  double last_p_gap_exceeds = 0.0;
+};
+
 struct FleetStatus {
   std::int64_t now_ns = 0;      // when the snapshot was taken
   std::int64_t started_ns = 0;  // when the server started
@@ -53,6 +85,14 @@ struct FleetStatus {
   std::uint64_t map_edges = 0;
   std::uint64_t map_paths = 0;
   std::int64_t map_landmark_bytes = 0;
+  // The head's picture (revision_picture.h) as SVG, drawn once per head revision off the HTTP
+  // thread; null until the first is drawn. picture_revision is the revision it shows (it may
+  // lag head_revision while the next is drawn).
+  std::shared_ptr<const std::string> head_picture_svg;
+  std::int64_t picture_revision = -1;
+  // The latest revisions, newest first (at most kRecentRevisions), read with the picture.
+  std::vector<RevisionRow> recent_revisions;
+  static constexpr std::size_t kRecentRevisions = 20;
 
   // Registered robots, by name.
   std::vector<RobotStatus> robots;
@@ -80,6 +120,7 @@ struct FleetStatus {
   std::uint64_t last_sync_write_failures = 0;
   // ErrorFrames sent, by code name as in sync.proto ("BAD_TOKEN", "FRAME_TOO_LARGE", ...).
   std::map<std::string, std::uint64_t> errors_by_code;
+  DreamStatus dream;
 };
 
 }  // namespace fleetmap

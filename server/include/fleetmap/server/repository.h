@@ -139,6 +139,17 @@ class Repository {
   // A new revision hiding what revision `r` added (VersionStore::AppendRevert).
   Revision Revert(RevisionNumber r, const std::string& author);
 
+  // ---- Dreams (nightly_dream.h, dream_candidates.h) ----
+
+  // Makes dream candidate `candidate` the map, as the next revision (kPromote), authored by
+  // `author`: adds the candidate's nodes, edges and paths that are not stored, and hides the
+  // nodes the merges of its groups added that the candidate did without (with every edge left
+  // dangling). What else happened since the dream stays: later merges, and reverts (a node a
+  // revert hid stays hidden). The revision's report is the candidate's record (its held-out
+  // score). Throws Error(kNotFound) for an unknown candidate, Error(kConflict) for one
+  // promoted already, Error(kCorrupt) for content that does not read back.
+  Revision Promote(const Uuid& candidate, const std::string& author);
+
   // ---- Reading revisions ----
 
   // The whole map at revision `r` (default: the head): nodes with landmarks, edges, paths.

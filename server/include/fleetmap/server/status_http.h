@@ -6,6 +6,8 @@
 //   GET /metrics  Prometheus text exposition format 0.0.4, metrics named fleetmap_*
 //                 (Content-Type "text/plain; version=0.0.4; charset=utf-8")
 //   GET /healthz  "ok"
+//   GET /map.svg  the picture of the head (FleetStatus::head_picture_svg, drawn once per
+//                 revision; 503 until the first is drawn), image/svg+xml
 // A query string is ignored for routing.
 //
 // Limits: request headers up to 8 KiB and bodies up to 8 KiB (larger: 431/413 and the
@@ -18,8 +20,8 @@
 //
 // Threading: the server runs on its own io_context and one thread, started by the
 // constructor; each connection has its own strand. `status_source` is called on that thread,
-// once per request to / or /metrics, and must be thread-safe with respect to the sync server
-// (SyncServer::Status() is); if it throws, the request gets 500 with the message. Stop() and
+// once per request to /, /metrics or /map.svg, and must be thread-safe with respect to the sync
+// server (SyncServer::Status() is); if it throws, the request gets 500 with the message. Stop() and
 // the destructor may be called from any one thread other than the server's own.
 #pragma once
 

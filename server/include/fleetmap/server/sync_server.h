@@ -16,9 +16,11 @@
 #include <cstddef>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "fleetmap/server/fleet_status.h"
+#include "fleetmap/server/nightly_dream.h"
 
 namespace fleetmap {
 
@@ -87,6 +89,10 @@ struct SyncServerOptions {
   // A streamed download is read, encoded and written about this many bytes at a time (two such
   // batches in memory per download at most).
   std::size_t download_batch_bytes = std::size_t{4} << 20;
+  // The nightly dream (nightly_dream.h): run daily at this UTC minute of the day (0 to 1439;
+  // see ParseDreamTime in fleetmapd), on a store connection of its own. None: never.
+  std::optional<int> dream_at_minute;
+  NightlyDreamOptions dream;
 };
 
 class SyncServer {

@@ -36,6 +36,9 @@ using RevisionNumber = std::int64_t;
 enum class RevisionKind : int {
   kMerge = 1,   // MERGE of one submission (seed 004 §V-A)
   kRevert = 2,  // hides what an earlier revision added
+  // Makes a dream's candidate map the map (seed 004 §VI-E; dream_candidates.h): adds what the
+  // candidate holds that the head lacks and hides the dreamed nodes it did without.
+  kPromote = 3,
 };
 
 struct Revision {
@@ -227,6 +230,15 @@ class VersionStore {
   // counts). Throws Error(kNotFound) for an unknown reverted revision, Error(kInvalidArgument)
   // for reverting revision 0 or a revert, Error(kConflict) for one already reverted.
   virtual Revision AppendRevert(const Revision& revision) = 0;
+
+  // Records revision.number (head + 1, else Error(kConflict)) as a kPromote: adds every
+  // element of `additions` as AppendRevision does (same REQUIRES: a Transaction in which the
+  // caller then Puts them), then hides each node of `hide_nodes` still visible and, as a
+  // revert does, every visible edge left with an end among the nodes it hid. Returns it as
+  // recorded, with the added and hidden counts. Throws as AppendRevision, and
+  // Error(kInvalidArgument) for a kind other than kPromote or a node both added and hidden.
+  virtual Revision AppendPromotion(const Revision& revision, const GraphBatch& additions,
+                                   const std::vector<Uuid>& hide_nodes) = 0;
 
   // ---- The map at a revision. Each throws Error(kNotFound) unless 0 <= r <= head. ----
 

@@ -1,0 +1,123 @@
+// `fleetmap render`: a picture of the map at a revision (issue 22 item 1), seen from above:
+// the graph layout (fleetmap/interchange/graph_layout.h) drawn by the map picture
+// (map_picture.h) as SVG text or, through OpenCV, as PNG pixels: the same picture either way.
+#include <algorithm>
+#include <cctype>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "commands.h"
+#include "fleetmap/core/error.h"
+#include "fleetmap/interchange/map_picture.h"
+#include "fleetmap/interchange/svg_canvas.h"
+#include "fleetmap/raster/png_canvas.h"
+#include "fleetmap/server/revision_picture.h"
+#include "repository_arguments.h"
+#include "staged_output_file.h"
+
+namespace fleetmap::cli {
+namespace {
+
+enum class PictureFormat { kPng, kSvg };
+
+// The format --out's extension names (either case).
+PictureFormat FormatOf(const std::string& out) {
+  std::string extension = std::filesystem::path(out).extension().string();
+  std::transform(extension.begin(), extension.end(), extension.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  if (extension == ".png") return PictureFormat::kPng;
+  if (extension == ".svg") return PictureFormat::kSvg;
+  throw Error(ErrorCode::kInvalidArgument,
+              "unknown extension of --out '" + out + "'" +
+                  (extension.empty() ? std::string(" (none)") : " ('" + extension + "')") +
+                  ": expected .png or .svg");
+}
+
+NodeColouring ParseColouring(const std::string& text) {
+  if (text == "time-of-day") return NodeColouring::kTimeOfDay;
+  if (text == "revision") return NodeColouring::kRevision;
+  throw Error(ErrorCode::kInvalidArgument,
+              "unknown --colour '" + text + "': expected time-of-day or revision");
+}
+
+struct RenderArgs {
+  std::string store;
+  std::optional<RevisionNumber> revision;
+  std::string out;
+  std::string colour = "time-of-day";
+};
+
+void RunRender(const RenderArgs& args) {
+  const PictureFormat format = FormatOf(args.out);
+  const NodeColouring colouring = ParseColouring(args.colour);
+  const std::unique_ptr<Repository> repository = OpenExistingRepository(args.store);
+  const RevisionNumber revision = args.revision.value_or(repository->Head());
+  RequireRevision(*repository, revision);
+  const std::string where =
+      "revision " + std::to_string(revision) + " of " + repository->store().uri();
+  // Opened before the map is read, so an --out that cannot be written fails at once.
+  StagedOutputFile file(args.out);
+  const MapPicture picture = ComposeRevisionPicture(*repository, revision, colouring, where);
+  // A picture of nothing is almost always the wrong store or revision: say so rather than
+  // write a file that looks like a success. (fleetmapd's status page does draw the empty
+  // picture: a new server has no map yet, and its page must show something.)
+  if (picture.empty()) {
+    throw Error(ErrorCode::kNotFound, where + " holds no nodes: there is nothing to render");
+  }
+  if (format == PictureFormat::kSvg) {
+    SvgCanvas canvas("fleetmap: " + where);
+    picture.Draw(canvas);
+    file.stream() << canvas.svg();
+  } else {
+    PngCanvas canvas;
+    picture.Draw(canvas);
+    file.stream() << canvas.EncodePng();
+  }
+  file.Commit();
+  std::printf("rendered %s into %s\n", where.c_str(), args.out.c_str());
+  std::printf(
+      "  %s, %s; %d x %d px, scale bar %g m (%.3g px/m)\n",
+      Count(static_cast<std::int64_t>(picture.node_positions().size()), "node").c_str(),
+      Count(static_cast<std::int64_t>(picture.component_boxes().size()), "component").c_str(),
+      picture.width_px(), picture.height_px(), picture.scale_bar_m(), picture.pixels_per_metre());
+}
+
+}  // namespace
+
+void AddRenderCommand(CLI::App& app) {
+  auto args = std::make_shared<RenderArgs>();
+  CLI::App* command =
+      app.add_subcommand("render", "Draw the map at a revision from above, as PNG or SVG");
+  command->footer(
+      "The picture: the graph layout (as `fleetmap export` uses: each connected component of "
+      "the graph over metric edges in its own frame, the camera frame of its earliest node, "
+      "poses composed breadth first along metric edges) seen from above, x to the right and z "
+      "up the picture (camera frames: x right, y down, z forward, so for a camera looking "
+      "ahead x/z is the ground). Components sit side by side in their own boxes; where one box "
+      "lies beside another means nothing, since nothing measured joins them. One scale for "
+      "all; the scale bar shows a round length in metres.\n"
+      "Colours:\n"
+      "  time-of-day  (default) each node's disc by the UTC time of day it was captured, on a "
+      "colour wheel that closes at midnight: 00:00 blue, 04:00 magenta, 08:00 red, 12:00 "
+      "yellow, 16:00 green, 20:00 cyan.\n"
+      "  revision     each node by the revision that added it, from dark violet (the earliest "
+      "shown) through blue and green to yellow (the latest).\n"
+      "  Dark lines are metric edges (a measured pose); faint grey lines are path-memory edges "
+      "(a path's order, no pose) where no metric edge joins the same nodes. The legend under "
+      "the map repeats this.\n"
+      "--out FILE's extension chooses the format: .png (pixels, OpenCV) or .svg (text; one "
+      "<circle> per node in <g id=\"nodes\">). The file is written as FILE.tmp and renamed "
+      "over FILE when complete: a render that fails leaves no FILE (and an existing FILE as "
+      "it was). A revision without nodes is refused (there is nothing to draw).");
+  AddStoreOption(*command, args->store);
+  command->add_option("--revision", args->revision, "Revision (default: the head)");
+  command->add_option("--out", args->out, "The picture to write: FILE.png or FILE.svg")->required();
+  command->add_option("--colour", args->colour, "Node colours: time-of-day or revision")
+      ->capture_default_str();
+  command->callback([args] { RunRender(*args); });
+}
+
+}  // namespace fleetmap::cli

@@ -1,0 +1,20 @@
+// Decompressing a chunk of a ROS bag (bag_reader.h): "none", "bz2" (libbz2) or "lz4" (rosbag's
+// roslz4 writes the LZ4 frame format, read with liblz4's frame API). Private to the library.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <string_view>
+
+namespace fleetmap::internal {
+
+// The compressions DecompressChunk knows, for error messages: "none, bz2, lz4".
+inline constexpr const char* kSupportedChunkCompressions = "none, bz2, lz4";
+
+// Decompresses `compressed` into exactly `size` bytes. Throws Error(kInvalidArgument) naming an
+// unsupported `compression` (and the supported ones), Error(kCorrupt) prefixed by `context`
+// when the bytes do not decompress or decompress to another size than `size`.
+std::string DecompressChunk(std::string_view compression, std::string_view compressed,
+                            std::uint32_t size, const std::string& context);
+
+}  // namespace fleetmap::internal

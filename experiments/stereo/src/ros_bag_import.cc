@@ -1,0 +1,385 @@
+// A ROS 1 bag into record files and the sensor index (ros_bag_import.h).
+#include "fleetmap/stereo/ros_bag_import.h"
+
+#include <algorithm>
+#include <cctype>
+#include <map>
+#include <memory>
+#include <string_view>
+
+#include "camera_info_calibration.h"
+#include "fleetmap/core/error.h"
+#include "fleetmap/records/record_layout.h"
+#include "fleetmap/rosbag/bag_reader.h"
+#include "fleetmap/rosbag/sensor_msgs.h"
+#include "fleetmap/sensors.pb.h"
+#include "fleetmap/stereo/stereo_image_log.h"
+#include "ros_image_png.h"
+#include "ros_sensor_records.h"
+#include "stereo_stamp_pairing.h"
+#include "written_paths.h"
+
+namespace fleetmap {
+namespace {
+
+namespace fs = std::filesystem;
+using internal::StagedRecordFile;
+using internal::StereoFrame;
+
+constexpr std::string_view kImageType = "sensor_msgs/Image";
+constexpr std::string_view kCameraInfoType = "sensor_msgs/CameraInfo";
+constexpr std::string_view kImuType = "sensor_msgs/Imu";
+constexpr std::string_view kNavSatFixType = "sensor_msgs/NavSatFix";
+
+std::string_view Md5Of(std::string_view type) {
+  if (type == kImageType) return kRosImageMd5;
+  if (type == kCameraInfoType) return kRosCameraInfoMd5;
+  if (type == kImuType) return kRosImuMd5;
+  if (type == kNavSatFixType) return kRosNavSatFixMd5;
+  return {};
+}
+
+enum class Role { kSkip, kLeft, kRight, kLeftInfo, kRightInfo, kImu, kGps };
+
+std::string RoleName(Role role) {
+  switch (role) {
+    case Role::kLeft:
+      return "left images";
+    case Role::kRight:
+      return "right images";
+    case Role::kLeftInfo:
+      return "left camera_info";
+    case Role::kRightInfo:
+      return "right camera_info";
+    case Role::kImu:
+      return "imu";
+    case Role::kGps:
+      return "gps";
+    case Role::kSkip:
+      break;
+  }
+  return "skipped";
+}
+
+// The bag's topics (a topic recorded from several publishers has several connections).
+struct Topic {
+  std::string type;
+  std::string md5sum;
+  std::uint64_t messages = 0;
+  Role role = Role::kSkip;
+};
+using Topics = std::map<std::string, Topic>;
+
+std::string Lower(std::string_view s) {
+  std::string out(s);
+  for (char& c : out) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return out;
+}
+
+std::string List(const std::vector<std::string>& names) {
+  std::string out;
+  for (const std::string& n : names) out += (out.empty() ? "" : ", ") + n;
+  return out.empty() ? "none" : out;
+}
+
+std::vector<std::string> TopicsOfType(const Topics& topics, std::string_view type) {
+  std::vector<std::string> out;
+  for (const auto& [name, t] : topics) {
+    if (t.type == type) out.push_back(name);
+  }
+  return out;
+}
+
+// Gives `topic` its role, checking it is in the bag with `type` and ROS's definition of it.
+void Assign(Topics& topics, const std::string& topic, std::string_view type, Role role,
+            const std::string& option, const std::string& bag) {
+  const auto it = topics.find(topic);
+  if (it == topics.end()) {
+    throw Error(ErrorCode::kInvalidArgument, "ROS bag " + bag + " has no topic " + topic + " (" +
+                                                 option + "); its " + std::string(type) +
+                                                 " topics: " + List(TopicsOfType(topics, type)));
+  }
+  if (it->second.type != type) {
+    throw Error(ErrorCode::kInvalidArgument, "ROS bag " + bag + ": topic " + topic + " (" + option +
+                                                 ") is " + it->second.type + ", not " +
+                                                 std::string(type));
+  }
+  if (it->second.md5sum != Md5Of(type)) {
+    throw Error(ErrorCode::kInvalidArgument,
+                "ROS bag " + bag + ": topic " + topic + " is " + std::string(type) +
+                    " with md5sum " + it->second.md5sum + ", not ROS 1's definition (" +
+                    std::string(Md5Of(type)) + "); it cannot be decoded");
+  }
+  it->second.role = role;
+}
+
+// Which of two image topic names is the left camera's: +1 the first, -1 the second, 0 unknown.
+int LeftOfTwo(const std::string& a, const std::string& b) {
+  const auto side = [](const std::string& name) {
+    const std::string n = Lower(name);
+    const bool left = n.find("left") != std::string::npos || n.find("cam0") != std::string::npos ||
+                      n.find("image_0") != std::string::npos;
+    const bool right = n.find("right") != std::string::npos ||
+                       n.find("cam1") != std::string::npos ||
+                       n.find("image_1") != std::string::npos;
+    return left == right ? 0 : (left ? 1 : -1);
+  };
+  const int sa = side(a), sb = side(b);
+  if (sa == 1 && sb == -1) return 1;
+  if (sa == -1 && sb == 1) return -1;
+  return 0;
+}
+
+// "/cam/left/image_raw" -> "/cam/left/camera_info".
+std::string InfoBeside(const std::string& image_topic) {
+  const std::size_t slash = image_topic.rfind('/');
+  return (slash == std::string::npos ? std::string() : image_topic.substr(0, slash)) +
+         "/camera_info";
+}
+
+// Decides every topic's role from the options, filling in the topics it detects.
+void AssignRoles(Topics& topics, RosBagImportOptions& o, const std::string& bag) {
+  const std::vector<std::string> images = TopicsOfType(topics, kImageType);
+  if (o.left_topic.empty() != o.right_topic.empty() && images.size() == 2) {
+    std::string& missing = o.left_topic.empty() ? o.left_topic : o.right_topic;
+    const std::string& given = o.left_topic.empty() ? o.right_topic : o.left_topic;
+    missing = images[0] == given ? images[1] : images[0];
+  } else if (o.left_topic.empty() && o.right_topic.empty() && images.size() == 2) {
+    const int left = LeftOfTwo(images[0], images[1]);
+    if (left == 0) {
+      throw Error(ErrorCode::kInvalidArgument,
+                  "ROS bag " + bag + " has two image topics, " + images[0] + " and " + images[1] +
+                      ", whose names do not say which is left: give --left-topic and "
+                      "--right-topic");
+    }
+    o.left_topic = images[left == 1 ? 0 : 1];
+    o.right_topic = images[left == 1 ? 1 : 0];
+  } else if (o.left_topic.empty() != o.right_topic.empty()) {
+    throw Error(
+        ErrorCode::kInvalidArgument,
+        "ROS bag " + bag +
+            ": give both --left-topic and --right-topic (its image topics: " + List(images) + ")");
+  }
+  if (!o.left_topic.empty()) {
+    if (o.left_topic == o.right_topic) {
+      throw Error(ErrorCode::kInvalidArgument,
+                  "--left-topic and --right-topic are both " + o.left_topic);
+    }
+    Assign(topics, o.left_topic, kImageType, Role::kLeft, "--left-topic", bag);
+    Assign(topics, o.right_topic, kImageType, Role::kRight, "--right-topic", bag);
+    // camera_info beside each image topic when the bag has it; a named one must be there.
+    for (auto [info, image, role, option] :
+         {std::tuple{&o.left_info_topic, &o.left_topic, Role::kLeftInfo, "--left-info-topic"},
+          std::tuple{&o.right_info_topic, &o.right_topic, Role::kRightInfo,
+                     "--right-info-topic"}}) {
+      if (info->empty() && topics.contains(InfoBeside(*image))) *info = InfoBeside(*image);
+      if (!info->empty()) Assign(topics, *info, kCameraInfoType, role, option, bag);
+    }
+  }
+  for (auto [topic, type, role, option] :
+       {std::tuple{&o.imu_topic, kImuType, Role::kImu, "--imu-topic"},
+        std::tuple{&o.gps_topic, kNavSatFixType, Role::kGps, "--gps-topic"}}) {
+    const std::vector<std::string> candidates = TopicsOfType(topics, type);
+    if (topic->empty() && candidates.size() > 1) {
+      throw Error(ErrorCode::kInvalidArgument, "ROS bag " + bag + " has " +
+                                                   std::to_string(candidates.size()) + " " +
+                                                   std::string(type) + " topics (" +
+                                                   List(candidates) + "): name one with " + option);
+    }
+    if (topic->empty() && candidates.size() == 1) *topic = candidates[0];
+    if (!topic->empty()) Assign(topics, *topic, type, role, option, bag);
+  }
+}
+
+// A message's record stamp: its header's, else (0: the driver set none) the receive time.
+std::int64_t StampOf(const RosHeader& header, const RosBagMessage& m, std::int64_t& fallbacks) {
+  if (header.stamp_ns != 0) return header.stamp_ns;
+  ++fallbacks;
+  return m.receive_time_ns;
+}
+
+}  // namespace
+
+RosBagImportResult ImportRosBag(
+    const fs::path& bag, GraphStore& store, const fs::path& root,
+    const RosBagImportOptions& options,
+    const std::function<void(std::uint64_t done, std::uint64_t total)>& progress) {
+  CheckLayoutName(options.platform, "platform");
+  for (const std::string* sensor :
+       {&options.stereo_sensor, &options.imu_sensor, &options.gps_sensor}) {
+    CheckLayoutName(*sensor, "sensor");
+  }
+  if (options.pair_tolerance_ns < 0) {
+    throw Error(ErrorCode::kInvalidArgument, "the pair tolerance must not be negative");
+  }
+  RosBagReader reader(bag);
+  const std::string name = bag.string();
+  Topics topics;
+  for (const RosConnection& c : reader.connections()) {
+    Topic& t = topics[c.topic];
+    if (!t.type.empty() && (t.type != c.type || t.md5sum != c.md5sum)) {
+      throw Error(ErrorCode::kInvalidArgument, "ROS bag " + name + ": topic " + c.topic +
+                                                   " carries both " + t.type + " and " + c.type);
+    }
+    t.type = c.type;
+    t.md5sum = c.md5sum;
+    t.messages += c.messages;
+  }
+  RosBagImportOptions o = options;
+  AssignRoles(topics, o, name);
+
+  RosBagImportResult result;
+  internal::WrittenPaths written;
+  StagedRecordFile stereo_log(root, o.platform, o.stereo_sensor, written);
+  StagedRecordFile imu_log(root, o.platform, o.imu_sensor, written);
+  StagedRecordFile gps_log(root, o.platform, o.gps_sensor, written);
+
+  const std::string pair_type = v1::StereoImagePair::descriptor()->full_name();
+  v1::StereoImagePair pair;
+  pair.set_left_camera(o.stereo_sensor + "/cam0");
+  pair.set_right_camera(o.stereo_sensor + "/cam1");
+  pair.set_encoding("png");
+  std::optional<std::pair<std::uint32_t, std::uint32_t>> image_size;
+  std::string payload;
+  internal::StereoStampPairing pairing(o.pair_tolerance_ns, [&](StereoFrame& left,
+                                                                StereoFrame& right) {
+    const auto size = std::pair{left.width_px, left.height_px};
+    if (std::pair{right.width_px, right.height_px} != size || (image_size && *image_size != size)) {
+      const auto [w, h] = image_size.value_or(size);
+      throw Error(ErrorCode::kInvalidArgument,
+                  "ROS bag " + name + ": the stereo pair stamped " + std::to_string(left.stamp_ns) +
+                      " ns" + " has a " + std::to_string(left.width_px) + "x" +
+                      std::to_string(left.height_px) + " left and a " +
+                      std::to_string(right.width_px) + "x" + std::to_string(right.height_px) +
+                      " right image where the pairs before are " + std::to_string(w) + "x" +
+                      std::to_string(h) + "; a stereo log holds one image size");
+    }
+    image_size = size;
+    pair.set_stamp_ns(left.stamp_ns);
+    pair.set_width_px(left.width_px);
+    pair.set_height_px(left.height_px);
+    pair.set_left_image(std::move(left.png));
+    pair.set_right_image(std::move(right.png));
+    pair.SerializeToString(&payload);
+    stereo_log.Append(left.stamp_ns, pair_type, payload);
+  });
+  std::optional<RosCameraInfo> left_info, right_info;
+  const RosBagMessage* message = nullptr;  // the one being imported
+  // A decoded message as a record of `log`, converted by `to_record`.
+  const auto append = [&](const auto& decoded, auto to_record, StagedRecordFile& log) {
+    const std::int64_t stamp = StampOf(decoded.header, *message, result.stamped_by_receive_time);
+    const auto record = to_record(decoded, stamp);
+    record.SerializeToString(&payload);
+    log.Append(stamp, record.GetDescriptor()->full_name(), payload);
+  };
+
+  std::map<std::string, std::uint64_t> seen;  // messages per topic, to name the one that fails
+  reader.ReadMessages(
+      [&](const RosBagMessage& m) {
+        const std::string& topic = m.connection->topic;
+        const std::uint64_t index = seen[topic]++;
+        const Role role = topics.at(topic).role;
+        if (role == Role::kSkip) return;
+        message = &m;
+        try {
+          switch (role) {
+            case Role::kLeft:
+            case Role::kRight: {
+              const RosImage image = DecodeRosImage(m.data);
+              StereoFrame frame{StampOf(image.header, m, result.stamped_by_receive_time),
+                                internal::RosImageToPng(image), image.width, image.height};
+              role == Role::kLeft ? pairing.AddLeft(std::move(frame))
+                                  : pairing.AddRight(std::move(frame));
+              break;
+            }
+            case Role::kLeftInfo:
+            case Role::kRightInfo: {
+              std::optional<RosCameraInfo>& info = role == Role::kLeftInfo ? left_info : right_info;
+              if (!info) info = DecodeRosCameraInfo(m.data);
+              break;
+            }
+            case Role::kImu:
+              append(DecodeRosImu(m.data), internal::ImuSampleFromRos, imu_log);
+              break;
+            case Role::kGps:
+              append(DecodeRosNavSatFix(m.data), internal::GpsFixFromRos, gps_log);
+              break;
+            case Role::kSkip:
+              break;
+          }
+        } catch (const Error& e) {
+          if (e.code() == ErrorCode::kConflict || e.code() == ErrorCode::kBackend) throw;
+          throw Error(e.code(), "ROS bag " + name + ": topic " + topic + ", message " +
+                                    std::to_string(index + 1) + " (chunk at byte " +
+                                    std::to_string(m.chunk_offset) + "): " + e.message());
+        }
+      },
+      progress);
+  pairing.Finish();
+  result.pairs = pairing.pairs();
+  result.unmatched_left = pairing.unmatched_left();
+  result.unmatched_right = pairing.unmatched_right();
+  result.imu_samples = imu_log.records();
+  result.gps_fixes = gps_log.records();
+  for (const auto& [topic, t] : topics) {
+    result.topics.push_back(RosBagTopicUse{topic, t.type, t.messages, RoleName(t.role)});
+  }
+  if (result.pairs == 0 && result.imu_samples == 0 && result.gps_fixes == 0) {
+    throw Error(
+        ErrorCode::kInvalidArgument,
+        "ROS bag " + name + " holds nothing to import: no stereo pair" +
+            (o.left_topic.empty() ? " (no two image topics chosen; its image topics: " +
+                                        List(TopicsOfType(topics, kImageType)) + ")"
+                                  : " (" + std::to_string(result.unmatched_left) + " left and " +
+                                        std::to_string(result.unmatched_right) +
+                                        " right frames, none within the tolerance)") +
+            ", no " + std::string(kImuType) + " and no " + std::string(kNavSatFixType) +
+            " messages");
+  }
+
+  if (result.pairs > 0) {
+    if (!left_info || !right_info) {
+      result.calibration_note = "no calibration stored: the bag has no camera_info for the " +
+                                std::string(!left_info && !right_info ? "two cameras"
+                                            : !left_info              ? "left camera"
+                                                                      : "right camera") +
+                                " (--left-info-topic, --right-info-topic)";
+    } else if (const std::optional<internal::RosStereoCalibration> rig =
+                   internal::StereoCalibrationFromCameraInfo(
+                       *left_info, *right_info, static_cast<int>(image_size->first),
+                       static_cast<int>(image_size->second), o.stereo_sensor,
+                       result.calibration_note)) {
+      result.left_calibration = StereoCalibrationPath(stereo_log.final_path(), 0);
+      result.right_calibration = StereoCalibrationPath(stereo_log.final_path(), 1);
+      written.AddFile(result.left_calibration);
+      WriteEurocCamera(rig->left, result.left_calibration);
+      written.AddFile(result.right_calibration);
+      WriteEurocCamera(rig->right, result.right_calibration);
+      result.baseline_m = rig->baseline_m;
+    } else {
+      result.calibration_note = "no calibration stored: " + result.calibration_note;
+    }
+  }
+
+  std::vector<StagedRecordFile*> logs;
+  for (StagedRecordFile* log : {&stereo_log, &imu_log, &gps_log}) {
+    if (log->records() == 0) continue;
+    log->Publish();
+    logs.push_back(log);
+    result.record_files.push_back(log->final_path());
+  }
+  GraphStore::Transaction txn = store.Begin();
+  for (const StagedRecordFile* log : logs) {
+    IngestResult one =
+        IngestRecordFile(store.sensors(), root, log->final_path(), o.platform, log->sensor());
+    result.index.files += one.files;
+    result.index.records += one.records;
+    result.index.inserted += one.inserted;
+    for (RecordProblem& p : one.problems) result.index.problems.push_back(std::move(p));
+  }
+  txn.Commit();
+  written.Keep();
+  return result;
+}
+
+}  // namespace fleetmap

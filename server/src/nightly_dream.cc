@@ -1,0 +1,169 @@
+#include "fleetmap/server/nightly_dream.h"
+
+#include <algorithm>
+#include <chrono>
+#include <numeric>
+#include <set>
+#include <string>
+
+#include "fleetmap/core/error.h"
+#include "fleetmap/policies/dreaming.h"
+#include "fleetmap/policies/held_out_replay.h"
+
+namespace fleetmap {
+namespace {
+
+// Submissions merged after this revision are the next dream's: the revision before the last
+// dream's held-out submission, so what judged one dream is merged in the next.
+constexpr std::string_view kLastDreamKey = "dream/since-revision";
+
+constexpr const char* kHeldOutRule =
+    "the newest submission merged since the last dream is held out; the up to max_groups "
+    "merged before it are the groups";
+
+RevisionNumber LastDreamHead(VersionStore& versions) {
+  const std::optional<std::string> text = versions.FindSetting(kLastDreamKey);
+  if (!text) return 0;
+  try {
+    return std::stoll(*text);
+  } catch (const std::exception&) {
+    throw Error(ErrorCode::kCorrupt, "setting " + std::string(kLastDreamKey) + " is '" + *text +
+                                         "', not a revision number");
+  }
+}
+
+// What of `content` is not in `base`, by id: the dream's own additions.
+GraphBatch Without(const GraphBatch& content, const GraphBatch& base) {
+  std::set<Uuid> known;
+  for (const Node& n : base.nodes) known.insert(n.id);
+  for (const Edge& e : base.edges) known.insert(e.id);
+  for (const Path& p : base.paths) known.insert(p.id);
+  GraphBatch added;
+  for (const Node& n : content.nodes) {
+    if (!known.contains(n.id)) added.nodes.push_back(n);
+  }
+  for (const Edge& e : content.edges) {
+    if (!known.contains(e.id)) added.edges.push_back(e);
+  }
+  for (const Path& p : content.paths) {
+    if (!known.contains(p.id)) added.paths.push_back(p);
+  }
+  return added;
+}
+
+}  // namespace
+
+int ParseDreamTime(std::string_view text) {
+  const auto bad = [&] {
+    return Error(ErrorCode::kInvalidArgument,
+                 "--dream-at '" + std::string(text) + "' is not a UTC time HH:MM (00:00 to 23:59)");
+  };
+  if (text.size() != 5 || text[2] != ':') throw bad();
+  for (std::size_t i : {0, 1, 3, 4}) {
+    if (text[i] < '0' || text[i] > '9') throw bad();
+  }
+  const int hours = (text[0] - '0') * 10 + (text[1] - '0');
+  const int minutes = (text[3] - '0') * 10 + (text[4] - '0');
+  if (hours > 23 || minutes > 59) throw bad();
+  return hours * 60 + minutes;
+}
+
+NightlyDreamOutcome RunNightlyDream(Repository& repository, const NightlyDreamOptions& options,
+                                    const NightlyDreamProgress& progress) {
+  if (options.max_groups == 0 || options.max_groups > 11) {
+    throw Error(ErrorCode::kInvalidArgument,
+                "a nightly dream merges 1 to 11 groups (k! orders), not " +
+                    std::to_string(options.max_groups));
+  }
+  const auto start = std::chrono::steady_clock::now();
+  const auto elapsed = [&] {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  };
+  VersionStore& versions = repository.versions();
+  const RevisionNumber head = versions.HeadRevision();
+  const RevisionNumber since = LastDreamHead(versions);
+
+  std::vector<Submission> merged;
+  for (Submission& s : versions.ListSubmissions()) {
+    if (s.state == SubmissionState::kMerged && s.revision > since) merged.push_back(std::move(s));
+  }
+  std::sort(merged.begin(), merged.end(),
+            [](const Submission& a, const Submission& b) { return a.revision < b.revision; });
+  NightlyDreamOutcome outcome;
+  if (merged.size() < 2) {
+    outcome.skipped = std::to_string(merged.size()) + " submission" +
+                      (merged.size() == 1 ? "" : "s") + " merged since revision " +
+                      std::to_string(since) +
+                      "; a dream needs two: one to hold out and one to merge";
+    outcome.seconds = elapsed();
+    return outcome;
+  }
+
+  const Submission held_out_submission = merged.back();
+  merged.pop_back();
+  if (merged.size() > options.max_groups) {
+    merged.erase(merged.begin(), merged.end() - static_cast<std::ptrdiff_t>(options.max_groups));
+  }
+  std::vector<GraphBatch> groups;
+  for (const Submission& s : merged) groups.push_back(repository.ReadSubmission(s.id));
+  const std::vector<HeldOutOuting> held_out =
+      HeldOutOutings(repository.ReadSubmission(held_out_submission.id));
+  const RevisionNumber base_revision = merged.front().revision - 1;
+  const GraphBatch base = repository.Checkout(base_revision);
+  const std::shared_ptr<const AppearanceVocabulary> vocabulary = repository.StoredVocabulary();
+  if (!vocabulary) {
+    throw Error(ErrorCode::kInvalidArgument,
+                "the repository has no appearance vocabulary, though it has merges");
+  }
+
+  DreamOptions dream;
+  dream.merge = repository.merge_options();
+  dream.max_orders = options.max_orders;
+  dream.seed = static_cast<std::uint64_t>(head);  // another night, another sample
+  std::vector<HeldOutReplay> replays;
+  const DreamScorer scorer = [&](const DreamCandidate& candidate) {
+    HeldOutReplay replay = ReplayHeldOut(*candidate.map, held_out, dream.merge.localiser);
+    const double score = HeldOutScore(replay, options.gap_m);
+    if (replays.size() <= candidate.order_index) replays.resize(candidate.order_index + 1);
+    replays[candidate.order_index] = std::move(replay);
+    return score;
+  };
+  const DreamResult result = Dream(groups, base, vocabulary, scorer, dream, progress);
+
+  DreamCandidateRecord record;
+  record.created_ns = std::chrono::duration_cast<std::chrono::nanoseconds>(
+                          std::chrono::system_clock::now().time_since_epoch())
+                          .count();
+  record.base_revision = base_revision;
+  record.dreamed_at_head = head;
+  for (int g : result.orders[result.best].order) {
+    record.groups.push_back(merged[static_cast<std::size_t>(g)].id);
+  }
+  for (const Submission& s : merged) record.merged_order.push_back(s.id);
+  record.held_out = held_out_submission.id;
+  record.held_out_rule = kHeldOutRule;
+  record.orders = result.orders.size();
+  for (const HeldOutOuting& outing : held_out) record.held_out_frames += outing.frames.size();
+  record.gap_m = options.gap_m;
+  const HeldOutReplay& best = replays.at(result.best);
+  record.p_gap_exceeds = best.ProbabilityGapExceeds(options.gap_m);
+  record.not_localised = best.FractionNotLocalised();
+  record.score = result.orders[result.best].score;
+  std::vector<int> merged_order(groups.size());
+  std::iota(merged_order.begin(), merged_order.end(), 0);
+  for (const DreamOrderResult& order : result.orders) {
+    if (order.order == merged_order) record.merged_order_score = order.score;
+  }
+
+  DreamCandidates candidates(versions);
+  {
+    auto transaction = repository.store().Begin();
+    outcome.candidate = candidates.Put(record, Without(result.best_content, base));
+    versions.PutSetting(kLastDreamKey, std::to_string(held_out_submission.revision - 1));
+    transaction.Commit();
+  }
+  outcome.seconds = elapsed();
+  return outcome;
+}
+
+}  // namespace fleetmap

@@ -1,0 +1,424 @@
+// `fleetmap records import-bag` (fleetmap/stereo/ros_bag_import.h) on bags written by ROS's own
+// writer (ros_test_bag.h) from ten real EuRoC stereo frames (cropped), CameraInfo, 50 IMU
+// samples and 5 GPS fixes, uncompressed, bz2 and lz4, into SQLite and PostgreSQL indexes: the
+// record files hold exactly what the bag held (stamps, every pixel, IMU and GPS values), the
+// calibration yields the bag's baseline, and the index points at every record; `fleetmap records
+// info` finds no damage. Frames without a partner are counted; every encoding round-trips.
+// Torn, flipped and foreign bags, an unsupported encoding, a missing topic and a second import
+// each fail by name and leave the root and the store exactly as they were.
+#include "fleetmap/stereo/ros_bag_import.h"
+
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <map>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <string>
+#include <vector>
+
+#include "euroc_test_data.h"
+#include "expect_error.h"
+#include "fleetmap/records/record_file.h"
+#include "fleetmap/sensors.pb.h"
+#include "fleetmap/stereo/stereo_calibration.h"
+#include "fleetmap/stereo/stereo_image_log.h"
+#include "fleetmap_cli_run.h"
+#include "ros_test_bag.h"
+#include "scratch_dir.h"
+#include "store_backends.h"
+
+namespace fleetmap {
+namespace {
+
+namespace fs = std::filesystem;
+using testing::BagCompression;
+using testing::kBagStartNs;
+
+// Ten real frames per camera: EuRoC V1_01 pairs cropped to 96x64 around the image centre.
+std::vector<cv::Mat> EurocFrames(int camera) {
+  std::vector<cv::Mat> frames;
+  std::vector<fs::path> files;
+  for (const auto& e : fs::directory_iterator(testing::EurocSequenceDir() /
+                                              ("cam" + std::to_string(camera)) / "data")) {
+    files.push_back(e.path());
+  }
+  std::sort(files.begin(), files.end());
+  for (std::size_t i = 0; i < 10 && i < files.size(); ++i) {
+    const cv::Mat full = cv::imread(files[i * 5].string(), cv::IMREAD_GRAYSCALE);
+    frames.push_back(full(cv::Rect(full.cols / 2 - 48, full.rows / 2 - 32, 96, 64)).clone());
+  }
+  return frames;
+}
+
+// Every file under `dir` with its bytes: what must not change when an import fails.
+std::map<std::string, std::string> Snapshot(const fs::path& dir) {
+  std::map<std::string, std::string> files;
+  if (!fs::exists(dir)) return files;
+  for (const auto& e : fs::recursive_directory_iterator(dir)) {
+    files[e.path().string()] = e.is_regular_file() ? testing::ReadWholeFile(e.path()) : "<dir>";
+  }
+  return files;
+}
+
+std::vector<Record> ReadRecords(const fs::path& file) {
+  RecordReader reader(file);
+  std::vector<Record> records;
+  while (std::optional<Record> r = reader.Next()) records.push_back(std::move(*r));
+  EXPECT_TRUE(reader.problems().empty()) << file;
+  return records;
+}
+
+// The PNG's pixels as the bag's bytes: rows packed, in the message's channel order.
+std::string PixelBytes(const std::string& png, const std::string& encoding) {
+  cv::Mat m =
+      cv::imdecode(cv::Mat(1, static_cast<int>(png.size()), CV_8UC1, const_cast<char*>(png.data())),
+                   cv::IMREAD_UNCHANGED);
+  if (encoding == "rgb8") cv::cvtColor(m, m, cv::COLOR_BGR2RGB);
+  std::string out;
+  for (int r = 0; r < m.rows; ++r) {
+    out.append(m.ptr<char>(r), m.cols * m.elemSize());
+  }
+  return out;
+}
+
+std::string Packed(const testing::TestImage& m, std::size_t bytes_per_pixel) {
+  std::string out;
+  for (std::uint32_t r = 0; r < m.height; ++r) {
+    out.append(m.data, std::size_t{r} * m.step, m.width * bytes_per_pixel);
+  }
+  return out;
+}
+
+template <typename Backend>
+class RosBagImportTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    if (const auto why = Backend::Unavailable()) GTEST_SKIP() << *why;
+    FLEETMAP_REQUIRE_EUROC_SEQUENCE();
+    store_ = GraphStore::Open(backend_.Uri());
+  }
+
+  testing::StereoBagContent Content(int pairs = 10) const {
+    return testing::MakeStereoBagContent(EurocFrames(0), EurocFrames(1), pairs, 50, 5);
+  }
+  RosBagImportOptions Options() const {
+    RosBagImportOptions o;
+    o.platform = "husky";
+    return o;
+  }
+  RosBagImportResult Import(const fs::path& bag, const RosBagImportOptions& o) {
+    return ImportRosBag(bag, *store_, root_, o);
+  }
+
+  // The import of `bag` fails with `code` naming `mention` and changes nothing.
+  void ExpectFailsCleanly(const fs::path& bag, ErrorCode code, const std::string& mention,
+                          RosBagImportOptions o = {}) {
+    if (o.platform.empty()) o.platform = "husky";
+    const auto files = Snapshot(root_);
+    store_.reset();  // StoredState reads the store from outside; nothing may be held open
+    const std::string state = backend_.StoredState();
+    store_ = GraphStore::Open(backend_.Uri());
+    ExpectError(
+        code, [&] { Import(bag, o); }, mention);
+    EXPECT_EQ(Snapshot(root_), files);
+    store_.reset();
+    EXPECT_EQ(backend_.StoredState(), state);
+    store_ = GraphStore::Open(backend_.Uri());
+  }
+
+  Backend backend_;
+  ScratchDir dir_{"fleetmap-bag-import"};
+  fs::path root_ = dir_ / "root";
+  std::unique_ptr<GraphStore> store_;
+};
+
+TYPED_TEST_SUITE(RosBagImportTest, testing::StoreBackends, testing::BackendNames);
+
+TYPED_TEST(RosBagImportTest, RecordFilesAndIndexHoldExactlyWhatTheBagHeld) {
+  for (const BagCompression compression :
+       {BagCompression::kNone, BagCompression::kBz2, BagCompression::kLz4}) {
+    const std::string platform = compression == BagCompression::kNone  ? "husky"
+                                 : compression == BagCompression::kBz2 ? "husky-bz2"
+                                                                       : "husky-lz4";
+    SCOPED_TRACE(platform);
+    const testing::StereoBagContent c = this->Content();
+    const fs::path bag = this->dir_ / (platform + ".bag");
+    testing::WriteRosBag(bag, c, compression);
+    RosBagImportOptions o = this->Options();
+    o.platform = platform;
+    o.stereo_sensor = platform + "-stereo";
+    o.imu_sensor = platform + "-imu";
+    o.gps_sensor = platform + "-gps";
+    std::vector<std::uint64_t> progress;
+    const RosBagImportResult r = ImportRosBag(bag, *this->store_, this->root_, o,
+                                              [&](std::uint64_t done, std::uint64_t total) {
+                                                progress.push_back(done);
+                                                EXPECT_LE(done, total);
+                                              });
+    EXPECT_GT(progress.size(), 3u);
+
+    // The summary.
+    EXPECT_EQ(r.pairs, 10);
+    EXPECT_EQ(r.unmatched_left, 0);
+    EXPECT_EQ(r.unmatched_right, 0);
+    EXPECT_EQ(r.imu_samples, 50);
+    EXPECT_EQ(r.gps_fixes, 5);
+    EXPECT_EQ(r.stamped_by_receive_time, 0);
+    std::map<std::string, std::pair<std::uint64_t, std::string>> topics;
+    for (const RosBagTopicUse& t : r.topics) topics[t.topic] = {t.messages, t.use};
+    EXPECT_EQ(topics[c.left_topic], std::make_pair(std::uint64_t{10}, std::string("left images")));
+    EXPECT_EQ(topics[c.right_topic],
+              std::make_pair(std::uint64_t{10}, std::string("right images")));
+    EXPECT_EQ(topics[c.left_info_topic],
+              std::make_pair(std::uint64_t{2}, std::string("left camera_info")));
+    EXPECT_EQ(topics[c.imu_topic], std::make_pair(std::uint64_t{50}, std::string("imu")));
+    EXPECT_EQ(topics[c.gps_topic], std::make_pair(std::uint64_t{5}, std::string("gps")));
+    ASSERT_EQ(r.record_files.size(), 3u);
+    EXPECT_EQ(r.record_files[0].filename(),
+              platform + "-" + platform + "-stereo-20240501-083000.rec");
+    EXPECT_EQ(r.index.records, 65);
+    EXPECT_EQ(r.index.inserted, 65);
+
+    // Stereo pairs: stamps of the left frames, every pixel of both (padding dropped).
+    const std::vector<Record> pairs = ReadRecords(r.record_files[0]);
+    ASSERT_EQ(pairs.size(), 10u);
+    for (std::size_t i = 0; i < pairs.size(); ++i) {
+      v1::StereoImagePair pair;
+      ASSERT_TRUE(pair.ParseFromString(pairs[i].payload));
+      EXPECT_EQ(pairs[i].header.type, "fleetmap.v1.StereoImagePair");
+      EXPECT_EQ(pairs[i].header.stamp_ns, c.left[i].stamp_ns);
+      EXPECT_EQ(pair.stamp_ns(), c.left[i].stamp_ns);
+      EXPECT_EQ(pair.encoding(), "png");
+      EXPECT_EQ(pair.width_px(), 96u);
+      EXPECT_EQ(pair.height_px(), 64u);
+      EXPECT_EQ(pair.left_camera(), o.stereo_sensor + "/cam0");
+      EXPECT_EQ(PixelBytes(pair.left_image(), "mono8"), Packed(c.left[i], 1)) << i;
+      EXPECT_EQ(PixelBytes(pair.right_image(), "mono8"), Packed(c.right[i], 1)) << i;
+    }
+    // IMU samples and GPS fixes, value for value.
+    const std::vector<Record> imu = ReadRecords(r.record_files[1]);
+    ASSERT_EQ(imu.size(), 50u);
+    for (std::size_t i = 0; i < imu.size(); ++i) {
+      v1::ImuSample s;
+      ASSERT_TRUE(s.ParseFromString(imu[i].payload));
+      const RosImu& m = c.imu[i];
+      EXPECT_EQ(imu[i].header.stamp_ns, m.header.stamp_ns);
+      EXPECT_EQ(s.stamp_ns(), m.header.stamp_ns);
+      EXPECT_EQ(s.frame(), "imu_link");
+      EXPECT_EQ(s.orientation_x(), m.orientation_xyzw[0]);
+      EXPECT_EQ(s.orientation_w(), m.orientation_xyzw[3]);
+      EXPECT_EQ(s.angular_velocity_z_radps(), m.angular_velocity[2]);
+      EXPECT_EQ(s.linear_acceleration_y_mps2(), m.linear_acceleration[1]);
+      EXPECT_EQ(s.linear_acceleration_z_mps2(), m.linear_acceleration[2]);
+      EXPECT_EQ(
+          std::vector<double>(s.orientation_covariance_rad2().begin(),
+                              s.orientation_covariance_rad2().end()),
+          std::vector<double>(m.orientation_covariance.begin(), m.orientation_covariance.end()));
+      EXPECT_EQ(s.angular_velocity_covariance_radps2_size(), 0) << "-1: not given";
+      EXPECT_EQ(s.linear_acceleration_covariance_mps2_2_size(), 9);
+    }
+    const std::vector<Record> gps = ReadRecords(r.record_files[2]);
+    ASSERT_EQ(gps.size(), 5u);
+    const v1::GpsFix::Status statuses[] = {v1::GpsFix::STATUS_NO_FIX, v1::GpsFix::STATUS_FIX,
+                                           v1::GpsFix::STATUS_SBAS_FIX, v1::GpsFix::STATUS_GBAS_FIX,
+                                           v1::GpsFix::STATUS_NO_FIX};
+    for (std::size_t i = 0; i < gps.size(); ++i) {
+      v1::GpsFix f;
+      ASSERT_TRUE(f.ParseFromString(gps[i].payload));
+      EXPECT_EQ(f.stamp_ns(), c.gps[i].header.stamp_ns);
+      EXPECT_EQ(f.latitude_deg(), c.gps[i].latitude_deg);
+      EXPECT_EQ(f.longitude_deg(), c.gps[i].longitude_deg);
+      EXPECT_EQ(f.altitude_m(), c.gps[i].altitude_m);
+      EXPECT_EQ(f.position_covariance_m2_size(), 9);
+      EXPECT_EQ(f.status(), statuses[i]);
+    }
+
+    // Calibration beside the stereo log: K and D as sent, the baseline from P.
+    ASSERT_TRUE(r.baseline_m);
+    EXPECT_NEAR(*r.baseline_m, c.baseline_m, 1e-12);
+    EXPECT_EQ(r.left_calibration, StereoCalibrationPath(r.record_files[0], 0));
+    const PinholeCamera left = LoadEurocCamera(r.left_calibration);
+    const PinholeCamera right = LoadEurocCamera(r.right_calibration);
+    EXPECT_DOUBLE_EQ(left.fx, c.left_info[0].k[0]);
+    EXPECT_DOUBLE_EQ(left.cy, c.left_info[0].k[5]);
+    EXPECT_DOUBLE_EQ(left.distortion[0], c.left_info[0].d[0]);
+    EXPECT_EQ(left.width_px, 96);
+    EXPECT_NEAR((right.body_T_sensor.translation() - left.body_T_sensor.translation()).norm(),
+                c.baseline_m, 1e-9);
+    EXPECT_NEAR(StereoRectifier(left, right).geometry().baseline_m, c.baseline_m, 1e-6);
+
+    // Indexed: every record, found by time on its sensor.
+    SensorIndex& index = this->store_->sensors();
+    const std::optional<Platform> p = index.FindPlatform(platform);
+    ASSERT_TRUE(p);
+    for (const auto& [sensor, records, file] :
+         {std::tuple{o.stereo_sensor, &pairs, r.record_files[0]},
+          std::tuple{o.imu_sensor, &imu, r.record_files[1]},
+          std::tuple{o.gps_sensor, &gps, r.record_files[2]}}) {
+      const std::optional<Sensor> s = index.FindSensor(sensor);
+      ASSERT_TRUE(s) << sensor;
+      const std::vector<Datum> data =
+          index.DataOfFile(fs::relative(file, this->root_).generic_string());
+      ASSERT_EQ(data.size(), records->size()) << sensor;
+      for (std::size_t i = 0; i < data.size(); ++i) {
+        EXPECT_EQ(data[i].stamp_ns, (*records)[i].header.stamp_ns);
+        EXPECT_EQ(data[i].offset, (*records)[i].location.offset);
+      }
+      const std::optional<Datum> near =
+          index.Nearest(p->id, s->id, (*records)[2].header.stamp_ns + 1);
+      ASSERT_TRUE(near);
+      EXPECT_EQ(near->stamp_ns, (*records)[2].header.stamp_ns);
+    }
+  }
+}
+
+// Frames whose partner lies beyond the tolerance are counted, not paired, and the ones within
+// it still pair; the stamp tolerance is an option.
+TYPED_TEST(RosBagImportTest, FramesWithoutAPartnerAreCounted) {
+  testing::StereoBagContent c = this->Content(6);
+  c.right.erase(c.right.begin() + 2);  // left frame 2 has no partner
+  c.right[3].stamp_ns += 5'000'000;    // right frame of pair 4 is 5 ms late
+  c.left.erase(c.left.begin() + 5);    // right frame 5 has no partner
+  const fs::path bag = this->dir_ / "gaps.bag";
+  testing::WriteRosBag(bag, c, BagCompression::kLz4);
+  const RosBagImportResult r = this->Import(bag, this->Options());
+  EXPECT_EQ(r.pairs, 3);
+  EXPECT_EQ(r.unmatched_left, 2);
+  EXPECT_EQ(r.unmatched_right, 2);
+  std::vector<std::int64_t> stamps;
+  for (const Record& rec : ReadRecords(r.record_files[0])) stamps.push_back(rec.header.stamp_ns);
+  EXPECT_EQ(stamps, (std::vector<std::int64_t>{kBagStartNs, kBagStartNs + 100'000'000,
+                                               kBagStartNs + 300'000'000}));
+
+  RosBagImportOptions wide = this->Options();
+  wide.platform = "husky-wide";
+  wide.stereo_sensor = "wide-stereo";
+  wide.imu_sensor = "wide-imu";
+  wide.gps_sensor = "wide-gps";
+  wide.pair_tolerance_ns = 6'000'000;
+  EXPECT_EQ(this->Import(bag, wide).pairs, 4);
+}
+
+TYPED_TEST(RosBagImportTest, EveryEncodingRoundTrips) {
+  cv::Mat mono16(6, 8, CV_16UC1), colour(6, 8, CV_8UC3);
+  cv::randu(mono16, 0, 65535);
+  cv::randu(colour, 0, 255);
+  int n = 0;
+  for (const auto& [encoding, pixels, bpp] :
+       {std::tuple{std::string("mono16"), mono16, 2}, std::tuple{std::string("rgb8"), colour, 3},
+        std::tuple{std::string("bgr8"), colour, 3}}) {
+    SCOPED_TRACE(encoding);
+    testing::StereoBagContent c =
+        testing::MakeStereoBagContent({pixels}, {pixels}, 2, 0, 0, encoding);
+    const fs::path bag = this->dir_ / (encoding + ".bag");
+    testing::WriteRosBag(bag, c, BagCompression::kNone);
+    RosBagImportOptions o = this->Options();
+    o.platform = "p" + std::to_string(n++);
+    o.stereo_sensor = o.platform + "-stereo";
+    const RosBagImportResult r = this->Import(bag, o);
+    ASSERT_EQ(r.pairs, 2);
+    const std::vector<Record> records = ReadRecords(r.record_files.at(0));
+    for (std::size_t i = 0; i < 2; ++i) {
+      v1::StereoImagePair pair;
+      ASSERT_TRUE(pair.ParseFromString(records[i].payload));
+      EXPECT_EQ(PixelBytes(pair.left_image(), encoding), Packed(c.left[i], bpp));
+      EXPECT_EQ(PixelBytes(pair.right_image(), encoding), Packed(c.right[i], bpp));
+    }
+  }
+}
+
+TYPED_TEST(RosBagImportTest, BadBagsFailByNameAndChangeNothing) {
+  // Something stored before: an earlier import.
+  const testing::StereoBagContent c = this->Content(4);
+  const fs::path good = this->dir_ / "good.bag";
+  testing::WriteRosBag(good, c, BagCompression::kLz4, 4096);
+  this->Import(good, this->Options());
+  const std::string bytes = testing::ReadWholeFile(good);
+
+  const fs::path bad = this->dir_ / "bad.bag";
+  const auto write = [&](const std::string& b) { std::ofstream(bad, std::ios::binary) << b; };
+  this->ExpectFailsCleanly(this->dir_ / "absent.bag", ErrorCode::kNotFound, "absent.bag");
+  write("not a bag at all\n");
+  this->ExpectFailsCleanly(bad, ErrorCode::kInvalidArgument, "not a ROS bag");
+  write(bytes.substr(0, bytes.size() / 2));
+  this->ExpectFailsCleanly(bad, ErrorCode::kCorrupt, "truncated");
+  std::string flipped = bytes;
+  const std::size_t size_field = flipped.find("size=") + 5;
+  flipped[size_field] = static_cast<char>(flipped[size_field] ^ 0x01);
+  write(flipped);
+  this->ExpectFailsCleanly(bad, ErrorCode::kCorrupt, "lz4 data decompress to");
+  std::string zst = bytes;
+  zst.replace(zst.find("compression=lz4") + 12, 3, "zst");
+  write(zst);
+  this->ExpectFailsCleanly(bad, ErrorCode::kInvalidArgument, "supported: none, bz2, lz4");
+
+  // A whole bag whose third image is of an encoding fleetmap does not read: named, and nothing
+  // of the first two pairs (or of the IMU) is left.
+  testing::StereoBagContent bayer = this->Content(4);
+  bayer.left[2].encoding = "bayer_rggb8";
+  testing::WriteRosBag(bad, bayer, BagCompression::kNone);
+  RosBagImportOptions other = this->Options();
+  other.platform = "other";
+  other.stereo_sensor = "other-stereo";
+  other.imu_sensor = "other-imu";
+  other.gps_sensor = "other-gps";
+  this->ExpectFailsCleanly(bad, ErrorCode::kInvalidArgument,
+                           "topic /stereo/left/image_raw, message 3 (chunk at byte", other);
+  this->ExpectFailsCleanly(bad, ErrorCode::kInvalidArgument,
+                           "image encoding 'bayer_rggb8' is not supported (supported: mono8, "
+                           "mono16, rgb8, bgr8)",
+                           other);
+  // A named topic that is not there, and one of another type.
+  RosBagImportOptions missing = other;
+  missing.left_topic = "/cam/left";
+  missing.right_topic = c.right_topic;
+  this->ExpectFailsCleanly(good, ErrorCode::kInvalidArgument,
+                           "has no topic /cam/left (--left-topic); its sensor_msgs/Image topics: "
+                           "/stereo/left/image_raw, /stereo/right/image_raw",
+                           missing);
+  missing.left_topic = c.imu_topic;
+  this->ExpectFailsCleanly(good, ErrorCode::kInvalidArgument,
+                           "topic /imu/data (--left-topic) is sensor_msgs/Imu", missing);
+  // The same bag again: its record files exist.
+  this->ExpectFailsCleanly(good, ErrorCode::kConflict, "already exists");
+}
+
+// The command end to end: the summary, `records info` on what it wrote, and named errors.
+TYPED_TEST(RosBagImportTest, CommandImportsAndRecordsInfoFindsNoDamage) {
+  const testing::StereoBagContent c = this->Content();
+  const fs::path bag = this->dir_ / "drive.bag";
+  testing::WriteRosBag(bag, c, BagCompression::kBz2);
+  this->store_.reset();
+  const std::vector<std::string> args{
+      "records", "import-bag", bag.string(),        "--root", this->root_.string(), "--platform",
+      "husky",   "--store",    this->backend_.Uri()};
+  const testing::CliRun run = testing::RunFleetmapCliExpecting(this->dir_.path(), args, true);
+  for (const std::string& line :
+       {std::string("10 stereo pairs written (unmatched: 0 left, 0 right), 50 IMU samples, 5 "
+                    "GPS fixes"),
+        std::string("/stereo/left/image_raw"), std::string("left images"),
+        std::string("baseline 0.1100 m"), std::string("65 new index rows")}) {
+    EXPECT_TRUE(testing::Contains(run.out, line)) << line << "\n" << run.out;
+  }
+  std::vector<std::string> info{"records", "info"};
+  for (const auto& e : fs::recursive_directory_iterator(this->root_)) {
+    if (e.path().extension() == ".rec") info.push_back(e.path().string());
+  }
+  ASSERT_EQ(info.size(), 5u);
+  const testing::CliRun summary = testing::RunFleetmapCliExpecting(this->dir_.path(), info, true);
+  EXPECT_TRUE(testing::Contains(summary.out, "10 records")) << summary.out;
+  EXPECT_TRUE(testing::Contains(summary.out, "50 records")) << summary.out;
+  EXPECT_TRUE(testing::Contains(summary.out, "fleetmap.v1.GpsFix")) << summary.out;
+  EXPECT_EQ(summary.err.find("skipped"), std::string::npos) << summary.err;
+
+  const testing::CliRun again = testing::RunFleetmapCliExpecting(this->dir_.path(), args, false);
+  EXPECT_TRUE(testing::Contains(again.err, "already exists")) << again.err;
+  std::vector<std::string> absent = args;
+  absent[2] = (this->dir_ / "absent.bag").string();
+  const testing::CliRun none = testing::RunFleetmapCliExpecting(this->dir_.path(), absent, false);
+  EXPECT_TRUE(testing::Contains(none.err, "absent.bag: cannot open")) << none.err;
+}
+
+}  // namespace
+}  // namespace fleetmap
