@@ -130,13 +130,7 @@ void RunDream(const DreamArgs& args) {
   options.max_orders = args.max_orders;
   options.seed = args.seed;
   std::vector<HeldOutReplay> replays;
-  const DreamScorer scorer = [&](const DreamCandidate& candidate) {
-    HeldOutReplay replay = ReplayHeldOut(*candidate.map, held_out, options.merge.localiser);
-    const double score = HeldOutScore(replay, kGapM);
-    if (replays.size() <= candidate.order_index) replays.resize(candidate.order_index + 1);
-    replays[candidate.order_index] = std::move(replay);
-    return score;
-  };
+  const DreamScorer scorer = HeldOutDreamScorer(held_out, options.merge.localiser, kGapM, &replays);
   ProgressBar bar("dreaming", std::cerr);
   const DreamResult result =
       Dream(groups, GraphBatch{}, words.vocabulary, scorer, options,

@@ -121,13 +121,8 @@ NightlyDreamOutcome RunNightlyDream(Repository& repository, const NightlyDreamOp
   dream.max_orders = options.max_orders;
   dream.seed = static_cast<std::uint64_t>(head);  // another night, another sample
   std::vector<HeldOutReplay> replays;
-  const DreamScorer scorer = [&](const DreamCandidate& candidate) {
-    HeldOutReplay replay = ReplayHeldOut(*candidate.map, held_out, dream.merge.localiser);
-    const double score = HeldOutScore(replay, options.gap_m);
-    if (replays.size() <= candidate.order_index) replays.resize(candidate.order_index + 1);
-    replays[candidate.order_index] = std::move(replay);
-    return score;
-  };
+  const DreamScorer scorer =
+      HeldOutDreamScorer(held_out, dream.merge.localiser, options.gap_m, &replays);
   const DreamResult result = Dream(groups, base, vocabulary, scorer, dream, progress);
 
   DreamCandidateRecord record;

@@ -36,6 +36,18 @@ struct DreamMap {
 
 }  // namespace
 
+DreamScorer HeldOutDreamScorer(std::span<const HeldOutOuting> held_out,
+                               const BuilderOptions& localiser, double gap_m,
+                               std::vector<HeldOutReplay>* replays) {
+  return [held_out, localiser, gap_m, replays](const DreamCandidate& candidate) {
+    HeldOutReplay replay = ReplayHeldOut(*candidate.map, held_out, localiser);
+    const double score = HeldOutScore(replay, gap_m);
+    if (replays->size() <= candidate.order_index) replays->resize(candidate.order_index + 1);
+    (*replays)[candidate.order_index] = std::move(replay);
+    return score;
+  };
+}
+
 DreamResult Dream(std::span<const GraphBatch> groups, const GraphBatch& base,
                   std::shared_ptr<const AppearanceVocabulary> vocabulary, const DreamScorer& scorer,
                   const DreamOptions& options, const DreamProgress& progress) {

@@ -22,6 +22,7 @@
 #include "fleetmap/ebn/appearance_index.h"
 #include "fleetmap/ebn/experience_map.h"
 #include "fleetmap/policies/dream_plan.h"
+#include "fleetmap/policies/held_out_replay.h"
 #include "fleetmap/policies/merge.h"
 
 namespace fleetmap {
@@ -62,6 +63,13 @@ struct DreamResult {
   double score_seconds = 0.0;
   double seconds = 0.0;  // the whole run
 };
+
+// The scorer seed 004 §VI-E judges candidates with: each candidate map replays `held_out`
+// (ReplayHeldOut with `localiser`) and scores HeldOutScore(replay, gap_m). Each order's replay
+// is kept in (*replays)[order_index] for reports. `held_out` and `replays` must outlive it.
+DreamScorer HeldOutDreamScorer(std::span<const HeldOutOuting> held_out,
+                               const BuilderOptions& localiser, double gap_m,
+                               std::vector<HeldOutReplay>* replays);
 
 // Called after each step with (steps done, steps in all).
 using DreamProgress = std::function<void(std::size_t, std::size_t)>;
