@@ -39,6 +39,42 @@ void DownloadCache::PutPlan(const std::string& key, std::shared_ptr<const Downlo
   Keep(key, Entry{nullptr, std::move(plan)}, bytes);
 }
 
+std::shared_ptr<const DownloadPlan> DownloadCache::PlanOnce(
+    const std::string& key, const std::function<std::shared_ptr<const DownloadPlan>()>& make) {
+  std::promise<std::shared_ptr<const DownloadPlan>> promise;
+  {
+    std::unique_lock lock(mutex_);
+    for (const Kept& kept : entries_) {
+      if (kept.key == key && kept.entry.plan) return kept.entry.plan;
+    }
+    if (const auto making = planning_.find(key); making != planning_.end()) {
+      // Waits on a selection that is already running on another thread, never on one that is
+      // only queued: no store thread can wait for itself.
+      std::shared_future<std::shared_ptr<const DownloadPlan>> plan = making->second;
+      lock.unlock();
+      return plan.get();
+    }
+    planning_.emplace(key, promise.get_future().share());
+  }
+  std::shared_ptr<const DownloadPlan> plan;
+  try {
+    plan = make();
+  } catch (...) {
+    std::lock_guard lock(mutex_);
+    planning_.erase(key);
+    promise.set_exception(std::current_exception());
+    throw;
+  }
+  {
+    std::lock_guard lock(mutex_);
+    planning_.erase(key);
+    const std::uint64_t bytes = BytesOf(*plan);
+    if (bytes <= max_entry_bytes_) Keep(key, Entry{nullptr, plan}, bytes);
+  }
+  promise.set_value(plan);
+  return plan;
+}
+
 void DownloadCache::Keep(const std::string& key, Entry entry, std::uint64_t bytes) {
   entries_.remove_if([&](const Kept& kept) { return kept.key == key; });
   entries_.push_front(Kept{key, std::move(entry), bytes});

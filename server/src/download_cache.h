@@ -10,12 +10,19 @@
 // server's memory. Entries are dropped, least recently used first, while the kept ones pass
 // `max_bytes` together.
 //
+// A plan being made is shared too (PlanOnce): robots asking for the same selection at once,
+// or a robot and the plan made ahead after a merge, wait for one selection instead of each
+// making their own on a store thread.
+//
 // Threading: safe from any thread. Entries are shared and immutable.
 #pragma once
 
 #include <algorithm>
 #include <cstdint>
+#include <functional>
+#include <future>
 #include <list>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -45,6 +52,12 @@ class DownloadCache {
   // Keeps the plan of a download too big to keep encoded, when the plan is small enough.
   void PutPlan(const std::string& key, std::shared_ptr<const DownloadPlan> plan);
 
+  // The plan under `key`: the kept one, else the one another thread is making (waited for),
+  // else made here by `make` and kept (PutPlan's rule). Throws what `make` threw, also to the
+  // threads that waited for it.
+  std::shared_ptr<const DownloadPlan> PlanOnce(
+      const std::string& key, const std::function<std::shared_ptr<const DownloadPlan>()>& make);
+
   // About the memory a plan holds.
   static std::uint64_t BytesOf(const DownloadPlan& plan);
 
@@ -60,6 +73,8 @@ class DownloadCache {
   std::uint64_t max_entry_bytes_;
   std::mutex mutex_;
   std::list<Kept> entries_;  // most recently used first; guarded by mutex_
+  // Plans being made, by key; guarded by mutex_.
+  std::map<std::string, std::shared_future<std::shared_ptr<const DownloadPlan>>> planning_;
 };
 
 }  // namespace fleetmap::server

@@ -4,8 +4,9 @@
 // Setup, once: a SQLite central store holding a map of about 540 MB of landmarks (random, so
 // nothing compresses), a registered robot, and fleetmapd serving it (a child process). Then:
 //   SyncDownload/warm   a copy download streamed to a bare protocol client that reads every
-//                       frame and keeps none. The first, cold download (selection, reads and
-//                       encoding from a freshly started server) is reported as counters:
+//                       frame and keeps none. The first, cold download (reads and encoding from
+//                       a freshly started server once its start-up work is done, which plans
+//                       the copy ahead: WaitUntilSettled) is reported as counters:
 //                       cold_MBps, and the server's peak RSS (VmHWM of the fleetmapd process,
 //                       /proc/PID/status) at idle before it and its growth over idle after it
 //                       (server_growth_MB). A map this big is over the download cache's entry
@@ -103,6 +104,20 @@ double CpuSeconds(int pid) {
   return ticks / static_cast<double>(sysconf(_SC_CLK_TCK));
 }
 
+// Waits until process `pid` has used under 10 ms of CPU in 250 ms (at most 60 s): fleetmapd's
+// start-up work (the head's counts and picture, the copy's plan) done, as a depot's server is
+// when the first robot docks. The first download after that is the cold one.
+void WaitUntilSettled(int pid) {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  double before = CpuSeconds(pid);
+  while (std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(250));
+    const double now = CpuSeconds(pid);
+    if (now - before < 0.010) return;
+    before = now;
+  }
+}
+
 // Made on first use, destroyed by main after the run: fleetmapd stops and the store goes.
 std::unique_ptr<Fixture> shared_fixture;
 
@@ -125,6 +140,7 @@ Fixture& Shared() {
     // writeback of the 540 MB just written (AgentPull's first pulls ran 10-20% slower).
     ::sync();
     f->server = StartFleetmapd(f->uri, f->dir / "fleetmapd.log");
+    if (!f->server.address.empty()) WaitUntilSettled(f->server.process->pid());
   }
   return *shared_fixture;
 }

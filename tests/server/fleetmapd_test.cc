@@ -894,10 +894,26 @@ TEST_F(FleetmapdSqliteTest, AStreamedDownloadGrowsTheServerByAFewBatchesNotByThe
   ASSERT_GT(map_bytes, 340'000'000);
   Fleetmapd server = Start();
   ASSERT_FALSE(server.address.empty());
+  // The copy is planned at start (without a landmark), so that peak is the server's idle one;
+  // what it adds over a server on an empty store is held to the download's bound too: neither
+  // the plan nor the streaming may hold the map.
+  ASSERT_TRUE(server.LogContains("planned a copy of revision 0 ahead", std::chrono::seconds(60)))
+      << server.Log();
   auto client = Connect(server);
   const int pid = server.process->pid();
   const std::int64_t idle = PeakRssBytes(pid);
   ASSERT_GT(idle, 0);
+  std::int64_t empty_idle = 0;
+  {
+    Fleetmapd empty = StartFleetmapd("sqlite:" + (dir_ / "empty.db").string(),
+                                     dir_ / "empty-fleetmapd.log");
+    ASSERT_FALSE(empty.address.empty()) << empty.Log();
+    ASSERT_TRUE(empty.LogContains("planned a copy of revision 0 ahead")) << empty.Log();
+    empty_idle = PeakRssBytes(empty.process->pid());
+  }
+  std::printf("fleetmapd peak RSS at idle: %.1f MB on this store, %.1f MB on an empty one\n",
+              static_cast<double>(idle) / 1e6, static_cast<double>(empty_idle) / 1e6);
+  EXPECT_LT(idle - empty_idle, map_bytes / 2) << server.Log();
 
   for (int round = 0; round < 2; ++round) {  // the second: not cached, streamed again
     v1::SyncFrame request;
@@ -930,6 +946,41 @@ TEST_F(FleetmapdSqliteTest, AStreamedDownloadGrowsTheServerByAFewBatchesNotByThe
   EXPECT_LT(growth, map_bytes / 2) << server.Log();
   // Asked again, it streamed from the store again, only its selection (plan) kept in memory.
   EXPECT_TRUE(server.LogContains("selection from memory")) << server.Log();
+}
+
+// The copy of the head is planned on a store thread when the server starts and after each
+// merge, so the first robot to pull it does not wait for the selection: its download streams
+// a plan already in memory, and holds the head.
+TYPED_TEST(FleetmapdTest, TheHeadsCopyIsPlannedBeforeARobotAsksForIt) {
+  PutRandomMap(this->uri_, this->robot_, 300, 40);
+  Fleetmapd server = this->Start();
+  ASSERT_FALSE(server.address.empty());
+  ASSERT_TRUE(server.LogContains("planned a copy of revision 0 ahead of downloads: 300 nodes"))
+      << server.Log();
+  auto client = this->Connect(server);
+  const std::optional<Downloaded> first = DownloadCopy(*client);
+  ASSERT_TRUE(first.has_value());
+  EXPECT_EQ(first->map.nodes.size(), 300u);
+  EXPECT_EQ(DigestOfChunks(first->chunks), first->end.digest());
+  EXPECT_TRUE(server.LogContains("selection from memory")) << server.Log();
+
+  const PushPlan plan = PlanPush(RandomRobotMap(this->robot_, 5, 61, 40));
+  ASSERT_TRUE(PushWhole(*client, plan));
+  EXPECT_EQ(WaitForState(*client, plan.id, "merged").revision(), 1);
+  ASSERT_TRUE(server.LogContains("planned a copy of revision 1 ahead of downloads: 305 nodes"))
+      << server.Log();
+  const std::optional<Downloaded> after = DownloadCopy(*client);
+  ASSERT_TRUE(after.has_value());
+  EXPECT_EQ(after->header.revision(), 1);
+  EXPECT_EQ(NodeIds(after->map), NodeIds(Repository::Open(this->uri_)->Checkout()));
+  // Both downloads streamed a plan made ahead; neither selected on its own.
+  const std::string log = server.Log();
+  std::size_t from_memory = 0;
+  for (std::size_t at = log.find("selection from memory"); at != std::string::npos;
+       at = log.find("selection from memory", at + 1)) {
+    ++from_memory;
+  }
+  EXPECT_EQ(from_memory, 2u) << log;
 }
 
 }  // namespace

@@ -304,7 +304,7 @@ Subgraph GraphStore::Neighbourhood(const NeighbourhoodQuery& query) {
     if (query.max_hops < 0 || !(query.max_radius_m >= 0)) {
       throw Error(ErrorCode::kInvalidArgument, "neighbourhood needs max_hops >= 0 and radius >= 0");
     }
-    if (!DoFindNode(query.centre)) {
+    if (!DoNodeStored(query.centre)) {
       throw Error(ErrorCode::kNotFound, "no node " + query.centre.ToString());
     }
     // Bellman-Ford in rounds: after round k, distance[v] is the shortest metric length of a
@@ -377,9 +377,9 @@ Subgraph GraphStore::Neighbourhood(const NeighbourhoodQuery& query) {
 
 std::optional<std::string> GraphStore::MissingReference(const Edge& edge) {
   const std::string prefix = "edge " + edge.id.ToString() + " refused: ";
-  if (!DoFindNode(edge.from))
+  if (!DoNodeStored(edge.from))
     return prefix + "from-node " + edge.from.ToString() + " is not stored";
-  if (!DoFindNode(edge.to)) return prefix + "to-node " + edge.to.ToString() + " is not stored";
+  if (!DoNodeStored(edge.to)) return prefix + "to-node " + edge.to.ToString() + " is not stored";
   if (!edge.path.IsNil() && !DoFindPath(edge.path)) {
     return prefix + "path " + edge.path.ToString() + " is not stored";
   }
@@ -390,7 +390,7 @@ std::optional<std::string> GraphStore::MissingReference(const Annotation& a) {
   const std::string prefix = "annotation " + a.id.ToString() + " refused: ";
   switch (a.target_kind) {
     case AnnotationTarget::kNode:
-      if (!DoFindNode(a.target)) return prefix + "node " + a.target.ToString() + " is not stored";
+      if (!DoNodeStored(a.target)) return prefix + "node " + a.target.ToString() + " is not stored";
       break;
     case AnnotationTarget::kEdge:
       if (!DoFindEdge(a.target)) return prefix + "edge " + a.target.ToString() + " is not stored";
@@ -433,7 +433,7 @@ class SortedIds {
 std::optional<std::string> GraphStore::MissingReferenceInBatch(const GraphBatch& batch) {
   // Only references that leave the batch cost a database lookup; a chain references itself.
   const SortedIds nodes(batch.nodes);
-  const auto node_known = [&](const Uuid& id) { return nodes.contains(id) || DoFindNode(id); };
+  const auto node_known = [&](const Uuid& id) { return nodes.contains(id) || DoNodeStored(id); };
   // Messages are built only on failure: formatting a UUID per row would cost more than the
   // check itself.
   const auto refused = [](const char* what, const Uuid& id, const char* ref, const Uuid& ref_id) {

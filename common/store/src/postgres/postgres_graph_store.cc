@@ -246,6 +246,12 @@ class PostgresGraphStore final : public GraphStore {
     });
   }
 
+  bool DoNodeStored(const Uuid& id) override {
+    return session_.Autocommit("find node", [&](pqxx::transaction_base& t) {
+      return !t.exec_prepared("node_stored", id.ToString()).empty();
+    });
+  }
+
   std::optional<Edge> DoFindEdge(const Uuid& id) override {
     return session_.Autocommit("find edge", [&](pqxx::transaction_base& t) -> std::optional<Edge> {
       const pqxx::result r = t.exec_prepared("find_edge", id.ToString());
@@ -439,6 +445,7 @@ class PostgresGraphStore final : public GraphStore {
               " VALUES ($1, NULLIF($2, '')::uuid, NULLIF($3, '')::uuid, NULLIF($4, '')::uuid,"
               " $5, $6, $7) ON CONFLICT (id) DO NOTHING");
     c.prepare("find_node", Cat({"SELECT ", kNodeColumns, " FROM nodes WHERE id = $1"}));
+    c.prepare("node_stored", "SELECT 1 FROM nodes WHERE id = $1");
     c.prepare("find_edge", Cat({"SELECT ", kEdgeColumns, " FROM edges WHERE id = $1"}));
     c.prepare("find_path", "SELECT id, robot, outing, start_ns, end_ns FROM paths WHERE id = $1");
     c.prepare("find_annotation",

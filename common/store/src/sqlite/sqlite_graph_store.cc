@@ -290,6 +290,12 @@ class SqliteGraphStore final : public GraphStore {
     return ReadNode(*s, true);
   }
 
+  bool DoNodeStored(const Uuid& id) override {
+    StatementUse s(statements_->node_stored);
+    s->Bind(1, id);
+    return s->Step();
+  }
+
   std::optional<Edge> DoFindEdge(const Uuid& id) override {
     StatementUse s(statements_->find_edge);
     s->Bind(1, id);
@@ -443,6 +449,7 @@ class SqliteGraphStore final : public GraphStore {
                             " payload, data_id) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7)"
                             " ON CONFLICT (id) DO NOTHING"),
           find_node(db, Sql({"SELECT ", kNodeColumns, " FROM nodes WHERE id = ?1"}).c_str()),
+          node_stored(db, "SELECT 1 FROM nodes WHERE id = ?1"),
           find_edge(db, Sql({"SELECT ", kEdgeColumns, " FROM edges WHERE id = ?1"}).c_str()),
           find_path(db, "SELECT id, robot, outing, start_ns, end_ns FROM paths WHERE id = ?1"),
           find_annotation(
@@ -478,7 +485,7 @@ class SqliteGraphStore final : public GraphStore {
                      " LEFT JOIN edges e ON e.from_id = chain.id AND e.kind = 1") {}
 
     Statement insert_node, insert_edge, insert_path, insert_annotation;
-    Statement find_node, find_edge, find_path, find_annotation;
+    Statement find_node, node_stored, find_edge, find_path, find_annotation;
     Statement edges_from, edges_to, edges_of_path;
     Statement annotations_on_node, annotations_on_edge, annotations_of_parent;
     Statement insert_nodes_chunk, insert_edges_chunk;

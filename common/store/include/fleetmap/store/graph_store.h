@@ -226,6 +226,9 @@ class GraphStore : public GraphReader, public GraphWriter {
   virtual void DoPutAnnotation(const Annotation& annotation) = 0;
   virtual void DoPut(const GraphBatch& batch) = 0;
   virtual std::optional<Node> DoFindNode(const Uuid& id) = 0;
+  // Whether a node with this id is stored, read off the id index alone: a reference check
+  // must not read the node's landmarks (kilobytes each, 2 per edge checked).
+  virtual bool DoNodeStored(const Uuid& id) = 0;
   virtual std::optional<Edge> DoFindEdge(const Uuid& id) = 0;
   virtual std::optional<Path> DoFindPath(const Uuid& id) = 0;
   virtual std::optional<Annotation> DoFindAnnotation(const Uuid& id) = 0;
