@@ -32,13 +32,6 @@ void DownloadCache::Put(const std::string& key, std::shared_ptr<const EncodedDow
   Keep(key, Entry{std::move(download), nullptr}, bytes);
 }
 
-void DownloadCache::PutPlan(const std::string& key, std::shared_ptr<const DownloadPlan> plan) {
-  const std::uint64_t bytes = BytesOf(*plan);
-  if (bytes > max_entry_bytes_) return;
-  std::lock_guard lock(mutex_);
-  Keep(key, Entry{nullptr, std::move(plan)}, bytes);
-}
-
 std::shared_ptr<const DownloadPlan> DownloadCache::PlanOnce(
     const std::string& key, const std::function<std::shared_ptr<const DownloadPlan>()>& make) {
   std::promise<std::shared_ptr<const DownloadPlan>> promise;

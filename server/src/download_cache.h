@@ -49,12 +49,9 @@ class DownloadCache {
   Entry Find(const std::string& key);
   // Keeps `download` under `key` when it is small enough (see the rule above); else nothing.
   void Put(const std::string& key, std::shared_ptr<const EncodedDownload> download);
-  // Keeps the plan of a download too big to keep encoded, when the plan is small enough.
-  void PutPlan(const std::string& key, std::shared_ptr<const DownloadPlan> plan);
-
   // The plan under `key`: the kept one, else the one another thread is making (waited for),
-  // else made here by `make` and kept (PutPlan's rule). Throws what `make` threw, also to the
-  // threads that waited for it.
+  // else made here by `make` and kept when it is at most `max_entry_bytes`. Throws what `make`
+  // threw, also to the threads that waited for it.
   std::shared_ptr<const DownloadPlan> PlanOnce(
       const std::string& key, const std::function<std::shared_ptr<const DownloadPlan>()>& make);
 

@@ -268,11 +268,16 @@ class SyncServer::Impl {
     const server::DownloadCache::Entry kept = cache_.Find(key);
     if (kept.plan || kept.encoded) return;
     const auto start = std::chrono::steady_clock::now();
-    const std::shared_ptr<const server::DownloadPlan> plan =
-        cache_.PlanOnce(key, [&] { return server::PlanDownload(repository, copy, head); });
-    spdlog::info("planned a copy of revision {} ahead of downloads: {} nodes, {} edges, {:.3f} s",
-                 head, plan->nodes.size(), plan->edges.size(),
-                 std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+    try {
+      const std::shared_ptr<const server::DownloadPlan> plan =
+          cache_.PlanOnce(key, [&] { return server::PlanDownload(repository, copy, head); });
+      spdlog::info("planned a copy of revision {} ahead of downloads: {} nodes, {} edges, {:.3f} s",
+                   head, plan->nodes.size(), plan->edges.size(),
+                   std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+    } catch (const std::exception& error) {
+      // Only a head start lost: the download that asks plans (and reports) for itself.
+      spdlog::warn("planning a copy of revision {} ahead of downloads: {}", head, error.what());
+    }
   }
 
   // The status page's picture of the head, drawn on a store thread when the head has moved
@@ -294,11 +299,7 @@ class SyncServer::Impl {
       activity_.SetHead(done.revision, done.head_stats);
       RefreshPicture();
       store_->Post([this, head = done.revision, stats = done.head_stats](Repository& repository) {
-        try {
-          WarmCopyPlan(repository, head, stats);
-        } catch (const std::exception& error) {
-          spdlog::warn("planning a copy of revision {} ahead of downloads: {}", head, error.what());
-        }
+        WarmCopyPlan(repository, head, stats);
       });
       spdlog::info("merge {}: revision {}, {} nodes added, {:.3f} s", done.submission.ToString(),
                    done.revision, done.nodes_added, done.seconds);

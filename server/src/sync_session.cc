@@ -948,10 +948,8 @@ void SyncSession<Stream>::StartStreaming(std::shared_ptr<const DownloadPlan> pla
       (p.edges.size() + p.paths.size()) * 128;
   s.keep_all = estimate <= context_.options.download_cache_entry_bytes;
   s.plan_cached = plan_cached;
-  // A big download is not kept encoded; its plan is, so that asked again it streams at once,
-  // without a second selection (and its memory on top of the store's page caches).
-  if (!s.keep_all && !plan_cached)
-    context_.downloads.PutPlan(s.cache_key, s.encoder->shared_plan());
+  // The plan itself is already kept (DownloadCache::PlanOnce): a big download, never kept
+  // encoded, streams at once when asked again, without a second selection.
   s.ready.emplace();
   s.ready->push_back(HeaderFrame(s.encoder->plan().header));
   PumpStream();
