@@ -93,6 +93,17 @@ TEST(Uuid, BytesRoundTripAndSize) {
   EXPECT_THROW(Uuid::FromBytes(std::string(17, 'x')), Error);
 }
 
+TEST(Uuid, NameBasedIsVersionFiveAndMatchesTheRfcExample) {
+  // RFC 9562's DNS namespace and the example everyone checks against (Python's uuid5 agrees).
+  const Uuid dns = Uuid::Parse("6ba7b810-9dad-11d1-80b4-00c04fd430c8");
+  const Uuid id = Uuid::NameBased(dns, "www.example.com");
+  EXPECT_EQ(id.ToString(), "2ed6657d-e927-568b-95e1-2665a8aea6a2");
+  EXPECT_EQ(id.bytes()[6] >> 4, 5);  // version 5
+  EXPECT_EQ(Uuid::NameBased(dns, "www.example.com"), id);
+  EXPECT_NE(Uuid::NameBased(dns, "www.example.org"), id);
+  EXPECT_NE(Uuid::NameBased(Uuid::Generate(), "www.example.com"), id);
+}
+
 TEST(Uuid, NilAndOrdering) {
   EXPECT_TRUE(Uuid().IsNil());
   EXPECT_FALSE(Uuid::Generate().IsNil());

@@ -19,6 +19,12 @@ Uuid Uuid::GenerateRandom() {
   return Uuid(bytes);
 }
 
+Uuid Uuid::NameBased(const Uuid& name_space, std::string_view name) {
+  Bytes bytes;
+  uuid_generate_sha1(bytes.data(), name_space.data(), name.data(), name.size());
+  return Uuid(bytes);
+}
+
 Uuid Uuid::Generate() {
   // RFC 9562 §6.2 method 1: a 12-bit counter in rand_a keeps ids monotonic within one
   // millisecond; when it overflows, the timestamp moves on by one millisecond (allowed by

@@ -30,6 +30,10 @@ class Uuid {
   static Uuid Generate();
   // A new random (version 4) UUID, for ids that must not reveal when they were made.
   static Uuid GenerateRandom();
+  // The name-based (version 5, SHA-1) UUID of `name` in `name_space` (RFC 9562 §5.5): the
+  // same inputs give the same id on every machine, so an element derived from others (a path
+  // edge contracted over the nodes a download leaves out) is recognised wherever it returns.
+  static Uuid NameBased(const Uuid& name_space, std::string_view name);
   // Parses canonical text. Throws Error(kInvalidArgument) on anything else.
   static Uuid Parse(std::string_view text);
   // From exactly 16 raw bytes. Throws Error(kInvalidArgument) for any other length.
