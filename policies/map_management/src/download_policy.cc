@@ -10,6 +10,7 @@
 
 #include "download_policy_budget.h"
 #include "fleetmap/core/error.h"
+#include "fleetmap/policies/subset_contraction.h"
 #include "fleetmap/ranking/path_memory.h"
 #include "fleetmap/ranking/path_weights.h"
 #include "fleetmap/ranking/time_of_day.h"
@@ -310,6 +311,9 @@ void ValidateDownloadPolicy(const DownloadPolicy& policy) {
   if (!(policy.best_percent > 0.0 && policy.best_percent <= 100.0)) {
     InvalidPolicy("best_percent (p) must be in (0, 100], not " + Show(policy.best_percent));
   }
+  if (!(policy.contract_reach_m > 0.0 && std::isfinite(policy.contract_reach_m))) {
+    InvalidPolicy("contract_reach_m must be finite and > 0, not " + Show(policy.contract_reach_m));
+  }
   if (policy.budget_bytes && *policy.budget_bytes <= 0) {
     InvalidPolicy("budget_bytes must be > 0, not " + std::to_string(*policy.budget_bytes));
   }
@@ -445,21 +449,34 @@ DownloadSelection SelectDownload(std::span<const Node> nodes, std::span<const Ed
     sent[node] = 1;
     report.bytes += static_cast<std::int64_t>(map.nodes[node]->landmarks_blob.size());
   }
-  // MakeIntegral keeps exactly the edges with both ends sent; the paths of those that are path
-  // edges come along.
-  std::unordered_set<Uuid> kept_paths;
-  for (std::size_t e = 0; e < edges.size(); ++e) {
-    const auto [from, to] = map.edge_ends[e];
-    if (edges[e].kind == EdgeKind::kPath && sent[from] && sent[to]) {
-      kept_paths.insert(edges[e].path);
+  if (policy.contract) {
+    // MakeIntegral keeps exactly the edges with both ends sent, those of paths among them; the
+    // contraction adds what carries each path, and the metric neighbourhood, over the nodes
+    // left out.
+    ContractedPaths contracted = ContractPaths(edges, integral.nodes);
+    selection.paths = std::move(contracted.paths);
+    selection.derived_edges = std::move(contracted.derived);
+    const std::vector<Edge> metric = ContractMetric(edges, integral.nodes, policy.contract_reach_m);
+    selection.derived_edges.insert(selection.derived_edges.end(), metric.begin(), metric.end());
+    std::sort(selection.derived_edges.begin(), selection.derived_edges.end(),
+              [](const Edge& a, const Edge& b) { return a.id < b.id; });
+  } else {
+    // The paths of the edges MakeIntegral kept, as before contraction.
+    std::unordered_set<Uuid> kept_paths;
+    for (std::size_t e = 0; e < edges.size(); ++e) {
+      const auto [from, to] = map.edge_ends[e];
+      if (edges[e].kind == EdgeKind::kPath && sent[from] && sent[to]) {
+        kept_paths.insert(edges[e].path);
+      }
     }
+    selection.paths.assign(kept_paths.begin(), kept_paths.end());
+    std::sort(selection.paths.begin(), selection.paths.end());
   }
-  selection.paths.assign(kept_paths.begin(), kept_paths.end());
-  std::sort(selection.paths.begin(), selection.paths.end());
   selection.nodes = std::move(integral.nodes);
   selection.edges = std::move(integral.edges);
   report.nodes = selection.nodes.size();
-  report.edges = selection.edges.size();
+  report.derived_edges = selection.derived_edges.size();
+  report.edges = selection.edges.size() + selection.derived_edges.size();
   report.paths = selection.paths.size();
   return selection;
 }

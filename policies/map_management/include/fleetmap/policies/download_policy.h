@@ -33,7 +33,11 @@
 //
 // Whatever a policy picks, the robot receives an integral map (MakeIntegral,
 // integral_selection.h): the picked nodes joined within each metric component by the nodes on
-// shortest metric paths between their fragments, and exactly the edges with both ends kept.
+// shortest metric paths between their fragments, and exactly the edges with both ends kept;
+// and, unless the robot speaks an older protocol, the map's path memory and metric
+// neighbourhood contracted over the nodes left out (subset_contraction.h), so that Γ(path)
+// counts over the download what it counts over the whole map, and the localiser's search finds
+// two sent experiences of one place beside each other as it does in the whole map.
 // A budget counts those bridging nodes too. It judges each step by a selection it keeps
 // integral as it grows (the new nodes joined to what it holds by the fewest bridging nodes),
 // so every byte it checks is a byte sent. The download is MakeIntegral of its picks, as for
@@ -74,6 +78,12 @@ struct DownloadPolicy {
   // where the robot starts its mission, so that it starts in its own map. Under a budget they
   // are the first candidate, dropped only when they alone do not fit.
   std::vector<Uuid> include;
+  // Path memory and metric neighbourhood contracted over the nodes left out
+  // (subset_contraction.h), metric chains up to contract_reach_m long (> 0; the localiser's
+  // search radius, BuilderOptions::search_radius_m). Off only for robots of sync protocol 3 and
+  // older, which are sent the edges with both ends kept, as before.
+  bool contract = true;
+  double contract_reach_m = 25.0;
 
   // "copy", "tod", "tod+paths", "tod+cover", "tod+paths+budget", ...
   std::string Name() const;
@@ -96,7 +106,8 @@ struct DownloadReport {
   std::size_t map_nodes = 0;              // in the map chosen from
   std::size_t picked_nodes = 0;           // picked by the policy, before integrity
   std::size_t nodes = 0;                  // in the download (picked + bridging)
-  std::size_t edges = 0;                  // metric and path
+  std::size_t edges = 0;                  // metric and path, derived ones included
+  std::size_t derived_edges = 0;          // of those, contracted over nodes left out
   std::size_t paths = 0;                  // with at least one edge in the download
   std::int64_t map_bytes = 0;             // landmark bytes of the whole map
   std::int64_t bytes = 0;                 // landmark bytes of the download
@@ -118,8 +129,11 @@ struct DownloadReport {
 
 struct DownloadSelection {
   std::vector<Uuid> nodes;  // ascending
-  std::vector<Uuid> edges;  // ascending; both ends in `nodes`
-  std::vector<Uuid> paths;  // ascending; every path with an edge in `edges`
+  std::vector<Uuid> edges;  // the map's edges sent, ascending; both ends in `nodes`
+  // Edges contracted over the nodes left out (`contract`), not in the map: ascending by id, both
+  // ends in `nodes`, ids from DerivedPathEdgeId.
+  std::vector<Edge> derived_edges;
+  std::vector<Uuid> paths;  // ascending; every path with an edge in `edges` or `derived_edges`
   DownloadReport report;
 };
 

@@ -1,0 +1,240 @@
+#include "fleetmap/policies/subset_contraction.h"
+
+#include <algorithm>
+#include <optional>
+#include <queue>
+#include <set>
+#include <string>
+#include <unordered_map>
+#include <unordered_set>
+#include <utility>
+
+namespace fleetmap {
+namespace {
+
+// The namespace of every derived edge id (a fixed random UUID: fleetmap's own).
+const Uuid kDerivedEdgeNamespace = Uuid::Parse("29652bd1-75dc-4896-acd8-dbb503166742");
+
+using NodePair = std::pair<Uuid, Uuid>;
+
+struct NodePairHash {
+  std::size_t operator()(const NodePair& pair) const noexcept {
+    return std::hash<Uuid>{}(pair.first) * 31 + std::hash<Uuid>{}(pair.second);
+  }
+};
+
+// One path's edges, oldest first, and the walks through them (path_contraction.h "Order").
+class PathWalker {
+ public:
+  explicit PathWalker(std::vector<const Edge*> edges) : edges_(std::move(edges)) {
+    used_.assign(edges_.size(), 0);
+    for (std::size_t e = 0; e < edges_.size(); ++e) out_[edges_[e]->from].push_back(e);
+  }
+
+  // The next walk as its edges in order; empty once every edge is walked.
+  std::vector<const Edge*> NextWalk() {
+    while (next_start_ < edges_.size() && used_[next_start_]) ++next_start_;
+    std::vector<const Edge*> walk;
+    if (next_start_ == edges_.size()) return walk;
+    Uuid at = edges_[next_start_]->from;
+    while (const std::optional<std::size_t> e = TakeOut(at)) {
+      walk.push_back(edges_[*e]);
+      at = edges_[*e]->to;
+    }
+    return walk;
+  }
+
+ private:
+  // The lowest unused edge out of `node`, marked used.
+  std::optional<std::size_t> TakeOut(const Uuid& node) {
+    const auto it = out_.find(node);
+    if (it == out_.end()) return std::nullopt;
+    std::size_t& cursor = cursor_[node];
+    while (cursor < it->second.size() && used_[it->second[cursor]]) ++cursor;
+    if (cursor == it->second.size()) return std::nullopt;
+    const std::size_t e = it->second[cursor++];
+    used_[e] = 1;
+    return e;
+  }
+
+  std::vector<const Edge*> edges_;  // ascending id
+  std::vector<char> used_;
+  std::unordered_map<Uuid, std::vector<std::size_t>> out_;  // ascending edge positions
+  std::unordered_map<Uuid, std::size_t> cursor_;
+  std::size_t next_start_ = 0;
+};
+
+Edge DerivedEdge(const Uuid& path, const Uuid& from, const Uuid& to) {
+  Edge edge;
+  edge.id = DerivedPathEdgeId(path, from, to);
+  edge.from = from;
+  edge.to = to;
+  edge.kind = EdgeKind::kPath;
+  edge.path = path;
+  return edge;
+}
+
+}  // namespace
+
+Uuid DerivedPathEdgeId(const Uuid& path, const Uuid& from, const Uuid& to) {
+  std::string name;
+  name.reserve(3 * Uuid::kSize);
+  for (const Uuid* part : {&path, &from, &to}) {
+    name.append(reinterpret_cast<const char*>(part->data()), Uuid::kSize);
+  }
+  return Uuid::NameBased(kDerivedEdgeNamespace, name);
+}
+
+Uuid DerivedMetricEdgeId(const Uuid& from, const Uuid& to) {
+  std::string name = "metric";
+  for (const Uuid* part : {&from, &to}) {
+    name.append(reinterpret_cast<const char*>(part->data()), Uuid::kSize);
+  }
+  return Uuid::NameBased(kDerivedEdgeNamespace, name);
+}
+
+std::vector<Edge> ContractMetric(std::span<const Edge> map_edges, std::span<const Uuid> sent,
+                                 double reach_m) {
+  const auto is_sent = [&](const Uuid& node) {
+    return std::binary_search(sent.begin(), sent.end(), node);
+  };
+  struct Link {
+    Uuid to;
+    Se3 from_T_to;
+  };
+  std::unordered_map<Uuid, std::vector<Link>> links;
+  std::unordered_set<NodePair, NodePairHash> direct;
+  for (const Edge& edge : map_edges) {
+    if (edge.kind != EdgeKind::kMetric || edge.from == edge.to) continue;
+    links[edge.from].push_back({edge.to, edge.from_T_to});
+    links[edge.to].push_back({edge.from, edge.from_T_to.inverse()});
+    direct.emplace(std::min(edge.from, edge.to), std::max(edge.from, edge.to));
+  }
+  std::vector<Edge> derived;
+  std::unordered_set<NodePair, NodePairHash> emitted;
+  for (const Uuid& start : sent) {
+    const auto start_links = links.find(start);
+    if (start_links == links.end()) continue;
+    bool borders_left_out = false;
+    for (const Link& link : start_links->second) borders_left_out |= !is_sent(link.to);
+    if (!borders_left_out) continue;
+    // Dijkstra in metres through left-out nodes only.
+    using Entry = std::pair<double, Uuid>;
+    std::priority_queue<Entry, std::vector<Entry>, std::greater<>> queue;
+    std::unordered_map<Uuid, std::pair<double, Se3>> best;
+    best.emplace(start, std::pair(0.0, Se3::Identity()));
+    queue.emplace(0.0, start);
+    std::unordered_set<Uuid> done;
+    while (!queue.empty()) {
+      const auto [distance, at] = queue.top();
+      queue.pop();
+      if (!done.insert(at).second) continue;
+      if (at != start && is_sent(at)) {
+        const NodePair pair(std::min(start, at), std::max(start, at));
+        if (!direct.contains(pair) && emitted.insert(pair).second) {
+          Edge edge;
+          edge.from = pair.first;
+          edge.to = pair.second;
+          edge.kind = EdgeKind::kMetric;
+          const Se3& start_T_at = best.at(at).second;
+          edge.from_T_to = pair.first == start ? start_T_at : start_T_at.inverse();
+          edge.id = DerivedMetricEdgeId(edge.from, edge.to);
+          derived.push_back(edge);
+        }
+        continue;  // never expand through a sent node
+      }
+      const Se3 start_T_at = best.at(at).second;
+      for (const Link& link : links[at]) {
+        const double next = distance + link.from_T_to.translation().norm();
+        if (next > reach_m || done.contains(link.to)) continue;
+        const auto it = best.find(link.to);
+        if (it != best.end() && it->second.first <= next) continue;
+        best[link.to] = std::pair(next, start_T_at * link.from_T_to);
+        queue.emplace(next, link.to);
+      }
+    }
+  }
+  std::sort(derived.begin(), derived.end(),
+            [](const Edge& a, const Edge& b) { return a.id < b.id; });
+  return derived;
+}
+
+bool IsDerivedEdge(const Edge& edge) {
+  switch (edge.kind) {
+    case EdgeKind::kPath:
+      return edge.id == DerivedPathEdgeId(edge.path, edge.from, edge.to);
+    case EdgeKind::kMetric:
+      return edge.id == DerivedMetricEdgeId(edge.from, edge.to);
+  }
+  return false;
+}
+
+ContractedPaths ContractPaths(std::span<const Edge> map_edges, std::span<const Uuid> sent) {
+  const auto is_sent = [&](const Uuid& node) {
+    return std::binary_search(sent.begin(), sent.end(), node);
+  };
+  std::vector<const Edge*> path_edges;
+  for (const Edge& edge : map_edges) {
+    if (edge.kind == EdgeKind::kPath) path_edges.push_back(&edge);
+  }
+  std::sort(path_edges.begin(), path_edges.end(), [](const Edge* a, const Edge* b) {
+    return std::pair(a->path, a->id) < std::pair(b->path, b->id);
+  });
+
+  ContractedPaths contracted;
+  for (std::size_t begin = 0; begin < path_edges.size();) {
+    std::size_t end = begin;
+    while (end < path_edges.size() && path_edges[end]->path == path_edges[begin]->path) ++end;
+    const Uuid& path = path_edges[begin]->path;
+    std::vector<const Edge*> edges(path_edges.begin() + static_cast<std::ptrdiff_t>(begin),
+                                   path_edges.begin() + static_cast<std::ptrdiff_t>(end));
+    begin = end;
+
+    // The map's own edges between sent nodes stay as they are.
+    std::unordered_set<NodePair, NodePairHash> joined;
+    std::set<Uuid> on_path, touched;
+    for (const Edge* edge : edges) {
+      for (const Uuid& node : {edge->from, edge->to}) {
+        if (is_sent(node)) on_path.insert(node);
+      }
+      if (is_sent(edge->from) && is_sent(edge->to)) {
+        contracted.kept.push_back(edge->id);
+        joined.emplace(edge->from, edge->to);
+        touched.insert(edge->from);
+        touched.insert(edge->to);
+      }
+    }
+    if (on_path.empty()) continue;
+
+    // Each walk, contracted: consecutive sent nodes with only left-out nodes between them.
+    std::vector<Edge> derived;
+    PathWalker walker(std::move(edges));
+    for (std::vector<const Edge*> walk = walker.NextWalk(); !walk.empty();
+         walk = walker.NextWalk()) {
+      std::optional<Uuid> last_sent;
+      if (is_sent(walk.front()->from)) last_sent = walk.front()->from;
+      for (const Edge* step : walk) {
+        if (!is_sent(step->to)) continue;
+        if (last_sent && *last_sent != step->to && joined.emplace(*last_sent, step->to).second) {
+          derived.push_back(DerivedEdge(path, *last_sent, step->to));
+          touched.insert(*last_sent);
+          touched.insert(step->to);
+        }
+        last_sent = step->to;
+      }
+    }
+    // A sent node the walks joined to no other sent node keeps its place on the path.
+    for (const Uuid& node : on_path) {
+      if (!touched.contains(node)) derived.push_back(DerivedEdge(path, node, node));
+    }
+    contracted.derived.insert(contracted.derived.end(), derived.begin(), derived.end());
+    contracted.paths.push_back(path);
+  }
+  std::sort(contracted.kept.begin(), contracted.kept.end());
+  std::sort(contracted.derived.begin(), contracted.derived.end(),
+            [](const Edge& a, const Edge& b) { return a.id < b.id; });
+  // Paths came in ascending order already (path_edges is sorted by path first).
+  return contracted;
+}
+
+}  // namespace fleetmap
