@@ -1,6 +1,7 @@
 #include "fleetmap/ebn/experience_map.h"
 
-#include <deque>
+#include <queue>
+#include <unordered_map>
 
 #include "fleetmap/core/error.h"
 
@@ -68,24 +69,36 @@ std::optional<ExperienceMap::NodeIndex> ExperienceMap::Find(const Uuid& id) cons
 std::vector<ExperienceMap::Nearby> ExperienceMap::Neighbourhood(
     NodeIndex origin, const Eigen::Vector3d& position_in_origin, double radius_m,
     double search_radius_m) const {
-  // Visited marks live in a local hash set rather than in the nodes, so concurrent
-  // read-only searches on one map do not interfere.
-  std::unordered_map<NodeIndex, Se3> pose_of;
-  std::deque<NodeIndex> queue;
+  // Dijkstra over metric edges by their length. Visited marks live in local hash maps rather
+  // than in the nodes, so concurrent read-only searches on one map do not interfere.
+  struct Reached {
+    double metres = 0.0;
+    Se3 origin_T_node = Se3::Identity();
+    bool settled = false;
+  };
+  std::unordered_map<NodeIndex, Reached> reached;
+  using Entry = std::pair<double, NodeIndex>;
+  std::priority_queue<Entry, std::vector<Entry>, std::greater<>> queue;
   std::vector<Nearby> nearby;
-  pose_of.emplace(origin, Se3::Identity());
-  queue.push_back(origin);
+  reached.emplace(origin, Reached{});
+  queue.emplace(0.0, origin);
   while (!queue.empty()) {
-    const NodeIndex current = queue.front();
-    queue.pop_front();
-    const Se3 origin_T_current = pose_of.at(current);
+    const auto [metres, current] = queue.top();
+    queue.pop();
+    Reached& here = reached.at(current);
+    if (here.settled) continue;
+    here.settled = true;
+    const Se3 origin_T_current = here.origin_T_node;
     const double distance = (origin_T_current.translation() - position_in_origin).norm();
     if (distance <= radius_m) nearby.push_back({current, origin_T_current, distance});
     if (origin_T_current.translation().norm() > search_radius_m) continue;
     for (const MetricLink& link : experiences_[current].links) {
-      if (pose_of.contains(link.to)) continue;
-      pose_of.emplace(link.to, origin_T_current * link.from_T_to);
-      queue.push_back(link.to);
+      const double next = metres + link.from_T_to.translation().norm();
+      const auto [it, inserted] = reached.try_emplace(link.to);
+      if (!inserted && (it->second.settled || it->second.metres <= next)) continue;
+      it->second.metres = next;
+      it->second.origin_T_node = origin_T_current * link.from_T_to;
+      queue.emplace(next, link.to);
     }
   }
   return nearby;

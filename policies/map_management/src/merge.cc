@@ -10,6 +10,7 @@
 
 #include "fleetmap/core/error.h"
 #include "fleetmap/policies/segment_discovery.h"
+#include "fleetmap/policies/subset_contraction.h"
 #include "fleetmap/ranking/distance_ranking.h"
 
 namespace fleetmap {
@@ -59,7 +60,10 @@ class Merger {
     }
     // Edges from a segment to one omitted after it could not be placed when it was added.
     for (const Edge& edge : submission_.edges) {
-      if (edge.kind == EdgeKind::kMetric && !unresolved_.contains(edge.id)) CarryMetric(edge);
+      if (edge.kind == EdgeKind::kMetric && !unresolved_.contains(edge.id) &&
+          !derived_.contains(edge.id)) {
+        CarryMetric(edge);
+      }
     }
     CarryPathMemory();
     // Every omitted node of this submission with the server node that stands in for it
@@ -112,6 +116,13 @@ class Merger {
       }
     }
     for (const Edge& edge : submission_.edges) {
+      // An edge a download derived (subset_contraction.h) stands for steps and poses the server
+      // holds already: recognised and never stored, whatever its ends have become since.
+      if (IsDerivedEdge(edge)) {
+        derived_.insert(edge.id);
+        ++result_.report.derived_edges;
+        continue;
+      }
       bool resolved = true;
       for (const Uuid& end : {edge.from, edge.to}) {
         if (fresh_.contains(end) || server_.Find(end) || hidden_.contains(end) ||
@@ -339,23 +350,35 @@ class Merger {
     for (const Replayed& frame : stretch) {
       for (const Edge* edge : metric_of_[frame.node]) CarryMetric(*edge);
     }
-    // Links where the stretch localised, at its first and last such frames. (Linking every
-    // localised frame, or the stretch's ends through their placements, measured worse on the
-    // default world: more links shift where the localiser recentres.)
-    if (!localised.empty()) {
-      for (const Replayed* l : {localised.front(), localised.back()}) {
-        if (l == localised.back() && localised.size() == 1) break;
-        Edge link;
-        link.id = DerivedUuid({&l->placed->node, &l->node}, kLinkSalt);
-        link.from = l->placed->node;
-        link.to = l->node;
-        link.kind = EdgeKind::kMetric;
-        link.from_T_to = l->placed->node_T_omitted;
-        if (written_edges_.contains(link.id) || catalogue_.has_edge(link.id)) continue;
-        AddMetric(link);
-        ++result_.report.links_added;
-      }
+    // Links to the server map where the stretch localised, at its first and last such frames
+    // (a stretch with a single localised frame gets none: one success among failures is the
+    // least trustworthy pose a replay gives). Linking every localised frame measured no better.
+    if (localised.size() > 1) {
+      for (const Replayed* l : {localised.front(), localised.back()}) Link(*l->placed, l->node);
     }
+    // And every frame that did not localise, to the server node its replay placed it by
+    // (through the nearest frame of its segment that localised: PlaceThroughLocalisedNeighbours),
+    // so that the new experience lies beside the server's experiences of its place and the
+    // localiser's search reaches one from the other as it does in a map built by one robot
+    // (issue 34's diagnosis: joined only at its ends, a merged experience sat 25 m of graph away
+    // from the one beside it, beyond the search).
+    for (const Replayed& frame : stretch) {
+      if (!frame.localised && frame.placed) Link(*frame.placed, frame.node);
+    }
+  }
+
+  // A metric link from a server node to an added one, at the pose the replay placed it by.
+  void Link(const StandIn& at, const Uuid& added) {
+    if (at.node == added || !server_.Find(at.node)) return;
+    Edge link;
+    link.id = DerivedUuid({&at.node, &added}, kLinkSalt);
+    link.from = at.node;
+    link.to = added;
+    link.kind = EdgeKind::kMetric;
+    link.from_T_to = at.node_T_omitted;
+    if (written_edges_.contains(link.id) || catalogue_.has_edge(link.id)) return;
+    AddMetric(link);
+    ++result_.report.links_added;
   }
 
   // A server node and the pose of `node` in it, through one of the robot's metric edges from
@@ -417,7 +440,10 @@ class Merger {
   void CarryPathMemory() {
     std::unordered_set<Uuid> paths_used;
     for (const Edge& edge : submission_.edges) {
-      if (edge.kind != EdgeKind::kPath || unresolved_.contains(edge.id)) continue;
+      if (edge.kind != EdgeKind::kPath || unresolved_.contains(edge.id) ||
+          derived_.contains(edge.id)) {
+        continue;
+      }
       const std::optional<Uuid> from = OnServer(edge.from), to = OnServer(edge.to);
       if (!from || !to || *from == *to) {
         ++result_.report.path_edges_dropped;
@@ -462,6 +488,7 @@ class Merger {
   // Omitted nodes (of this submission, and earlier ones its edges reach) -> their stand-ins.
   std::unordered_map<Uuid, StandIn> stands_in_for_;
   std::unordered_set<Uuid> unresolved_;  // edges to nodes seen only in unmerged submissions
+  std::unordered_set<Uuid> derived_;     // edges a download derived: recognised, not stored
   std::unordered_set<Uuid> written_edges_;
   MergeResult result_;
 };

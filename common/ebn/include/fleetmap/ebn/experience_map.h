@@ -58,11 +58,15 @@ class ExperienceMap {
   std::size_t metric_edge_count() const { return metric_edges_; }
   const AppearanceIndex& appearance() const { return appearance_; }
 
-  // Nodes within `radius_m` of a position given in the frame of `origin`, found by
-  // breadth-first search over metric edges (seed 002 §III-C: the local neighbourhood of the
-  // position estimate). Each node's pose comes from the first path that reaches it; nodes
-  // further than `search_radius_m` from the origin are not expanded, which bounds the search
-  // in a dense map. Returns (node, origin_T_node, distance from the position), unsorted.
+  // Nodes within `radius_m` of a position given in the frame of `origin`, found by a search
+  // over metric edges (seed 002 §III-C: the local neighbourhood of the position estimate).
+  // Each node's pose is composed along the shortest chain of edges that reaches it, in metres:
+  // the map is metric only over short distances (seed 002 §III-B), and every edge adds its
+  // error, so the chain that travels least places a node best. (The chain of fewest edges
+  // placed experiences of one place behind detours through other experiences of it: issue 34
+  // measured it losing the frames a merged map or a download should have localised.) Nodes
+  // further than `search_radius_m` from the origin are not expanded, which bounds the search in
+  // a dense map. Returns (node, origin_T_node, distance from the position), unsorted.
   struct Nearby {
     NodeIndex node = 0;
     Se3 origin_T_node = Se3::Identity();

@@ -1,7 +1,9 @@
 // MERGE (seed 004 §V-A): folds a robot's submitted map into the server map without copying
 // what the server can already localise.
 //
-// 1. Nodes the server already holds (same UUID) are never added again (§III-D).
+// 1. Nodes the server already holds (same UUID) are never added again (§III-D); edges a
+//    download derived over the nodes it left out (subset_contraction.h) are recognised by
+//    their ids and never stored.
 // 2. The remaining nodes are grouped into linear segments by their metric edges
 //    (Algorithm 1, SegmentDiscovery); a node with no such edge is a segment of its own.
 // 3. Each segment is replayed as a stream of frames (its nodes' landmarks, the motion between
@@ -10,7 +12,9 @@
 //    neighbourhoods (§III-A).
 // 4. A segment that localises well enough is omitted: the server already covers it. Any other
 //    is added whole, with the robot's metric edges into it, and linked to the server map by a
-//    metric edge at its first and last frames that localised.
+//    metric edge at its first and last frames that localised, and at each frame that did not,
+//    to the server node its replay placed it by (issue 34: experiences of one place beside each
+//    other, as single-agent EBN leaves them).
 //    Every omitted node that localised (or was placed through a localised neighbour) is
 //    reported with its stand-in (MergeResult::stand_ins), so the server can keep accounting
 //    for it and carry later edges to it.
@@ -59,6 +63,9 @@ struct MergeReport {
   // Edges to a node the server saw only in a submission it could not merge: dropped here, kept
   // in both submissions.
   std::size_t edges_unresolved = 0;
+  // Edges a download derived (subset_contraction.h) that the robot sent back: they stand for
+  // what the server holds already, so they are recognised and not stored.
+  std::size_t derived_edges = 0;
   std::size_t paths_added = 0;
   double seconds = 0.0;
 };
