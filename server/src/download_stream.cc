@@ -48,6 +48,13 @@ BareSelection SelectBare(Repository& repository, const DownloadPolicy& policy,
   for (Edge& edge : edges) {
     if (keep_edges.contains(edge.id)) bare.edges.push_back(std::move(edge));
   }
+  // The path edges contracted over the nodes left out (subset_contraction.h) join them by id.
+  if (!selection.derived_edges.empty()) {
+    bare.edges.insert(bare.edges.end(), selection.derived_edges.begin(),
+                      selection.derived_edges.end());
+    std::sort(bare.edges.begin(), bare.edges.end(),
+              [](const Edge& a, const Edge& b) { return a.id < b.id; });
+  }
   const std::unordered_set<Uuid> keep_paths(selection.paths.begin(), selection.paths.end());
   for (Path& path : paths) {
     if (keep_paths.contains(path.id)) bare.paths.push_back(std::move(path));
@@ -131,8 +138,10 @@ DownloadPolicy PolicyOfRequest(const v1::DownloadRequest& request) {
 
 std::shared_ptr<const DownloadPlan> PlanDownload(Repository& repository,
                                                  const v1::DownloadRequest& request,
-                                                 RevisionNumber head) {
-  const DownloadPolicy policy = PolicyOfRequest(request);
+                                                 RevisionNumber head,
+                                                 std::uint32_t protocol_version) {
+  DownloadPolicy policy = PolicyOfRequest(request);
+  policy.contract = protocol_version >= kFirstContractingSyncProtocolVersion;
   BareSelection selection = SelectBare(repository, policy, head);
   auto plan = std::make_shared<DownloadPlan>();
   plan->report = selection.report;
@@ -274,7 +283,7 @@ std::shared_ptr<const EncodedDownload> EncodeDownload(Repository& repository,
                                                       const v1::DownloadRequest& request,
                                                       RevisionNumber head,
                                                       std::uint32_t protocol_version) {
-  DownloadEncoder encoder(PlanDownload(repository, request, head));
+  DownloadEncoder encoder(PlanDownload(repository, request, head, protocol_version));
   std::vector<std::string> chunks;
   for (std::vector<std::string> batch = encoder.NextBatch(repository); !batch.empty();
        batch = encoder.NextBatch(repository)) {

@@ -7,7 +7,9 @@
 //
 // Protocol version 3 streams: the header goes first, the chunk count, bytes and digest last, in
 // DownloadEnd. Version 2 wants them in the header, so its sessions get the whole download
-// encoded first (EncodeDownload), as before streaming.
+// encoded first (EncodeDownload), as before streaming. From version 4 a download also carries
+// the map's path memory and metric neighbourhood contracted over the nodes it leaves out
+// (subset_contraction.h); versions 2 and 3 get the edges with both ends sent, as before.
 #pragma once
 
 #include <cstddef>
@@ -45,13 +47,15 @@ struct DownloadPlan {
 DownloadPolicy PolicyOfRequest(const v1::DownloadRequest& request);
 
 // The plan of the download `request` asks for at revision `head` (the repository's head, read
-// by the caller): Repository::SelectForDownload's selection, made on bare nodes. A budget has
+// by the caller) for a robot of `protocol_version`: Repository::SelectForDownload's selection,
+// made on bare nodes, contracted from version 4 on. A budget has
 // to weigh every node by its landmarks (SelectDownload reads a node's bytes off its blob), so
 // with "budget" the map's landmarks are read for the selection and dropped before it returns:
 // only that policy's memory still grows with the map. Throws as PolicyOfRequest and the store.
 std::shared_ptr<const DownloadPlan> PlanDownload(Repository& repository,
                                                  const v1::DownloadRequest& request,
-                                                 RevisionNumber head);
+                                                 RevisionNumber head,
+                                                 std::uint32_t protocol_version);
 
 // Encodes a plan into DownloadChunk frames a batch at a time: paths, nodes (their landmarks
 // read from the store per batch), edges, as EncodeMapChunks orders a map; an empty download

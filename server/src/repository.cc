@@ -620,6 +620,8 @@ Download Repository::SelectForDownload(const DownloadPolicy& policy,
   for (const Edge& edge : edges) {
     if (keep_edges.contains(edge.id)) download.map.edges.push_back(edge);
   }
+  download.map.edges.insert(download.map.edges.end(), selection.derived_edges.begin(),
+                            selection.derived_edges.end());
   const std::unordered_set<Uuid> keep_paths(selection.paths.begin(), selection.paths.end());
   for (const Path& path : paths) {
     if (keep_paths.contains(path.id)) download.map.paths.push_back(path);

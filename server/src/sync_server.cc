@@ -269,8 +269,8 @@ class SyncServer::Impl {
     if (kept.plan || kept.encoded) return;
     const auto start = std::chrono::steady_clock::now();
     try {
-      const std::shared_ptr<const server::DownloadPlan> plan =
-          cache_.PlanOnce(key, [&] { return server::PlanDownload(repository, copy, head); });
+      const std::shared_ptr<const server::DownloadPlan> plan = cache_.PlanOnce(
+          key, [&] { return server::PlanDownload(repository, copy, head, kSyncProtocolVersion); });
       spdlog::info("planned a copy of revision {} ahead of downloads: {} nodes, {} edges, {:.3f} s",
                    head, plan->nodes.size(), plan->edges.size(),
                    std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());

@@ -865,8 +865,8 @@ void SyncSession<Stream>::OnDownloadRequest(const v1::DownloadRequest& request) 
           result.download = EncodeDownload(repository, request, head, version);
           cache.Put(result.key, result.download);
         } else {
-          result.plan =
-              cache.PlanOnce(result.key, [&] { return PlanDownload(repository, request, head); });
+          result.plan = cache.PlanOnce(
+              result.key, [&] { return PlanDownload(repository, request, head, version); });
         }
         return result;
       },

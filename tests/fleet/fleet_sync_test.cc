@@ -14,8 +14,11 @@
 
 #include "fleet_processes.h"
 #include "fleetmap/core/graph.h"
+#include "fleetmap/policies/subset_contraction.h"
+#include "fleetmap/server/repository.h"
 #include "fleetmap/store/graph_store.h"
 #include "fleetmap/store/version_store.h"
+#include "random_robot_map.h"
 #include "scratch_dir.h"
 #include "store_backends.h"
 
@@ -99,6 +102,160 @@ TYPED_TEST(FleetSyncTest, PushMergeDownloadEndToEnd) {
   std::unique_ptr<GraphStore> store = GraphStore::Open(uri);
   EXPECT_EQ(store->versions().HeadRevision(), 1);
   EXPECT_EQ(store->versions().ListSubmissions().size(), 1u);
+}
+
+// A map of two chains of one place, A captured around 08:00 and B around 16:00 (UTC, a day
+// back), joined at A's end, each with a path of its own, and a third path (a robot that
+// localised in both) stepping A1, B1, A2, B2, ...: a morning download leaves B out, and the
+// third path survives it only contracted (A1 -> A2 -> ...).
+GraphBatch TwoConditionsMap(const Uuid& robot) {
+  const std::int64_t day_ns = 86'400'000'000'000;
+  const std::int64_t midnight = (WallNs() / day_ns - 1) * day_ns;
+  const auto at_hour = [&](int hour, int i) {
+    return midnight + hour * 3'600'000'000'000 + i * 30'000'000'000LL;
+  };
+  GraphBatch a = RandomRobotMap(robot, 8, 11);
+  GraphBatch b = RandomRobotMap(robot, 8, 12);
+  for (std::size_t i = 0; i < 8; ++i) {
+    a.nodes[i].stamp_ns = at_hour(8, static_cast<int>(i));
+    b.nodes[i].stamp_ns = at_hour(16, static_cast<int>(i));
+  }
+  a.paths[0].start_ns = at_hour(8, 0);
+  a.paths[0].end_ns = at_hour(8, 8);
+  b.paths[0].start_ns = at_hour(16, 0);
+  b.paths[0].end_ns = at_hour(16, 8);
+  GraphBatch map = a;
+  map.nodes.insert(map.nodes.end(), b.nodes.begin(), b.nodes.end());
+  map.edges.insert(map.edges.end(), b.edges.begin(), b.edges.end());
+  map.paths.insert(map.paths.end(), b.paths.begin(), b.paths.end());
+  Se3 a_T_b = Se3::Identity();
+  a_T_b.translation() = Eigen::Vector3d(0.0, 0.0, 1.0);
+  map.edges.push_back(Edge{Uuid::Generate(), a.nodes.back().id, b.nodes.front().id,
+                           EdgeKind::kMetric, a_T_b, Uuid()});
+  const Path both{Uuid::Generate(), robot, Uuid::Generate(), at_hour(12, 0), at_hour(12, 16)};
+  map.paths.push_back(both);
+  std::vector<Uuid> steps;
+  for (std::size_t i = 0; i < 8; ++i) {
+    steps.push_back(a.nodes[i].id);
+    steps.push_back(b.nodes[i].id);
+  }
+  for (std::size_t i = 0; i + 1 < steps.size(); ++i) {
+    map.edges.push_back(
+        Edge{Uuid::Generate(), steps[i], steps[i + 1], EdgeKind::kPath, Se3::Identity(), both.id});
+  }
+  return map;
+}
+
+// The head's edges by id; none twice, none a download derived.
+std::map<Uuid, Edge> HeadEdges(const std::string& store_uri) {
+  std::unique_ptr<GraphStore> store = GraphStore::Open(store_uri);
+  std::map<Uuid, Edge> edges;
+  for (const Edge& edge : store->versions().EdgesAt(store->versions().HeadRevision())) {
+    EXPECT_TRUE(edges.emplace(edge.id, edge).second)
+        << "edge twice at the head: " << edge.id.ToString();
+    EXPECT_FALSE(IsDerivedEdge(edge)) << "a derived edge stored: " << edge.id.ToString();
+  }
+  return edges;
+}
+
+// Every edge of `expected` is at the head, and whatever else is there MERGE made itself (links
+// to the map, metric) beyond `before` (the head's edges earlier).
+void ExpectHeadHoldsExactly(const std::map<Uuid, Edge>& head, const std::set<Uuid>& expected,
+                            const std::map<Uuid, Edge>& before = {}) {
+  for (const Uuid& id : expected) EXPECT_TRUE(head.contains(id)) << "lost: " << id.ToString();
+  for (const auto& [id, edge] : head) {
+    if (expected.contains(id) || before.contains(id)) continue;
+    EXPECT_EQ(edge.kind, EdgeKind::kMetric) << "an edge nobody pushed: " << id.ToString();
+  }
+}
+
+std::set<Uuid> EdgeIds(const GraphBatch& map) {
+  std::set<Uuid> ids;
+  for (const Edge& edge : map.edges) ids.insert(edge.id);
+  return ids;
+}
+
+// Issue 34 item 1, end to end: a robot pulls a morning download (protocol 4: path memory
+// contracted over the afternoon chain it leaves out), builds on it, and pushes; then its whole
+// map, derived edges included, is pushed again as a submission. The server recognises every
+// derived edge: nothing the robots built is lost, nothing is stored twice, and no derived edge
+// reaches the map.
+TYPED_TEST(FleetSyncTest, AContractedDownloadBuiltOnAndPushedBackLosesAndDoublesNothing) {
+  const std::string uri = this->backend_.Uri();
+  const TestRobot alpha = RegisterRobot(uri, "alpha", this->dir_ / "alpha");
+  const TestRobot beta = RegisterRobot(uri, "beta", this->dir_ / "beta");
+  const GraphBatch surveyed = TwoConditionsMap(alpha.id);
+  WriteLocalMap(alpha, surveyed);
+  Fleetmapd server = StartFleetmapd(uri, this->dir_ / "fleetmapd.log");
+  ASSERT_FALSE(server.address.empty());
+  const auto alpha_log = this->dir_ / "alpha.log";
+  ASSERT_EQ(
+      FinishSync(*StartSync(alpha, server.address, alpha_log, {"--wait-merge", "--policy", "copy"}),
+                 alpha_log)
+          .exit,
+      0);
+  const std::map<Uuid, Edge> after_alpha = HeadEdges(uri);
+  ExpectHeadHoldsExactly(after_alpha, EdgeIds(surveyed));
+
+  const std::vector<std::string> morning = {
+      "--wait-merge", "--policy", "tod", "--mission-start", "08:00", "--window-min", "60"};
+  const auto beta_log = this->dir_ / "beta.log";
+  SyncOutcome pulled = FinishSync(*StartSync(beta, server.address, beta_log, morning), beta_log);
+  ASSERT_EQ(pulled.exit, 0);
+  EXPECT_EQ(pulled.result["nodes"], 8) << "the morning chain only";
+  const GraphBatch downloaded =
+      GraphStore::Open("sqlite:" + (beta.map_dir / "map.db").string())->ReadMap();
+  const Uuid both = surveyed.paths.back().id;
+  std::set<std::pair<Uuid, Uuid>> contracted;
+  for (const Edge& edge : downloaded.edges) {
+    if (IsDerivedEdge(edge)) {
+      EXPECT_EQ(edge.path, both);
+      contracted.emplace(edge.from, edge.to);
+    }
+  }
+  std::set<std::pair<Uuid, Uuid>> expected;
+  for (std::size_t i = 0; i + 1 < 8; ++i) {
+    expected.emplace(surveyed.nodes[i].id, surveyed.nodes[i + 1].id);
+  }
+  EXPECT_EQ(contracted, expected) << "the third path, step by step over the afternoon chain";
+
+  // Beta drives on from the morning chain's end, on a path through what it downloaded.
+  GraphBatch built = RandomChainFrom(beta.id, surveyed.nodes[7].id, 5, 21);
+  built.edges.push_back(Edge{Uuid::Generate(), surveyed.nodes[6].id, surveyed.nodes[7].id,
+                             EdgeKind::kPath, Se3::Identity(), built.paths[0].id});
+  built.edges.push_back(Edge{Uuid::Generate(), surveyed.nodes[7].id, built.nodes[0].id,
+                             EdgeKind::kPath, Se3::Identity(), built.paths[0].id});
+  WriteLocalMap(beta, built);
+  SyncOutcome pushed = FinishSync(*StartSync(beta, server.address, beta_log, morning), beta_log);
+  ASSERT_EQ(pushed.exit, 0);
+  EXPECT_EQ(pushed.result["pushed_nodes"], 5);
+  std::set<Uuid> expected_nodes = NodeIds(surveyed), expected_edges = EdgeIds(surveyed);
+  for (const Node& node : built.nodes) expected_nodes.insert(node.id);
+  for (const Edge& edge : built.edges) expected_edges.insert(edge.id);
+  EXPECT_EQ(HeadNodeIds(uri), expected_nodes);
+  const std::map<Uuid, Edge> after_beta = HeadEdges(uri);
+  ExpectHeadHoldsExactly(after_beta, expected_edges, after_alpha);
+  server.process->Signal(SIGTERM);
+  server.process->Wait(milliseconds(10'000));
+
+  // The robot's whole map pushed again (as `fleetmap push --map` would): its derived edges come
+  // back, are recognised and dropped, and the map does not change.
+  const GraphBatch whole =
+      GraphStore::Open("sqlite:" + (beta.map_dir / "map.db").string())->ReadMap();
+  ASSERT_FALSE(contracted.empty());
+  std::unique_ptr<Repository> repository = Repository::Open(uri);
+  const Uuid again = Uuid::Generate();
+  repository->Push(again, beta.id, "beta, whole map", whole);
+  const MergeOutcome outcome = repository->Merge(again);
+  EXPECT_EQ(outcome.report.nodes_added, 0u);
+  EXPECT_GE(outcome.report.derived_edges, contracted.size());
+  EXPECT_EQ(outcome.report.path_edges_added, 0u);
+  EXPECT_EQ(outcome.report.metric_edges_added, 0u);
+  EXPECT_EQ(HeadNodeIds(uri), expected_nodes);
+  std::set<Uuid> before, after;
+  for (const auto& [id, edge] : after_beta) before.insert(id);
+  for (const auto& [id, edge] : HeadEdges(uri)) after.insert(id);
+  EXPECT_EQ(after, before) << "the whole map again changed the map";
 }
 
 // Landmarks with a stereo camera (issue 18) through the whole fleet: pushed by one robot,

@@ -14,8 +14,12 @@
 
 namespace fleetmap {
 
-// Hello.protocol_version this build speaks: 3, downloads streamed (sync.proto "Versions").
-inline constexpr std::uint32_t kSyncProtocolVersion = 3;
+// Hello.protocol_version this build speaks: 4, downloads streamed and carrying path memory and
+// metric edges contracted over the nodes they leave out (sync.proto "Versions").
+inline constexpr std::uint32_t kSyncProtocolVersion = 4;
+// The first version whose downloads carry contracted edges (subset_contraction.h): older robots
+// are sent the edges with both ends kept, as they always were.
+inline constexpr std::uint32_t kFirstContractingSyncProtocolVersion = 4;
 // The oldest version a server still answers (in that version): 2, downloads encoded whole before
 // the first byte. A server refuses anything outside [oldest, current] (UNSUPPORTED_VERSION).
 inline constexpr std::uint32_t kOldestSyncProtocolVersion = 2;
