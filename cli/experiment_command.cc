@@ -14,6 +14,8 @@
 #include "fleetmap/core/uuid.h"
 #include "fleetmap/experiments/fleet_experiment.h"
 #include "fleetmap/experiments/fleet_report.h"
+#include "fleetmap/experiments/lifelong_experiment.h"
+#include "fleetmap/experiments/lifelong_report.h"
 #include "fleetmap/experiments/ranking_experiment.h"
 #include "fleetmap/experiments/ranking_report.h"
 #include "fleetmap/world/world_config.h"
@@ -104,6 +106,7 @@ struct FleetArgs {
   int threads = 2;
   int dream_folds = 1;
   bool no_sharing = false;
+  bool no_frontier = false;
   CoverageOptions coverage;
   int seed = -1;
   std::string seeds;  // "N" (N seeds from the world's) or "a,b,c"; empty: the world's seed
@@ -172,6 +175,7 @@ void RunFleet(const FleetArgs& args) {
   options.threads = args.threads;
   options.dream_folds = args.dream_folds;
   options.sharing = !args.no_sharing;
+  options.frontier = !args.no_frontier;
   options.coverage = args.coverage;
   options.merge.omit_localised_fraction = args.omit_fraction;
   options.merge.decision_length_m = args.stretch_m;
@@ -206,11 +210,68 @@ void RunFleet(const FleetArgs& args) {
   for (const FleetSeedRun& run : runs) verdicts.push_back(JudgeFleet(run.result));
   const FleetAcceptance acceptance = JudgeFleetSeeds(verdicts);
   if (!acceptance.all()) {
-    std::cerr << "note: acceptance lines failed (issue 19):\n";
+    std::cerr << "note: acceptance lines failed (issues 19 and 34):\n";
     for (const FleetLine& line : acceptance.lines) {
       if (line.judged && !line.pass) std::cerr << "  " << line.name << ": " << line.why << "\n";
     }
   }
+}
+
+struct LifelongArgs {
+  std::string world_file;
+  std::string out_dir = "experiment-lifelong";
+  int days = LifelongOptions{}.days;
+  int per_day = LifelongOptions{}.forays_per_day;
+  std::string policies = "tod+cover,tod+paths+cover";
+  std::string build_policy = "path";
+  int threads = 2;
+  int seed = -1;
+  std::string seeds;
+};
+
+std::vector<std::string> SplitList(const std::string& text) {
+  std::vector<std::string> parts;
+  std::size_t start = 0;
+  while (start <= text.size()) {
+    const std::size_t comma = std::min(text.find(',', start), text.size());
+    if (comma > start) parts.push_back(text.substr(start, comma - start));
+    start = comma + 1;
+  }
+  return parts;
+}
+
+void RunLifelong(const LifelongArgs& args) {
+  LifelongOptions options;
+  if (!args.world_file.empty()) options.world = LoadWorldConfig(args.world_file);
+  if (args.seed >= 0) options.world.seed = static_cast<std::uint64_t>(args.seed);
+  options.days = args.days;
+  options.forays_per_day = args.per_day;
+  options.policies = SplitList(args.policies);
+  options.build_policy = args.build_policy;
+  options.threads = args.threads;
+  FleetArgs seed_args;
+  seed_args.seeds = args.seeds;
+  seed_args.seed = args.seed;
+  const std::vector<std::uint64_t> seeds = FleetSeeds(seed_args, options.world.seed);
+  std::cerr << "lifelong experiment: " << seeds.size() << " world seed(s), " << options.days
+            << " days of " << options.forays_per_day << " forays, " << options.threads
+            << " threads; results in " << args.out_dir << "\n";
+  std::vector<LifelongSeedRun> runs;
+  for (std::size_t i = 0; i < seeds.size(); ++i) {
+    LifelongOptions seed_options = options;
+    seed_options.world.seed = seeds[i];
+    const ScratchWorkDir work("fleetmap-lifelong-");
+    seed_options.work_dir = work.path;
+    ProgressBar bar("lifelong seed " + std::to_string(i + 1) + "/" + std::to_string(seeds.size()) +
+                        " (" + std::to_string(seeds[i]) + ")",
+                    std::cerr);
+    runs.push_back({seeds[i], RunLifelongExperiment(seed_options,
+                                                    [&bar](std::int64_t done, std::int64_t total) {
+                                                      bar.Update(done, total);
+                                                    })});
+    bar.Finish();
+  }
+  std::cout << WriteLifelongReport(runs, options, args.out_dir, std::cerr);
 }
 
 }  // namespace
@@ -303,6 +364,9 @@ void AddExperimentCommand(CLI::App& app) {
                    "MERGE decides inclusion per stretch of a segment this long (metres)")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
+  fleet->add_flag("--no-frontier", fleet_args->no_frontier,
+                  "Skip the frontier (each download policy with its knobs swept; issue 34): "
+                  "about a third less work; its judged line then fails as not run");
   fleet->add_option("--threads", fleet_args->threads, "Worker threads")
       ->capture_default_str()
       ->check(CLI::Range(1, 256));
@@ -313,6 +377,45 @@ void AddExperimentCommand(CLI::App& app) {
                     "N - 1 after it) or a comma list such as 1,2,7. Default: the world's seed "
                     "alone. Each seed's CSVs go to --out/seed-<seed>/");
   fleet->callback([fleet_args] { RunFleet(*fleet_args); });
+
+  auto lifelong_args = std::make_shared<LifelongArgs>();
+  CLI::App* lifelong = experiment->add_subcommand(
+      "lifelong",
+      "A map that stops growing (issue 34): forays merged day after day; per day the nodes "
+      "MERGE added, the map's size, and the next day's forays localised (held out, before they "
+      "drive) with copy and with their downloads. Writes lifelong.csv, lifelong.png and "
+      "summary.md to --out and prints the summary.");
+  lifelong->add_option("--world", lifelong_args->world_file,
+                       "World file (JSON; see experiments/worlds/default.json)");
+  lifelong
+      ->add_option("--days", lifelong_args->days,
+                   "Days merged (the growth line compares "
+                   "days 21-30 with 1-10 from 30 days on)")
+      ->capture_default_str()
+      ->check(CLI::Range(3, 3650));
+  lifelong->add_option("--forays-per-day", lifelong_args->per_day, "Forays each day")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 100));
+  lifelong
+      ->add_option("--policies", lifelong_args->policies,
+                   "Downloads localised beside copy, comma separated (download_policy.h names)")
+      ->capture_default_str();
+  lifelong
+      ->add_option("--build-policy", lifelong_args->build_policy,
+                   "How a foray's builder ranks candidates: path (Γ(path), as the fleet's robots "
+                   "localise) or distance (Γ(distance), the paper's baseline)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"path", "distance"}));
+  lifelong->add_option("--out", lifelong_args->out_dir, "Directory for CSVs, plots and summary.md")
+      ->capture_default_str();
+  lifelong->add_option("--threads", lifelong_args->threads, "Worker threads")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 256));
+  lifelong->add_option("--seed", lifelong_args->seed, "Override the world file's seed");
+  lifelong->add_option("--seeds", lifelong_args->seeds,
+                       "World seeds: a count N (the world's seed and the N - 1 after it) or a "
+                       "comma list; each seed's files go to --out/seed-<seed>/");
+  lifelong->callback([lifelong_args] { RunLifelong(*lifelong_args); });
 
   AddRealExperimentCommand(*experiment);
 }

@@ -122,6 +122,28 @@ TEST_F(FleetExperimentTest, EveryFigureIsBuiltAndLocalisedOnTheHeldOutFrames) {
     EXPECT_EQ(downloads[policy], 8u) << policy;
   }
 
+  // The frontier (issue 34 item 4): every point on every fold, each over the fold's held-out
+  // outings, never more nodes than copy, every frame counted; Fig. 9's policies among them.
+  std::map<std::string, int> folds_of_point;
+  for (const FleetFrontierPoint& point : result.frontier) {
+    ++folds_of_point[point.label];
+    EXPECT_EQ(point.downloads, 2u) << point.label;
+    EXPECT_LE(point.node_share_sum, 2.0 + 1e-9) << point.label;
+    EXPECT_EQ(point.frames, frames_of_fold.at(point.fold)) << point.label;
+    EXPECT_LE(point.beyond_10m, point.frames);
+  }
+  EXPECT_GE(folds_of_point.size(), 10u);
+  for (const auto& [label, folds] : folds_of_point) EXPECT_EQ(folds, 4) << label;
+  for (const char* policy :
+       {"tod", "tod+paths", "tod+cover", "tod+paths+cover", "tod+cover k=1 cap=1", "tod T_w=60"}) {
+    EXPECT_TRUE(folds_of_point.contains(policy)) << policy;
+  }
+  // Every download of a subset carries edges contracted over what it left out (issue 34 item 1)
+  // whenever it left something out.
+  for (const FleetDownload& d : result.downloads) {
+    if (d.nodes == d.copy_nodes) EXPECT_EQ(d.derived_edges, 0u) << d.policy;
+  }
+
   // The merge diagnosis per fold, and EBN's cost per frame per single-agent outing.
   ASSERT_EQ(result.merge_diagnoses.size(), 4u);
   for (const FleetMergeDiagnosis& d : result.merge_diagnoses) {
@@ -129,6 +151,13 @@ TEST_F(FleetExperimentTest, EveryFigureIsBuiltAndLocalisedOnTheHeldOutFrames) {
     EXPECT_GT(d.stretches, 0u);
     EXPECT_LE(d.merged_only_lost, d.merged_lost);
     EXPECT_LE(d.merged_only_lost_where_fewer, d.merged_only_lost);
+    // Each frame lost only in the merged map lands in exactly one reach category.
+    const FleetReach& r = d.reach;
+    EXPECT_EQ(r.lost, d.merged_only_lost);
+    EXPECT_EQ(r.lost, r.no_node_near + r.none_localises + r.not_candidate + r.not_tried + r.tried);
+    EXPECT_EQ(r.not_candidate,
+              r.not_candidate_lost + r.not_candidate_unreached + r.not_candidate_placed_far);
+    EXPECT_EQ(r.tried, 0) << "the localiser is deterministic: a right node tried localises";
   }
   EXPECT_EQ(result.frame_costs.size(), 4u * 6u);  // 4 folds, 6 training outings each
   for (const FleetFrameCost& cost : result.frame_costs) {
@@ -159,7 +188,7 @@ TEST_F(FleetExperimentTest, EveryFigureIsBuiltAndLocalisedOnTheHeldOutFrames) {
   EXPECT_TRUE(std::filesystem::exists(dir_ / "out" / "summary.md"));
   for (const char* file :
        {"fig7_builds.csv", "heldout_runs.csv", "fig7_p_gap.csv", "fig8_p_gap.csv", "fig9_p_gap.csv",
-        "fig9_downloads.csv", "fig10_orders.csv", "fig10_p_gap.csv"}) {
+        "fig9_downloads.csv", "fig10_orders.csv", "fig10_p_gap.csv", "frontier.csv"}) {
     EXPECT_TRUE(std::filesystem::exists(dir_ / "out" / "seed-1" / file)) << file;  // world seed
   }
   EXPECT_NE(summary.find("## Acceptance"), std::string::npos);

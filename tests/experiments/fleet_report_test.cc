@@ -1,5 +1,5 @@
-// Issue 19's judgement of the fleet experiment on hand-made results (no experiment runs): every
-// acceptance line fails on its own when its figure is out of bounds, probabilities compare as
+// Issues 19 and 34's judgement of the fleet experiment on hand-made results (no experiment runs):
+// every acceptance line fails on its own when its figure is out of bounds, probabilities compare as
 // Laplace-smoothed ratios (so 0.043 against 0.003 fails, where the old "within 5 points" passed),
 // a policy not run fails, and over seeds the mean must meet the bound with no seed beyond twice
 // it. The report names every seed and writes each seed's files in its own folder.
@@ -42,6 +42,19 @@ FleetDownload Download(const std::string& policy, std::size_t nodes) {
   return d;
 }
 
+// A frontier point of 10 downloads at `share` of copy's nodes with `beyond` frames of kFrames
+// beyond 10 m.
+FleetFrontierPoint Point(const std::string& label, double share, std::int64_t beyond) {
+  FleetFrontierPoint point;
+  point.label = label;
+  point.policy = label.substr(0, label.find(' '));
+  point.downloads = 10;
+  point.node_share_sum = 10 * share;
+  point.frames = kFrames;
+  point.beyond_10m = beyond;
+  return point;
+}
+
 // One fold that meets every line: merged 70 % of single-agent's nodes, the merging strategy
 // 35 % of its wall time, downloads 70 % and 60 % of copy, probabilities equal to the references.
 FleetExperimentResult GoodResult() {
@@ -57,6 +70,9 @@ FleetExperimentResult GoodResult() {
             HeldOut("tod+paths+cover", 30, 1000)};
   r.downloads = {Download("copy", 1000), Download("tod", 800), Download("tod+paths", 700),
                  Download("tod+cover", 700), Download("tod+paths+cover", 600)};
+  // The frontier: one point at half of copy's nodes failing 1.4 x as often as copy (30 frames of
+  // 10000 beyond 10 m), and one smaller that fails far more.
+  r.frontier = {Point("tod+cover k=1 cap=1", 0.50, 42), Point("tod T_w=60", 0.30, 400)};
   return r;
 }
 
@@ -124,10 +140,16 @@ void ExpectOnlyFailure(const FleetExperimentResult& r, const std::string& line, 
   EXPECT_EQ(Failed(v), Names{line});
 }
 
-TEST(FleetJudgeTest, MergedMapTooLargeFails) {
+TEST(FleetJudgeTest, MergedMapLargerThanSingleAgentsFails) {
   FleetExperimentResult r = GoodResult();
-  BuildOf(r, "merge 2").nodes = 850;
-  ExpectOnlyFailure(r, "merged nodes / single-agent nodes", 0.85);
+  BuildOf(r, "merge 2").nodes = 1050;
+  ExpectOnlyFailure(r, "merged nodes / single-agent nodes", 1.05);
+}
+
+TEST(FleetJudgeTest, MergedMapAsLargeAsSingleAgentsPasses) {
+  FleetExperimentResult r = GoodResult();
+  BuildOf(r, "merge 2").nodes = 1000;
+  EXPECT_TRUE(JudgeFleet(r).all());
 }
 
 TEST(FleetJudgeTest, MergedP10RatioOf1Point3Fails) {
@@ -142,18 +164,56 @@ TEST(FleetJudgeTest, MergedNotLocalisedRatioOf1Point2Fails) {
   ExpectOnlyFailure(r, "merged not localised / single-agent's", 1.2);
 }
 
-TEST(FleetJudgeTest, TodCoverAt85PercentOfCopyFails) {
+TEST(FleetJudgeTest, TodCoverAt76PercentOfCopyFails) {
   FleetExperimentResult r = GoodResult();
-  SetDownloads(r, "tod+cover", 850);
+  SetDownloads(r, "tod+cover", 760);
   const FleetVerdict v = JudgeFleet(r);
   EXPECT_EQ(Failed(v), Names{"tod+cover nodes / copy's"});
 }
 
-TEST(FleetJudgeTest, TodPathsCoverAt75PercentOfCopyFails) {
+TEST(FleetJudgeTest, TodPathsCoverAt61PercentOfCopyFails) {
   FleetExperimentResult r = GoodResult();
-  SetDownloads(r, "tod+paths+cover", 750);
+  SetDownloads(r, "tod+paths+cover", 610);
   const FleetVerdict v = JudgeFleet(r);
   EXPECT_EQ(Failed(v), Names{"tod+paths+cover nodes / copy's"});
+}
+
+constexpr char kFrontier[] = "frontier: P(X > 10 m) / copy's at <= 0.50 of copy's nodes";
+
+TEST(FleetJudgeTest, TheFrontierLinePassesOnItsBestPointAtHalfOfCopy) {
+  const FleetVerdict v = JudgeFleet(GoodResult());
+  EXPECT_NEAR(Line(v, kFrontier).value, 43.0 / 31.0, 1e-12);  // (42 + 1) / (30 + 1)
+  EXPECT_NE(Line(v, kFrontier).detail.find("tod+cover k=1 cap=1"), std::string::npos);
+}
+
+TEST(FleetJudgeTest, AFrontierWhosePointsAtHalfOfCopyFailTooOftenFails) {
+  FleetExperimentResult r = GoodResult();
+  r.frontier[0].beyond_10m = 50;  // (50 + 1) / (30 + 1) = 1.65 > 1.5
+  EXPECT_EQ(Failed(JudgeFleet(r)), Names{kFrontier});
+}
+
+TEST(FleetJudgeTest, AFrontierWithNoPointAtHalfOfCopyFails) {
+  FleetExperimentResult r = GoodResult();
+  r.frontier = {Point("tod+cover", 0.51, 10)};
+  EXPECT_EQ(Failed(JudgeFleet(r)), Names{kFrontier});
+  r.frontier.clear();
+  const FleetVerdict v = JudgeFleet(r);
+  EXPECT_EQ(Failed(v), Names{kFrontier});
+  EXPECT_EQ(Line(v, kFrontier).detail, "not run");
+}
+
+TEST(FleetJudgeTest, FrontierPointsAreThoseNoOtherBeatsOnBothAxes) {
+  FleetExperimentResult r = GoodResult();
+  r.frontier.push_back(Point("tod+cover k=3", 0.90, 20));  // fewer failures, more nodes: on it
+  r.frontier.push_back(Point("tod+paths+cover p=25", 0.60, 60));  // beaten by k=1 cap=1: off
+  const std::vector<FrontierSummary> points = SummariseFrontier(r);
+  ASSERT_EQ(points.size(), 4u);
+  std::vector<std::string> on;
+  for (const FrontierSummary& p : points) {
+    if (p.on_frontier) on.push_back(p.label);
+  }
+  EXPECT_EQ(on, (Names{"tod T_w=60", "tod+cover k=1 cap=1", "tod+cover k=3"}));
+  EXPECT_NEAR(points[0].node_share, 0.30, 1e-12);  // sorted by share
 }
 
 // The case the old judge passed: |0.043 - 0.003| is within 5 points, yet the download leaves
@@ -166,14 +226,15 @@ TEST(FleetJudgeTest, TodCoverP10Of0Point043AgainstCopys0Point003Fails) {
   EXPECT_EQ(Failed(v), Names{"tod+cover P(X > 10 m) / copy's"});
 }
 
-TEST(FleetJudgeTest, MergingWallAt60PercentOfSingleAgentsFails) {
+// Merging time is issue 39's line (on CPU); here it is reported, never judged.
+TEST(FleetJudgeTest, MergingWallIsReportedNotJudged) {
   FleetExperimentResult r = GoodResult();
   BuildOf(r, "group 0").wall_seconds = 30.0;
   for (const char* merge : {"merge 0", "merge 1", "merge 2"}) BuildOf(r, merge).wall_seconds = 10.0;
   const FleetVerdict v = JudgeFleet(r);
   EXPECT_NEAR(Line(v, "merging wall (groups in parallel) / single-agent wall").value, 0.6, 1e-12);
-  EXPECT_EQ(Failed(v), Names{"merging wall (groups in parallel) / single-agent wall"});
-  // CPU is reported beside, not judged: unchanged here.
+  EXPECT_FALSE(Line(v, "merging wall (groups in parallel) / single-agent wall").judged);
+  EXPECT_TRUE(v.all());
   EXPECT_NEAR(Line(v, "merging CPU (groups in parallel) / single-agent CPU").value, 0.35, 1e-12);
 }
 
@@ -224,6 +285,7 @@ TEST(FleetJudgeTest, OneFrameBeyondAgainstNoneIn10000IsARatioOfTwoAndFails) {
   RunOf(r, "copy") = HeldOut("copy", 0, 1000);
   RunOf(r, "tod+cover") = HeldOut("tod+cover", 1, 1000);
   RunOf(r, "tod+paths+cover") = HeldOut("tod+paths+cover", 0, 1000);
+  r.frontier[0].beyond_10m = 0;  // copy fails nowhere: so does the frontier's point
   const FleetVerdict v = JudgeFleet(r);
   EXPECT_DOUBLE_EQ(Line(v, "tod+cover P(X > 10 m) / copy's").value, 2.0);
   EXPECT_EQ(Failed(v), Names{"tod+cover P(X > 10 m) / copy's"});
@@ -305,7 +367,7 @@ TEST(FleetReportTest, TwoSeedsWriteTheirFilesAndOneSummaryJudgedOverBoth) {
   seeds[0].result.dream_timings.push_back(timing);
   seeds[1].seed = 8;
   seeds[1].result = GoodResult();
-  SetDownloads(seeds[1].result, "tod+cover", 1000);  // mean 0.85 > 0.80
+  SetDownloads(seeds[1].result, "tod+cover", 1000);  // mean 0.85 > 0.75
   seeds[1].result.runs.push_back(HeldOut("merged paper", 99, 1999));
 
   FleetExperimentOptions options;
@@ -318,18 +380,21 @@ TEST(FleetReportTest, TwoSeedsWriteTheirFilesAndOneSummaryJudgedOverBoth) {
       EXPECT_TRUE(std::filesystem::exists(dir / "out" / seed / file)) << seed << "/" << file;
     }
   }
-  EXPECT_NE(summary.find("## Acceptance (issue 19)"), std::string::npos);
+  EXPECT_NE(summary.find("## Acceptance (issues 19 and 34)"), std::string::npos);
   EXPECT_NE(summary.find("## Seed 3"), std::string::npos);
   EXPECT_NE(summary.find("## Seed 8"), std::string::npos);
   EXPECT_NE(summary.find("| seed 3 | seed 8 |"), std::string::npos);
   EXPECT_NE(summary.find("67.57 %"), std::string::npos) << "the paper's figure beside ours";
-  // tod+cover's nodes: 0.70 and 1.00, mean 0.85 over a bound of 0.80.
-  const std::size_t row = summary.find("| tod+cover nodes / copy's | ≤ 0.80 |");
+  // tod+cover's nodes: 0.70 and 1.00, mean 0.85 over a bound of 0.75.
+  const std::size_t row = summary.find("| tod+cover nodes / copy's | ≤ 0.75 |");
   ASSERT_NE(row, std::string::npos);
   const std::string tod_cover = summary.substr(row, summary.find('\n', row) - row);
   EXPECT_NE(tod_cover.find("0.850"), std::string::npos) << tod_cover;
-  EXPECT_NE(tod_cover.find("**FAIL** (mean 0.850 > 0.80)"), std::string::npos) << tod_cover;
-  const std::size_t merged = summary.find("| merged nodes / single-agent nodes | ≤ 0.80 |");
+  EXPECT_NE(tod_cover.find("**FAIL** (mean 0.850 > 0.75)"), std::string::npos) << tod_cover;
+  // The frontier's own table and files.
+  EXPECT_NE(summary.find("The frontier an operator picks from"), std::string::npos);
+  EXPECT_TRUE(std::filesystem::exists(dir / "out" / "seed-3" / "frontier.csv"));
+  const std::size_t merged = summary.find("| merged nodes / single-agent nodes | ≤ 1.00 |");
   ASSERT_NE(merged, std::string::npos);
   EXPECT_NE(summary.substr(merged, summary.find('\n', merged) - merged).find("**PASS**"),
             std::string::npos);

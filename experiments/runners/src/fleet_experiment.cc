@@ -1,10 +1,11 @@
 #include "fleetmap/experiments/fleet_experiment.h"
 
-#include <time.h>
-
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <deque>
+#include <functional>
+#include <limits>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -15,6 +16,7 @@
 #include <unordered_set>
 
 #include "fleetmap/core/error.h"
+#include "fleetmap/ebn/localiser.h"
 #include "fleetmap/experiments/task_queue.h"
 #include "fleetmap/policies/download_policy.h"
 #include "fleetmap/policies/dreaming.h"
@@ -26,6 +28,8 @@
 #include "fleetmap/store/graph_store.h"
 #include "fleetmap/world/world.h"
 #include "fleetmap/world/world_runs.h"
+#include "outing_runs.h"
+#include "work_progress.h"
 
 namespace fleetmap {
 namespace {
@@ -34,13 +38,6 @@ using Clock = std::chrono::steady_clock;
 
 double SecondsSince(Clock::time_point start) {
   return std::chrono::duration<double>(Clock::now() - start).count();
-}
-
-// CPU seconds of the calling thread: a task's cost without the time other tasks took from it.
-double ThreadCpuSeconds() {
-  timespec t{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
-  return static_cast<double>(t.tv_sec) + static_cast<double>(t.tv_nsec) * 1e-9;
 }
 
 void Validate(const FleetExperimentOptions& o) {
@@ -63,13 +60,47 @@ void Validate(const FleetExperimentOptions& o) {
   if (o.work_dir.empty()) fail("work_dir must be set");
 }
 
-PathMemory MemoryOf(const GraphBatch& map) {
-  PathMemory memory;
-  for (const Edge& edge : map.edges) {
-    if (edge.kind == EdgeKind::kPath) memory.AddPathEdge(edge.path, edge.from, edge.to);
+// What the localiser did with one held-out frame: the candidates Γ ranked, best first, and the
+// nodes it tried (relocalisation's included), for the merge diagnosis.
+struct FrameTrace {
+  Uuid reference;  // n_k when it ranked (nil: no candidates, nothing ranked)
+  std::vector<Uuid> ranked;
+  std::vector<Uuid> tried;
+};
+
+// The fleet's ranking policy, unchanged, keeping a FrameTrace per localiser iteration (the
+// builder runs exactly one per frame, ranking at most once before it).
+class TracingRanking final : public RankingPolicy {
+ public:
+  TracingRanking(RankingPolicy& inner, std::vector<FrameTrace>& traces)
+      : inner_(inner), traces_(traces) {}
+  std::string name() const override { return inner_.name(); }
+  void Rank(const Uuid& reference, std::vector<Candidate>& candidates) override {
+    inner_.Rank(reference, candidates);
+    reference_ = reference;
+    ranked_.clear();
+    for (const Candidate& candidate : candidates) ranked_.push_back(candidate.node);
   }
-  return memory;
-}
+  void ObserveIteration(std::span<const LocalisationAttempt> attempts) override {
+    inner_.ObserveIteration(attempts);
+    FrameTrace& trace = traces_.emplace_back();
+    trace.reference = reference_;
+    trace.ranked = std::move(ranked_);
+    ranked_.clear();
+    reference_ = Uuid();
+    for (const LocalisationAttempt& attempt : attempts) trace.tried.push_back(attempt.node);
+  }
+  void ObservePathEdge(const Uuid& path, const Uuid& from, const Uuid& to) override {
+    inner_.ObservePathEdge(path, from, to);
+  }
+  void StartOuting() override { inner_.StartOuting(); }
+
+ private:
+  RankingPolicy& inner_;
+  std::vector<FrameTrace>& traces_;
+  Uuid reference_;
+  std::vector<Uuid> ranked_;
+};
 
 // A map an EBN instance built, and what it cost.
 struct BuiltMap {
@@ -90,6 +121,9 @@ struct FoldState {
   // (ground truth) and which held-out frames each localised.
   std::vector<Eigen::Vector3d> single_places, merged_places;
   std::vector<char> single_localised, merged_localised;
+  // The merged map and what its localiser did per held-out frame (the reach diagnosis).
+  std::shared_ptr<const ExperienceMap> merged_map;
+  std::vector<FrameTrace> merged_traces;
 };
 
 class FleetRun {
@@ -165,20 +199,24 @@ class FleetRun {
                                                      std::to_string(options_.folds) + " folds");
       }
     }
-    total_work_ = 0;
+    std::int64_t total = 0;
     for (const FoldState& fold : folds_) {
       const std::int64_t training = Frames(fold.training), test = Frames(fold.test);
       // single + groups + alone (both robots) + shared forays; held-out runs: single, merged,
       // r1, r2, shared, five downloads, and the orders when dreaming.
-      total_work_ += (options_.sharing ? 4 : 2) * training + (options_.sharing ? 10 : 7) * test;
+      total += (options_.sharing ? 4 : 2) * training + (options_.sharing ? 10 : 7) * test;
+      if (options_.frontier) {
+        total += static_cast<std::int64_t>(FrontierPoints().size()) * test;
+      }
       if (fold.number < options_.dream_folds) {
         std::int64_t orders = 1;
         for (std::size_t k = 2; k <= fold.groups.size(); ++k) {
           orders *= static_cast<std::int64_t>(k);
         }
-        total_work_ += orders * test;
+        total += orders * test;
       }
     }
+    progress_.Plan(total);
   }
 
   std::int64_t Frames(const std::vector<std::size_t>& outings) const {
@@ -187,13 +225,7 @@ class FleetRun {
     return n;
   }
 
-  void Advance(std::int64_t frames) {
-    const std::int64_t done = work_done_.fetch_add(frames) + frames;
-    if (progress_) {
-      const std::lock_guard lock(progress_mutex_);
-      progress_(done, total_work_);
-    }
-  }
+  void Advance(std::int64_t frames) { progress_.Advance(frames); }
 
   BuilderOptions Builder(bool localise_only, int cores) const {
     BuilderOptions builder = options_.builder;
@@ -245,42 +277,63 @@ class FleetRun {
   }
 
   // The held-out outings `outings` localised in `map` by the fleet's localiser.
+  // With `traces`, what the localiser ranked and tried at each frame is appended to it.
   HeldOutRun Localise(const std::string& name, int fold, const ExperienceMap& map,
-                      const PathMemory& memory, const std::vector<std::size_t>& outings) {
+                      const PathMemory& memory, const std::vector<std::size_t>& outings,
+                      std::vector<FrameTrace>* traces = nullptr) {
     std::unique_ptr<RankingPolicy> policy;
     if (options_.test_policy == "path") {
       policy = std::make_unique<PathRanking>(memory, PathRankingOptions{options_.test_window});
     } else {
       policy = std::make_unique<DistanceRanking>();
     }
-    // Localise-only runs never write the map; the builder's interface takes it mutable.
-    ExperienceBuilder localiser(nullptr, const_cast<ExperienceMap&>(map), *policy,
-                                Builder(true, options_.test_cores));
+    if (traces != nullptr) policy = std::make_unique<OwningTracer>(std::move(policy), *traces);
+    OutingLocalisation localised;
+    for (std::size_t index : outings) {
+      LocaliseOuting(map, *policy, Builder(true, options_.test_cores),
+                     DepotStart(outings_[index], map), frames_[index], localised);
+      Advance(static_cast<std::int64_t>(frames_[index].size()));
+    }
     HeldOutRun run;
     run.map = name;
     run.fold = fold;
     run.map_nodes = map.size();
-    for (std::size_t index : outings) {
-      localiser.StartOuting(DepotStart(outings_[index], map));
-      for (const Frame& frame : frames_[index]) {
-        const FrameReport report = localiser.Process(frame);
-        ++run.frames;
-        run.localised_frames += report.successes > 0 ? 1 : 0;
-        run.gaps_m.push_back(static_cast<float>(report.distance_since_success_m));
-        run.localised.push_back(report.successes > 0 ? 1 : 0);
-        run.references.push_back(report.successes > 0 ? report.reference : Uuid());
-      }
-      localiser.FinishOuting();
-      Advance(static_cast<std::int64_t>(frames_[index].size()));
-    }
+    run.frames = localised.frames();
+    run.localised_frames = run.frames - localised.not_localised();
+    run.gaps_m = std::move(localised.gaps_m);
+    run.localised = std::move(localised.localised);
+    run.references = std::move(localised.references);
     return run;
   }
 
   HeldOutRun LocaliseContent(const std::string& name, int fold, const GraphBatch& content,
-                             const std::vector<std::size_t>& outings) {
+                             const std::vector<std::size_t>& outings,
+                             std::vector<FrameTrace>* traces = nullptr) {
     const ExperienceMap map = ExperienceMap::FromGraph(content.nodes, content.edges, vocabulary_);
-    return Localise(name, fold, map, MemoryOf(content), outings);
+    return Localise(name, fold, map, PathMemoryOf(content), outings, traces);
   }
+
+  // A TracingRanking that owns the policy it wraps.
+  class OwningTracer final : public RankingPolicy {
+   public:
+    OwningTracer(std::unique_ptr<RankingPolicy> inner, std::vector<FrameTrace>& traces)
+        : inner_(std::move(inner)), tracer_(*inner_, traces) {}
+    std::string name() const override { return tracer_.name(); }
+    void Rank(const Uuid& reference, std::vector<Candidate>& candidates) override {
+      tracer_.Rank(reference, candidates);
+    }
+    void ObserveIteration(std::span<const LocalisationAttempt> attempts) override {
+      tracer_.ObserveIteration(attempts);
+    }
+    void ObservePathEdge(const Uuid& path, const Uuid& from, const Uuid& to) override {
+      tracer_.ObservePathEdge(path, from, to);
+    }
+    void StartOuting() override { tracer_.StartOuting(); }
+
+   private:
+    std::unique_ptr<RankingPolicy> inner_;
+    TracingRanking tracer_;
+  };
 
   std::string StorePath(const FoldState& fold, const std::string& name) const {
     return "fold-" + std::to_string(fold.number) + "-" + name;
@@ -360,7 +413,10 @@ class FleetRun {
       RecordBuild(build);
     }
     const GraphBatch merged = repository->Checkout();
-    HeldOutRun merged_run = LocaliseContent("merged", fold.number, merged, fold.test);
+    fold.merged_map = std::make_shared<const ExperienceMap>(
+        ExperienceMap::FromGraph(merged.nodes, merged.edges, vocabulary_));
+    HeldOutRun merged_run = Localise("merged", fold.number, *fold.merged_map, PathMemoryOf(merged),
+                                     fold.test, &fold.merged_traces);
     fold.merged_places = Places(merged);
     fold.merged_localised = merged_run.localised;
     RecordRun(std::move(merged_run));
@@ -394,7 +450,11 @@ class FleetRun {
       for (std::size_t index : fold.test) {
         policy.mission_start_min = outings_[index].start_time_h * 60.0;
         const Download download = repository->SelectForDownload(policy);
-        const HeldOutRun one = LocaliseContent(name, fold.number, download.map, {index});
+        const ExperienceMap map =
+            ExperienceMap::FromGraph(download.map.nodes, download.map.edges, vocabulary_);
+        std::vector<FrameTrace> traces;
+        const HeldOutRun one =
+            Localise(name, fold.number, map, PathMemoryOf(download.map), {index}, &traces);
         run.frames += one.frames;
         run.localised_frames += one.localised_frames;
         run.gaps_m.insert(run.gaps_m.end(), one.gaps_m.begin(), one.gaps_m.end());
@@ -417,12 +477,87 @@ class FleetRun {
         row.stretches_reached_outside = download.report.stretches_reached_outside;
         row.nodes_on_chosen_paths = download.report.nodes_on_chosen_paths;
         row.map_paths = merged.paths.size();
+        row.derived_edges = download.report.derived_edges;
         DiagnoseDownload(index, merged, stamp_of, policy, download.map, one, copy_runs[index], row);
+        row.reach = Reach(map, {index}, one.localised, traces, copy_runs[index].localised);
         const std::lock_guard lock(result_mutex_);
         result_.downloads.push_back(row);
       }
       run.map_nodes = node_sum / std::max<std::size_t>(1, fold.test.size());
       RecordRun(std::move(run));
+    }
+    if (options_.frontier) Frontier(fold, *repository, depot, merged);
+  }
+
+  // Issue 34 item 4: the download policies' knobs swept; Fig. 9's own settings are points too.
+  std::vector<std::pair<std::string, DownloadPolicy>> FrontierPoints() const {
+    std::vector<std::pair<std::string, DownloadPolicy>> points;
+    const auto add = [&](const std::string& name, const std::string& label,
+                         const std::function<void(DownloadPolicy&)>& set) {
+      DownloadPolicy policy = ParseDownloadPolicy(name);
+      policy.window_min = options_.tod_window_min;
+      policy.best_percent = options_.paths_percent;
+      policy.epoch_min = options_.epoch_min;
+      policy.coverage = options_.coverage;
+      set(policy);
+      points.emplace_back(label.empty() ? name : name + " " + label, policy);
+    };
+    const auto nothing = [](DownloadPolicy&) {};
+    for (const std::string name : {"tod", "tod+paths", "tod+cover", "tod+paths+cover"}) {
+      add(name, "", nothing);
+    }
+    for (const double window : {60.0, 90.0, 120.0, 360.0}) {
+      const std::string label = "T_w=" + std::to_string(static_cast<int>(window));
+      for (const std::string name : {"tod", "tod+cover"}) {
+        add(name, label, [window](DownloadPolicy& p) { p.window_min = window; });
+      }
+    }
+    for (const int k : {1, 3}) {
+      add("tod+cover", "k=" + std::to_string(k),
+          [k](DownloadPolicy& p) { p.coverage.experiences = k; });
+    }
+    for (const auto& [k, cap] : {std::pair(1, 1), std::pair(1, 2), std::pair(2, 2), std::pair(2, 3),
+                                 std::pair(2, 4), std::pair(2, 6)}) {
+      add("tod+cover", "k=" + std::to_string(k) + " cap=" + std::to_string(cap),
+          [k = k, cap = cap](DownloadPolicy& p) {
+            p.coverage.experiences = k;
+            p.coverage.most_experiences = cap;
+          });
+    }
+    for (const double share : {25.0, 75.0}) {
+      add("tod+paths+cover", "p=" + std::to_string(static_cast<int>(share)),
+          [share](DownloadPolicy& p) { p.best_percent = share; });
+    }
+    return points;
+  }
+
+  void Frontier(const FoldState& fold, Repository& repository, const std::vector<Uuid>& depot,
+                const GraphBatch& merged) {
+    std::int64_t copy_bytes = 0;
+    for (const Node& node : merged.nodes) {
+      copy_bytes += static_cast<std::int64_t>(node.landmarks_blob.size());
+    }
+    for (auto& [label, policy] : FrontierPoints()) {
+      FleetFrontierPoint point;
+      point.label = label;
+      point.policy = policy.Name();
+      point.fold = fold.number;
+      policy.include = depot;
+      for (std::size_t index : fold.test) {
+        policy.mission_start_min = outings_[index].start_time_h * 60.0;
+        const Download download = repository.SelectForDownload(policy);
+        const HeldOutRun run = LocaliseContent(label, fold.number, download.map, {index});
+        ++point.downloads;
+        point.node_share_sum += static_cast<double>(download.map.nodes.size()) /
+                                static_cast<double>(std::max<std::size_t>(1, merged.nodes.size()));
+        point.bytes += download.report.bytes;
+        point.copy_bytes += copy_bytes;
+        point.frames += run.frames;
+        point.not_localised += run.frames - run.localised_frames;
+        for (const float gap : run.gaps_m) point.beyond_10m += gap > 10.0f ? 1 : 0;
+      }
+      const std::lock_guard lock(result_mutex_);
+      result_.frontier.push_back(point);
     }
   }
 
@@ -564,7 +699,86 @@ class FleetRun {
         ++frame;
       }
     }
+    if (fold.merged_map) {
+      d.reach = Reach(*fold.merged_map, fold.test, fold.merged_localised, fold.merged_traces,
+                      fold.single_localised);
+    }
     result_.merge_diagnoses.push_back(d);
+  }
+
+  // Issue 34 item 2 (fleet_experiment.h FleetReach): the held-out `outings` as localised in
+  // `map` (per frame: `localised`, `traces`) against a reference run's `reference_localised`.
+  FleetReach Reach(const ExperienceMap& map, const std::vector<std::size_t>& outings,
+                   const std::vector<char>& localised, const std::vector<FrameTrace>& traces,
+                   const std::vector<char>& reference_localised) const {
+    FleetReach reach;
+    if (traces.size() != localised.size()) return reach;
+    std::vector<std::pair<Eigen::Vector3d, ExperienceMap::NodeIndex>> placed;
+    for (ExperienceMap::NodeIndex n = 0; n < map.size(); ++n) {
+      if (const auto place = TruePlace(map.at(n).node)) placed.emplace_back(*place, n);
+    }
+    const Localiser oracle(options_.builder.localiser);
+    const double radius2 = options_.place_radius_m * options_.place_radius_m;
+    std::size_t frame = 0;
+    for (std::size_t outing : outings) {
+      for (const Frame& live : frames_[outing]) {
+        const std::size_t i = frame++;
+        if (i >= reference_localised.size() || !reference_localised[i] || localised[i] ||
+            !live.world_T_camera_truth) {
+          continue;
+        }
+        ++reach.lost;
+        const Eigen::Vector3d at = live.world_T_camera_truth->translation();
+        std::vector<Uuid> right;
+        bool near = false;
+        for (const auto& [place, node] : placed) {
+          if ((place - at).squaredNorm() > radius2) continue;
+          near = true;
+          if (oracle.Localise(live.landmarks, map.at(node).landmarks).success) {
+            right.push_back(map.at(node).node.id);
+          }
+        }
+        const FrameTrace& trace = traces[i];
+        const auto among = [&](const std::vector<Uuid>& ids) {
+          for (const Uuid& id : right) {
+            if (std::find(ids.begin(), ids.end(), id) != ids.end()) return true;
+          }
+          return false;
+        };
+        if (!near) {
+          ++reach.no_node_near;
+        } else if (right.empty()) {
+          ++reach.none_localises;
+        } else if (among(trace.tried)) {
+          ++reach.tried;
+        } else if (among(trace.ranked)) {
+          ++reach.not_tried;
+        } else {
+          ++reach.not_candidate;
+          const std::optional<ExperienceMap::NodeIndex> reference = map.Find(trace.reference);
+          if (trace.ranked.empty() || !reference) {
+            ++reach.not_candidate_lost;
+            continue;
+          }
+          if (const auto place = TruePlace(map.at(*reference).node);
+              place && (*place - at).norm() > 2.0 * options_.place_radius_m) {
+            ++reach.not_candidate_reference_far;
+          }
+          std::vector<Uuid> reached;
+          for (const ExperienceMap::Nearby& near_node : map.Neighbourhood(
+                   *reference, Eigen::Vector3d::Zero(), std::numeric_limits<double>::infinity(),
+                   options_.builder.search_radius_m)) {
+            reached.push_back(map.at(near_node.node).node.id);
+          }
+          if (among(reached)) {
+            ++reach.not_candidate_placed_far;
+          } else {
+            ++reach.not_candidate_unreached;
+          }
+        }
+      }
+    }
+    return reach;
   }
 
   // Fig. 8: two robots alone, and sharing through the server between their forays.
@@ -613,7 +827,7 @@ class FleetRun {
       std::string name = "order ";
       for (int g : *candidate.order) name += std::to_string(g);
       HeldOutRun run =
-          Localise(name, fold.number, *candidate.map, MemoryOf(*candidate.content), fold.test);
+          Localise(name, fold.number, *candidate.map, PathMemoryOf(*candidate.content), fold.test);
       const double score = ProbabilityGapExceeds(run, 10.0);
       RecordRun(std::move(run));
       return score;
@@ -688,7 +902,7 @@ class FleetRun {
   }
 
   const FleetExperimentOptions& options_;
-  const ProgressCallback& progress_;
+  WorkProgress progress_;
   World world_;
   std::vector<Outing> outings_;
   std::vector<std::vector<Frame>> frames_;
@@ -698,12 +912,23 @@ class FleetRun {
 
   std::mutex result_mutex_;
   FleetExperimentResult result_;
-  std::int64_t total_work_ = 0;
-  std::atomic<std::int64_t> work_done_{0};
-  std::mutex progress_mutex_;
 };
 
 }  // namespace
+
+FleetReach& FleetReach::operator+=(const FleetReach& other) {
+  lost += other.lost;
+  no_node_near += other.no_node_near;
+  none_localises += other.none_localises;
+  not_candidate += other.not_candidate;
+  not_candidate_lost += other.not_candidate_lost;
+  not_candidate_unreached += other.not_candidate_unreached;
+  not_candidate_placed_far += other.not_candidate_placed_far;
+  not_candidate_reference_far += other.not_candidate_reference_far;
+  not_tried += other.not_tried;
+  tried += other.tried;
+  return *this;
+}
 
 FleetExperimentResult RunFleetExperiment(const FleetExperimentOptions& options,
                                          const ProgressCallback& progress) {

@@ -13,6 +13,7 @@
 #include "fleetmap/store/graph_store.h"
 #include "fleetmap/world/world.h"
 #include "fleetmap/world/world_runs.h"
+#include "work_progress.h"
 
 namespace fleetmap {
 namespace {
@@ -124,12 +125,13 @@ class Experiment {
                                                      std::to_string(options_.folds) + " folds");
       }
     }
-    total_work_ = 0;
+    std::int64_t total = 0;
     for (const FoldState& fold : folds_) {
       const std::int64_t test = Frames(fold.test_outings);
-      total_work_ += Frames(fold.training_outings);
-      total_work_ += test * static_cast<std::int64_t>(RunsPerFold());
+      total += Frames(fold.training_outings);
+      total += test * static_cast<std::int64_t>(RunsPerFold());
     }
+    progress_.Plan(total);
   }
 
   std::int64_t Frames(const std::vector<std::size_t>& outings) const {
@@ -165,13 +167,7 @@ class Experiment {
     return DepotStart(outings_[outing], *fold.map);
   }
 
-  void Advance(std::int64_t frames) {
-    const std::int64_t done = work_done_.fetch_add(frames) + frames;
-    if (progress_) {
-      const std::lock_guard lock(progress_mutex_);
-      progress_(done, total_work_);
-    }
-  }
+  void Advance(std::int64_t frames) { progress_.Advance(frames); }
 
   FoldBuild Build(int fold_number) {
     const Clock::time_point start = Clock::now();
@@ -264,7 +260,7 @@ class Experiment {
   }
 
   const RankingExperimentOptions& options_;
-  const ProgressCallback& progress_;
+  WorkProgress progress_;
   World world_;
   std::vector<Outing> outings_;
   std::vector<std::vector<Frame>> frames_;
@@ -273,9 +269,6 @@ class Experiment {
 
   std::mutex runs_mutex_;
   std::vector<LocalisationRun> runs_;
-  std::int64_t total_work_ = 0;
-  std::atomic<std::int64_t> work_done_{0};
-  std::mutex progress_mutex_;
 };
 
 }  // namespace

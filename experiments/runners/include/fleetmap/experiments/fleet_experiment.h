@@ -58,6 +58,9 @@ struct FleetExperimentOptions {
   // Ground-truth radius of the diagnoses: a held-out frame "has an experience" in a map when
   // one of its nodes was captured within this distance of the frame.
   double place_radius_m = 5.0;
+  // Issue 34 item 4: each DOWNLOAD policy again with its knobs swept (window, cover k, cap,
+  // paths share), every held-out outing downloading and localising at each point.
+  bool frontier = true;
   // Fig. 10 runs on this many folds (0 skips it), each in all k! orders of its groups.
   int dream_folds = 1;
   // Fig. 8, two robots sharing: off for a quicker look at MERGE and DOWNLOAD (a third of the
@@ -96,6 +99,29 @@ struct FleetBuild {
   double merge_call_seconds = 0.0;
 };
 
+// Issue 34: could the localiser have reached the experience it needed? Each held-out frame a
+// map lost where a reference map localised it (merged vs single-agent's, a download vs copy),
+// by the map's nodes captured within place_radius_m of it (ground truth) and which of them
+// localise it when tried one by one (an oracle the robot lacks).
+struct FleetReach {
+  std::int64_t lost = 0;            // frames lost here, localised in the reference map
+  std::int64_t no_node_near = 0;    // none near
+  std::int64_t none_localises = 0;  // near ones, none localises: no experience for it
+  std::int64_t not_candidate = 0;   // one localises, none was among the candidates Y
+  // ... of those: no candidate at all (lost: the appearance search was its only chance); the
+  // right node not reached by the search from n_k (breadth-first to search_radius_m); reached,
+  // but placed beyond candidate_radius_m of the position estimate; and n_k itself captured
+  // beyond 2 place_radius_m of the frame (the estimate was elsewhere)
+  std::int64_t not_candidate_lost = 0;
+  std::int64_t not_candidate_unreached = 0;
+  std::int64_t not_candidate_placed_far = 0;
+  std::int64_t not_candidate_reference_far = 0;
+  std::int64_t not_tried = 0;  // a candidate, ranked below the Np tried
+  std::int64_t tried = 0;      // tried and failed anyway (never, with a deterministic localiser)
+
+  FleetReach& operator+=(const FleetReach& other);
+};
+
 // Fig. 9: one held-out outing's download.
 struct FleetDownload {
   int fold = 0;
@@ -126,6 +152,22 @@ struct FleetDownload {
   std::int64_t lost_copy_node_in_window = 0;
   std::int64_t lost_copy_node_outside_window = 0;
   double lost_copy_node_hours_away = 0.0;
+  std::size_t derived_edges = 0;  // path memory and metric edges contracted over nodes left out
+  FleetReach reach;               // of the frames lost where copy localised
+};
+
+// Issue 34 item 4: one policy at one setting of its knobs, on one fold: every held-out outing
+// downloaded for its own start time and localised in it. Fig. 9's own policies are points too.
+struct FleetFrontierPoint {
+  std::string label;   // the policy and its settings, e.g. "tod+cover k=1 cap=2"
+  std::string policy;  // download_policy.h name
+  int fold = 0;
+  std::size_t downloads = 0;
+  double node_share_sum = 0.0;  // Σ over downloads of nodes / copy's nodes
+  std::int64_t bytes = 0, copy_bytes = 0;
+  std::int64_t frames = 0;
+  std::int64_t beyond_10m = 0;  // frames with X > 10 m
+  std::int64_t not_localised = 0;
 };
 
 // Why a merged map holds what it holds, against single-agent EBN's (seed 004 Fig. 7), per
@@ -143,6 +185,7 @@ struct FleetMergeDiagnosis {
   std::int64_t merged_lost_where_fewer = 0;  // of those, in stretches where merged holds fewer
   std::int64_t merged_only_lost = 0;         // lost in merged, localised in single-agent's
   std::int64_t merged_only_lost_where_fewer = 0;
+  FleetReach reach;  // of the frames lost only in the merged map
 };
 
 // EBN's cost per frame against the size of the map it localises in: one row per outing of the
@@ -183,6 +226,7 @@ struct FleetExperimentResult {
   std::vector<FleetDreamTiming> dream_timings;
   std::vector<FleetMergeDiagnosis> merge_diagnoses;
   std::vector<FleetFrameCost> frame_costs;
+  std::vector<FleetFrontierPoint> frontier;  // empty unless options.frontier
   int outings = 0;
   std::int64_t frames_rendered = 0;
   double seconds = 0.0;

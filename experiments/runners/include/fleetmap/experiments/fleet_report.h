@@ -37,10 +37,30 @@ struct FleetVerdict {
   bool all() const;  // every judged line passes
 };
 
-// Issue 19 on one seed. The probabilities (P(X > 10 m) over held-out frames, the fraction not
-// localised) enter as Laplace-smoothed ratios (k + 1) / (n + 2); see fleet_report.cc for why.
+// Issues 19 and 34 on one seed. The probabilities (P(X > 10 m) over held-out frames, the fraction
+// not localised) enter as Laplace-smoothed ratios (k + 1) / (n + 2); see fleet_report.cc for why.
 // A policy or map with no runs (or no downloads, or no builds) fails its lines as "not run".
 FleetVerdict JudgeFleet(const FleetExperimentResult& result);
+
+// Issue 34 item 4: one point of the frontier an operator picks a download policy from, over
+// every fold: its share of copy's nodes (mean over downloads) and of copy's landmark bytes, and
+// its P(X > 10 m) and not-localised fraction against copy's on the same held-out frames
+// (Laplace-smoothed ratios). On the frontier when no other point needs no more nodes and fails
+// no more, one of them strictly less.
+struct FrontierSummary {
+  std::string label;
+  std::string policy;
+  std::size_t downloads = 0;
+  double node_share = 0.0;
+  double byte_share = 0.0;
+  std::int64_t bytes = 0, copy_bytes = 0;
+  std::int64_t frames = 0, beyond_10m = 0, not_localised = 0;
+  double p10_ratio = 0.0;
+  double not_localised_ratio = 0.0;
+  bool on_frontier = false;
+};
+// The points of result.frontier by label, by node share (then label).
+std::vector<FrontierSummary> SummariseFrontier(const FleetExperimentResult& result);
 
 // A line over several world seeds.
 struct FleetLine {
