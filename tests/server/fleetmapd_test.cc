@@ -21,9 +21,11 @@
 #include "fleetmap/core/error.h"
 #include "fleetmap/core/graph.h"
 #include "fleetmap/core/map_chunks.h"
+#include "fleetmap/policies/subset_contraction.h"
 #include "fleetmap/server/repository.h"
 #include "fleetmap/server/robot_registry.h"
 #include "fleetmap/server/sync_server.h"
+#include "fleetmap/store/graph_store.h"
 #include "fleetmap/wire/sync_frame.h"
 #include "fleetmapd_process.h"
 #include "random_robot_map.h"
@@ -129,13 +131,12 @@ struct Downloaded {
   GraphBatch map;
 };
 
-// A download in protocol version 3: chunks numbered from 0 until DownloadEnd, whose totals
-// must match them. In version 2 (`version` 2) the header announces the totals instead.
-std::optional<Downloaded> DownloadCopy(RawSyncClient& client, std::int64_t base_revision = 0,
-                                       std::uint32_t version = kSyncProtocolVersion) {
+// A download in protocol version 3 or later: chunks numbered from 0 until DownloadEnd, whose
+// totals must match them. In version 2 (`version` 2) the header announces the totals instead.
+std::optional<Downloaded> Download(RawSyncClient& client, const v1::DownloadRequest& request,
+                                   std::uint32_t version = kSyncProtocolVersion) {
   v1::SyncFrame frame;
-  frame.mutable_download_request()->set_policy("copy");
-  frame.mutable_download_request()->set_base_revision(base_revision);
+  *frame.mutable_download_request() = request;
   if (!client.Send(frame)) return std::nullopt;
   std::optional<v1::SyncFrame> reply = client.Receive();
   if (!reply || !reply->has_download_header()) {
@@ -169,6 +170,14 @@ std::optional<Downloaded> DownloadCopy(RawSyncClient& client, std::int64_t base_
   }
   result.map = DecodeMapChunks(result.chunks);
   return result;
+}
+
+std::optional<Downloaded> DownloadCopy(RawSyncClient& client, std::int64_t base_revision = 0,
+                                       std::uint32_t version = kSyncProtocolVersion) {
+  v1::DownloadRequest request;
+  request.set_policy("copy");
+  request.set_base_revision(base_revision);
+  return Download(client, request, version);
 }
 
 // A good session's proof of life: a (small) download goes through.
@@ -883,6 +892,67 @@ TEST_F(FleetmapdSqliteTest, AVersion2RobotIsAnsweredInVersion2WithTheTotalsInThe
   EXPECT_TRUE(server.LogContains("from memory")) << server.Log();
 }
 
+// Contracted downloads (protocol version 4, issue 34): a tod download that leaves out the
+// night experiences between day ones carries the path's order over them, as derived path edges;
+// a robot still on version 3 is served the same nodes with only the edges both of whose ends
+// are sent, as before.
+TEST_F(FleetmapdSqliteTest, AVersion3RobotIsServedWithoutContractedEdges) {
+  // Six experiences on one path; 1 and 3 captured at 20:00, the others at 08:00 (UTC). The day
+  // ones are a metric chain 0-2-4-5, the night ones spurs 0-1 and 2-3.
+  GraphBatch map = RandomRobotMap(robot_, 6, 7);
+  const std::int64_t day_ns = 20'000LL * 86'400 * 1'000'000'000;  // a midnight, 2024-10-04
+  for (std::size_t i = 0; i < map.nodes.size(); ++i) {
+    const std::int64_t hour = (i == 1 || i == 3) ? 20 : 8;
+    map.nodes[i].stamp_ns = day_ns + hour * 3'600'000'000'000LL + static_cast<std::int64_t>(i);
+  }
+  std::erase_if(map.edges, [](const Edge& e) { return e.kind == EdgeKind::kMetric; });
+  for (const auto& [from, to] :
+       {std::pair(0, 2), std::pair(2, 4), std::pair(4, 5), std::pair(0, 1), std::pair(2, 3)}) {
+    map.edges.push_back(Edge{Uuid::Generate(), map.nodes[from].id, map.nodes[to].id,
+                             EdgeKind::kMetric, Se3::Identity(), Uuid()});
+  }
+  GraphStore::Open(uri_)->Put(map);
+  Fleetmapd server = Start();
+  ASSERT_FALSE(server.address.empty());
+
+  v1::DownloadRequest tod;
+  tod.set_policy("tod");
+  tod.set_mission_start_min(8 * 60);
+  tod.set_window_min(60);
+  const auto path_edges = [](const GraphBatch& download) {
+    std::set<std::pair<Uuid, Uuid>> ends;
+    std::size_t derived = 0;
+    for (const Edge& edge : download.edges) {
+      if (edge.kind != EdgeKind::kPath) continue;
+      ends.emplace(edge.from, edge.to);
+      derived += IsDerivedEdge(edge) ? 1 : 0;
+    }
+    return std::pair(ends, derived);
+  };
+  const std::set<Uuid> day{map.nodes[0].id, map.nodes[2].id, map.nodes[4].id, map.nodes[5].id};
+
+  auto current = Connect(server);
+  const std::optional<Downloaded> contracted = Download(*current, tod);
+  ASSERT_TRUE(contracted.has_value());
+  EXPECT_EQ(NodeIds(contracted->map), day);
+  const auto [ends, derived] = path_edges(contracted->map);
+  EXPECT_EQ(ends, (std::set<std::pair<Uuid, Uuid>>{{map.nodes[0].id, map.nodes[2].id},
+                                                   {map.nodes[2].id, map.nodes[4].id},
+                                                   {map.nodes[4].id, map.nodes[5].id}}));
+  EXPECT_EQ(derived, 2u);
+
+  RawSyncClient old(server.address);
+  const std::optional<v1::SyncFrame> welcome = old.Hello(robot_, token_, 3);
+  ASSERT_TRUE(welcome && welcome->has_welcome()) << Describe(welcome) << server.Log();
+  EXPECT_EQ(welcome->welcome().protocol_version(), 3u);
+  const std::optional<Downloaded> plain = Download(old, tod, 3);
+  ASSERT_TRUE(plain.has_value());
+  EXPECT_EQ(NodeIds(plain->map), day);
+  const auto [old_ends, old_derived] = path_edges(plain->map);
+  EXPECT_EQ(old_ends, (std::set<std::pair<Uuid, Uuid>>{{map.nodes[4].id, map.nodes[5].id}}));
+  EXPECT_EQ(old_derived, 0u);
+}
+
 // The server streams a download as it reads it: its peak memory grows by a few batches (4 MB
 // each), the selection's bare elements and the SQLite page cache of each store connection that
 // reads (32 MiB each, two workers), not by the map: about 110-145 MB here, whatever the map's
@@ -905,8 +975,8 @@ TEST_F(FleetmapdSqliteTest, AStreamedDownloadGrowsTheServerByAFewBatchesNotByThe
   ASSERT_GT(idle, 0);
   std::int64_t empty_idle = 0;
   {
-    Fleetmapd empty = StartFleetmapd("sqlite:" + (dir_ / "empty.db").string(),
-                                     dir_ / "empty-fleetmapd.log");
+    Fleetmapd empty =
+        StartFleetmapd("sqlite:" + (dir_ / "empty.db").string(), dir_ / "empty-fleetmapd.log");
     ASSERT_FALSE(empty.address.empty()) << empty.Log();
     ASSERT_TRUE(empty.LogContains("planned a copy of revision 0 ahead")) << empty.Log();
     empty_idle = PeakRssBytes(empty.process->pid());
