@@ -164,12 +164,7 @@ class FleetRun {
   void Prepare() {
     outings_ = ScheduleOutings(options_.world);
     vocabulary_ = TrainWorldVocabulary(world_);
-    frames_.resize(outings_.size());
-    TaskQueue render;
-    for (std::size_t i = 0; i < outings_.size(); ++i) {
-      render.Push([this, i] { frames_[i] = world_.Frames(outings_[i]); });
-    }
-    render.Run(options_.threads);
+    frames_ = RenderOutings(world_, outings_, options_.threads);
     for (std::size_t i = 0; i < outings_.size(); ++i) outing_index_.emplace(outings_[i].id, i);
 
     // Outings are in time order; dealt round-robin, every fold spans the whole period.

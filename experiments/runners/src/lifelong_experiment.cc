@@ -61,12 +61,7 @@ class LifelongRun {
   void Prepare() {
     outings_ = ScheduleDailyOutings(options_.world, options_.days + 1, options_.forays_per_day);
     vocabulary_ = TrainWorldVocabulary(world_);
-    frames_.resize(outings_.size());
-    TaskQueue render;
-    for (std::size_t i = 0; i < outings_.size(); ++i) {
-      render.Push([this, i] { frames_[i] = world_.Frames(outings_[i]); });
-    }
-    render.Run(options_.threads);
+    frames_ = RenderOutings(world_, outings_, options_.threads);
     for (const auto& frames : frames_) {
       result_.frames_rendered += static_cast<std::int64_t>(frames.size());
     }

@@ -4,7 +4,20 @@
 
 #include <algorithm>
 
+#include "fleetmap/experiments/task_queue.h"
+
 namespace fleetmap {
+
+std::vector<std::vector<Frame>> RenderOutings(const World& world,
+                                              const std::vector<Outing>& outings, int threads) {
+  std::vector<std::vector<Frame>> frames(outings.size());
+  TaskQueue render;
+  for (std::size_t i = 0; i < outings.size(); ++i) {
+    render.Push([&, i] { frames[i] = world.Frames(outings[i]); });
+  }
+  render.Run(threads);
+  return frames;
+}
 
 double ThreadCpuSeconds() {
   timespec t{};

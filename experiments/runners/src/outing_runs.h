@@ -12,8 +12,13 @@
 #include "fleetmap/ebn/experience_map.h"
 #include "fleetmap/ebn/ranking_policy.h"
 #include "fleetmap/ranking/path_memory.h"
+#include "fleetmap/world/world.h"
 
 namespace fleetmap {
+
+// Every outing's frames, rendered on `threads` threads; in the order of `outings`.
+std::vector<std::vector<Frame>> RenderOutings(const World& world,
+                                              const std::vector<Outing>& outings, int threads);
 
 // CPU seconds of the calling thread: a task's cost without the time other tasks took from it.
 double ThreadCpuSeconds();

@@ -13,6 +13,7 @@
 #include "fleetmap/store/graph_store.h"
 #include "fleetmap/world/world.h"
 #include "fleetmap/world/world_runs.h"
+#include "outing_runs.h"
 #include "work_progress.h"
 
 namespace fleetmap {
@@ -100,12 +101,7 @@ class Experiment {
   void Prepare() {
     outings_ = ScheduleOutings(options_.world);
     vocabulary_ = TrainWorldVocabulary(world_);
-    frames_.resize(outings_.size());
-    TaskQueue render;
-    for (std::size_t i = 0; i < outings_.size(); ++i) {
-      render.Push([this, i] { frames_[i] = world_.Frames(outings_[i]); });
-    }
-    render.Run(options_.threads);
+    frames_ = RenderOutings(world_, outings_, options_.threads);
 
     folds_.resize(static_cast<std::size_t>(options_.folds));
     // Outings are in time order; dealing them out round-robin gives every fold the whole
