@@ -233,6 +233,35 @@ void Cover(const DenseMap& map, std::span<const Edge> edges, std::span<const Pat
   allowed = std::move(kept);
 }
 
+// The paths a download carries, and, when `policy.contract`, the edges it derives over the
+// nodes it leaves out (`derived`, ascending by id). MakeIntegral keeps exactly the edges with
+// both ends sent, those of paths among them; the contraction adds what carries each path, and
+// the metric neighbourhood, over the nodes left out.
+std::vector<Uuid> SentPaths(const DenseMap& map, std::span<const Edge> edges,
+                            const std::vector<char>& sent, std::span<const Uuid> sent_ids,
+                            const DownloadPolicy& policy, std::vector<Edge>& derived) {
+  if (policy.contract) {
+    ContractedPaths contracted = ContractPaths(edges, sent_ids);
+    derived = std::move(contracted.derived);
+    const std::vector<Edge> metric = ContractMetric(edges, sent_ids, policy.contract_reach_m);
+    derived.insert(derived.end(), metric.begin(), metric.end());
+    std::sort(derived.begin(), derived.end(),
+              [](const Edge& a, const Edge& b) { return a.id < b.id; });
+    return std::move(contracted.paths);
+  }
+  // The paths of the edges MakeIntegral kept, as before contraction.
+  std::unordered_set<Uuid> kept_paths;
+  for (std::size_t e = 0; e < edges.size(); ++e) {
+    const auto [from, to] = map.edge_ends[e];
+    if (edges[e].kind == EdgeKind::kPath && sent[from] && sent[to]) {
+      kept_paths.insert(edges[e].path);
+    }
+  }
+  std::vector<Uuid> ids(kept_paths.begin(), kept_paths.end());
+  std::sort(ids.begin(), ids.end());
+  return ids;
+}
+
 }  // namespace
 
 std::string DownloadPolicy::Name() const {
@@ -449,29 +478,7 @@ DownloadSelection SelectDownload(std::span<const Node> nodes, std::span<const Ed
     sent[node] = 1;
     report.bytes += static_cast<std::int64_t>(map.nodes[node]->landmarks_blob.size());
   }
-  if (policy.contract) {
-    // MakeIntegral keeps exactly the edges with both ends sent, those of paths among them; the
-    // contraction adds what carries each path, and the metric neighbourhood, over the nodes
-    // left out.
-    ContractedPaths contracted = ContractPaths(edges, integral.nodes);
-    selection.paths = std::move(contracted.paths);
-    selection.derived_edges = std::move(contracted.derived);
-    const std::vector<Edge> metric = ContractMetric(edges, integral.nodes, policy.contract_reach_m);
-    selection.derived_edges.insert(selection.derived_edges.end(), metric.begin(), metric.end());
-    std::sort(selection.derived_edges.begin(), selection.derived_edges.end(),
-              [](const Edge& a, const Edge& b) { return a.id < b.id; });
-  } else {
-    // The paths of the edges MakeIntegral kept, as before contraction.
-    std::unordered_set<Uuid> kept_paths;
-    for (std::size_t e = 0; e < edges.size(); ++e) {
-      const auto [from, to] = map.edge_ends[e];
-      if (edges[e].kind == EdgeKind::kPath && sent[from] && sent[to]) {
-        kept_paths.insert(edges[e].path);
-      }
-    }
-    selection.paths.assign(kept_paths.begin(), kept_paths.end());
-    std::sort(selection.paths.begin(), selection.paths.end());
-  }
+  selection.paths = SentPaths(map, edges, sent, integral.nodes, policy, selection.derived_edges);
   selection.nodes = std::move(integral.nodes);
   selection.edges = std::move(integral.edges);
   report.nodes = selection.nodes.size();
