@@ -240,7 +240,9 @@ void Cover(const DenseMap& map, std::span<const Edge> edges, std::span<const Pat
 std::vector<Uuid> SentPaths(const DenseMap& map, std::span<const Edge> edges,
                             const std::vector<char>& sent, std::span<const Uuid> sent_ids,
                             const DownloadPolicy& policy, std::vector<Edge>& derived) {
-  if (policy.contract) {
+  // Nothing left out (a copy, the most common download): nothing to contract, and the plain
+  // walk below gives the same paths without the contraction's indexes.
+  if (policy.contract && sent_ids.size() < map.nodes.size()) {
     ContractedPaths contracted = ContractPaths(edges, sent_ids);
     derived = std::move(contracted.derived);
     const std::vector<Edge> metric = ContractMetric(edges, sent_ids, policy.contract_reach_m);
@@ -249,7 +251,7 @@ std::vector<Uuid> SentPaths(const DenseMap& map, std::span<const Edge> edges,
               [](const Edge& a, const Edge& b) { return a.id < b.id; });
     return std::move(contracted.paths);
   }
-  // The paths of the edges MakeIntegral kept, as before contraction.
+  // The paths of the edges MakeIntegral kept.
   std::unordered_set<Uuid> kept_paths;
   for (std::size_t e = 0; e < edges.size(); ++e) {
     const auto [from, to] = map.edge_ends[e];
