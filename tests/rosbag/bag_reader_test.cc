@@ -198,6 +198,48 @@ TEST_P(RosBagReaderCompression, NoSingleFlippedByteCrashesTheReader) {
   EXPECT_GT(refused, 50);
 }
 
+// The peak resident memory of this process since the last ResetPeakMemory, in bytes (Linux:
+// VmHWM, which writing "5" to /proc/self/clear_refs resets to the current size).
+void ResetPeakMemory() {
+  std::ofstream clear("/proc/self/clear_refs");
+  clear << "5";
+  clear.flush();
+  ASSERT_TRUE(clear.good()) << "cannot reset the peak RSS through /proc/self/clear_refs";
+}
+std::int64_t PeakMemoryBytes(const char* field = "VmHWM:") {
+  std::ifstream status("/proc/self/status");
+  for (std::string line; std::getline(status, line);) {
+    if (line.starts_with(field)) return std::stoll(line.substr(std::strlen(field))) * 1024;
+  }
+  ADD_FAILURE() << "no " << field << " in /proc/self/status";
+  return 0;
+}
+
+// Issue 35 item 7: a small bag whose first chunk claims 1 GiB uncompressed (its data a few
+// KB) is refused as corrupt, naming the chunk, without the reader allocating what the claim
+// says: the peak memory grows by far less than the claim.
+TEST_P(RosBagReaderCompression, AChunkClaimingAGibibyteIsRefusedWithoutAllocatingIt) {
+  const fs::path file = dir_ / "claims-a-gibibyte.bag";
+  testing::StereoBagContent c = SmallContent(1, 2, 1);
+  c.left[0] = testing::ImageMessage(cv::Mat(6, 8, CV_8UC1, cv::Scalar(7)), "mono8", kBagStartNs);
+  c.right[0] = c.left[0];
+  testing::WriteRosBag(file, c, GetParam());
+  std::string bytes = ReadBytes(file);
+  ASSERT_LT(bytes.size(), 64u * 1024) << "the test means a small file";
+  const std::size_t at = Find(bytes, "size=") + 5;  // the first chunk's uncompressed size
+  const std::uint32_t gibibyte = std::uint32_t{1} << 30;
+  std::memcpy(bytes.data() + at, &gibibyte, 4);
+  WriteBytes(file, bytes);
+  ResetPeakMemory();
+  const std::int64_t before = PeakMemoryBytes("VmRSS:");
+  ExpectError(
+      ErrorCode::kCorrupt, [&] { ReadAll(file); },
+      "chunk at byte " + std::to_string(FirstChunk(bytes)));
+  const std::int64_t grown = PeakMemoryBytes() - before;
+  EXPECT_LT(grown, 64 << 20) << "reading a " << bytes.size() << "-byte bag took " << grown
+                             << " bytes more at its peak";
+}
+
 INSTANTIATE_TEST_SUITE_P(Chunks, RosBagReaderCompression,
                          ::testing::Values(BagCompression::kNone, BagCompression::kBz2,
                                            BagCompression::kLz4),

@@ -13,7 +13,8 @@ inline constexpr const char* kSupportedChunkCompressions = "none, bz2, lz4";
 
 // Decompresses `compressed` into exactly `size` bytes. Throws Error(kInvalidArgument) naming an
 // unsupported `compression` (and the supported ones), Error(kCorrupt) prefixed by `context`
-// when the bytes do not decompress or decompress to another size than `size`.
+// when the bytes do not decompress or decompress to another size than `size`. Memory follows
+// what the bytes really decompress to: `size` is a claim, checked, never allocated up front.
 std::string DecompressChunk(std::string_view compression, std::string_view compressed,
                             std::uint32_t size, const std::string& context);
 
