@@ -172,7 +172,8 @@ void AddExportCommand(CLI::App& app) {
       "seconds with nanoseconds); --outing UUID chooses it, and may be left out when the map "
       "holds one outing.\n"
       "The file is written as FILE.tmp and renamed over FILE when complete: an export that "
-      "fails leaves no FILE (and an existing FILE as it was).");
+      "fails leaves no FILE (and an existing FILE as it was). FILE.tmp is created new: a "
+      "symbolic link there is refused, never written through.");
   AddStoreOption(*command, args->store);
   command->add_option("--format", args->format, "ply, g2o, graphml or tum")->required();
   command->add_option("--revision", args->revision, "Revision (default: the head)");

@@ -111,7 +111,8 @@ void AddRenderCommand(CLI::App& app) {
       "--out FILE's extension chooses the format: .png (pixels, OpenCV) or .svg (text; one "
       "<circle> per node in <g id=\"nodes\">). The file is written as FILE.tmp and renamed "
       "over FILE when complete: a render that fails leaves no FILE (and an existing FILE as "
-      "it was). A revision without nodes is refused (there is nothing to draw).");
+      "it was); a symbolic link at FILE.tmp is refused, never written through. A revision "
+      "without nodes is refused (there is nothing to draw).");
   AddStoreOption(*command, args->store);
   command->add_option("--revision", args->revision, "Revision (default: the head)");
   command->add_option("--out", args->out, "The picture to write: FILE.png or FILE.svg")->required();

@@ -260,6 +260,43 @@ TEST_F(CliExportTest, BadInputIsNamedAndLeavesNoOutputFile) {
   EXPECT_EQ(testing::ReadPly(ReadWholeFile(out)).Element("vertex").count, 240u);
 }
 
+// Issue 35 item 6: a symbolic link someone put at OUT.tmp (the name the export stages its
+// file under) is never written through: the export refuses, naming the link, and the file it
+// points to stays byte for byte as it was (also a link to nowhere creates nothing). A stale
+// OUT.tmp that is a regular file (left by a killed export) is replaced, and OUT is right.
+TEST_F(CliExportTest, ASymbolicLinkAtTheStagingNameIsNeverWrittenThrough) {
+  MakeRepository();
+  const std::filesystem::path victim = dir_ / "victim.txt";
+  std::ofstream(victim) << "precious\n";
+  for (const char* format : {"ply", "g2o"}) {
+    SCOPED_TRACE(format);
+    const std::filesystem::path out = dir_ / (std::string("map.") + format);
+    const std::filesystem::path staging = out.string() + ".tmp";
+    std::filesystem::create_symlink(victim, staging);
+    const testing::CliRun r =
+        RunOn({"export", "--format", format, "--out", out.string()}, /*succeed=*/false);
+    EXPECT_TRUE(Contains(r.err, "cannot write --out " + out.string())) << r.err;
+    EXPECT_TRUE(Contains(r.err, staging.string() + " is a symbolic link")) << r.err;
+    EXPECT_EQ(ReadWholeFile(victim), "precious\n");
+    EXPECT_FALSE(std::filesystem::exists(out));
+    EXPECT_TRUE(std::filesystem::is_symlink(staging)) << "someone else's link is left alone";
+    std::filesystem::remove(staging);
+  }
+  const std::filesystem::path out = dir_ / "map.ply";
+  const std::filesystem::path staging = out.string() + ".tmp";
+  const std::filesystem::path nowhere = dir_ / "created-through-a-link";
+  std::filesystem::create_symlink(nowhere, staging);
+  RunOn({"export", "--format", "ply", "--out", out.string()}, /*succeed=*/false);
+  EXPECT_FALSE(std::filesystem::exists(nowhere));
+  std::filesystem::remove(staging);
+
+  std::ofstream(staging) << "half of an export killed earlier";
+  RunOn({"export", "--format", "ply", "--out", out.string()});
+  EXPECT_EQ(testing::ReadPly(ReadWholeFile(out)).Element("vertex").count, 240u);
+  EXPECT_FALSE(std::filesystem::exists(staging));
+  EXPECT_EQ(ReadWholeFile(victim), "precious\n");
+}
+
 TEST_F(CliExportTest, HelpStatesTheEncodingsTheVertexOrderAndTheInformationMatrix) {
   const testing::CliRun help = Run({"export", "--help"});
   for (const char* fact : {"binary_little_endian", "(stamp_ns, UUID)", "identity",

@@ -295,6 +295,33 @@ TEST_F(CliRenderTest, BadInputIsNamedAndLeavesNoOutputFile) {
   EXPECT_FALSE(std::filesystem::exists(out.string() + ".tmp"));
 }
 
+// Issue 35 item 6: a symbolic link at OUT.tmp (the staging name) is never written through,
+// for PNG and SVG: refused naming the link, its target byte for byte as it was; a stale
+// regular OUT.tmp is replaced and the picture written.
+TEST_F(CliRenderTest, ASymbolicLinkAtTheStagingNameIsNeverWrittenThrough) {
+  MakeRepository();
+  const std::filesystem::path victim = dir_ / "victim.txt";
+  std::ofstream(victim) << "precious\n";
+  for (const char* name : {"map.png", "map.svg"}) {
+    SCOPED_TRACE(name);
+    const std::filesystem::path out = dir_ / name;
+    const std::filesystem::path staging = out.string() + ".tmp";
+    std::filesystem::create_symlink(victim, staging);
+    const testing::CliRun r = RunOn({"render", "--out", out.string()}, /*succeed=*/false);
+    EXPECT_TRUE(Contains(r.err, staging.string() + " is a symbolic link")) << r.err;
+    EXPECT_EQ(ReadWholeFile(victim), "precious\n");
+    EXPECT_FALSE(std::filesystem::exists(out));
+    std::filesystem::remove(staging);
+
+    std::ofstream(staging) << "a picture cut off";
+    RunOn({"render", "--out", out.string()});
+    EXPECT_FALSE(std::filesystem::exists(staging));
+    EXPECT_GT(std::filesystem::file_size(out), 100u);
+  }
+  EXPECT_FALSE(cv::imread((dir_ / "map.png").string()).empty());
+  EXPECT_EQ(ReadWholeFile(victim), "precious\n");
+}
+
 TEST_F(CliRenderTest, HelpSaysWhatTheColoursMean) {
   const testing::CliRun help = Run({"render", "--help"});
   for (const char* fact : {"time-of-day", "UTC", "00:00 blue", "12:00 yellow", "revision",
