@@ -3,14 +3,20 @@
 // become fleetmap::Error. The GraphStore and its VersionStore share one session, which is how
 // a VersionStore call made inside a Transaction lands or rolls back with it.
 //
+// A connection the server ended while it sat idle (a PostgreSQL restart, an administrator's
+// pg_terminate_backend) is replaced before its next use rather than failing that use (issue 35
+// item 13): a fresh connection, with every AddConnectionSetup step run on it again.
+//
 // Threading: as the owning GraphStore (one thread at a time).
 #pragma once
 
+#include <functional>
 #include <memory>
 #include <pqxx/pqxx>
 #include <string>
 #include <type_traits>
 #include <utility>
+#include <vector>
 
 #include "fleetmap/core/error.h"
 
@@ -26,7 +32,15 @@ class PgSession {
 
   // The URI, password removed: for messages.
   const std::string& uri() const { return uri_; }
-  pqxx::connection& connection() { return *conn_; }
+  // The connection, replaced first if the server ended it (outside a Transaction).
+  pqxx::connection& connection() {
+    ReviveIfEnded();
+    return *conn_;
+  }
+
+  // Runs `setup` now (Translate'd as `what`), and again on every connection that replaces this
+  // one: session variables, prepared statements, session-local tables. In the order added.
+  void AddConnectionSetup(const std::string& what, std::function<void()> setup);
   // The open explicit Transaction, or nullptr (autocommit).
   pqxx::work* transaction() { return txn_.get(); }
 
@@ -56,8 +70,19 @@ class PgSession {
   static std::string FirstLines(const std::string& message);
 
  private:
+  // Outside an explicit Transaction: when the server ended the connection (or a replacement
+  // was not set up whole), connects again and runs the setup steps. Throws as Translate.
+  void ReviveIfEnded();
+  // The server ended the connection (or libpqxx replaced it): see the .cc.
+  bool Ended();
+
+  std::string connect_uri_;  // as given (libpq keeps the password too)
   std::string uri_;
   std::unique_ptr<pqxx::connection> conn_;
+  std::vector<std::pair<std::string, std::function<void()>>> setups_;
+  bool set_up_ = true;               // every setup step ran on conn_
+  int set_up_backend_ = 0;           // the server process of the connection set up
+  bool reviving_ = false;            // inside ReviveIfEnded: the setup steps use connection() too
   std::unique_ptr<pqxx::work> txn_;  // the open explicit Transaction, if any
 };
 
@@ -87,6 +112,7 @@ auto PgSession::Autocommit(const std::string& what, Fn&& fn)
     -> std::invoke_result_t<Fn, pqxx::transaction_base&> {
   return Translate(what, [&] {
     if (txn_) return fn(static_cast<pqxx::transaction_base&>(*txn_));
+    ReviveIfEnded();
     pqxx::nontransaction t(*conn_);
     return fn(static_cast<pqxx::transaction_base&>(t));
   });
@@ -112,6 +138,7 @@ auto PgSession::Atomically(const std::string& what, Fn&& fn)
       pqxx::subtransaction sub(*txn_, "fleetmap_atomic");
       return run(sub);
     }
+    ReviveIfEnded();
     pqxx::work work(*conn_);
     return run(work);
   });

@@ -69,7 +69,8 @@ std::string ByteaHex(std::string_view bytes) {
 class PostgresGraphStore final : public GraphStore {
  public:
   PostgresGraphStore(const std::string& uri, const StoreOptions& options) : session_(uri) {
-    session_.Translate("connect", [&] {
+    // Setup steps: run again on a connection that replaces this one (pg_session.h).
+    session_.AddConnectionSetup("connect", [this, options] {
       pqxx::nontransaction t(session_.connection());
       // Seed 000 §6.1: synchronous waits for the WAL flush at every commit; buffered lets
       // commits return before it (a server crash may lose the last ones, never corrupts).
@@ -100,7 +101,7 @@ class PostgresGraphStore final : public GraphStore {
                       "fleetmap command that writes to it) and retry");
     }
     if (!options.read_only) Migrate();
-    session_.Translate("prepare", [&] { Prepare(); });
+    session_.AddConnectionSetup("prepare", [this] { Prepare(); });
     versions_ = NewPostgresVersionStore(session_);
     sensors_ = NewPostgresSensorIndex(session_);
     annotations_ = NewPostgresAnnotationStore(session_);
@@ -108,7 +109,7 @@ class PostgresGraphStore final : public GraphStore {
     if (options.read_only) {
       // Only now: the session-local staging tables above are created with CREATE TEMP TABLE,
       // which a read-only transaction refuses (they change nothing of the database's own).
-      session_.Translate("connect read-only", [&] {
+      session_.AddConnectionSetup("connect read-only", [this] {
         pqxx::nontransaction t(session_.connection());
         t.exec("SET default_transaction_read_only = on");
       });

@@ -71,7 +71,7 @@ struct LocationHash {
 class PostgresSensorIndex final : public SensorIndex {
  public:
   explicit PostgresSensorIndex(PgSession& session) : session_(session) {
-    session_.Translate("prepare sensor index statements", [&] { Prepare(); });
+    session_.AddConnectionSetup("prepare sensor index statements", [this] { Prepare(); });
   }
 
  protected:

@@ -97,7 +97,7 @@ Revision ReadRevision(const pqxx::row& r) {
 class PostgresVersionStore final : public VersionStore {
  public:
   explicit PostgresVersionStore(PgSession& session) : session_(session) {
-    session_.Translate("prepare version statements", [&] { Prepare(); });
+    session_.AddConnectionSetup("prepare version statements", [this] { Prepare(); });
   }
 
   // ---- Submissions ----
