@@ -149,8 +149,9 @@ void RunDoctor(const InspectArgs& args) {
     std::cout << nlohmann::ordered_json{{"store", store->uri()}, {"problems", list}}.dump(2)
               << "\n";
   } else if (problems.empty()) {
-    std::printf("%s: healthy (engine check, references, head, history, submissions)\n",
-                store->uri().c_str());
+    std::printf(
+        "%s: healthy (engine check, references, head, cut-off pieces, history, submissions)\n",
+        store->uri().c_str());
   } else {
     std::printf("%s: %s\n", store->uri().c_str(),
                 Count(static_cast<std::int64_t>(problems.size()), "problem").c_str());
@@ -190,7 +191,8 @@ void AddStoreInspectionCommands(CLI::App& app) {
   doctor->footer(
       "Checks, read-only: the engine's own check (SQLite integrity_check and foreign_key_check; "
       "PostgreSQL invalid indexes and unvalidated constraints); stored edges whose node or path "
-      "is not stored; edges visible at the head whose node or path is hidden; version records "
+      "is not stored; edges visible at the head whose node or path is hidden; pieces of the head "
+      "a hide (revert, promotion) cut off from the rest of the map; version records "
       "of elements or revisions that do not exist; revisions numbered 1..head without a gap, "
       "each merge and its submission agreeing; pushes receiving for longer than "
       "--receiving-stuck-h and queued submissions no fleetmapd has claimed for longer than "

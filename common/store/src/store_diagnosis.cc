@@ -1,6 +1,7 @@
 #include "fleetmap/store/store_diagnosis.h"
 
 #include <chrono>
+#include <set>
 #include <string>
 #include <unordered_map>
 #include <unordered_set>
@@ -82,6 +83,66 @@ void CheckHead(GraphStore& store, const DiagnosisOptions& options,
          "a revision hid nodes without their edges: `fleetmap log` shows which; revert it "
          "(`fleetmap revert`) and merge its submission again"});
   }
+}
+
+// Pieces of the head's map a hide cut off (issue 35 item 2): a metric component other than the
+// largest with a stored metric edge into a node the head hides. A robot localising in the main
+// piece never reaches it, and nothing else says so.
+void CheckHiddenCuts(GraphStore& store, const DiagnosisOptions& options,
+                     std::vector<StoreProblem>& problems) {
+  VersionStore& versions = store.versions();
+  const RevisionNumber head = versions.HeadRevision();
+  std::unordered_map<Uuid, Uuid> parent;
+  for (const Node& node : versions.NodesAt(head, false)) parent.emplace(node.id, node.id);
+  const auto root = [&](Uuid id) {
+    while (parent.at(id) != id) id = parent.at(id) = parent.at(parent.at(id));
+    return id;
+  };
+  for (const Edge& edge : versions.EdgesAt(head)) {
+    if (edge.kind != EdgeKind::kMetric || !parent.contains(edge.from) ||
+        !parent.contains(edge.to)) {
+      continue;
+    }
+    parent.at(root(edge.from)) = root(edge.to);
+  }
+  std::unordered_map<Uuid, std::vector<Uuid>> pieces;
+  for (const auto& [node, up] : parent) pieces[root(node)].push_back(node);
+  if (pieces.size() < 2) return;
+  const Uuid* largest = nullptr;
+  for (const auto& [id, nodes] : pieces) {
+    if (!largest || nodes.size() > pieces.at(*largest).size()) largest = &id;
+  }
+  std::int64_t cut_nodes = 0;
+  std::vector<Uuid> examples;
+  std::set<RevisionNumber> hid_by;
+  for (const auto& [id, nodes] : pieces) {
+    if (id == *largest) continue;
+    for (const Edge& edge : store.EdgesTouching(nodes)) {
+      if (edge.kind != EdgeKind::kMetric) continue;
+      const Uuid& other = parent.contains(edge.from) ? edge.to : edge.from;
+      if (parent.contains(other)) continue;
+      const std::optional<ElementVersion> version = versions.VersionOf(other);
+      if (!version || !version->hidden || *version->hidden > head) continue;
+      cut_nodes += static_cast<std::int64_t>(nodes.size());
+      if (examples.size() < options.examples) examples.push_back(nodes.front());
+      hid_by.insert(*version->hidden);
+      break;
+    }
+  }
+  if (cut_nodes == 0) return;
+  std::string revisions;
+  for (const RevisionNumber r : hid_by) {
+    revisions += (revisions.empty() ? "" : ", ") + std::to_string(r);
+  }
+  problems.push_back(
+      {"cut off",
+       std::to_string(cut_nodes) + " nodes at revision " + std::to_string(head) +
+           " are cut off from the rest of the map: the nodes that joined them were hidden by "
+           "revision " +
+           revisions + " (first: " + Ids(examples) + ")",
+       "robots localising in the rest of the map do not reach them; a push that re-drives the "
+       "gap joins them again, or check out the revision before the hide (`fleetmap log`, "
+       "`fleetmap diff`) to see what was there"});
 }
 
 void CheckHistory(GraphStore& store, const std::vector<Submission>& submissions,
@@ -175,6 +236,7 @@ std::vector<StoreProblem> DiagnoseStore(GraphStore& store, const DiagnosisOption
   CheckEngine(store, problems);
   CheckReferences(store, options, problems);
   CheckHead(store, options, problems);
+  CheckHiddenCuts(store, options, problems);
   // Read once for both checks: a submission lookup per revision would be a round trip each
   // on PostgreSQL, thousands for a long history.
   const std::vector<Submission> submissions = store.versions().ListSubmissions();

@@ -7,6 +7,8 @@
 //   "dangling edges"   stored edges whose node or path is not stored;
 //   "head"             edges visible at the head whose node or path is not (a map a robot
 //                      would download with edges into nothing);
+//   "cut off"          pieces of the head's map a hide (revert, promotion) cut off from the
+//                      largest piece: they hold a stored metric edge into a hidden node;
 //   "orphan versions"  version records of elements not stored or of revisions not made;
 //   "history"          revisions not numbered 1..head without a gap, merges whose submission
 //                      is missing or does not say it became that revision, and the reverse;
