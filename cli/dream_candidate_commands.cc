@@ -7,6 +7,7 @@
 
 #include "commands.h"
 #include "fleetmap/core/error.h"
+#include "fleetmap/core/printable_text.h"
 #include "fleetmap/server/dream_candidates.h"
 #include "fleetmap/server/nightly_dream.h"
 #include "progress_bar.h"
@@ -106,6 +107,7 @@ struct PromoteArgs {
   std::string store;
   std::string candidate;
   std::string author;
+  bool force = false;
 };
 
 void RunPromote(const PromoteArgs& args) {
@@ -113,14 +115,15 @@ void RunPromote(const PromoteArgs& args) {
   const std::unique_ptr<Repository> repository = OpenExistingRepository(args.store);
   Revision revision;
   try {
-    revision = repository->Promote(id, args.author.empty() ? DefaultAuthor() : args.author);
+    revision =
+        repository->Promote(id, args.author.empty() ? DefaultAuthor() : args.author, args.force);
   } catch (const Error& error) {
     throw InContext(error, "cannot promote " + id.ToString());
   }
   const DreamCandidateRecord record = DreamCandidateFromJson(revision.report);
   std::printf("revision %lld promotes dream candidate %s (author %s)\n",
               static_cast<long long>(revision.number), id.ToString().c_str(),
-              revision.author.c_str());
+              PrintableText(revision.author).c_str());
   std::printf(
       "  added %s, %s, %s; hid %s, %s\n", Count(revision.nodes_added, "node").c_str(),
       Count(revision.edges_added, "edge").c_str(), Count(revision.paths_added, "path").c_str(),
@@ -171,10 +174,15 @@ void AddDreamCandidateCommands(CLI::App& app) {
       "groups' nodes it did without are hidden (with any edge left dangling). Everything since "
       "the dream stays: later merges, and reverts. The revision's report is the candidate's "
       "record with its held-out score (`fleetmap log --json`). Nothing is deleted; a promotion "
-      "cannot be reverted (nothing un-hides): promote another candidate instead.");
+      "cannot be reverted (nothing un-hides): promote another candidate instead. A candidate "
+      "whose held-out score does not beat that of the order the server merged (a tie is no "
+      "gain), or whose dream did not score that order, is refused with both scores unless "
+      "--force is given.");
   AddStoreOption(*promote, promote_args->store);
   promote->add_option("candidate", promote_args->candidate, "The candidate's UUID")->required();
   promote->add_option("--author", promote_args->author, "Who promotes (default: $USER)");
+  promote->add_flag("--force", promote_args->force,
+                    "Promote even a candidate that does not beat the order the server merged");
   promote->callback([promote_args] { RunPromote(*promote_args); });
 }
 

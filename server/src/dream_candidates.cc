@@ -100,6 +100,26 @@ DreamCandidateRecord DreamCandidateFromJson(std::string_view text) {
   }
 }
 
+void RequireBeatsMergedOrder(const DreamCandidateRecord& record) {
+  const std::string what = "dream candidate " + record.id.ToString();
+  const std::string force = "`fleetmap promote --force` promotes it all the same";
+  if (!record.merged_order_score) {
+    throw Error(ErrorCode::kInvalidArgument,
+                what + ": its dream did not score the order the server merged (it explored " +
+                    std::to_string(record.orders) +
+                    " orders), so it is not known to beat the map as merged; " + force);
+  }
+  if (record.score < *record.merged_order_score) return;
+  // Six decimals: the candidates list's four can show a real difference as a tie.
+  char scores[96];
+  std::snprintf(scores, sizeof scores, "%.6f vs %.6f", record.score, *record.merged_order_score);
+  throw Error(ErrorCode::kInvalidArgument,
+              what + " does not beat the order the server merged: held-out score " + scores +
+                  " (lower is better; " +
+                  (record.score == *record.merged_order_score ? "a tie" : "worse") +
+                  "), so promoting it would change the map for no gain; " + force);
+}
+
 DreamCandidateRecord DreamCandidates::Put(DreamCandidateRecord record, const GraphBatch& content) {
   if (record.id == Uuid()) record.id = Uuid::Generate();
   const std::vector<std::string> chunks = EncodeMapChunks(content);

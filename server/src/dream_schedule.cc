@@ -75,7 +75,33 @@ DreamStatus DreamSchedule::Status() const {
   return status_;
 }
 
+std::optional<MissedDream> DreamSchedule::FindMissed() const {
+  try {
+    RepositoryOptions repository_options;
+    repository_options.store = store_options_;
+    const std::unique_ptr<Repository> repository = Repository::Open(store_uri_, repository_options);
+    return FindMissedDream(repository->versions(), NsOf(std::chrono::system_clock::now()),
+                           minute_of_day_);
+  } catch (const std::exception& error) {
+    // The schedule goes on: the next night's dream covers what this one would have.
+    spdlog::warn("dream: cannot tell whether a dream was missed: {}", error.what());
+    return std::nullopt;
+  }
+}
+
 void DreamSchedule::Run() {
+  // A dream that did not run at its time, or did not finish, runs now rather than a day late
+  // (issue 35 item 13 b); once, as it records its finish.
+  if (const std::optional<MissedDream> missed = FindMissed()) {
+    const std::time_t seconds = static_cast<std::time_t>(missed->scheduled_ns / 1'000'000'000);
+    std::tm utc{};
+    gmtime_r(&seconds, &utc);
+    char day[16];
+    std::strftime(day, sizeof day, "%Y-%m-%d", &utc);
+    spdlog::info("dream: missed the {} UTC dream of {}: {}; running it now",
+                 ClockText(minute_of_day_), day, missed->why);
+    RunOnce();
+  }
   std::unique_lock lock(mutex_);
   while (!stopping_) {
     const auto next = NextDreamTime(std::chrono::system_clock::now(), minute_of_day_);

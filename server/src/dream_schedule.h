@@ -2,13 +2,15 @@
 // the time comes, then runs RunNightlyDream (nightly_dream.h) on a Repository of its own (its
 // own store connection), so a dream never holds a session's or the merge queue's store: pushes,
 // merges and downloads go on while it runs. What it does shows in Status() (for /metrics and
-// the status page).
+// the status page). A dream missed before it started (fleetmapd down at the time, or killed
+// mid-dream) runs at once when it starts, with a log line saying so.
 #pragma once
 
 #include <chrono>
 #include <condition_variable>
 #include <cstdint>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <thread>
@@ -41,6 +43,9 @@ class DreamSchedule {
  private:
   void Run();
   void RunOnce();
+  // The dream missed before this start (FindMissedDream), if any; a store that cannot be read
+  // is logged and taken as none missed.
+  std::optional<MissedDream> FindMissed() const;
 
   const std::string store_uri_;
   const StoreOptions store_options_;

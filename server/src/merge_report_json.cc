@@ -20,6 +20,7 @@ std::string MergeReportJson(const MergeReport& r) {
   json["paths_added"] = r.paths_added;
   json["stand_ins"] = r.stand_ins;
   json["edges_unresolved"] = r.edges_unresolved;
+  json["edges_to_hidden"] = r.edges_to_hidden;
   json["derived_edges"] = r.derived_edges;
   json["seconds"] = r.seconds;
   return json.dump();

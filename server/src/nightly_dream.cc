@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <ctime>
 #include <numeric>
 #include <set>
 #include <string>
@@ -17,6 +18,14 @@ namespace {
 // dream's held-out submission, so what judged one dream is merged in the next.
 constexpr std::string_view kLastDreamKey = "dream/since-revision";
 
+// When the last dream started and finished (ns since the epoch, UTC): what FindMissedDream
+// reads at fleetmapd's start (issue 35 item 13 b).
+constexpr std::string_view kStartedKey = "dream/last-started-ns";
+constexpr std::string_view kFinishedKey = "dream/last-finished-ns";
+
+constexpr std::int64_t kMinuteNs = 60'000'000'000;
+constexpr std::int64_t kDayNs = 24 * 60 * kMinuteNs;
+
 constexpr const char* kHeldOutRule =
     "the newest submission merged since the last dream is held out; the up to max_groups "
     "merged before it are the groups";
@@ -30,6 +39,33 @@ RevisionNumber LastDreamHead(VersionStore& versions) {
     throw Error(ErrorCode::kCorrupt, "setting " + std::string(kLastDreamKey) + " is '" + *text +
                                          "', not a revision number");
   }
+}
+
+std::int64_t WallNs() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(
+             std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+std::optional<std::int64_t> NsSetting(VersionStore& versions, std::string_view key) {
+  const std::optional<std::string> text = versions.FindSetting(key);
+  if (!text) return std::nullopt;
+  try {
+    return std::stoll(*text);
+  } catch (const std::exception&) {
+    throw Error(ErrorCode::kCorrupt,
+                "setting " + std::string(key) + " is '" + *text + "', not a time in nanoseconds");
+  }
+}
+
+// "2024-05-01 02:30 UTC".
+std::string UtcMinute(std::int64_t ns) {
+  const std::time_t seconds = static_cast<std::time_t>(ns / 1'000'000'000);
+  std::tm utc{};
+  gmtime_r(&seconds, &utc);
+  char text[32];
+  std::strftime(text, sizeof text, "%Y-%m-%d %H:%M UTC", &utc);
+  return text;
 }
 
 // What of `content` is not in `base`, by id: the dream's own additions.
@@ -68,6 +104,27 @@ int ParseDreamTime(std::string_view text) {
   return hours * 60 + minutes;
 }
 
+std::optional<MissedDream> FindMissedDream(VersionStore& versions, std::int64_t now_ns,
+                                           int minute_of_day) {
+  std::int64_t scheduled = now_ns - now_ns % kDayNs + minute_of_day * kMinuteNs;
+  if (scheduled > now_ns) scheduled -= kDayNs;
+  const std::optional<std::int64_t> started = NsSetting(versions, kStartedKey);
+  std::optional<std::int64_t> finished = NsSetting(versions, kFinishedKey);
+  if (!finished) {
+    const std::vector<DreamCandidateRecord> candidates = DreamCandidates(versions).List();
+    if (!candidates.empty()) finished = candidates.front().created_ns;
+  }
+  if (started && (!finished || *started > *finished)) {
+    return MissedDream{scheduled, "the dream started at " + UtcMinute(*started) +
+                                      " did not finish (killed or stopped mid-dream)"};
+  }
+  if (finished && *finished < scheduled) {
+    return MissedDream{scheduled, "the last dream finished at " + UtcMinute(*finished) +
+                                      ", before it (fleetmapd was not running at its time)"};
+  }
+  return std::nullopt;
+}
+
 NightlyDreamOutcome RunNightlyDream(Repository& repository, const NightlyDreamOptions& options,
                                     const NightlyDreamProgress& progress) {
   if (options.max_groups == 0 || options.max_groups > 11) {
@@ -80,6 +137,7 @@ NightlyDreamOutcome RunNightlyDream(Repository& repository, const NightlyDreamOp
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   };
   VersionStore& versions = repository.versions();
+  versions.PutSetting(kStartedKey, std::to_string(WallNs()));
   const RevisionNumber head = versions.HeadRevision();
   const RevisionNumber since = LastDreamHead(versions);
 
@@ -95,6 +153,7 @@ NightlyDreamOutcome RunNightlyDream(Repository& repository, const NightlyDreamOp
                       (merged.size() == 1 ? "" : "s") + " merged since revision " +
                       std::to_string(since) +
                       "; a dream needs two: one to hold out and one to merge";
+    versions.PutSetting(kFinishedKey, std::to_string(WallNs()));
     outcome.seconds = elapsed();
     return outcome;
   }
@@ -126,9 +185,7 @@ NightlyDreamOutcome RunNightlyDream(Repository& repository, const NightlyDreamOp
   const DreamResult result = Dream(groups, base, vocabulary, scorer, dream, progress);
 
   DreamCandidateRecord record;
-  record.created_ns = std::chrono::duration_cast<std::chrono::nanoseconds>(
-                          std::chrono::system_clock::now().time_since_epoch())
-                          .count();
+  record.created_ns = WallNs();
   record.base_revision = base_revision;
   record.dreamed_at_head = head;
   for (int g : result.orders[result.best].order) {
@@ -155,6 +212,7 @@ NightlyDreamOutcome RunNightlyDream(Repository& repository, const NightlyDreamOp
     auto transaction = repository.store().Begin();
     outcome.candidate = candidates.Put(record, Without(result.best_content, base));
     versions.PutSetting(kLastDreamKey, std::to_string(held_out_submission.revision - 1));
+    versions.PutSetting(kFinishedKey, std::to_string(record.created_ns));
     transaction.Commit();
   }
   outcome.seconds = elapsed();

@@ -9,8 +9,10 @@
 
 #include "fleetmap/core/error.h"
 #include "fleetmap/core/map_chunks.h"
+#include "hidden_anchor.h"
 #include "merge_region.h"
 #include "merge_report_json.h"
+#include "node_collisions.h"
 
 namespace fleetmap {
 namespace {
@@ -456,17 +458,52 @@ MergeOutcome Repository::Merge(const Uuid& id, const MergeProgress& progress) {
     throw;
   }
   VersionStore& versions = this->versions();
+  const RevisionNumber head = versions.HeadRevision();
+  // A UUID is the node: one the server holds with other content is refused, both kept (the
+  // submission as failed, the stored node as it is), never merged as a duplicate (issue 35
+  // item 5: the robot was then sent the other node in place of its own).
+  try {
+    RefuseCollidingNodes(*store_, content);
+  } catch (const Error& error) {
+    fail(error);
+    throw;
+  }
   // Edge ends outside the submission that the map does not hold: omitted by an earlier merge
-  // (a stand-in), or only in other submissions. One still queued merges first. Each end is
-  // looked up once; MERGE asks again only through these answers.
+  // (a stand-in), hidden since, or only in other submissions. One still queued merges first.
+  // Each end is looked up once; MERGE asks again only through these answers. An end the head
+  // hides, or whose stand-in it hides (a revert or a promotion since the robot's download),
+  // hangs from the nearest visible node instead (hidden_anchor.h, issue 35 item 1).
   std::unordered_set<Uuid> looked_up;
   for (const Node& node : content.nodes) looked_up.insert(node.id);
   std::unordered_map<Uuid, NodeStandIn> stand_ins;
-  std::unordered_set<Uuid> seen_elsewhere;
+  std::unordered_set<Uuid> seen_elsewhere, hidden_ends;
+  const auto visible = [&](const Uuid& node) {
+    const std::optional<ElementVersion> version = versions.VersionOf(node);
+    return version && version->added <= head && (!version->hidden || *version->hidden > head);
+  };
   for (const Edge& edge : content.edges) {
     for (const Uuid& end : {edge.from, edge.to}) {
-      if (!looked_up.insert(end).second || versions.VersionOf(end)) continue;
+      if (!looked_up.insert(end).second) continue;
+      if (versions.VersionOf(end)) {
+        if (visible(end)) continue;
+        if (std::optional<NodeStandIn> anchor = AnchorThroughHidden(*store_, head, end)) {
+          stand_ins.emplace(end, std::move(*anchor));
+        } else {
+          hidden_ends.insert(end);
+        }
+        continue;
+      }
       if (std::optional<NodeStandIn> stand_in = versions.FindStandIn(end)) {
+        if (!visible(stand_in->stand_in)) {
+          const std::optional<NodeStandIn> anchor =
+              AnchorThroughHidden(*store_, head, stand_in->stand_in);
+          if (!anchor) {
+            hidden_ends.insert(end);
+            continue;
+          }
+          stand_in->stand_in = anchor->stand_in;
+          stand_in->stand_in_T_node = anchor->stand_in_T_node * stand_in->stand_in_T_node;
+        }
         stand_ins.emplace(end, std::move(*stand_in));
         continue;
       }
@@ -481,7 +518,6 @@ MergeOutcome Repository::Merge(const Uuid& id, const MergeProgress& progress) {
     }
   }
   // The region of the head this submission can reach, not the whole map (merge_region.h).
-  const RevisionNumber head = versions.HeadRevision();
   std::shared_ptr<const AppearanceVocabulary> vocabulary = Vocabulary(&content);
   if (!vocabulary) {
     // An empty map and an empty submission: any vocabulary indexes nothing.
@@ -499,10 +535,11 @@ MergeOutcome Repository::Merge(const Uuid& id, const MergeProgress& progress) {
       LoadMergeRegion(*store_, head, content, named, *appearance_, *index_vocabulary, vocabulary,
                       RegionOptions(options_.merge));
   outcome.region_nodes = region.map.size();
-  ServerCatalogue catalogue{[&](const Uuid& edge) { return versions.VersionOf(edge).has_value(); },
-                            [&](const Uuid& path) { return versions.VersionOf(path).has_value(); },
-                            // Stored but hidden at the head by a revert.
-                            [&](const Uuid& node) { return region.hidden.contains(node); }};
+  ServerCatalogue catalogue{
+      [&](const Uuid& edge) { return versions.VersionOf(edge).has_value(); },
+      [&](const Uuid& path) { return versions.VersionOf(path).has_value(); },
+      // Stored but hidden at the head, with nothing visible near.
+      [&](const Uuid& node) { return region.hidden.contains(node) || hidden_ends.contains(node); }};
   catalogue.stand_in = [&](const Uuid& node) -> std::optional<NodeStandIn> {
     const auto found = stand_ins.find(node);
     if (found == stand_ins.end()) return std::nullopt;

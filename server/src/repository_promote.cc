@@ -5,6 +5,7 @@
 #include "fleetmap/core/error.h"
 #include "fleetmap/server/dream_candidates.h"
 #include "fleetmap/server/repository.h"
+#include "promotion_hides.h"
 
 namespace fleetmap {
 namespace {
@@ -18,7 +19,7 @@ std::set<Uuid> IdsOf(const std::vector<T>& items) {
 
 }  // namespace
 
-Revision Repository::Promote(const Uuid& candidate_id, const std::string& author) {
+Revision Repository::Promote(const Uuid& candidate_id, const std::string& author, bool force) {
   DreamCandidates candidates(versions());
   const std::optional<DreamCandidateRecord> record = candidates.Find(candidate_id);
   if (!record) {
@@ -31,22 +32,37 @@ Revision Repository::Promote(const Uuid& candidate_id, const std::string& author
                                           std::to_string(record->promoted_as));
   }
   const GraphBatch content = candidates.Content(*record);
-  const RevisionNumber head = versions().HeadRevision();
-
-  // The nodes the merges of the dreamed groups added that are still in the map: the candidate
-  // replaces them, so those it did without are hidden.
-  const std::set<Uuid> visible = IdsOf(versions().NodesAt(head, /*with_landmarks=*/false));
-  const std::set<Uuid> kept = IdsOf(content.nodes);
-  std::vector<Uuid> hide;
-  for (const Uuid& group : record->merged_order) {
-    const std::optional<Submission> submission = versions().FindSubmission(group);
-    if (!submission || submission->state != SubmissionState::kMerged) continue;
-    const RevisionChanges merge =
-        versions().Changes(submission->revision - 1, submission->revision);
-    for (const Uuid& node : merge.nodes_added) {
-      if (visible.contains(node) && !kept.contains(node)) hide.push_back(node);
+  // A candidate that only ties the map as merged would swap nodes for nothing (issue 35 item
+  // 13 c).
+  if (!force) RequireBeatsMergedOrder(*record);
+  // fleetmapd instances merging meanwhile append revisions: an append that finds the head moved
+  // fails, and the promotion is worked out again on the new head (the operator's command
+  // should not fail because robots are docking).
+  constexpr int kAttempts = 8;
+  for (int attempt = 1;; ++attempt) {
+    const RevisionNumber head = versions().HeadRevision();
+    try {
+      return PromoteOnHead(*record, content, author);
+    } catch (const Error& error) {
+      if (error.code() != ErrorCode::kConflict || attempt == kAttempts ||
+          versions().HeadRevision() == head) {
+        throw;
+      }
     }
   }
+}
+
+Revision Repository::PromoteOnHead(const DreamCandidateRecord& record_ref,
+                                   const GraphBatch& content, const std::string& author) {
+  const DreamCandidateRecord* record = &record_ref;
+  DreamCandidates candidates(versions());
+  const RevisionNumber head = versions().HeadRevision();
+
+  // The nodes the merges of the dreamed groups added that the candidate does without, less
+  // what later merges hang from (promotion_hides.h).
+  const std::set<Uuid> visible = IdsOf(versions().NodesAt(head, /*with_landmarks=*/false));
+  const std::vector<Uuid> hide =
+      NodesPromotionHides(versions(), head, record->merged_order, visible, IdsOf(content.nodes));
 
   // What the candidate holds that was never stored. A stored element stays as it is: visible,
   // or hidden by a revert since (nothing un-hides).

@@ -10,6 +10,7 @@
 
 #include <atomic>
 #include <chrono>
+#include <csignal>
 #include <ctime>
 #include <mutex>
 #include <thread>
@@ -169,9 +170,17 @@ TYPED_TEST(ScheduledDreamTest, RunsAMinuteAheadWhileAgentsSyncAndPromoteMakesThe
   EXPECT_NE(page.find("Nightly dream"), std::string::npos);
   EXPECT_NE(page.find(c.id.ToString()), std::string::npos);
 
-  // Promote it, with fleetmapd serving: the next revision, whose report states the score.
-  const std::vector<std::string> args = {"promote", c.id.ToString(), "--store",
-                                         uri,       "--author",      "night-shift"};
+  // Promote it, with fleetmapd serving: the next revision, whose report states the score. A
+  // candidate that only ties the order merged (as these corridor outings make it) is refused
+  // without --force (issue 35 item 13 c).
+  std::vector<std::string> args = {"promote", c.id.ToString(), "--store",
+                                   uri,       "--author",      "night-shift"};
+  if (!c.merged_order_score || c.score >= *c.merged_order_score) {
+    const CliRun refused = RunFleetmapCli(this->dir_.path(), args);
+    EXPECT_NE(refused.exit_code, 0) << DescribeCliRun(args, refused);
+    EXPECT_TRUE(Contains(refused.err, "--force")) << refused.err;
+    args.push_back("--force");
+  }
   const CliRun promote = RunFleetmapCli(this->dir_.path(), args);
   ASSERT_EQ(promote.exit_code, 0) << DescribeCliRun(args, promote);
   EXPECT_TRUE(Contains(promote.out, "revision " + std::to_string(head + 1) + " promotes"))
@@ -185,6 +194,75 @@ TYPED_TEST(ScheduledDreamTest, RunsAMinuteAheadWhileAgentsSyncAndPromoteMakesThe
   const auto log = this->dir_ / "after.log";
   const SyncOutcome after = FinishSync(*StartSync(robots[0], server.address, log), log);
   EXPECT_EQ(after.result["revision"], head + 1) << after.result.dump();
+}
+
+// Issue 35 item 13 (b): a dream killed half-way is run again when fleetmapd next starts (its
+// time of day long past), once, saying so; not again at the start after it finished. First a
+// dream by hand (`fleetmap dream-now`) is killed, then fleetmapd's own run of it, mid-way.
+TYPED_TEST(ScheduledDreamTest, ADreamKilledMidWayRunsOnceWhenFleetmapdStartsAgain) {
+  const std::string uri = this->backend_.Uri();
+  {
+    const std::unique_ptr<Repository> repository = Repository::Open(uri);
+    for (const CorridorOuting& outing :
+         std::vector<CorridorOuting>{{0, 0.0}, {1, 30.0}, {0, 60.0}, {1, 10.0}, {1, 0.0}}) {
+      const Uuid id = Uuid::Generate();
+      repository->Push(id, Uuid::Generate(), "surveyor", CorridorRobotMap({outing}));
+      ASSERT_FALSE(repository->Merge(id).already_merged);
+    }
+  }
+  const auto candidates = [&] {
+    std::unique_ptr<GraphStore> store = GraphStore::Open(uri);
+    return DreamCandidates(store->versions()).List().size();
+  };
+  // Killed once its progress shows.
+  const std::filesystem::path by_hand_log = this->dir_ / "dream-now.log";
+  {
+    ChildProcess by_hand({FLEETMAP_CLI, "dream-now", "--store", uri},
+                         {.stderr_file = by_hand_log, .environment = {}});
+    const auto deadline = steady_clock::now() + std::chrono::seconds(60);
+    while (ReadLog(by_hand_log).find("dreaming") == std::string::npos &&
+           steady_clock::now() < deadline && by_hand.running()) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+    by_hand.Signal(SIGKILL);
+    ASSERT_EQ(by_hand.Wait(std::chrono::milliseconds(10'000)), 128 + SIGKILL)
+        << ReadLog(by_hand_log);
+  }
+  ASSERT_EQ(candidates(), 0u);
+
+  // Its time of day passed two minutes ago: the dream runs at start all the same, and is
+  // killed with fleetmapd as it runs.
+  std::chrono::system_clock::time_point past;
+  const std::string at = MinuteAhead(-std::chrono::seconds(150), &past);
+  const std::vector<std::string> args = {"--dream-at", at};
+  {
+    Fleetmapd first = StartFleetmapd(uri, this->dir_ / "first.log", args);
+    ASSERT_TRUE(first.LogContains("dream: starting", std::chrono::milliseconds(10'000)))
+        << first.Log();
+    EXPECT_TRUE(Contains(first.Log(), "missed")) << first.Log();
+    first.process->Signal(SIGKILL);
+    first.process->Wait(std::chrono::milliseconds(10'000));
+    ASSERT_FALSE(Contains(first.Log(), "dream: candidate")) << "the dream ended before the kill";
+  }
+  ASSERT_EQ(candidates(), 0u);
+
+  // Started again: runs it, to the end.
+  {
+    Fleetmapd second = StartFleetmapd(uri, this->dir_ / "second.log", args);
+    ASSERT_TRUE(second.LogContains("dream: candidate", std::chrono::milliseconds(120'000)))
+        << second.Log();
+    EXPECT_TRUE(Contains(second.Log(), "missed")) << second.Log();
+    second.process->Signal(SIGTERM);
+    second.process->Wait(std::chrono::milliseconds(10'000));
+  }
+  EXPECT_EQ(candidates(), 1u);
+
+  // And once only: the next start waits for the next night.
+  Fleetmapd third = StartFleetmapd(uri, this->dir_ / "third.log", args);
+  ASSERT_TRUE(third.LogContains("dream: scheduled daily at " + at)) << third.Log();
+  EXPECT_FALSE(third.LogContains("dream: starting", std::chrono::milliseconds(2'000)))
+      << third.Log();
+  EXPECT_EQ(candidates(), 1u);
 }
 
 }  // namespace

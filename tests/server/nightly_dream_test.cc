@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <map>
 #include <nlohmann/json.hpp>
 #include <set>
 
@@ -13,6 +14,7 @@
 #include "fleetmap/core/error.h"
 #include "fleetmap/server/dream_candidates.h"
 #include "fleetmap/server/repository.h"
+#include "random_robot_map.h"
 #include "store_backends.h"
 
 namespace fleetmap {
@@ -20,6 +22,7 @@ namespace {
 
 using testing::BackendNames;
 using testing::StoreBackends;
+using testing::WallNs;
 
 template <typename Backend>
 class NightlyDreamTest : public ::testing::Test {
@@ -102,7 +105,13 @@ TYPED_TEST(NightlyDreamTest, DreamLeavesACandidateAndPromotionMakesItTheMap) {
   EXPECT_FALSE(again.candidate);
   EXPECT_NE(again.skipped.find("needs two"), std::string::npos) << again.skipped;
 
-  const Revision promoted = repository.Promote(c.id, "operator");
+  // A candidate that only ties the order merged is promoted only when forced (issue 35 item
+  // 13 c); this test is about what a promotion does.
+  if (c.score >= *c.merged_order_score) {
+    ExpectError(
+        ErrorCode::kInvalidArgument, [&] { repository.Promote(c.id, "operator"); }, "--force");
+  }
+  const Revision promoted = repository.Promote(c.id, "operator", /*force=*/true);
   EXPECT_EQ(promoted.number, 5);
   EXPECT_EQ(promoted.kind, RevisionKind::kPromote);
   EXPECT_EQ(promoted.author, "operator");
@@ -151,6 +160,96 @@ TYPED_TEST(NightlyDreamTest, DreamLeavesACandidateAndPromotionMakesItTheMap) {
   EXPECT_EQ(candidates.List().front().id, second.candidate->id);  // newest first
 }
 
+// The nodes of the head joined to `start` by metric edges: the piece a localiser reaches.
+std::set<Uuid> HeadPieceOf(Repository& repository, const Uuid& start) {
+  const GraphBatch head = repository.Checkout();
+  std::map<Uuid, std::vector<Uuid>> adjacent;
+  for (const Edge& edge : head.edges) {
+    if (edge.kind != EdgeKind::kMetric) continue;
+    adjacent[edge.from].push_back(edge.to);
+    adjacent[edge.to].push_back(edge.from);
+  }
+  std::set<Uuid> piece{start};
+  std::vector<Uuid> stack{start};
+  while (!stack.empty()) {
+    const Uuid at = stack.back();
+    stack.pop_back();
+    for (const Uuid& next : adjacent[at]) {
+      if (piece.insert(next).second) stack.push_back(next);
+    }
+  }
+  return piece;
+}
+
+// Issue 35 items 1 and 2: after a dream, robots build on nodes its candidate does without: one
+// merges a chain hanging from such a node before the promotion, another re-drives a dreamed
+// group (omitted: stand-ins into the nodes the promotion hides) and builds on it after. The
+// promotion keeps what the merged chain hangs from (it is not cut off the map), and the later push
+// still merges, whole.
+TYPED_TEST(NightlyDreamTest,
+           PromotionKeepsWhatLaterMergesHangFromAndPushesBuiltOnHiddenNodesMerge) {
+  Repository& repository = *this->repository_;
+  const Uuid day = this->PushAndMerge(0, 0.0);
+  const Uuid night = this->PushAndMerge(1, 30.0);
+  const Uuid day_far = this->PushAndMerge(0, 60.0);
+  // A candidate that does without the night group's nodes (as an order that merged the night
+  // where the days already localise would), better than the merged order.
+  const Submission night_merge = *repository.versions().FindSubmission(night);
+  const std::vector<Uuid> doomed =
+      repository.Diff(night_merge.revision - 1, night_merge.revision).nodes_added;
+  const std::set<Uuid> doomed_set(doomed.begin(), doomed.end());
+  GraphBatch content = repository.Checkout();
+  std::erase_if(content.nodes, [&](const Node& n) { return doomed_set.contains(n.id); });
+  std::erase_if(content.edges, [&](const Edge& e) {
+    return doomed_set.contains(e.from) || doomed_set.contains(e.to);
+  });
+  DreamCandidateRecord record;
+  record.created_ns = 1;
+  record.dreamed_at_head = repository.Head();
+  record.groups = record.merged_order = {day, night, day_far};
+  record.orders = 6;
+  record.score = 0.1;
+  record.merged_order_score = 0.5;
+  const DreamCandidateRecord c = DreamCandidates(repository.versions()).Put(record, content);
+  ASSERT_FALSE(doomed.empty());
+
+  // A chain merged after the dream, hanging from a doomed node.
+  const Uuid robot = Uuid::Generate();
+  const GraphBatch chain = testing::RandomChainFrom(robot, doomed.back(), 20, 11);
+  const Uuid chained = Uuid::Generate();
+  repository.Push(chained, robot, "robot-chain", chain);
+  ASSERT_EQ(repository.Merge(chained).report.nodes_added, 20u);
+  const std::size_t piece_before = HeadPieceOf(repository, chain.nodes.front().id).size();
+  ASSERT_GT(piece_before, chain.nodes.size());
+
+  // A re-drive of the night group: its nodes stood in for by the group's.
+  const GraphBatch redrive = CorridorRobotMap({{1, 30.0}});
+  const Uuid redriven = Uuid::Generate();
+  repository.Push(redriven, robot, "robot-chain", redrive);
+  ASSERT_GT(repository.Merge(redriven).report.stand_ins, 0u);
+  std::optional<NodeStandIn> anchor;
+  for (const Node& node : redrive.nodes) {
+    if (const auto found = repository.versions().FindStandIn(node.id)) anchor = found;
+  }
+  ASSERT_TRUE(anchor);
+
+  const Revision promoted = repository.Promote(c.id, "operator");
+  std::set<Uuid> visible;
+  for (const Node& node : repository.versions().NodesAt(promoted.number, false)) {
+    visible.insert(node.id);
+  }
+  for (const Node& node : chain.nodes) EXPECT_TRUE(visible.contains(node.id));
+  EXPECT_TRUE(visible.contains(doomed.back())) << "the node the chain hangs from is kept";
+  EXPECT_GT(HeadPieceOf(repository, chain.nodes.front().id).size(), chain.nodes.size())
+      << "the promotion cut the chain off the map";
+
+  // Built on the re-driven nodes, pushed after the promotion: merges whole.
+  const GraphBatch more = testing::RandomChainFrom(robot, anchor->node, 20, 12);
+  const Uuid later = Uuid::Generate();
+  repository.Push(later, robot, "robot-chain", more);
+  EXPECT_EQ(repository.Merge(later).report.nodes_added, 20u);
+}
+
 TYPED_TEST(NightlyDreamTest, ADamagedCandidateIsRefusedAndTheMapStays) {
   Repository& repository = *this->repository_;
   this->PushAndMerge(0, 0.0);
@@ -179,6 +278,102 @@ TYPED_TEST(NightlyDreamTest, ADamagedCandidateIsRefusedAndTheMapStays) {
     none.max_groups = 0;
     RunNightlyDream(repository, none);
   });
+}
+
+// Issue 35 item 13 (c): a candidate that only ties the order the server merged (here the only
+// order: one group) is not promoted, and the error gives both scores; --force promotes it. A
+// candidate whose dream did not score the merged order is not known to beat it: refused the
+// same way. One that beats it is promoted as before.
+TYPED_TEST(NightlyDreamTest, ACandidateThatDoesNotBeatTheMergedOrderIsPromotedOnlyWithForce) {
+  Repository& repository = *this->repository_;
+  this->PushAndMerge(0, 0.0);
+  this->PushAndMerge(1, 0.0);
+  NightlyDreamOptions options;
+  options.max_groups = 1;
+  const NightlyDreamOutcome outcome = RunNightlyDream(repository, options);
+  ASSERT_TRUE(outcome.candidate) << outcome.skipped;
+  const DreamCandidateRecord& tie = *outcome.candidate;
+  ASSERT_TRUE(tie.merged_order_score);
+  ASSERT_EQ(tie.score, *tie.merged_order_score) << "one order: the merged one";
+  char scores[64];
+  std::snprintf(scores, sizeof scores, "%.6f vs %.6f", tie.score, *tie.merged_order_score);
+  ExpectError(
+      ErrorCode::kInvalidArgument, [&] { repository.Promote(tie.id, "operator"); },
+      "does not beat the order the server merged");
+  ExpectError(
+      ErrorCode::kInvalidArgument, [&] { repository.Promote(tie.id, "operator"); }, scores);
+  ExpectError(
+      ErrorCode::kInvalidArgument, [&] { repository.Promote(tie.id, "operator"); }, "--force");
+  EXPECT_EQ(repository.Head(), 2);
+  DreamCandidates candidates(repository.versions());
+  EXPECT_EQ(candidates.Find(tie.id)->promoted_as, 0);
+
+  // The same content, recorded as a dream that did not score the merged order, and as one
+  // that beat it.
+  const GraphBatch content = candidates.Content(tie);
+  DreamCandidateRecord unscored = tie;
+  unscored.id = Uuid();
+  unscored.merged_order_score.reset();
+  unscored = candidates.Put(unscored, content);
+  ExpectError(
+      ErrorCode::kInvalidArgument, [&] { repository.Promote(unscored.id, "operator"); },
+      "did not score the order the server merged");
+  DreamCandidateRecord better = tie;
+  better.id = Uuid();
+  better.merged_order_score = tie.score + 0.25;
+  better = candidates.Put(better, content);
+  EXPECT_EQ(repository.Head(), 2);
+
+  const Revision forced = repository.Promote(tie.id, "operator", /*force=*/true);
+  EXPECT_EQ(forced.number, 3);
+  EXPECT_EQ(forced.kind, RevisionKind::kPromote);
+  EXPECT_EQ(candidates.Find(tie.id)->promoted_as, 3);
+  EXPECT_EQ(repository.Promote(better.id, "operator").number, 4);
+}
+
+// The UTC minute of the day of `ns` (nanoseconds since the epoch).
+int MinuteOfDay(std::int64_t ns) {
+  return static_cast<int>((ns / 60'000'000'000) % (24 * 60));
+}
+
+// Issue 35 item 13 (b): which scheduled dream fleetmapd missed, told from the store at any
+// `now`: none before any dream; none when a dream finished after the last scheduled time; the
+// last scheduled time when the last dream finished before it; and a dream cut off half-way
+// (here abandoned from its progress callback, as a kill leaves it) until one finishes.
+TYPED_TEST(NightlyDreamTest, AMissedDreamIsToldFromTheStore) {
+  Repository& repository = *this->repository_;
+  VersionStore& versions = repository.versions();
+  constexpr std::int64_t kHourNs = 3'600'000'000'000;
+  const std::int64_t now = WallNs();
+  EXPECT_FALSE(FindMissedDream(versions, now, MinuteOfDay(now + 2 * kHourNs)));
+  this->PushAndMerge(0, 0.0);
+  this->PushAndMerge(1, 0.0);
+  NightlyDreamOptions options;
+  options.max_groups = 1;
+  ASSERT_TRUE(RunNightlyDream(repository, options).candidate);
+  const std::int64_t done = WallNs();
+  // Scheduled two hours ahead: yesterday's time passed before the dream, nothing missed; three
+  // hours on, today's time has passed since it.
+  const int later = MinuteOfDay(done + 2 * kHourNs);
+  EXPECT_FALSE(FindMissedDream(versions, done, later));
+  const std::optional<MissedDream> missed = FindMissedDream(versions, done + 3 * kHourNs, later);
+  ASSERT_TRUE(missed);
+  EXPECT_GT(missed->scheduled_ns, done);
+  EXPECT_LE(missed->scheduled_ns, done + 3 * kHourNs);
+  EXPECT_NE(missed->why.find("finished"), std::string::npos) << missed->why;
+
+  // A dream cut off half-way: missed whenever the schedule is, until a dream finishes.
+  this->PushAndMerge(0, 30.0);
+  EXPECT_ANY_THROW(RunNightlyDream(
+      repository, options, [](std::size_t, std::size_t) { throw std::runtime_error("killed"); }));
+  const std::int64_t cut = WallNs();
+  for (const int minute : {later, MinuteOfDay(cut), MinuteOfDay(cut + kHourNs)}) {
+    const std::optional<MissedDream> again = FindMissedDream(versions, cut, minute);
+    ASSERT_TRUE(again) << minute;
+    EXPECT_NE(again->why.find("did not finish"), std::string::npos) << again->why;
+  }
+  ASSERT_TRUE(RunNightlyDream(repository, options).candidate);
+  EXPECT_FALSE(FindMissedDream(versions, WallNs(), later));
 }
 
 TEST(DreamTime, ParsesHoursAndMinutesAndNamesWhatItRefuses) {

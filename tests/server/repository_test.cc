@@ -10,6 +10,7 @@
 
 #include "corridor_robot_map.h"
 #include "fleetmap/core/error.h"
+#include "fleetmap/store/store_diagnosis.h"
 #include "random_robot_map.h"
 #include "store_backends.h"
 
@@ -256,6 +257,105 @@ TYPED_TEST(RepositoryTest, RevertedNodesAreNeverAddedTwice) {
   const Revision again = this->PushAndMerge(night);
   EXPECT_EQ(again.nodes_added, 0);
   EXPECT_EQ(NodeIds(this->repository_->Checkout()), NodeIds(this->repository_->Checkout(1)));
+}
+
+// Issue 35 item 1: a robot re-drives known nodes (omitted, stood in for by nodes of revision 2),
+// builds on the last, and before it syncs the operator reverts revision 2. Its push used to
+// fail for ever ("ends at ..., in neither the submission nor the server"); now the edge is
+// re-anchored through the hidden stand-in (or dropped when nothing visible joins it) and
+// every node the robot built merges.
+TYPED_TEST(RepositoryTest, APushBuiltOnAStandInThatARevertHidStillMerges) {
+  Repository& repository = *this->repository_;
+  this->PushAndMerge(RobotMap({0}));
+  const Revision night = this->PushAndMerge(RobotMap({1}));
+  ASSERT_GT(night.nodes_added, 0);
+  const GraphBatch again = RobotMap({1});
+  const Uuid redrive = Uuid::Generate();
+  repository.Push(redrive, this->robot_, "robot-1", again);
+  ASSERT_GT(repository.Merge(redrive).report.stand_ins, 0u);
+  std::optional<NodeStandIn> anchor;
+  for (const Node& node : again.nodes) {
+    const std::optional<NodeStandIn> found = repository.versions().FindStandIn(node.id);
+    if (found && repository.versions().VersionOf(found->stand_in)->added == night.number) {
+      anchor = found;
+    }
+  }
+  ASSERT_TRUE(anchor) << "no stand-in points into revision " << night.number;
+  repository.Revert(night.number, "operator");
+
+  const GraphBatch chain = testing::RandomChainFrom(this->robot_, anchor->node, 20, 7);
+  const Uuid built = Uuid::Generate();
+  repository.Push(built, this->robot_, "robot-1", chain);
+  const MergeOutcome merged = repository.Merge(built);
+  EXPECT_EQ(merged.report.nodes_added, 20u);
+  const std::set<Uuid> head = NodeIds(repository.Checkout());
+  for (const Node& node : chain.nodes) EXPECT_TRUE(head.contains(node.id));
+  // Whatever the first node was joined to is visible at the head (no edge into a hidden node).
+  for (const Edge& edge : repository.Checkout().edges) {
+    EXPECT_TRUE(head.contains(edge.from) && head.contains(edge.to)) << edge.id.ToString();
+  }
+}
+
+// Issue 35 item 5: a node pushed with a UUID the server holds with other content used to merge
+// as a duplicate ("0 nodes added"), and the robot was then sent the other node as its own.
+// Now the merge is refused, naming the node; the submission stays stored (failed), and the
+// stored node and the head are as they were.
+TYPED_TEST(RepositoryTest, ANodeWhoseUuidIsStoredWithOtherContentIsRefusedAndBothAreKept) {
+  Repository& repository = *this->repository_;
+  const GraphBatch map = RobotMap({0});
+  this->PushAndMerge(map);
+  const Node stored = repository.Checkout().nodes.front();
+  GraphBatch colliding = testing::RandomRobotMap(this->robot_, 3, 21);
+  const Uuid own = colliding.nodes.front().id;
+  colliding.nodes.front().id = stored.id;  // the other robot's UUID, its own content
+  for (Edge& edge : colliding.edges) {
+    if (edge.from == own) edge.from = stored.id;
+    if (edge.to == own) edge.to = stored.id;
+  }
+  const Uuid id = Uuid::Generate();
+  repository.Push(id, this->robot_, "robot-1", colliding);
+  const std::vector<Revision> before = repository.History();
+  try {
+    repository.Merge(id);
+    ADD_FAILURE() << "a colliding UUID merged";
+  } catch (const Error& error) {
+    EXPECT_EQ(error.code(), ErrorCode::kConflict);
+    EXPECT_NE(std::string(error.what()).find(stored.id.ToString()), std::string::npos);
+    EXPECT_NE(std::string(error.what()).find("landmarks"), std::string::npos) << error.what();
+  }
+  EXPECT_EQ(repository.History(), before);
+  const std::optional<Submission> refused = repository.versions().FindSubmission(id);
+  ASSERT_TRUE(refused);
+  EXPECT_EQ(refused->state, SubmissionState::kFailed);
+  EXPECT_NE(refused->error.find(stored.id.ToString()), std::string::npos);
+  EXPECT_EQ(repository.ReadSubmission(id).nodes.front(), colliding.nodes.front());
+  for (const Node& node : repository.Checkout().nodes) {
+    if (node.id == stored.id) EXPECT_EQ(node, stored);
+  }
+}
+
+// Issue 35 item 2: `fleetmap doctor` (DiagnoseStore) said healthy of a head a hide had cut in
+// two. A chain merged onto another chain; the first is reverted: the second is cut off.
+TYPED_TEST(RepositoryTest, DoctorReportsPiecesAHideCutOff) {
+  Repository& repository = *this->repository_;
+  const GraphBatch day = RobotMap({0});
+  this->PushAndMerge(day);
+  const GraphBatch first = testing::RandomChainFrom(this->robot_, day.nodes.back().id, 5, 31);
+  const Revision joined = this->PushAndMerge(first);
+  const GraphBatch second = testing::RandomChainFrom(this->robot_, first.nodes.back().id, 5, 32);
+  this->PushAndMerge(second);
+  const std::unique_ptr<GraphStore> store = GraphStore::Open(this->backend_->Uri());
+  const auto cut_off = [&] {
+    for (const StoreProblem& problem : DiagnoseStore(*store, {})) {
+      if (problem.check == "cut off") return problem.what;
+    }
+    return std::string();
+  };
+  EXPECT_EQ(cut_off(), "");
+  const Revision revert = repository.Revert(joined.number, "operator");
+  const std::string what = cut_off();
+  EXPECT_NE(what.find("5 nodes"), std::string::npos) << what;
+  EXPECT_NE(what.find("revision " + std::to_string(revert.number)), std::string::npos) << what;
 }
 
 TYPED_TEST(RepositoryTest, ACorruptStoredSubmissionFailsItsMergeAndChangesNothing) {

@@ -123,20 +123,26 @@ class Merger {
         ++result_.report.derived_edges;
         continue;
       }
-      bool resolved = true;
+      bool resolved = true, to_hidden = false;
       for (const Uuid& end : {edge.from, edge.to}) {
         if (fresh_.contains(end) || server_.Find(end) || hidden_.contains(end) ||
-            stands_in_for_.contains(end) ||
-            (catalogue_.has_hidden_node && catalogue_.has_hidden_node(end))) {
+            stands_in_for_.contains(end)) {
           continue;
         }
-        // Omitted by an earlier merge: its stand-in takes the edge (if it is still visible).
+        // Omitted by an earlier merge, or hidden since the robot built on it: the visible
+        // node standing in takes the edge.
         if (catalogue_.stand_in) {
           if (const std::optional<NodeStandIn> earlier = catalogue_.stand_in(end);
               earlier && server_.Find(earlier->stand_in)) {
             stands_in_for_.emplace(end, StandIn{earlier->stand_in, earlier->stand_in_T_node});
             continue;
           }
+        }
+        // Hidden with nothing visible near it (its whole piece of the map was hidden).
+        if (catalogue_.has_hidden_node && catalogue_.has_hidden_node(end)) {
+          resolved = false;
+          to_hidden = true;
+          continue;
         }
         if (catalogue_.seen_elsewhere && catalogue_.seen_elsewhere(end)) {
           resolved = false;
@@ -148,7 +154,7 @@ class Merger {
       }
       if (!resolved) {
         unresolved_.insert(edge.id);
-        ++result_.report.edges_unresolved;
+        ++(to_hidden ? result_.report.edges_to_hidden : result_.report.edges_unresolved);
         continue;
       }
       if (edge.kind != EdgeKind::kMetric) continue;

@@ -57,6 +57,13 @@ struct DreamCandidateRecord {
 std::string DreamCandidateJson(const DreamCandidateRecord& record);
 DreamCandidateRecord DreamCandidateFromJson(std::string_view json);
 
+// Whether promoting `record` can improve the map: its held-out score (lower is better) is
+// below that of the order the server merged its groups in, the same score of the same replay
+// of the same held-out data (like with like). Throws Error(kInvalidArgument) giving both
+// scores when it ties or loses, or saying the dream did not score the merged order, each
+// naming --force, the way to promote it all the same.
+void RequireBeatsMergedOrder(const DreamCandidateRecord& record);
+
 class DreamCandidates {
  public:
   explicit DreamCandidates(VersionStore& versions) : versions_(versions) {}

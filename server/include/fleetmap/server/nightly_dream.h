@@ -14,6 +14,7 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 #include <functional>
 #include <optional>
 #include <string>
@@ -43,9 +44,25 @@ using NightlyDreamProgress = std::function<void(std::size_t, std::size_t)>;
 // Error(kInvalidArgument) naming the text otherwise.
 int ParseDreamTime(std::string_view text);
 
-// Runs one nightly dream on `repository` (which it reads, and writes only the candidate and
-// the last dream's mark to). Throws Error(kInvalidArgument) for max_groups of 0 or more than
-// 11, and as the store and Dream do.
+// A scheduled dream that did not run (issue 35 item 13 b): fleetmapd was down at its time, or
+// it was killed (or stopped) mid-dream.
+struct MissedDream {
+  std::int64_t scheduled_ns = 0;  // the dream time that passed, UTC
+  std::string why;                // for the log: "the dream started at ... did not finish"
+};
+
+// Whether the dream scheduled daily at `minute_of_day` (UTC) was missed as of `now_ns`: a dream
+// started since the last one that finished (or none finished) did not finish, or the last
+// dream finished before the latest scheduled time at or before `now_ns`. RunNightlyDream
+// records when it starts and finishes (a skipped dream finishes too); a store from before
+// those records counts its newest candidate as the last dream finished. A store where no dream
+// ever started has missed none. Reads `versions` only.
+std::optional<MissedDream> FindMissedDream(VersionStore& versions, std::int64_t now_ns,
+                                           int minute_of_day);
+
+// Runs one nightly dream on `repository` (which it reads, and writes only the candidate, the
+// last dream's mark and when the dream started and finished to). Throws Error(kInvalidArgument) for
+// max_groups of 0 or more than 11, and as the store and Dream do.
 NightlyDreamOutcome RunNightlyDream(Repository& repository, const NightlyDreamOptions& options,
                                     const NightlyDreamProgress& progress = {});
 

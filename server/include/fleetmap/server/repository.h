@@ -147,8 +147,10 @@ class Repository {
   // dangling). What else happened since the dream stays: later merges, and reverts (a node a
   // revert hid stays hidden). The revision's report is the candidate's record (its held-out
   // score). Throws Error(kNotFound) for an unknown candidate, Error(kConflict) for one
-  // promoted already, Error(kCorrupt) for content that does not read back.
-  Revision Promote(const Uuid& candidate, const std::string& author);
+  // promoted already, Error(kCorrupt) for content that does not read back, and, unless
+  // `force`, Error(kInvalidArgument) giving both scores for a candidate whose held-out score
+  // does not beat that of the order the server merged (or whose dream did not score it).
+  Revision Promote(const Uuid& candidate, const std::string& author, bool force = false);
 
   // ---- Reading revisions ----
 
@@ -180,6 +182,10 @@ class Repository {
   // Push's content rules (see Push), for `map` pushed as submission `id`; throws the first
   // broken one.
   void ValidatePushContent(const Uuid& id, const GraphBatch& map);
+  // Promote's work on the head as it reads it; Error(kConflict) when another writer (a merge)
+  // appended a revision first.
+  Revision PromoteOnHead(const struct DreamCandidateRecord& record, const GraphBatch& content,
+                         const std::string& author);
   // Whether the server has seen `node` outside submission `submission`: stored, omitted by a
   // merge, or carried by another submission.
   bool SeenOutside(const Uuid& submission, const Uuid& node);

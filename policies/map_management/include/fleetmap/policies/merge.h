@@ -63,6 +63,10 @@ struct MergeReport {
   // Edges to a node the server saw only in a submission it could not merge: dropped here, kept
   // in both submissions.
   std::size_t edges_unresolved = 0;
+  // Edges to a node hidden at the head (a revert or a promotion since the robot's download)
+  // with no visible node near it to hang from (the catalogue's stand_in gave none): dropped,
+  // kept in the submission.
+  std::size_t edges_to_hidden = 0;
   // Edges a download derived (subset_contraction.h) that the robot sent back: they stand for
   // what the server holds already, so they are recognised and not stored.
   std::size_t derived_edges = 0;
@@ -83,7 +87,8 @@ struct ServerCatalogue {
   std::function<bool(const Uuid& edge)> has_edge;
   std::function<bool(const Uuid& path)> has_path;
   // Optional: nodes stored but not in the mirror (hidden by a revert). Such a node is a
-  // duplicate, never added again (UUID dedup, seed 004 §III-D), and edges to it are dropped.
+  // duplicate, never added again (UUID dedup, seed 004 §III-D); edges to it go to its stand-in
+  // when `stand_in` gives one, else they are dropped and counted (edges_to_hidden).
   std::function<bool(const Uuid& node)> has_hidden_node;
   // Optional: where an earlier merge put a node it omitted. A submission built on such a node
   // (the robot kept it until its download reflected the merge) has edges to it; they are
