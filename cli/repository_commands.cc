@@ -10,6 +10,7 @@
 
 #include "commands.h"
 #include "fleetmap/core/error.h"
+#include "fleetmap/core/printable_text.h"
 #include "fleetmap/server/dream_candidates.h"
 #include "new_store.h"
 #include "repository_arguments.h"
@@ -89,9 +90,11 @@ void RunLog(const LogArgs& args) {
                 repository->store().uri().c_str());
     return;
   }
+  // Authors are outside text: escaped to one line each, so none can forge a row or drive the
+  // terminal (issue 35 item 10).
   int author_width = 6;
   for (const Revision& r : history) {
-    author_width = std::max(author_width, static_cast<int>(r.author.size()));
+    author_width = std::max(author_width, static_cast<int>(PrintableText(r.author).size()));
   }
   std::printf("%-4s  %-20s  %-*s  %-6s  %-47s  %-23s  %s\n", "REV", "TIME (UTC)", author_width,
               "AUTHOR", "KIND", "OF", "ADDED nodes/edges/paths", "HIDDEN nodes/edges/paths");
@@ -102,7 +105,7 @@ void RunLog(const LogArgs& args) {
                                std::to_string(r.edges_hidden) + "/" +
                                std::to_string(r.paths_hidden);
     std::printf("%-4lld  %-20s  %-*s  %-6s  %-47s  %-23s  %s\n", static_cast<long long>(r.number),
-                FormatUtc(r.created_ns).c_str(), author_width, r.author.c_str(),
+                FormatUtc(r.created_ns).c_str(), author_width, PrintableText(r.author).c_str(),
                 std::string(RevisionKindName(r.kind)).c_str(), Source(r).c_str(), added.c_str(),
                 hidden.c_str());
   }
@@ -192,7 +195,7 @@ void RunRevert(const RevertArgs& args) {
   }
   std::printf("revision %lld reverts revision %lld (author %s)\n",
               static_cast<long long>(revert.number), static_cast<long long>(args.revision),
-              revert.author.c_str());
+              PrintableText(revert.author).c_str());
   std::printf("  hid %s, %s, %s (kept in the store: revision %lld still checks out)\n",
               Count(revert.nodes_hidden, "node").c_str(),
               Count(revert.edges_hidden, "edge").c_str(),

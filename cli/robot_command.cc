@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.h"
+#include "fleetmap/core/printable_text.h"
 #include "fleetmap/server/robot_registry.h"
 #include "repository_arguments.h"
 
@@ -47,7 +48,7 @@ void RunRobotAdd(const RobotAddArgs& args) {
     std::cout << json.dump(2) << "\n";
     return;
   }
-  std::printf("robot %s registered in %s\n", added.robot.name.c_str(),
+  std::printf("robot %s registered in %s\n", PrintableText(added.robot.name).c_str(),
               repository->store().uri().c_str());
   std::printf("  robot id  %s\n", added.robot.id.ToString().c_str());
   std::printf("  token     %s\n", added.token.c_str());
@@ -81,12 +82,14 @@ void RunRobotList(const RobotListArgs& args) {
   }
   int name_width = 4;
   for (const RegisteredRobot& robot : robots) {
-    name_width = std::max(name_width, static_cast<int>(robot.name.size()));
+    // Checked printable when added, escaped all the same: the registry is a store's setting,
+    // which anything that can write the store can change (issue 35 item 10).
+    name_width = std::max(name_width, static_cast<int>(PrintableText(robot.name).size()));
   }
   std::printf("%-*s  %-36s  %-20s  %s\n", name_width, "NAME", "ROBOT ID", "ADDED", "LAST SYNC");
   for (const RegisteredRobot& robot : robots) {
     const std::string last = robot.last_sync_ns == 0 ? "never" : FormatUtc(robot.last_sync_ns);
-    std::printf("%-*s  %-36s  %-20s  %s\n", name_width, robot.name.c_str(),
+    std::printf("%-*s  %-36s  %-20s  %s\n", name_width, PrintableText(robot.name).c_str(),
                 robot.id.ToString().c_str(), FormatUtc(robot.added_ns).c_str(), last.c_str());
   }
 }

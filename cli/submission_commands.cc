@@ -11,6 +11,7 @@
 
 #include "commands.h"
 #include "fleetmap/core/error.h"
+#include "fleetmap/core/printable_text.h"
 #include "fleetmap/store/graph_store.h"
 #include "progress_bar.h"
 #include "repository_arguments.h"
@@ -77,7 +78,7 @@ void RunPush(const PushArgs& args) {
       "submission %s %s\n", submission.id.ToString().c_str(),
       stored_before ? "was already stored with this content: nothing changed" : "stored whole");
   std::printf("  robot     %s\n  author    %s\n", submission.robot.ToString().c_str(),
-              submission.author.c_str());
+              PrintableText(submission.author).c_str());
   std::printf("  map       %s: %s, %s (%zu metric, %zu path), %s\n", args.map.c_str(),
               Count(static_cast<std::int64_t>(map.nodes.size()), "node").c_str(),
               Count(static_cast<std::int64_t>(map.edges.size()), "edge").c_str(), metric,
@@ -145,9 +146,11 @@ void RunSubmissions(const SubmissionsArgs& args) {
                 repository->store().uri().c_str());
     return;
   }
+  // Authors, errors and instance names are outside text: escaped to one line each, so none can
+  // forge a row or drive the terminal (issue 35 item 10).
   int author_width = 6;
   for (const Submission& s : submissions) {
-    author_width = std::max(author_width, static_cast<int>(s.author.size()));
+    author_width = std::max(author_width, static_cast<int>(PrintableText(s.author).size()));
   }
   std::printf("%-36s  %-36s  %-*s  %-20s  %10s  %-9s  %s\n", "SUBMISSION", "ROBOT", author_width,
               "AUTHOR", "RECEIVED (UTC)", "BYTES", "STATE", "REVISION / ERROR");
@@ -160,9 +163,9 @@ void RunSubmissions(const SubmissionsArgs& args) {
                 (outcome.empty() ? "" : "; " + outcome);
     }
     std::printf("%-36s  %-36s  %-*s  %-20s  %10lld  %-9s  %s\n", s.id.ToString().c_str(),
-                s.robot.ToString().c_str(), author_width, s.author.c_str(),
+                s.robot.ToString().c_str(), author_width, PrintableText(s.author).c_str(),
                 FormatUtc(s.received_ns).c_str(), static_cast<long long>(s.bytes),
-                std::string(SubmissionStateName(s.state)).c_str(), outcome.c_str());
+                std::string(SubmissionStateName(s.state)).c_str(), PrintableText(outcome).c_str());
   }
 }
 
@@ -182,7 +185,8 @@ void PrintMerge(const Uuid& id, const MergeOutcome& outcome) {
   }
   const MergeReport& r = outcome.report;
   std::printf("submission %s -> revision %lld (author %s)\n", id.ToString().c_str(),
-              static_cast<long long>(outcome.revision.number), outcome.revision.author.c_str());
+              static_cast<long long>(outcome.revision.number),
+              PrintableText(outcome.revision.author).c_str());
   std::printf("  segments   %zu, decided in %zu stretches: %zu added, %zu omitted (localised)\n",
               r.segments, r.stretches, r.stretches_added, r.stretches_omitted);
   std::printf("  nodes      %zu submitted, %zu duplicates, %zu added\n", r.submitted_nodes,

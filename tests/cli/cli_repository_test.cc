@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 #include <sqlite3.h>
 
+#include <algorithm>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <regex>
@@ -213,6 +214,67 @@ TEST_F(CliRepositoryTest, InitPushMergeLogCheckoutDiffDownloadRevertDreamOnSqlit
   EXPECT_GT(NodesIn(best), 0);
   // Dreaming only reads the repository.
   EXPECT_EQ(Json({"log"}).size(), 3u);
+}
+
+// Bytes below 0x20 (but the newline ending each line) and DEL: what a terminal acts on.
+std::string ControlBytesIn(const std::string& text) {
+  std::string found;
+  for (const char c : text) {
+    const auto byte = static_cast<unsigned char>(c);
+    if ((byte < 0x20 && c != '\n') || byte == 0x7f) found += std::to_string(byte) + " ";
+  }
+  return found;
+}
+
+std::size_t LinesIn(const std::string& text) {
+  return static_cast<std::size_t>(std::count(text.begin(), text.end(), '\n'));
+}
+
+// Issue 35 item 10: an author with a newline and an escape sequence (stored as given) cannot
+// forge a row of `fleetmap log` or `submissions`, nor clear the terminal: every table prints
+// it escaped on its own row, as do push, merge and revert; --json keeps it as it is.
+TEST_F(CliRepositoryTest, AnAuthorWithControlCharactersCannotForgeATableRow) {
+  const std::string author = "eve\n3 | merge | forged\x1b[2J";
+  const std::string printed = "eve\\n3 | merge | forged\\x1b[2J";
+  RunOn({"init"});
+  const RunResult push =
+      RunOn({"push", "--map", Maps().day, "--robot", robot_day_, "--author", author, "--id", day_});
+  RunOn({"push", "--map", Maps().night, "--robot", robot_night_, "--author", "robot-night", "--id",
+         night_});
+  const RunResult merge = RunOn({"merge", "--all"});
+  const RunResult revert = RunOn({"revert", "1", "--author", author});
+  const RunResult log = RunOn({"log"});
+  const RunResult submissions = RunOn({"submissions"});
+  for (const RunResult* r : {&push, &merge, &revert, &log, &submissions}) {
+    EXPECT_EQ(ControlBytesIn(r->out), "") << r->out;
+  }
+  EXPECT_TRUE(Contains(push.out, printed)) << push.out;
+  EXPECT_TRUE(Contains(revert.out, printed)) << revert.out;
+  EXPECT_EQ(LinesIn(log.out), 1u + 3u) << log.out;  // the header, two merges and the revert
+  EXPECT_EQ(LinesIn(submissions.out), 1u + 2u) << submissions.out;
+  EXPECT_TRUE(Contains(log.out, printed)) << log.out;
+  EXPECT_TRUE(Contains(submissions.out, printed)) << submissions.out;
+  EXPECT_EQ(Json({"log"})[0]["author"], author);
+  EXPECT_EQ(Json({"submissions"})[0]["author"], author);
+}
+
+// Issue 35 item 13 (c): `fleetmap promote` refuses a candidate that only ties the order the
+// server merged (two submissions: one group, one order, the merged one), giving both scores
+// and the way round; --force promotes it.
+TEST_F(CliRepositoryTest, PromoteRefusesACandidateThatDoesNotBeatTheMergedOrderWithoutForce) {
+  PushAndMergeDayAndNight();
+  const nlohmann::json candidate = Json({"dream-now"});
+  ASSERT_TRUE(candidate.contains("id")) << candidate.dump();
+  const std::string id = candidate["id"].get<std::string>();
+  const RunResult refused = RunOn({"promote", id}, /*succeed=*/false);
+  EXPECT_TRUE(Contains(refused.err, "cannot promote " + id)) << refused.err;
+  EXPECT_TRUE(Contains(refused.err, "does not beat the order the server merged")) << refused.err;
+  EXPECT_TRUE(std::regex_search(refused.err, std::regex("([0-9.]+) vs \\1"))) << refused.err;
+  EXPECT_TRUE(Contains(refused.err, "--force")) << refused.err;
+  EXPECT_EQ(Json({"log"}).size(), 2u) << "nothing promoted";
+  const RunResult forced = RunOn({"promote", id, "--force", "--author", "operator"});
+  EXPECT_TRUE(Contains(forced.out, "revision 3 promotes dream candidate " + id)) << forced.out;
+  EXPECT_TRUE(Contains(RunOn({"promote", "--help"}).out, "--force"));
 }
 
 TEST_F(CliRepositoryTest, BadInputExitsNonZeroNamesTheProblemAndChangesNothing) {
