@@ -55,8 +55,12 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(1, 64));
   app.add_option("--tls-cert", options.tls_cert_path, "TLS certificate chain (PEM)")
       ->check(CLI::ExistingFile);
-  app.add_option("--tls-key", options.tls_key_path, "TLS private key (PEM)")
+  app.add_option("--tls-key", options.tls_key_path,
+                 "TLS private key (PEM); readable by its owner only (chmod 600), else refused")
       ->check(CLI::ExistingFile);
+  app.add_flag("--allow-plaintext", options.allow_plaintext,
+               "Serve without TLS on an address other than loopback (refused otherwise: tokens "
+               "and maps would cross the network in clear); logs a warning");
   app.add_option("--hello-timeout", hello_timeout_s,
                  "Seconds a new connection has to deliver its hello (the TLS handshake "
                  "included); a real agent sends it at once")
@@ -75,9 +79,23 @@ int main(int argc, char** argv) {
                  "The same over all addresses (again the oldest is closed)")
       ->capture_default_str()
       ->check(CLI::Range(1, 100000));
+  app.add_option("--max-sessions-per-robot", options.max_sessions_per_robot,
+                 "Sessions one robot may hold at once, once authenticated; past this its new "
+                 "session is refused (BUSY) and its others go on (an agent uses one)")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 100000));
+  std::uint64_t max_inflight_mib_per_robot = options.max_inflight_bytes_per_robot >> 20;
+  app.add_option("--max-inflight-mib-per-robot", max_inflight_mib_per_robot,
+                 "MiB of frames one robot may have announced and not yet had handled, across "
+                 "its sessions; a frame past this is refused (BUSY), so one robot cannot take "
+                 "the memory the others sync with; at least 64, one frame of the largest")
+      ->capture_default_str()
+      ->check(CLI::Range(std::uint64_t{64}, std::uint64_t{1} << 20));
   app.add_option("--max-submission-mib", max_submission_mib,
                  "Largest submission a robot may push, in MiB, as announced and as received; "
-                 "a larger push is refused (INVALID)")
+                 "a larger push is refused (INVALID). The welcome tells agents the limit: "
+                 "they push more content as several submissions that fit, and keep a node "
+                 "over it unpushed until it grows")
       ->capture_default_str()
       ->check(CLI::Range(std::uint64_t{1}, std::uint64_t{1} << 24));
   app.add_option("--busy-timeout-ms", busy_timeout_ms,
@@ -127,7 +145,9 @@ int main(int argc, char** argv) {
                  "before them, judged by the newest one, which is held out; the best map is "
                  "kept as a candidate (`fleetmap candidates`), never the head, until "
                  "`fleetmap promote` makes it the next revision. Runs beside pushes and "
-                 "downloads, on a store connection of its own; progress in /metrics");
+                 "downloads, on a store connection of its own; progress in /metrics. A "
+                 "dream missed (fleetmapd down at the time, or killed mid-dream) runs once "
+                 "at start");
   app.add_option("--dream-max-groups", options.dream.max_groups,
                  "Submissions a dream merges in every order at most (the newest before the "
                  "held-out one); k groups make k! orders")
@@ -142,6 +162,10 @@ int main(int argc, char** argv) {
   // Likewise, after the claim and before MERGE: a test freezes the daemon there past its lease.
   app.add_option("--debug-merge-pause-ms", debug_merge_pause_ms)->group("");
   app.add_option("--debug-chunk-delay-ms", debug_chunk_delay_ms)->group("");
+  // And the deadline of each frame after the hello (SyncServerOptions::io_deadline), so a test
+  // of a robot's large backlog (issue 35 item 4) need not build 30 s of work to pass it.
+  double frame_timeout_s = std::chrono::duration<double>(options.io_deadline).count();
+  app.add_option("--frame-timeout-s", frame_timeout_s)->group("")->check(CLI::Range(0.05, 3600.0));
   // And the size of a streamed download's batches, for tests and benchmarks of its memory.
   std::size_t download_batch_kib = options.download_batch_bytes >> 10;
   app.add_option("--debug-download-batch-kib", download_batch_kib)
@@ -174,9 +198,12 @@ int main(int argc, char** argv) {
   options.merge_max_retry = std::chrono::milliseconds(merge_max_retry_ms);
   options.merge_first_retry = std::min(options.merge_first_retry, options.merge_max_retry);
   options.debug_chunk_delay = std::chrono::milliseconds(debug_chunk_delay_ms);
+  options.io_deadline =
+      std::chrono::milliseconds(static_cast<std::int64_t>(frame_timeout_s * 1000.0));
   options.hello_deadline =
       std::chrono::milliseconds(static_cast<std::int64_t>(hello_timeout_s * 1000.0));
   options.max_submission_bytes = max_submission_mib << 20;
+  options.max_inflight_bytes_per_robot = max_inflight_mib_per_robot << 20;
   options.download_cache_bytes = download_cache_mib << 20;
   options.download_cache_entry_bytes = download_cache_entry_mib << 20;
   options.download_batch_bytes = download_batch_kib << 10;

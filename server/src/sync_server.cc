@@ -19,8 +19,10 @@
 #include "dream_schedule.h"
 #include "fleetmap/core/error.h"
 #include "fleetmap/server/robot_registry.h"
+#include "fleetmap/wire/secret_file.h"
 #include "head_picture.h"
 #include "merge_queue.h"
+#include "robot_allowance.h"
 #include "server_activity.h"
 #include "session_tracker.h"
 #include "store_workers.h"
@@ -93,6 +95,8 @@ class SyncServer::Impl {
       : options_(std::move(options)),
         cache_(options_.download_cache_bytes, options_.download_cache_entry_bytes),
         admission_(LimitsOf(options_)),
+        robots_(server::RobotLimits{options_.max_sessions_per_robot,
+                                    options_.max_inflight_bytes_per_robot}),
         acceptor_(asio::make_strand(ioc_)) {
     if (options_.io_threads < 1 || options_.store_threads < 1) {
       throw Error(ErrorCode::kInvalidArgument, "fleetmapd: --threads must be at least 1");
@@ -106,6 +110,7 @@ class SyncServer::Impl {
                   "TLS needs both a certificate and a key (--tls-cert and --tls-key)");
     }
     if (!options_.tls_cert_path.empty()) LoadTls();
+    if (!tls_ && !endpoint.address().is_loopback()) RequirePlaintextAllowed();
     StoreOptions store_options;
     store_options.busy_timeout_ms = options_.store_busy_timeout.count();
     store_ = std::make_unique<server::StoreWorkers>(options_.store_uri, options_.store_threads,
@@ -139,7 +144,7 @@ class SyncServer::Impl {
                                                        *options_.dream_at_minute, options_.dream);
     }
     context_.emplace(server::SessionContext{options_, *store_, *merges_, cache_, activity_,
-                                            tracker_, admission_, draining_});
+                                            tracker_, admission_, robots_, draining_});
   }
 
   ~Impl() { Stop(); }
@@ -214,7 +219,26 @@ class SyncServer::Impl {
   bool tls() const { return tls_.has_value(); }
 
  private:
+  // Issue 35 item 9: a robot's hello carries its token, so plain text only where nobody else
+  // can listen (loopback), or where the operator said so.
+  void RequirePlaintextAllowed() const {
+    if (!options_.allow_plaintext) {
+      throw Error(ErrorCode::kInvalidArgument,
+                  "refusing to serve " + options_.listen +
+                      " without TLS: robots' tokens and maps would cross the network in clear. "
+                      "Give --tls-cert FILE and --tls-key FILE (robots then connect with "
+                      "fleetmap-agent --tls-ca FILE), listen on loopback (127.0.0.1), or, on a "
+                      "network you trust as a cable, say so with --allow-plaintext");
+    }
+    spdlog::warn(
+        "PLAIN TEXT on {} (--allow-plaintext): every robot's token and map cross the network "
+        "unencrypted; anyone on it can read them and sync as any robot",
+        options_.listen);
+  }
+
   void LoadTls() {
+    // Issue 35 item 12: the key, before it is loaded.
+    RequirePrivateSecretFile(options_.tls_key_path, "TLS key (--tls-key)");
     tls_.emplace(asio::ssl::context::tls_server);
     // TLS 1.2 or later only.
     tls_->set_options(asio::ssl::context::default_workarounds | asio::ssl::context::no_sslv2 |
@@ -364,6 +388,7 @@ class SyncServer::Impl {
   server::SessionTracker tracker_;
   server::DownloadCache cache_;
   server::ConnectionAdmission admission_;
+  server::RobotAllowance robots_;
   std::unique_ptr<server::MergeQueue> merges_;
   std::unique_ptr<server::DreamSchedule> dream_;  // null without --dream-at
   std::unique_ptr<server::StoreWorkers> store_;

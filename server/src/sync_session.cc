@@ -4,6 +4,8 @@
 #include <malloc.h>
 #endif
 
+#include <openssl/err.h>
+#include <openssl/ssl.h>
 #include <spdlog/fmt/fmt.h>
 #include <spdlog/spdlog.h>
 
@@ -11,11 +13,13 @@
 #include <boost/asio/post.hpp>
 #include <boost/asio/read.hpp>
 #include <boost/asio/write.hpp>
+#include <span>
 #include <thread>
 #include <type_traits>
 
 #include "fleetmap/core/error.h"
 #include "fleetmap/core/map_chunks.h"
+#include "fleetmap/core/printable_text.h"
 #include "fleetmap/server/robot_registry.h"
 #include "fleetmap/wire/sync_frame.h"
 
@@ -58,6 +62,47 @@ std::string Mib(std::uint64_t bytes) {
   return fmt::format("{:.1f} MiB", static_cast<double>(bytes) / double(1 << 20));
 }
 
+// A TLS connection opens with a handshake record (content type 22) of major version 3: what a
+// plain listener sees first from an agent that speaks TLS to it.
+constexpr unsigned char kTlsHandshakeRecord = 0x16;
+constexpr unsigned char kTlsMajorVersion = 0x03;
+
+// The TLS handshake failed on its first record, which was no TLS record at all: the peer spoke
+// plain bytes (an agent without TLS, whose hello starts with a frame's length).
+bool NotTls(const boost::system::error_code& ec) {
+  if (ec.category() != asio::error::get_ssl_category()) return false;
+  const int reason = ERR_GET_REASON(static_cast<unsigned long>(ec.value()));
+  return reason == SSL_R_WRONG_VERSION_NUMBER || reason == SSL_R_HTTP_REQUEST ||
+         reason == SSL_R_UNKNOWN_PROTOCOL;
+}
+
+// Issue 35 item 11: a robot pushes in its own name only. A chunk whose node or path names
+// another robot (or none) is refused whole, saying which, before it is stored; the robot keeps
+// its content. A chunk that does not decode passes here: the push's end stores it failed with
+// the reason, as any content MERGE cannot take.
+void RequireOwnContent(const std::string& chunk, std::uint32_t seq, const Uuid& robot,
+                       const std::string& robot_name) {
+  GraphBatch content;
+  try {
+    content = DecodeMapChunks(std::span<const std::string>(&chunk, 1));
+  } catch (const Error&) {
+    return;
+  }
+  const auto refuse = [&](const char* kind, const Uuid& id, const Uuid& named) {
+    throw Error(ErrorCode::kInvalidArgument,
+                "push_chunk " + std::to_string(seq) + ": " + kind + " " + id.ToString() +
+                    " names robot " + (named.IsNil() ? std::string("(none)") : named.ToString()) +
+                    ", but this session is robot " + robot_name + " (" + robot.ToString() +
+                    "): a robot pushes its own nodes only; nothing stored");
+  };
+  for (const Node& node : content.nodes) {
+    if (node.robot != robot) refuse("node", node.id, node.robot);
+  }
+  for (const Path& path : content.paths) {
+    if (path.robot != robot) refuse("path", path.id, path.robot);
+  }
+}
+
 // Both refusals of a hello say this and nothing more: which of the two it was would tell a
 // stranger which robot ids are registered. The log says which.
 constexpr std::string_view kHelloRefused = "unknown robot or wrong token";
@@ -78,7 +123,7 @@ SyncSession<Stream>::SyncSession(Stream stream, SessionContext& context, std::st
 
 template <typename Stream>
 SyncSession<Stream>::~SyncSession() {
-  spdlog::info("session {} closed: {}; {} frames", Who(), close_reason_, frames_);
+  spdlog::info("session {} closed: {}; {} frames", Who(), PrintableText(close_reason_), frames_);
   LeaveAdmission();
   context_.activity.SessionClosed();
   context_.tracker.Closed();
@@ -148,6 +193,15 @@ template <typename Stream>
 void SyncSession<Stream>::LeaveAdmission() {
   context_.admission.Release(admission_ticket_);
   admission_ticket_ = 0;
+  ReleaseFrame();
+  if (robot_joined_) context_.robots.LeaveSession(robot_);
+  robot_joined_ = false;
+}
+
+template <typename Stream>
+void SyncSession<Stream>::ReleaseFrame() {
+  if (frame_reserved_ > 0) context_.robots.ReleaseFrame(robot_, frame_reserved_);
+  frame_reserved_ = 0;
 }
 
 // ---- Deadlines ----
@@ -208,7 +262,9 @@ void SyncSession<Stream>::on_handshake(const boost::system::error_code& ec) {
     close_reason_ = timed_out_ ? "no TLS handshake within " +
                                      Seconds(std::min(context_.options.handshake_deadline,
                                                       context_.options.hello_deadline))
-                               : "TLS handshake failed: " + ec.message();
+                    : NotTls(ec) ? "it sent plain bytes, not a TLS handshake, to this TLS server: "
+                                   "an agent without TLS? (fleetmap-agent --tls-ca FILE)"
+                                 : "TLS handshake failed: " + ec.message();
     spdlog::warn("session {} refused: {}", peer_, close_reason_);
     return CloseSocket();
   }
@@ -220,6 +276,7 @@ void SyncSession<Stream>::on_handshake(const boost::system::error_code& ec) {
 
 template <typename Stream>
 void SyncSession<Stream>::do_read_prefix() {
+  ReleaseFrame();  // the last frame is handled
   if (shutting_down_ || context_.draining.load()) {
     return Fail(v1::ErrorFrame::SHUTTING_DOWN, "the server is shutting down; retry later");
   }
@@ -261,6 +318,16 @@ void SyncSession<Stream>::on_read_prefix(const boost::system::error_code& ec, st
     return CloseSocket();
   }
   const auto* p = reinterpret_cast<const unsigned char*>(prefix_.data());
+  if constexpr (std::is_same_v<Stream, tcp::socket>) {
+    if (!welcomed_ && p[0] == kTlsHandshakeRecord && p[1] == kTlsMajorVersion) {
+      // Issue 35 item 9: said in the log; a frame back would only garble the peer's handshake.
+      close_reason_ =
+          "it opened with a TLS ClientHello, but this server runs without TLS: drop --tls-ca "
+          "(or --tls-insecure) from the agent, or give fleetmapd --tls-cert and --tls-key";
+      spdlog::warn("session {} refused: {}", peer_, close_reason_);
+      return CloseSocket();
+    }
+  }
   const std::uint32_t announced = (std::uint32_t{p[0]} << 24) | (std::uint32_t{p[1]} << 16) |
                                   (std::uint32_t{p[2]} << 8) | std::uint32_t{p[3]};
   if (announced == 0) return Fail(v1::ErrorFrame::BAD_FRAME, "a frame of 0 bytes (no body)");
@@ -276,6 +343,19 @@ void SyncSession<Stream>::on_read_prefix(const boost::system::error_code& ec, st
                 "a frame of " + std::to_string(length) +
                     " bytes before a hello was accepted: until then a frame is at most " +
                     std::to_string(kMaxPreHelloFrameBytes) + " bytes");
+  }
+  if (welcomed_) {
+    // Issue 35 item 8: room for the whole frame among the robot's, before a byte of it.
+    std::uint64_t in_flight = 0;
+    if (!context_.robots.ReserveFrame(robot_, length, in_flight)) {
+      return Fail(v1::ErrorFrame::BUSY,
+                  "a frame of " + Mib(length) + " while robot " + robot_name_ + " has " +
+                      Mib(in_flight) +
+                      " of frames in flight across its sessions, over its cap of " +
+                      Mib(context_.robots.limits().frame_bytes) +
+                      " (fleetmapd --max-inflight-mib-per-robot); retry when they are done");
+    }
+    frame_reserved_ = length;
   }
   do_read_body(length);
 }
@@ -392,7 +472,7 @@ void SyncSession<Stream>::Fail(ErrorCodeV1 code, const std::string& text) {
   LeaveAdmission();
   const std::string name = v1::ErrorFrame::Code_Name(code);
   close_reason_ = name + ": " + text;
-  spdlog::warn("session {} refused: {}: {}", Who(), name, text);
+  spdlog::warn("session {} refused: {}: {}", Who(), name, PrintableText(text));
   context_.activity.ErrorSent(name);
   v1::SyncFrame frame;
   frame.mutable_error()->set_code(code);
@@ -592,6 +672,14 @@ void SyncSession<Stream>::OnHello(const v1::Hello& hello) {
         }
         self->robot_ = robot;
         self->robot_name_ = result.auth.robot->name;
+        if (!self->context_.robots.JoinSession(robot)) {  // issue 35 item 8
+          return self->Fail(v1::ErrorFrame::BUSY,
+                            "robot " + self->robot_name_ + " holds its maximum of " +
+                                std::to_string(self->context_.robots.limits().sessions) +
+                                " sessions (fleetmapd --max-sessions-per-robot); retry when one "
+                                "ends");
+        }
+        self->robot_joined_ = true;
         self->phase_ = Phase::kReady;
         self->welcomed_ = true;
         self->context_.activity.RobotSynced(*result.auth.robot, NowNs());
@@ -603,13 +691,14 @@ void SyncSession<Stream>::OnHello(const v1::Hello& hello) {
               self->Who(), robot.ToString(), result.sync_not_recorded);
         }
         spdlog::info("session {} opened: robot {} ({}), {}", self->Who(), self->robot_name_,
-                     robot.ToString(), agent.empty() ? "agent unnamed" : agent);
+                     robot.ToString(), agent.empty() ? "agent unnamed" : PrintableText(agent));
         v1::SyncFrame frame;
         v1::Welcome& welcome = *frame.mutable_welcome();
         welcome.set_protocol_version(self->protocol_version_);
         welcome.set_head_revision(result.head);
         welcome.set_robot_name(self->robot_name_);
         welcome.set_max_frame_bytes(kMaxSyncFrameBytes);
+        welcome.set_max_submission_bytes(self->context_.options.max_submission_bytes);
         self->Reply(frame);
       });
 }
@@ -639,6 +728,11 @@ void SyncSession<Stream>::OnPushBegin(const v1::PushBegin& begin) {
         return repository.BeginChunkedPush(id, robot, author.empty() ? robot.ToString() : author);
       },
       [self = this->shared_from_this(), begin](Submission stored) {
+        if (stored.robot != self->robot_) {  // issue 35 item 11: not another robot's to resume
+          return self->Fail(v1::ErrorFrame::CONFLICT,
+                            "push_begin: submission " + stored.id.ToString() +
+                                " cannot be pushed from this robot; push under a new id");
+        }
         const bool complete = stored.state != SubmissionState::kReceiving;
         if (complete && stored.digest != begin.digest()) {
           return self->Fail(v1::ErrorFrame::CONFLICT,
@@ -715,9 +809,10 @@ void SyncSession<Stream>::OnPushChunk(v1::PushChunk chunk) {
   }
   auto data = std::make_shared<const std::string>(std::move(*chunk.mutable_data()));
   OnStore(
-      [id = push_->submission, seq, data,
+      [id = push_->submission, seq, data, robot = robot_, name = robot_name_,
        delay = context_.options.debug_chunk_delay](Repository& repository) {
         if (delay.count() > 0) std::this_thread::sleep_for(delay);
+        RequireOwnContent(*data, seq, robot, name);
         repository.PutPushChunk(id, seq, *data);
         return seq;
       },
@@ -785,9 +880,13 @@ void SyncSession<Stream>::OnMergeStatusRequest(const v1::MergeStatusRequest& req
 template <typename Stream>
 void SyncSession<Stream>::QueryMergeStatus(const Uuid& id, bool may_wait, std::uint32_t wait_ms) {
   OnStore(
-      [id, &merges = context_.merges](Repository& repository) {
+      [id, robot = robot_, &merges = context_.merges](Repository& repository) {
         const std::optional<Submission> s = repository.versions().FindSubmission(id);
-        if (!s) throw Error(ErrorCode::kNotFound, "no submission " + id.ToString() + " is stored");
+        // Another robot's submission is answered as one never pushed (issue 35 item 11): the
+        // answer tells no robot what the others pushed.
+        if (!s || s->robot != robot) {
+          throw Error(ErrorCode::kNotFound, "no submission " + id.ToString() + " is stored");
+        }
         v1::MergeStatus status;
         status.set_submission_id(id.ToBytesString());
         status.set_state(std::string(SubmissionStateName(s->state)));

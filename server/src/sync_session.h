@@ -37,6 +37,7 @@
 #include "fleetmap/sync.pb.h"
 #include "fleetmap/wire/sync_frame.h"
 #include "merge_queue.h"
+#include "robot_allowance.h"
 #include "server_activity.h"
 #include "session_tracker.h"
 #include "store_workers.h"
@@ -52,6 +53,7 @@ struct SessionContext {
   ServerActivity& activity;
   SessionTracker& tracker;
   ConnectionAdmission& admission;
+  RobotAllowance& robots;
   const std::atomic<bool>& draining;
 };
 
@@ -119,8 +121,11 @@ class SyncSession : public SessionControl,
   // The deadline of the next read: io_deadline, and before the hello no later than the hello
   // deadline (counted from the accept).
   std::chrono::milliseconds ReadDeadline() const;
-  // The session starts closing: it no longer counts against the server's limits.
+  // The session starts closing: it no longer counts against the server's limits, nor against
+  // its robot's (robot_allowance.h).
   void LeaveAdmission();
+  // The session is done with the frame it reserved room for (robot_allowance.h): released.
+  void ReleaseFrame();
 
   void Handle(const v1::SyncFrame& frame);
   void OnHello(const v1::Hello& hello);
@@ -167,6 +172,8 @@ class SyncSession : public SessionControl,
   bool welcomed_ = false;  // past the hello: a robot, authenticated
   Uuid robot_;
   std::string robot_name_;
+  bool robot_joined_ = false;         // counted among robot_'s sessions (robot_allowance.h)
+  std::uint64_t frame_reserved_ = 0;  // bytes of the frame being read or handled, reserved
   std::optional<Push> push_;
 
   std::array<char, 4> prefix_{};

@@ -30,9 +30,14 @@ struct SyncServerOptions {
   std::string listen = "127.0.0.1:7420";
   int io_threads = 2;
   int store_threads = 2;  // store connections for sessions (plus one for merges)
-  // Both set: TLS (1.2 or later) on every connection; PEM files.
+  // Both set: TLS (1.2 or later) on every connection; PEM files. The key must be readable by
+  // its owner only (chmod 600), as ssh requires of keys.
   std::string tls_cert_path;
   std::string tls_key_path;
+  // Without TLS, a `listen` address other than loopback is refused unless this is set: robots'
+  // tokens and maps would cross the network in clear (issue 35 item 9). Set, it is allowed
+  // with a warning in the log (a depot network trusted as a cable).
+  bool allow_plaintext = false;
   // Waiting for a frame's length, reading its body (the whole body, however it trickles in),
   // writing a frame: each within this.
   std::chrono::milliseconds io_deadline{30'000};
@@ -49,6 +54,12 @@ struct SyncServerOptions {
   // oldest, not the robots (connection_admission.h says why).
   std::size_t max_pending_hello_per_address = 32;
   std::size_t max_pending_hello = 128;
+  // One robot, once authenticated, holds this many sessions at most, and this many bytes of
+  // frames announced and not yet handled across them (issue 35 item 8; robot_allowance.h).
+  // Past either the newcomer, a session or a frame, is refused (BUSY) and the robot's other
+  // sessions go on. An agent uses one session at a time; 2 frames of the 64 MiB cap in flight.
+  std::size_t max_sessions_per_robot = 4;
+  std::uint64_t max_inflight_bytes_per_robot = std::uint64_t{128} << 20;
   // The bytes of one submission at most, as announced at push_begin (total_bytes) and as
   // received; more is refused with INVALID. Every chunk of a submission is read back at once
   // to decode it when the push ends, so this bounds the memory of that step.
@@ -99,7 +110,8 @@ class SyncServer {
  public:
   // Opens the store (creating and migrating it), loads the TLS files and binds the listening
   // socket; serves nothing until Start(). Throws Error(kInvalidArgument) for a bad listen
-  // address or unreadable TLS files, Error(kBackend) when the address cannot be bound, and as
+  // address, a plain-text listen address off loopback without allow_plaintext, unreadable TLS
+  // files or a key others can read, Error(kBackend) when the address cannot be bound, and as
   // GraphStore::Open for the store.
   explicit SyncServer(SyncServerOptions options);
   ~SyncServer();  // Stop()
