@@ -15,6 +15,8 @@
 #include <vector>
 
 #include "fleetmap/core/map_chunks.h"
+#include "fleetmap/store/graph_store.h"
+#include "push_plan.h"
 
 namespace fleetmap {
 
@@ -166,19 +168,45 @@ class SyncRun {
   const std::string& server() const { return servers_[server_]; }
 
   // One pass from the connect to the install; steps finished by an earlier pass are skipped.
+  // The push is planned before the connect (issue 35 item 4: reading a large backlog after
+  // the hello let the server's frame timeout close the session); a welcome whose limits the
+  // plan does not fit (issue 35 item 3) sends the agent back to plan again, once.
   void Attempt() {
-    SyncClient client(server(), options_.link);
-    // The link's bytes count whether or not the attempt completes.
-    struct ByteCount {
-      SyncClient& client;
-      SyncResult& result;
-      ~ByteCount() {
-        result.bytes_sent += client.bytes_sent();
-        result.bytes_received += client.bytes_received();
-      }
-    } count{client, result_};
+    for (bool replanned = false;;) {
+      Prepare();
+      SyncClient client(server(), options_.link);
+      // The link's bytes count whether or not the attempt completes.
+      struct ByteCount {
+        SyncClient& client;
+        SyncResult& result;
+        ~ByteCount() {
+          result.bytes_sent += client.bytes_sent();
+          result.bytes_received += client.bytes_received();
+        }
+      } count{client, result_};
 
-    Hello(client);
+      Hello(client);
+      if (!replanned && !agent_internal::PlanHoldsUnder(*plan_, CurrentLimits())) {
+        Progress("the server takes " + Mib(CurrentLimits().max_submission_bytes) +
+                 " a submission, not the " + Mib(plan_->limits.max_submission_bytes) +
+                 " planned for: planning the push again");
+        plan_.reset();
+        replanned = true;
+        SayBye(client);
+        continue;
+      }
+      Exchange(client);
+      return;
+    }
+  }
+
+  // Steps completed so far that a retry will not redo: a failure after one starts a new
+  // retry window.
+  int milestones() const { return milestones_; }
+
+ private:
+  // Push, merges, download and install, after the hello.
+  void Exchange(SyncClient& client) {
     const Clock::time_point push_start = Clock::now();
     PushAll(client);
     result_.push_seconds += SecondsSince(push_start);
@@ -214,16 +242,85 @@ class SyncRun {
                   ? " (" + std::to_string(report.kept_failed) +
                         " of them from submissions the server refused: see `fleetmap-agent "
                         "status`)"
+                  : "") +
+             (report.kept_own_over_download > 0
+                  ? "; kept the robot's own version of " +
+                        std::to_string(report.kept_own_over_download) +
+                        " nodes the server holds with other content under the same UUID"
                   : ""));
   }
 
-  // Steps completed so far that a retry will not redo: a failure after one starts a new
-  // retry window.
-  int milestones() const { return milestones_; }
-
- private:
   void Progress(const std::string& line) const {
     if (options_.progress) options_.progress(line);
+  }
+
+  // What the server takes, as its last welcome said (or fleetmapd's defaults), within what
+  // this agent's link sends.
+  ServerLimits CurrentLimits() const {
+    ServerLimits limits = agent_internal::EffectiveLimits(map_.state().server_limits);
+    limits.max_frame_bytes = std::min(limits.max_frame_bytes, options_.link.max_frame_bytes);
+    return limits;
+  }
+
+  // Plans the push (push_plan.h) unless a plan is at hand: every read of map.db's content
+  // and every encoding happens here, before the connect, and memory holds one batch of nodes.
+  void Prepare() {
+    if (plan_) return;
+    // A map directory of another robot is refused before anything is read.
+    if (map_.state().robot) map_.BindRobot(options_.robot);
+    const Clock::time_point start = Clock::now();
+    const ServerLimits limits = CurrentLimits();
+    agent_internal::PushPlan plan = agent_internal::PlanPush(map_, limits);
+    if (plan.pending_does_not_fit) {
+      // Refused at push_begin, before the server stored a byte of it: nothing to resume.
+      Progress("submission " + map_.state().submission->id.ToString() +
+               " is over the server's limits (" + Mib(limits.max_submission_bytes) +
+               " a submission); its content is planned again in submissions that fit");
+      map_.AbandonSubmission();
+      plan = agent_internal::PlanPush(map_, limits);
+    }
+    result_.prepare_seconds += SecondsSince(start);
+    result_.held_nodes = plan.held.size();
+    result_.held_edges = plan.held_edges;
+    result_.held_bytes = 0;
+    for (const HeldNode& node : plan.held) result_.held_bytes += node.bytes;
+    std::size_t nodes = 0;
+    std::uint64_t bytes = 0;
+    for (const agent_internal::PlannedSubmission& submission : plan.submissions) {
+      nodes += submission.nodes.size();
+      bytes += submission.total_bytes;
+    }
+    if (!plan.submissions.empty()) {
+      Progress("planned " + std::to_string(plan.submissions.size()) + " submission" +
+               (plan.submissions.size() == 1 ? "" : "s") + " of " + std::to_string(nodes) +
+               " nodes, " + Mib(bytes) + " in " + std::to_string(SecondsSince(start)) + " s");
+    }
+    constexpr std::size_t kHeldNamed = 10;
+    for (std::size_t i = 0; i < plan.held.size() && i < kHeldNamed; ++i) {
+      Progress("node " + plan.held[i].id.ToString() + " (" + Mib(plan.held[i].bytes) +
+               ") is over this server's limit of " + Mib(limits.max_submission_bytes) +
+               " a submission (and " + Mib(limits.max_frame_bytes) +
+               " a frame) on its own: kept in this map, not pushed, with the edges to it; it "
+               "goes once the server takes it (fleetmapd --max-submission-mib; see "
+               "`fleetmap-agent status`)");
+    }
+    if (plan.held.size() > kHeldNamed) {
+      Progress("and " + std::to_string(plan.held.size() - kHeldNamed) +
+               " more nodes over the server's limits, kept the same way");
+    }
+    plan_ = std::move(plan);
+  }
+
+  // Ends a session politely (the server closes on Bye).
+  static void SayBye(SyncClient& client) {
+    v1::SyncFrame bye;
+    bye.mutable_bye();
+    try {
+      client.Send(bye);
+    } catch (const SyncLinkError&) {
+      // A server that closed first loses nothing.
+    }
+    client.Close();
   }
 
   void Hello(SyncClient& client) {
@@ -236,64 +333,67 @@ class SyncRun {
     client.Send(frame);
     const v1::SyncFrame welcome = client.Expect(v1::SyncFrame::kWelcome, "hello");
     map_.BindRobot(options_.robot);
+    if (welcome.welcome().max_submission_bytes() > 0) {  // a server before issue 35 says nothing
+      map_.RecordServerLimits(ServerLimits{welcome.welcome().max_submission_bytes(),
+                                           welcome.welcome().max_frame_bytes()});
+    }
     Progress("connected to " + server() + " as robot '" + welcome.welcome().robot_name() +
              "' (head revision " + std::to_string(welcome.welcome().head_revision()) + ")");
   }
 
-  // The submission a crash or a dropped link left pending, then everything unsynced.
+  // The plan's submissions in order: the one a crash or a dropped link left pending first,
+  // each recorded (LocalMap::BeginSubmission) before its first byte is sent.
   void PushAll(SyncClient& client) {
-    for (;;) {
-      std::optional<PendingSubmission> submission = map_.state().submission;
-      GraphBatch content;
-      if (submission) {
-        content = map_.SubmissionContent(*submission);
-      } else {
-        content = map_.Unsynced();
-        if (content.nodes.empty() && content.edges.empty() && content.paths.empty()) return;
-        submission = map_.BeginSubmission(content);
-      }
-      Push(client, *submission, content);
+    map_.RecordHeld(plan_->held);
+    while (!plan_->submissions.empty()) {
+      const agent_internal::PlannedSubmission& next = plan_->submissions.front();
+      if (!map_.state().submission) map_.BeginSubmission(next.Ids());
+      Push(client, map_.state().submission->id, next);
+      plan_->submissions.pop_front();
     }
   }
 
-  void Push(SyncClient& client, const PendingSubmission& submission, const GraphBatch& content) {
-    const std::string id = submission.id.ToString();
+  // REQUIRES: `submission` is the pending submission, of `content`. (A copy: MarkPushed clears
+  // the state's.)
+  void Push(SyncClient& client, Uuid submission, const agent_internal::PlannedSubmission& content) {
+    const std::string id = submission.ToString();
     const std::string during = "push of submission " + id;
-    const std::vector<std::string> chunks = EncodeMapChunks(content);
-    std::uint64_t total_bytes = 0;
-    for (const std::string& chunk : chunks) total_bytes += chunk.size();
+    const std::uint32_t chunks = content.chunk_count;
 
     v1::SyncFrame begin;
     v1::PushBegin* push_begin = begin.mutable_push_begin();
-    push_begin->set_submission_id(submission.id.ToBytesString());
+    push_begin->set_submission_id(submission.ToBytesString());
     push_begin->set_author(options_.author);
-    push_begin->set_chunk_count(static_cast<std::uint32_t>(chunks.size()));
-    push_begin->set_digest(DigestOfChunks(chunks));
-    push_begin->set_total_bytes(total_bytes);
+    push_begin->set_chunk_count(chunks);
+    push_begin->set_digest(content.digest);
+    push_begin->set_total_bytes(content.total_bytes);
     client.Send(begin);
     const v1::PushReady ready = client.Expect(v1::SyncFrame::kPushReady, during).push_ready();
     Progress("pushing submission " + id + ": " +
              Counts(content.nodes.size(), content.edges.size(), content.paths.size()) + ", " +
-             std::to_string(chunks.size()) + " chunks, " + Mib(total_bytes) +
+             std::to_string(chunks) + " chunks, " + Mib(content.total_bytes) +
              (ready.complete() ? " (stored whole before)"
               : ready.next_chunk() > 0
                   ? " (resuming at chunk " + std::to_string(ready.next_chunk() + 1) + ")"
                   : ""));
     if (!ready.complete()) {
-      for (std::uint32_t seq = ready.next_chunk(); seq < chunks.size(); ++seq) {
-        Progress("pushing chunk " + std::to_string(seq + 1) + "/" + std::to_string(chunks.size()));
-        v1::SyncFrame frame;
-        frame.mutable_push_chunk()->set_seq(seq);
-        frame.mutable_push_chunk()->set_data(chunks[seq]);
-        frame.mutable_push_chunk()->set_digest(DigestOfChunk(chunks[seq]));
-        client.Send(frame);
-        const v1::SyncFrame ack = client.Expect(v1::SyncFrame::kPushChunkAck, during);
-        if (ack.push_chunk_ack().seq() != seq) {
-          throw Error(ErrorCode::kCorrupt, during + ": the server acknowledged chunk " +
-                                               std::to_string(ack.push_chunk_ack().seq()) +
-                                               " for chunk " + std::to_string(seq));
-        }
-      }
+      // Encoded again as sent, a chunk at a time (push_plan.h): memory holds one chunk.
+      const std::unique_ptr<GraphStore> store = GraphStore::Open(map_.map_uri());
+      agent_internal::StreamSubmission(
+          *store, content, ready.next_chunk(), [&](std::uint32_t seq, const std::string& data) {
+            Progress("pushing chunk " + std::to_string(seq + 1) + "/" + std::to_string(chunks));
+            v1::SyncFrame frame;
+            frame.mutable_push_chunk()->set_seq(seq);
+            frame.mutable_push_chunk()->set_data(data);
+            frame.mutable_push_chunk()->set_digest(DigestOfChunk(data));
+            client.Send(frame);
+            const v1::SyncFrame ack = client.Expect(v1::SyncFrame::kPushChunkAck, during);
+            if (ack.push_chunk_ack().seq() != seq) {
+              throw Error(ErrorCode::kCorrupt, during + ": the server acknowledged chunk " +
+                                                   std::to_string(ack.push_chunk_ack().seq()) +
+                                                   " for chunk " + std::to_string(seq));
+            }
+          });
     }
     v1::SyncFrame end;
     end.mutable_push_end();
@@ -301,23 +401,24 @@ class SyncRun {
     const v1::PushAccepted accepted =
         client.Expect(v1::SyncFrame::kPushAccepted, during, options_.download_timeout)
             .push_accepted();
-    map_.MarkPushed(submission.id);
+    map_.MarkPushed(submission);
     ++milestones_;
+    ++result_.submissions;
     result_.pushed_nodes += content.nodes.size();
     result_.pushed_edges += content.edges.size();
     result_.pushed_paths += content.paths.size();
-    result_.submission = submission.id;
+    result_.submission = submission;
     result_.push_state = accepted.state();
     result_.merge_state.clear();
     result_.merged_revision = 0;
     if (accepted.state() == "merged") {
-      map_.RecordMerge(submission.id, accepted.revision());
+      map_.RecordMerge(submission, accepted.revision());
       result_.merge_state = "merged";
       result_.merged_revision = accepted.revision();
     } else if (accepted.state() == "failed") {
       const std::string why =
           accepted.error().empty() ? "the server gave no reason" : accepted.error();
-      map_.RecordFailure(submission.id, why);
+      map_.RecordFailure(submission, why);
       result_.merge_state = "failed";
       result_.merge_error = why;
     }
@@ -334,21 +435,24 @@ class SyncRun {
   // each with wait_merge, else a glance), so the install knows which pushed content the
   // download already accounts for (LocalMap::RecordMerge).
   void FollowMerges(SyncClient& client) {
-    const std::vector<UnmergedSubmission> unmerged = map_.state().unmerged;
-    for (const UnmergedSubmission& submission : unmerged) {
-      if (submission.merged_revision || submission.failed) continue;
+    // Their ids, not copies of their content (a large backlog's is millions of ids).
+    std::vector<Uuid> unmerged;
+    for (const UnmergedSubmission& submission : map_.state().unmerged) {
+      if (!submission.merged_revision && !submission.failed) unmerged.push_back(submission.id);
+    }
+    for (const Uuid& id : unmerged) {
       const bool wait = options_.wait_merge;
       if (wait && !merge_deadline_) merge_deadline_ = Clock::now() + options_.merge_timeout;
       const Clock::time_point wait_start = Clock::now();
-      const v1::MergeStatus status = FollowMerge(client, submission.id, wait);
+      const v1::MergeStatus status = FollowMerge(client, id, wait);
       if (wait) result_.merge_wait_seconds += SecondsSince(wait_start);
       if (status.state() == "merged") {
-        map_.RecordMerge(submission.id, status.revision());
+        map_.RecordMerge(id, status.revision());
       } else if (status.state() == "failed") {
-        map_.RecordFailure(submission.id,
+        map_.RecordFailure(id,
                            status.error().empty() ? "the server gave no reason" : status.error());
       }
-      if (submission.id == result_.submission) {
+      if (id == result_.submission) {
         result_.merge_state = status.state();
         result_.merged_revision = status.state() == "merged" ? status.revision() : 0;
         result_.merge_error = status.error();
@@ -563,6 +667,8 @@ class SyncRun {
   std::size_t server_ = 0;
   std::optional<Clock::time_point> merge_deadline_;
   int milestones_ = 0;
+  // What is left to push, planned before the connect; kept across retries.
+  std::optional<agent_internal::PushPlan> plan_;
 };
 
 // Sleeps `delay`, waking every 50 ms to look at the stop flag.

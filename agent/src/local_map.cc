@@ -301,6 +301,39 @@ PendingSubmission LocalMap::BeginSubmission(const GraphBatch& content) {
   return *state_.submission;
 }
 
+PendingSubmission LocalMap::BeginSubmission(const ElementIds& content) {
+  RequireWritable("begin submission");
+  if (state_.submission) {
+    throw Error(ErrorCode::kInvalidArgument, "robot map " + dir_.string() +
+                                                 " already has submission " +
+                                                 state_.submission->id.ToString() + " pending");
+  }
+  state_.submission = PendingSubmission{Uuid::Generate(), content};
+  SaveState();
+  return *state_.submission;
+}
+
+void LocalMap::AbandonSubmission() {
+  RequireWritable("abandon submission");
+  if (!state_.submission) return;
+  state_.submission.reset();
+  SaveState();
+}
+
+void LocalMap::RecordServerLimits(const ServerLimits& limits) {
+  RequireWritable("record server limits");
+  if (state_.server_limits == limits) return;
+  state_.server_limits = limits;
+  SaveState();
+}
+
+void LocalMap::RecordHeld(const std::vector<HeldNode>& held) {
+  RequireWritable("record held nodes");
+  if (state_.held == held) return;
+  state_.held = held;
+  SaveState();
+}
+
 GraphBatch LocalMap::SubmissionContent(const PendingSubmission& submission) {
   const ElementIds& ids = submission.content;
   GraphBatch content = ReadElements(
@@ -485,6 +518,12 @@ InstallReport LocalMap::Install(const MapDownload& download) {
   report.kept_unmerged = unmerged.nodes.size() + unmerged.edges.size() + unmerged.paths.size();
   report.kept_failed = std::min(failed_elements, report.kept_unmerged);
   next.Add(unsynced);
+  // The robot's own unmerged content wins over the download's for the same UUID (a collision
+  // the server refuses, issue 35 item 5).
+  for (const Node& node : unmerged.nodes) {
+    const auto sent = selection.nodes.find(node.id);
+    if (sent != selection.nodes.end() && !(sent->second == node)) ++report.kept_own_over_download;
+  }
   next.Add(unmerged);
   MapIndex current_index;
   current_index.Add(current);
@@ -569,6 +608,11 @@ struct MapInstallation::State {
   std::unique_ptr<GraphStore> store;
   std::optional<GraphStore::Transaction> transaction;
   ElementIds selection;  // ids written so far
+  // The robot's pushed nodes whose merge this download does not reflect, and the current map
+  // to read them from (opened when the download holds one).
+  std::set<Uuid> own_unmerged;
+  std::unique_ptr<GraphStore> current;
+  std::size_t own_kept = 0;  // download nodes the robot's own content stood in for
   // Writes map.db.new to disk as it fills (background_flusher.h); stopped before the final
   // fsync. Declared after `store`, so it stops before the store closes.
   std::optional<BackgroundFlusher> flusher;
@@ -595,6 +639,7 @@ std::unique_ptr<MapInstallation> LocalMap::BeginInstall(const MapDownload& downl
   state->download.edges = download.edges;
   state->download.paths = download.paths;
   state->new_map = dir_ / kNewMapFile;
+  state->own_unmerged = Retire(state_, download.revision).keep.nodes;
   RemoveDatabaseFiles(state->new_map);
   try {
     StoreOptions options;
@@ -638,8 +683,21 @@ std::size_t MapInstallation::paths() const {
 
 void MapInstallation::Add(const GraphBatch& part) {
   State& s = *state_;
+  // A node the robot pushed and the server has not merged, sent back under the same UUID: the
+  // server holds another node by that id (a collision it refuses, issue 35 item 5). The robot
+  // keeps its own; the download's does not overwrite it. (Identical content changes nothing.)
+  std::optional<GraphBatch> mine;
+  for (std::size_t i = 0; i < part.nodes.size(); ++i) {
+    if (!s.own_unmerged.contains(part.nodes[i].id)) continue;
+    if (!s.current) s.current = GraphStore::Open(s.map->map_uri());
+    std::optional<Node> own = s.current->FindNode(part.nodes[i].id);
+    if (!own || *own == part.nodes[i]) continue;
+    if (!mine) mine = part;
+    mine->nodes[i] = std::move(*own);
+    ++s.own_kept;
+  }
   try {
-    s.store->Put(part);
+    s.store->Put(mine ? *mine : part);
   } catch (const Error& e) {
     if (e.code() == ErrorCode::kIntegrity || e.code() == ErrorCode::kConflict ||
         e.code() == ErrorCode::kInvalidArgument) {
@@ -703,6 +761,7 @@ InstallReport MapInstallation::Commit() {
     if (kind == 2) count(kept.paths);
   }
   report.kept_failed = std::min(retirement.failed_elements, report.kept_unmerged);
+  report.kept_own_over_download = s.own_kept;
   {
     const std::unique_ptr<GraphStore> current = GraphStore::Open(map.map_uri());
     std::set<Uuid> kept_nodes;
@@ -768,6 +827,8 @@ InstallReport MapInstallation::Commit() {
   SyncState next_state;
   next_state.robot = state.robot;
   next_state.submission = state.submission;
+  next_state.server_limits = state.server_limits;
+  next_state.held = state.held;
   next_state.revision = download.revision;
   next_state.request = download.request;
   next_state.installed = std::move(s.selection);

@@ -21,6 +21,13 @@ using Clock = std::chrono::steady_clock;
 
 constexpr std::chrono::milliseconds kStopPollInterval{100};
 constexpr std::chrono::milliseconds kCloseTimeout{500};
+// A TLS server closes a plain connection at its first bytes; a second connection then tells
+// whether it is one with a TLS handshake alone (nothing else is sent over it).
+constexpr std::chrono::milliseconds kTlsProbeTimeout{3'000};
+// The first bytes of a TLS record from a server: an alert (21) or a handshake (22), version 3.
+constexpr unsigned char kTlsAlertRecord = 0x15;
+constexpr unsigned char kTlsHandshakeRecord = 0x16;
+constexpr unsigned char kTlsMajorVersion = 0x03;
 
 struct HostPort {
   std::string host;
@@ -91,6 +98,7 @@ struct SyncClient::Link {
   std::optional<asio::ssl::context> tls_context;
   std::unique_ptr<asio::ssl::stream<tcp::socket&>> tls;
   bool broken = false;
+  boost::system::error_code failure;  // what the operation that broke the link completed with
 
   // Runs the operation `start` begins (it takes a completion handler) until it completes,
   // `timeout` passes or `stop` is raised. Throws SyncLinkError (timed out, or the error the
@@ -123,6 +131,7 @@ struct SyncClient::Link {
     }
     if (result) {
       broken = true;
+      failure = result;
       boost::system::error_code ignored;
       socket.close(ignored);
       // A TLS failure at the handshake (a certificate that does not verify) will not go
@@ -261,11 +270,25 @@ v1::SyncFrame SyncClient::Receive(std::string_view during, std::chrono::millisec
   std::string body;
   const Clock::time_point deadline = Clock::now() + timeout;
   link.WithStream([&](auto& stream) {
-    link.Run(
-        [&](auto handler) {
-          asio::async_read(stream, asio::buffer(prefix, sizeof prefix), handler);
-        },
-        timeout, context + ": reading a frame", options_.stop);
+    try {
+      link.Run(
+          [&](auto handler) {
+            asio::async_read(stream, asio::buffer(prefix, sizeof prefix), handler);
+          },
+          timeout, context + ": reading a frame", options_.stop);
+    } catch (const SyncLinkError&) {
+      const bool ended =
+          link.failure == asio::error::eof || link.failure == asio::error::connection_reset;
+      if (ended && FirstReplyWithoutTls() && ServerSpeaksTls()) ThrowTlsMismatch(context);
+      throw;
+    }
+    const auto* first = reinterpret_cast<const unsigned char*>(prefix);
+    if (FirstReplyWithoutTls() &&
+        (first[0] == kTlsAlertRecord || first[0] == kTlsHandshakeRecord) &&
+        first[1] == kTlsMajorVersion) {
+      Close();
+      ThrowTlsMismatch(context);
+    }
     std::uint32_t length = 0;
     try {
       length =
@@ -294,6 +317,31 @@ v1::SyncFrame SyncClient::Receive(std::string_view during, std::chrono::millisec
     throw SyncServerError(frame.error(), context);
   }
   return frame;
+}
+
+bool SyncClient::FirstReplyWithoutTls() const {
+  return options_.tls == TlsMode::kNone && bytes_received_ == 0;
+}
+
+bool SyncClient::ServerSpeaksTls() const {
+  SyncLinkOptions probe = options_;
+  probe.tls = TlsMode::kInsecure;  // whether it speaks TLS at all: nothing is sent over it
+  probe.connect_timeout = std::min(options_.connect_timeout, kTlsProbeTimeout);
+  try {
+    SyncClient tls(server_, probe);
+    return true;
+  } catch (const Error&) {
+    return false;
+  }
+}
+
+void SyncClient::ThrowTlsMismatch(const std::string& context) const {
+  // Not retryable: every retry would send the token in clear again, to the same refusal.
+  throw SyncLinkError(context +
+                          ": the server speaks TLS and this agent connected without it (its "
+                          "hello, token included, went out unencrypted once; not retried): give "
+                          "fleetmap-agent --tls-ca FILE, the CA of the server's certificate",
+                      false);
 }
 
 v1::SyncFrame SyncClient::Expect(v1::SyncFrame::BodyCase expected, std::string_view during,

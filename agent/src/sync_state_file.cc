@@ -20,22 +20,33 @@ using nlohmann::json;
 // Bumped when the meaning of a field changes; a newer file is refused, not misread.
 constexpr int kStateFormat = 1;
 
-json IdsToJson(const std::set<Uuid>& ids) {
-  json list = json::array();
-  for (const Uuid& id : ids) list.push_back(id.ToString());
-  return list;
-}
-
 std::set<Uuid> IdsFromJson(const json& list) {
   std::set<Uuid> ids;
   for (const json& item : list) ids.insert(Uuid::Parse(item.get<std::string>()));
   return ids;
 }
 
-json ElementsToJson(const ElementIds& ids) {
-  return {{"nodes", IdsToJson(ids.nodes)},
-          {"edges", IdsToJson(ids.edges)},
-          {"paths", IdsToJson(ids.paths)}};
+void AppendIds(std::string& out, const std::set<Uuid>& ids) {
+  out += '[';
+  bool first = true;
+  for (const Uuid& id : ids) {
+    if (!first) out += ',';
+    first = false;
+    out += '"';
+    out += id.ToString();
+    out += '"';
+  }
+  out += ']';
+}
+
+void AppendElements(std::string& out, const ElementIds& ids) {
+  out += "{\"nodes\": ";
+  AppendIds(out, ids.nodes);
+  out += ", \"edges\": ";
+  AppendIds(out, ids.edges);
+  out += ", \"paths\": ";
+  AppendIds(out, ids.paths);
+  out += '}';
 }
 
 ElementIds ElementsFromJson(const json& object) {
@@ -78,30 +89,70 @@ DownloadParams RequestFromJson(const json& object) {
 
 }  // namespace
 
+// The state as JSON, the id lists written straight into the text: a large backlog's state
+// holds millions of ids, and a JSON tree of them took seconds and hundreds of MB each time it
+// was saved, inside a session the server times out (issue 35 item 4).
 std::string SyncStateToJson(const SyncState& state) {
-  json root = {{"format", kStateFormat},
-               {"robot", state.robot ? json(state.robot->ToString()) : json(nullptr)},
-               {"revision", state.revision},
-               {"request", state.request ? RequestToJson(*state.request) : json(nullptr)},
-               {"installed", ElementsToJson(state.installed)},
-               {"pushed", ElementsToJson(state.pushed)}};
-  json unmerged = json::array();
-  for (const UnmergedSubmission& u : state.unmerged) {
-    unmerged.push_back(
-        {{"id", u.id.ToString()},
-         {"content", ElementsToJson(u.content)},
-         {"merged_revision", u.merged_revision ? json(*u.merged_revision) : json(nullptr)},
-         {"failed", u.failed},
-         {"error", u.error}});
+  std::string out;
+  std::size_t ids = state.installed.size() + state.pushed.size();
+  for (const UnmergedSubmission& u : state.unmerged) ids += u.content.size();
+  if (state.submission) ids += state.submission->content.size();
+  out.reserve(1024 + ids * 40);
+  const auto key = [&out](const char* name) {
+    out += "\"";
+    out += name;
+    out += "\": ";
+  };
+  out += "{\n";
+  key("format");
+  out += std::to_string(kStateFormat) + ",\n";
+  key("robot");
+  out += (state.robot ? json(state.robot->ToString()) : json(nullptr)).dump() + ",\n";
+  key("revision");
+  out += std::to_string(state.revision) + ",\n";
+  key("request");
+  out += (state.request ? RequestToJson(*state.request) : json(nullptr)).dump() + ",\n";
+  key("installed");
+  AppendElements(out, state.installed);
+  out += ",\n";
+  key("pushed");
+  AppendElements(out, state.pushed);
+  out += ",\n";
+  key("unmerged");
+  out += "[";
+  for (std::size_t i = 0; i < state.unmerged.size(); ++i) {
+    const UnmergedSubmission& u = state.unmerged[i];
+    out += i == 0 ? "\n " : ",\n ";
+    out += "{\"id\": \"" + u.id.ToString() + "\", \"content\": ";
+    AppendElements(out, u.content);
+    out += ", \"merged_revision\": " +
+           (u.merged_revision ? std::to_string(*u.merged_revision) : std::string("null")) +
+           ", \"failed\": " + (u.failed ? "true" : "false") +
+           ", \"error\": " + json(u.error).dump() + "}";
   }
-  root["unmerged"] = unmerged;
+  out += "],\n";
+  // Issue 35 item 3; files written before it have neither key (read as none).
+  key("server_limits");
+  out += json({{"max_submission_bytes", state.server_limits.max_submission_bytes},
+               {"max_frame_bytes", state.server_limits.max_frame_bytes}})
+             .dump() +
+         ",\n";
+  json held = json::array();
+  for (const HeldNode& node : state.held) {
+    held.push_back({{"id", node.id.ToString()}, {"bytes", node.bytes}});
+  }
+  key("held");
+  out += held.dump() + ",\n";
+  key("submission");
   if (state.submission) {
-    root["submission"] = {{"id", state.submission->id.ToString()},
-                          {"content", ElementsToJson(state.submission->content)}};
+    out += "{\"id\": \"" + state.submission->id.ToString() + "\", \"content\": ";
+    AppendElements(out, state.submission->content);
+    out += "}";
   } else {
-    root["submission"] = nullptr;
+    out += "null";
   }
-  return root.dump(1) + "\n";
+  out += "\n}\n";
+  return out;
 }
 
 SyncState SyncStateFromJson(const std::string& text, const std::string& source) {
@@ -123,6 +174,18 @@ SyncState SyncStateFromJson(const std::string& text, const std::string& source) 
       state.submission =
           PendingSubmission{Uuid::Parse(root["submission"].at("id").get<std::string>()),
                             ElementsFromJson(root["submission"].at("content"))};
+    }
+    if (root.contains("server_limits")) {
+      const json& limits = root["server_limits"];
+      state.server_limits.max_submission_bytes =
+          limits.at("max_submission_bytes").get<std::uint64_t>();
+      state.server_limits.max_frame_bytes = limits.at("max_frame_bytes").get<std::uint32_t>();
+    }
+    if (root.contains("held")) {
+      for (const json& node : root["held"]) {
+        state.held.push_back(HeldNode{Uuid::Parse(node.at("id").get<std::string>()),
+                                      node.at("bytes").get<std::uint64_t>()});
+      }
     }
     for (const json& u : root.at("unmerged")) {
       UnmergedSubmission submission{Uuid::Parse(u.at("id").get<std::string>()),
@@ -175,7 +238,13 @@ void SyncToDisk(const std::filesystem::path& path) {
 
 void WriteFileAtomically(const std::filesystem::path& path, const std::string& text) {
   const std::filesystem::path tmp = path.string() + ".tmp";
-  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  // Created new, never opened through a link (issue 35 item 6): whatever is at FILE.tmp (a
+  // killed write's leftover, or a symbolic link) is unlinked, which removes the name only.
+  constexpr int kFlags = O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC;
+  int fd = ::open(tmp.c_str(), kFlags, 0644);
+  if (fd < 0 && errno == EEXIST && (::unlink(tmp.c_str()) == 0 || errno == ENOENT)) {
+    fd = ::open(tmp.c_str(), kFlags, 0644);
+  }
   if (fd < 0) ThrowIo("cannot create", tmp);
   std::size_t written = 0;
   while (written < text.size()) {

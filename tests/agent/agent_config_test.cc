@@ -56,7 +56,15 @@ class AgentConfigTest : public ::testing::Test {
     robot_ = testing::RegisterRobot(store_uri_, "rover-1", dir_ / "robot");
     testing::WriteLocalMap(robot_, testing::RandomRobotMap(robot_.id, kMapNodes, 11, 30));
     token_file_ = dir_ / "token";
-    WriteWholeFile(token_file_, robot_.token + "\n");
+    WriteSecretFile(token_file_, robot_.token + "\n");
+  }
+
+  // A token file as `fleetmap robot add`'s user keeps it: readable by its owner only (the
+  // agent refuses one others can read, issue 35 item 12).
+  static void WriteSecretFile(const fs::path& path, const std::string& text) {
+    WriteWholeFile(path, text);
+    fs::permissions(path, fs::perms::owner_read | fs::perms::owner_write,
+                    fs::perm_options::replace);
   }
 
   void StartServer() {
@@ -225,7 +233,7 @@ TEST_F(AgentConfigTest, UnreadableEmptyOrDoubledTokensAreNamedBeforeDialling) {
   EXPECT_EQ(missing.exit_code, 2) << DescribeRun(missing);
   EXPECT_TRUE(Contains(missing.err, "cannot read --token-file " + absent.string())) << missing.err;
   const fs::path empty = dir_ / "empty-token";
-  WriteWholeFile(empty, "\n");
+  WriteSecretFile(empty, "\n");
   const ProgramRun blank = with({"--token-file", empty.string()});
   EXPECT_EQ(blank.exit_code, 2) << DescribeRun(blank);
   EXPECT_TRUE(Contains(blank.err, "--token-file " + empty.string() + " is empty")) << blank.err;
@@ -234,5 +242,36 @@ TEST_F(AgentConfigTest, UnreadableEmptyOrDoubledTokensAreNamedBeforeDialling) {
   EXPECT_TRUE(Contains(both.err, "excludes")) << both.err;
 }
 
+// Issue 35 item 12: a token file everyone could read (mode 0644) was accepted without a word.
+// As ssh refuses such a key, the agent refuses a token file its group or others can read,
+// saying how to fix it, before it dials; at 0600 the same file syncs.
+TEST_F(AgentConfigTest, ATokenFileOthersCanReadIsRefusedUntilItIsPrivate) {
+  StartServer();
+  const std::vector<std::string> sync = {"sync",
+                                         "--server",
+                                         server_.address,
+                                         "--robot",
+                                         robot_.id.ToString(),
+                                         "--map-dir",
+                                         robot_.map_dir.string(),
+                                         "--token-file",
+                                         token_file_.string(),
+                                         "--json"};
+  for (const fs::perms loose : {fs::perms::others_read, fs::perms::group_read}) {
+    fs::permissions(token_file_, fs::perms::owner_read | fs::perms::owner_write | loose,
+                    fs::perm_options::replace);
+    const ProgramRun refused = Run(sync);
+    EXPECT_EQ(refused.exit_code, 2) << DescribeRun(refused);
+    EXPECT_TRUE(Contains(refused.err, "chmod 600 " + token_file_.string())) << refused.err;
+    EXPECT_FALSE(Contains(refused.err, "connecting")) << "it dialled: " << refused.err;
+  }
+  EXPECT_EQ(testing::ReadLog(dir_ / "fleetmapd.log").find("session 127.0.0.1"), std::string::npos)
+      << "a refused token file still reached the server";
+  fs::permissions(token_file_, fs::perms::owner_read | fs::perms::owner_write,
+                  fs::perm_options::replace);
+  const ProgramRun synced = Run(sync);
+  ASSERT_EQ(synced.exit_code, 0) << DescribeRun(synced);
+  EXPECT_EQ(LastResult(synced.out)["pushed_nodes"], kMapNodes);
+}
 }  // namespace
 }  // namespace fleetmap

@@ -71,6 +71,20 @@ Uuid PushDay(LocalMap& map) {
   return submission;
 }
 
+// Issue 35 item 6: the sync state is staged at sync.json.tmp; a symbolic link someone put
+// there is never written through (its target stays as it was) and the state is written.
+TEST(AgentLocalMapTest, ASymbolicLinkAtTheStagedStateIsNotWrittenThrough) {
+  const ScratchDir dir("fleetmap-agent-map");
+  LocalMap map = LocalMap::Open(dir / "robot");
+  const fs::path victim = dir / "victim.txt";
+  WriteText(victim, "precious\n");
+  fs::create_symlink(victim, dir / "robot" / "sync.json.tmp");
+  const Uuid submission = PushDay(map);
+  EXPECT_EQ(ReadText(victim), "precious\n");
+  EXPECT_FALSE(fs::is_symlink(dir / "robot" / "sync.json"));
+  EXPECT_NE(ReadText(dir / "robot" / "sync.json").find(submission.ToString()), std::string::npos);
+}
+
 TEST(AgentLocalMapTest, NewDirectoryHasAnEmptyMapAndNothingUnsynced) {
   const ScratchDir dir("fleetmap-agent-map");
   LocalMap map = LocalMap::Open(dir / "robot");

@@ -459,5 +459,119 @@ TYPED_TEST(FleetSyncTest, ServerKilledMidMergeMergesTheQueuedSubmissionAfterRest
   EXPECT_EQ(store->versions().ListSubmissions().size(), 1u);
 }
 
+// `fleetmap-agent status --json` of a robot's map directory.
+nlohmann::json AgentStatus(const TestRobot& robot, const std::filesystem::path& log) {
+  ChildProcess status(
+      {FLEETMAP_AGENT_PATH, "status", "--map-dir", robot.map_dir.string(), "--json"},
+      ChildProcessOptions{.stderr_file = log, .environment = {}});
+  const std::string out = status.ReadRest(milliseconds(30'000));
+  EXPECT_EQ(status.Wait(milliseconds(10'000)), std::optional<int>(0)) << ReadLog(log);
+  try {
+    return nlohmann::json::parse(out);
+  } catch (const nlohmann::json::exception&) {
+    ADD_FAILURE() << "status printed no JSON: " << out << "\n" << ReadLog(log);
+    return nullptr;
+  }
+}
+
+// Issue 35 item 3: a robot whose new content was over fleetmapd's --max-submission-mib was
+// wedged: every sync was refused at push_begin and exited before its download. The agent now
+// learns the server's limit from the welcome and pushes its content as several submissions
+// that each fit, in one sync; an edge to a node of an earlier part resolves because the server
+// merges the parts in order.
+TYPED_TEST(FleetSyncTest, AMapOverTheSubmissionLimitGoesInPartsThatFitAndTheRobotDownloads) {
+  const std::string uri = this->backend_.Uri();
+  const TestRobot robot = RegisterRobot(uri, "epsilon", this->dir_ / "epsilon");
+  const GraphBatch pushed = RandomRobotMap(robot.id, 900, 13);  // about 2.4 MiB
+  WriteLocalMap(robot, pushed);
+  Fleetmapd server =
+      StartFleetmapd(uri, this->dir_ / "fleetmapd.log", {"--max-submission-mib", "1"});
+  ASSERT_FALSE(server.address.empty());
+  const auto log = this->dir_ / "agent.log";
+  SyncOutcome outcome = FinishSync(
+      *StartSync(robot, server.address, log,
+                 {"--wait-merge", "--merge-timeout", "60", "--policy", "copy", "--retry-for", "5"}),
+      log);
+  ASSERT_EQ(outcome.exit, 0);
+  EXPECT_EQ(outcome.result["pushed_nodes"], 900);
+  EXPECT_EQ(outcome.result["pushed_edges"], pushed.edges.size());
+  EXPECT_GE(outcome.result["submissions"].template get<int>(), 3) << outcome.result.dump();
+  EXPECT_EQ(outcome.result["held_nodes"], 0);
+  EXPECT_EQ(outcome.result["merge_state"], "merged");
+  EXPECT_EQ(HeadNodeIds(uri), NodeIds(pushed));
+  EXPECT_EQ(LocalNodeIds(robot), NodeIds(pushed));  // downloaded: the head, every node merged
+  std::unique_ptr<GraphStore> store = GraphStore::Open(uri);
+  EXPECT_EQ(outcome.result["revision"], store->versions().HeadRevision());
+  const std::vector<Submission> submissions = store->versions().ListSubmissions();
+  EXPECT_EQ(submissions.size(), outcome.result["submissions"].template get<std::size_t>());
+  for (const Submission& s : submissions) {
+    EXPECT_EQ(s.state, SubmissionState::kMerged) << s.error;
+    EXPECT_LE(s.bytes, std::int64_t{1} << 20);
+  }
+  // The edges between parts are at the head too: nothing of the chain is cut.
+  std::set<Uuid> head_edges;
+  for (const Edge& edge : Repository::Open(uri)->Checkout().edges) head_edges.insert(edge.id);
+  for (const Edge& edge : pushed.edges) EXPECT_TRUE(head_edges.contains(edge.id));
+}
+
+// Issue 35 item 3, a node that cannot fit: one node over the server's limit on its own. It
+// stays in the robot's map, unpushed, with a clear status; the sync reports it and goes on to
+// push the rest and download; once the server's limit grows the next sync pushes it.
+TYPED_TEST(FleetSyncTest, ANodeOverTheSubmissionLimitIsKeptReportedAndPushedWhenTheLimitGrows) {
+  const std::string uri = this->backend_.Uri();
+  const TestRobot robot = RegisterRobot(uri, "zeta", this->dir_ / "zeta");
+  GraphBatch map = RandomRobotMap(robot.id, 30, 17);
+  // 30 000 landmarks: about 1.3 MB, over a limit of 1 MiB by itself.
+  const GraphBatch big = RandomChainFrom(robot.id, map.nodes.back().id, 1, 18, 30'000);
+  const Uuid big_node = big.nodes.at(0).id;
+  map.nodes.insert(map.nodes.end(), big.nodes.begin(), big.nodes.end());
+  map.edges.insert(map.edges.end(), big.edges.begin(), big.edges.end());
+  map.paths.insert(map.paths.end(), big.paths.begin(), big.paths.end());
+  WriteLocalMap(robot, map);
+  std::set<Uuid> small_nodes = NodeIds(map);
+  small_nodes.erase(big_node);
+  Fleetmapd server =
+      StartFleetmapd(uri, this->dir_ / "fleetmapd.log", {"--max-submission-mib", "1"});
+  ASSERT_FALSE(server.address.empty());
+  const auto log = this->dir_ / "agent.log";
+  SyncOutcome outcome =
+      FinishSync(*StartSync(robot, server.address, log,
+                            {"--wait-merge", "--policy", "copy", "--retry-for", "5"}),
+                 log);
+  ASSERT_EQ(outcome.exit, 0);
+  EXPECT_EQ(outcome.result["pushed_nodes"], 30);
+  EXPECT_EQ(outcome.result["held_nodes"], 1) << outcome.result.dump();
+  EXPECT_EQ(outcome.result["merge_state"], "merged");
+  const std::string agent_log = ReadLog(log);
+  EXPECT_NE(agent_log.find(big_node.ToString()), std::string::npos) << agent_log;
+  EXPECT_NE(agent_log.find("over this server's limit"), std::string::npos) << agent_log;
+  EXPECT_EQ(HeadNodeIds(uri), small_nodes);
+  EXPECT_GE(outcome.result["revision"].template get<std::int64_t>(), 1);  // downloaded
+  EXPECT_EQ(LocalNodeIds(robot), NodeIds(map));  // the big node stays in the robot's map
+
+  const nlohmann::json status = AgentStatus(robot, this->dir_ / "status.log");
+  EXPECT_EQ(status["unsynced_nodes"], 1) << status.dump();
+  ASSERT_EQ(status["held_nodes"].size(), 1u) << status.dump();
+  EXPECT_EQ(status["held_nodes"][0]["id"], big_node.ToString());
+
+  // The limit grows: the next sync pushes the node that did not fit, and nothing is held.
+  server.process->Signal(SIGTERM);
+  server.process->Wait(milliseconds(10'000));
+  Fleetmapd larger = StartFleetmapd(uri, this->dir_ / "fleetmapd-2.log",
+                                    {"--max-submission-mib", "4"}, server.address);
+  ASSERT_FALSE(larger.address.empty());
+  SyncOutcome again =
+      FinishSync(*StartSync(robot, larger.address, log,
+                            {"--wait-merge", "--policy", "copy", "--retry-for", "5"}),
+                 log);
+  ASSERT_EQ(again.exit, 0);
+  EXPECT_EQ(again.result["pushed_nodes"], 1);
+  EXPECT_EQ(again.result["held_nodes"], 0);
+  EXPECT_EQ(again.result["merge_state"], "merged");
+  EXPECT_EQ(HeadNodeIds(uri), NodeIds(map));
+  EXPECT_EQ(LocalNodeIds(robot), NodeIds(map));
+  EXPECT_TRUE(AgentStatus(robot, this->dir_ / "status.log")["held_nodes"].empty());
+}
+
 }  // namespace
 }  // namespace fleetmap::testing

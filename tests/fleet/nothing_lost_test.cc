@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 #include <signal.h>
 
+#include <algorithm>
 #include <regex>
 #include <set>
 #include <thread>
@@ -139,6 +140,58 @@ TYPED_TEST(NothingLostTest, BuildingOnAPushStillQueuedLosesNothing) {
   for (const Submission& s : store->versions().ListSubmissions()) {
     EXPECT_EQ(s.state, SubmissionState::kMerged) << s.error;
   }
+}
+
+// Issue 35 item 5: a robot's node carries another node's UUID with content of its own (a
+// robot that reused an id). Its push is refused with a clear reason naming the node; both
+// contents are kept (the server's node at the head, the robot's in its failed submission and in
+// its own map, which the download does not overwrite with the other node).
+TYPED_TEST(NothingLostTest, ACollidingUuidIsRefusedAndTheRobotKeepsItsOwnNode) {
+  const std::string uri = this->backend_.Uri();
+  const TestRobot alpha = RegisterRobot(uri, "alpha", this->dir_ / "alpha");
+  const TestRobot beta = RegisterRobot(uri, "beta", this->dir_ / "beta");
+  const GraphBatch alphas = RandomRobotMap(alpha.id, 10, 41);
+  WriteLocalMap(alpha, alphas);
+  Fleetmapd server = StartFleetmapd(uri, this->dir_ / "fleetmapd.log");
+  ASSERT_FALSE(server.address.empty());
+  const auto alpha_log = this->dir_ / "alpha.log", beta_log = this->dir_ / "beta.log";
+  ASSERT_EQ(
+      FinishSync(*StartSync(alpha, server.address, alpha_log, {"--policy", "copy", "--wait-merge"}),
+                 alpha_log)
+          .exit,
+      0);
+
+  GraphBatch betas = RandomRobotMap(beta.id, 5, 42);
+  const Node& taken = alphas.nodes[3];
+  const Uuid own = betas.nodes.front().id;
+  betas.nodes.front().id = taken.id;
+  for (Edge& edge : betas.edges) {
+    if (edge.from == own) edge.from = taken.id;
+    if (edge.to == own) edge.to = taken.id;
+  }
+  const Node beta_node = betas.nodes.front();
+  WriteLocalMap(beta, betas);
+  std::unique_ptr<ChildProcess> sync =
+      StartSync(beta, server.address, beta_log, {"--policy", "copy", "--wait-merge"});
+  const std::string out = sync->ReadRest(milliseconds(60'000));
+  sync->Wait(milliseconds(10'000));
+  const std::string said = out + ReadLog(beta_log);
+  EXPECT_NE(said.find(taken.id.ToString()), std::string::npos) << said;
+  EXPECT_NE(said.find("other content"), std::string::npos) << said;
+
+  std::unique_ptr<GraphStore> store = GraphStore::Open(uri);
+  EXPECT_EQ(*store->FindNode(taken.id), taken) << "the stored node changed";
+  bool refused = false;
+  for (const Submission& s : store->versions().ListSubmissions()) {
+    refused |= s.robot == beta.id && s.state == SubmissionState::kFailed;
+  }
+  EXPECT_TRUE(refused);
+  const GraphBatch local =
+      GraphStore::Open("sqlite:" + (beta.map_dir / "map.db").string())->ReadMap();
+  const auto kept = std::find_if(local.nodes.begin(), local.nodes.end(),
+                                 [&](const Node& n) { return n.id == taken.id; });
+  ASSERT_NE(kept, local.nodes.end());
+  EXPECT_EQ(*kept, beta_node) << "the robot was given the other node in place of its own";
 }
 
 // (1) The first push drove a place the fleet map knows: MERGE omits (most of) it. The robot kept

@@ -1,11 +1,18 @@
 // One sync of a robot with fleetmapd (seed 004 §V; the exchange in proto/fleetmap/sync.proto):
 //
-//   connect, Hello (protocol version, robot id, token)
-//   push      what the server lacks (LocalMap::Unsynced) as one submission under a new v7 UUID,
-//             recorded in the map's state before the first byte, so a retry after a dropped
-//             link sends the same content under the same id and resumes at
-//             PushReady.next_chunk; skipped when nothing is unsynced. A submission left pending
-//             by an earlier run goes first, then whatever is new since.
+//   plan      before the connect (issue 35 item 4): what the server lacks, read from map.db a
+//             batch of nodes at a time and cut into submissions that fit the server's limits
+//             as its last welcome said them (issue 35 item 3; src/push_plan.h); a node over
+//             them on its own is held: kept in map.db unpushed, reported, tried every sync
+//   connect, Hello (protocol version, robot id, token); Welcome (the server's limits: when the
+//             plan does not fit them, or they would take a held node, plan again and reconnect,
+//             once)
+//   push      each planned submission under a new v7 UUID, recorded in the map's state before
+//             its first byte, so a retry after a dropped link sends the same content under the
+//             same id and resumes at PushReady.next_chunk; its chunks are encoded again as
+//             they are sent; skipped when nothing is unsynced. A submission left pending by an
+//             earlier run goes first, then whatever is new since. The server merges a robot's
+//             submissions in order, so edges between them join up.
 //   merge     MergeStatusRequest for each accepted submission whose merge no download has
 //             reflected yet (LocalMap: unmerged): a glance (wait_ms 0), or with wait_merge
 //             repeated until merged or failed or merge_timeout passes (then the download goes
@@ -68,11 +75,17 @@ struct AgentSyncOptions {
 
 struct SyncResult {
   // Push (all submissions of this sync; `submission` is the last one, nil when none).
+  std::size_t submissions = 0;  // accepted in this sync
   std::size_t pushed_nodes = 0;
   std::size_t pushed_edges = 0;
   std::size_t pushed_paths = 0;
   Uuid submission;
   std::string push_state;  // PushAccepted.state of the last submission: queued, merged, failed
+  // Held: nodes over the server's limits on their own, kept in the map unpushed (issue 35
+  // item 3), and the unsynced edges to them.
+  std::size_t held_nodes = 0;
+  std::size_t held_edges = 0;
+  std::uint64_t held_bytes = 0;
   // The merge of `submission`: merged, failed, or its state when asked (queued, merging);
   // "" when nothing was pushed.
   std::string merge_state;
@@ -98,6 +111,7 @@ struct SyncResult {
   std::uint64_t bytes_received = 0;
   int retries = 0;
   std::string last_retry_reason;
+  double prepare_seconds = 0.0;  // planning the push, before the connect
   double push_seconds = 0.0;
   double merge_wait_seconds = 0.0;
   double download_seconds = 0.0;

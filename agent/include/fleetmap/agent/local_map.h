@@ -96,6 +96,25 @@ struct UnmergedSubmission {
   friend bool operator==(const UnmergedSubmission&, const UnmergedSubmission&) = default;
 };
 
+// What a server takes (sync.proto Welcome), as its last welcome said: the bytes of one
+// submission and of one frame; 0: not said (never synced, or a server too old to say).
+struct ServerLimits {
+  std::uint64_t max_submission_bytes = 0;
+  std::uint32_t max_frame_bytes = 0;
+
+  friend bool operator==(const ServerLimits&, const ServerLimits&) = default;
+};
+
+// A node the last sync could not push because, on its own, it is over the server's limits
+// (issue 35 item 3). It stays in map.db, unsynced, and each sync tries it again: it goes once
+// the server takes a submission as large. Edges to it wait with it.
+struct HeldNode {
+  Uuid id;
+  std::uint64_t bytes = 0;  // encoded
+
+  friend bool operator==(const HeldNode&, const HeldNode&) = default;
+};
+
 struct SyncState {
   std::optional<Uuid> robot;              // the robot this directory syncs as, once it has synced
   std::int64_t revision = 0;              // the installed download's revision; 0: none
@@ -104,6 +123,8 @@ struct SyncState {
   ElementIds pushed;                      // pushed and accepted, not in `installed`
   std::optional<PendingSubmission> submission;
   std::vector<UnmergedSubmission> unmerged;  // in push order
+  ServerLimits server_limits;                // as the last welcome said
+  std::vector<HeldNode> held;                // by the last sync's plan, under server_limits
 
   friend bool operator==(const SyncState&, const SyncState&) = default;
 };
@@ -133,6 +154,9 @@ struct InstallReport {
   // Elements outside the selection kept because kept (unsynced or unmerged) edges reference
   // them.
   std::size_t kept_for_unsynced = 0;
+  // The robot's own unmerged nodes the download held under the same UUID with other content (a
+  // collision the server refuses): the robot's were kept, the download's not installed.
+  std::size_t kept_own_over_download = 0;
 };
 
 class LocalMap;
@@ -207,6 +231,16 @@ class LocalMap {
   // Starts a push of `content` (from Unsynced()) under a new time-ordered UUID, durably
   // recorded before it returns. REQUIRES: no submission pending (else kInvalidArgument).
   PendingSubmission BeginSubmission(const GraphBatch& content);
+  // The same for content named by its ids (a part of the unsynced content, issue 35 item 3).
+  PendingSubmission BeginSubmission(const ElementIds& content);
+  // Forgets the pending submission without pushing it: its content is unsynced again. Only for
+  // one the server can never take (over its limits, so refused at push_begin: the server
+  // stored nothing of it). No-op when none is pending.
+  void AbandonSubmission();
+  // Records what the server said it takes, and the nodes the sync could not push under it;
+  // written only when either changed.
+  void RecordServerLimits(const ServerLimits& limits);
+  void RecordHeld(const std::vector<HeldNode>& held);
   // The content of the pending submission, read back from map.db in the order Unsynced()
   // gives. Throws Error(kNotFound) naming an element map.db no longer holds.
   GraphBatch SubmissionContent(const PendingSubmission& submission);

@@ -10,7 +10,9 @@
 // Failures, each a fleetmap::Error (what() names the server and what was being done):
 // - SyncLinkError: the link failed (refused, reset, closed, timed out, TLS handshake); after
 //   it the client is unusable. retryable() tells a transient failure from one that will not
-//   go away by itself (a certificate that does not verify, an address that does not resolve).
+//   go away by itself (a certificate that does not verify, an address that does not resolve,
+//   a server that speaks TLS to a client without it: the first reply on a plain link that
+//   ends at once or comes in TLS is checked with a TLS handshake alone, and said so).
 // - SyncServerError: the server sent an ErrorFrame; its code and text are in the message.
 // - SyncStopped: the stop flag was raised.
 // - Error(kCorrupt): the server sent bytes that are not a frame, or a frame over the cap.
@@ -103,6 +105,14 @@ class SyncClient {
 
  private:
   struct Link;
+
+  // Issue 35 item 9: a plain link to a TLS server ends (or answers in TLS) at the first reply.
+  // True while no byte has come back on a link without TLS.
+  bool FirstReplyWithoutTls() const;
+  // Whether a TLS handshake with the server succeeds (a second connection, closed at once).
+  bool ServerSpeaksTls() const;
+  // Throws the SyncLinkError (not retryable) that says so and what to do.
+  [[noreturn]] void ThrowTlsMismatch(const std::string& context) const;
 
   std::string server_;
   SyncLinkOptions options_;
