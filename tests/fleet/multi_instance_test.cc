@@ -8,11 +8,14 @@
 #include <gtest/gtest.h>
 #include <signal.h>
 
+#include <algorithm>
 #include <boost/asio/connect.hpp>
 #include <boost/asio/io_context.hpp>
 #include <boost/asio/ip/tcp.hpp>
 #include <boost/beast/core/flat_buffer.hpp>
 #include <boost/beast/http.hpp>
+#include <cstdlib>
+#include <fstream>
 #include <map>
 #include <regex>
 #include <set>
@@ -210,6 +213,89 @@ TEST_F(MultiInstanceTest, ThreeServersFortyAgentsOneKilledMidMergeLoseAndDoubleN
   std::printf(
       "3 fleetmapd, %d agents, victim killed mid-merge of %s: revisions 1..%zu, %zu nodes\n",
       kAgents, taken_over.c_str(), revisions.size(), head.size());
+}
+
+// The peak resident set of a running process (VmHWM), in MB; -1 when unreadable.
+double PeakRssMb(int pid) {
+  std::ifstream status("/proc/" + std::to_string(pid) + "/status");
+  std::string line;
+  while (std::getline(status, line)) {
+    if (line.rfind("VmHWM:", 0) == 0) return std::stod(line.substr(6)) / 1024.0;
+  }
+  return -1.0;
+}
+
+// A fleet docking at once (issue 35's acceptance): FLEETMAP_DOCK_AGENTS robots (16 by
+// default; scripts/soak runs 100) on two fleetmapd sharing one PostgreSQL, three rounds: each
+// round every robot drives a foray of 20 nodes, then all start their syncs together, push,
+// wait for their merges and pull. None may fail; every node is at the head or stood in for.
+// Prints the p50/p99 sync time and each instance's peak RSS.
+TEST_F(MultiInstanceTest, AFleetDockingAtOnceForThreeRoundsFailsNone) {
+  const char* configured = std::getenv("FLEETMAP_DOCK_AGENTS");
+  const int agents = configured != nullptr ? std::max(1, std::atoi(configured)) : 16;
+  constexpr int kRounds = 3, kNodes = 20;
+  const std::string uri = backend_.Uri();
+  std::vector<TestRobot> robots;
+  std::vector<std::optional<Uuid>> last(agents);
+  std::set<Uuid> built;
+  for (int a = 0; a < agents; ++a) {
+    robots.push_back(
+        RegisterRobot(uri, "dock-" + std::to_string(a), dir_ / ("d" + std::to_string(a))));
+  }
+  std::vector<Instance> instances;
+  for (const char* name : {"north", "south"}) {
+    instances.push_back(StartInstance(uri, name, dir_ / (std::string(name) + ".log")));
+    ASSERT_FALSE(instances.back().server.address.empty()) << name;
+  }
+  std::vector<double> seconds;
+  for (int round = 0; round < kRounds; ++round) {
+    for (int a = 0; a < agents; ++a) {
+      const std::uint32_t seed = static_cast<std::uint32_t>(10'000 * round + a);
+      const GraphBatch foray = last[a] ? RandomChainFrom(robots[a].id, *last[a], kNodes, seed)
+                                       : RandomRobotMap(robots[a].id, kNodes, seed);
+      WriteLocalMap(robots[a], foray);
+      for (const Node& node : foray.nodes) built.insert(node.id);
+      last[a] = foray.nodes.back().id;
+    }
+    std::vector<std::unique_ptr<ChildProcess>> syncs;
+    std::vector<std::chrono::steady_clock::time_point> started;
+    for (int a = 0; a < agents; ++a) {
+      const std::string servers =
+          instances[a % 2].server.address + "," + instances[(a + 1) % 2].server.address;
+      started.push_back(std::chrono::steady_clock::now());
+      syncs.push_back(StartSync(
+          robots[a], servers, dir_ / ("dock-" + std::to_string(a) + ".log"),
+          {"--wait-merge", "--merge-timeout", "600", "--retry-for", "120", "--policy", "copy"}));
+    }
+    for (int a = 0; a < agents; ++a) {
+      const SyncOutcome outcome = FinishSync(
+          *syncs[a], dir_ / ("dock-" + std::to_string(a) + ".log"), milliseconds(900'000));
+      seconds.push_back(
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - started[a]).count());
+      ASSERT_EQ(outcome.exit, 0) << "round " << round << ", agent " << a;
+    }
+  }
+  std::unique_ptr<GraphStore> store = GraphStore::Open(uri);
+  VersionStore& versions = store->versions();
+  std::set<Uuid> head;
+  for (const Node& node : versions.NodesAt(versions.HeadRevision(), false)) head.insert(node.id);
+  for (const Uuid& node : built) {
+    const std::optional<NodeStandIn> stand_in = versions.FindStandIn(node);
+    EXPECT_TRUE(head.contains(node) || (stand_in && head.contains(stand_in->stand_in)))
+        << node.ToString();
+  }
+  for (const Submission& s : versions.ListSubmissions()) {
+    EXPECT_EQ(s.state, SubmissionState::kMerged) << s.id.ToString() << ": " << s.error;
+  }
+  std::sort(seconds.begin(), seconds.end());
+  const auto quantile = [&](double q) {
+    return seconds[std::min(seconds.size() - 1, static_cast<std::size_t>(q * seconds.size()))];
+  };
+  std::printf(
+      "dock: %d agents x %d rounds on 2 fleetmapd (PostgreSQL): 0 of %zu failed; sync "
+      "p50 %.1f s, p99 %.1f s, max %.1f s; peak RSS north %.0f MB, south %.0f MB\n",
+      agents, kRounds, seconds.size(), quantile(0.5), quantile(0.99), seconds.back(),
+      PeakRssMb(instances[0].server.process->pid()), PeakRssMb(instances[1].server.process->pid()));
 }
 
 // An instance frozen (SIGSTOP) mid-merge past its lease: another instance takes the
