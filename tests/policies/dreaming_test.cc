@@ -91,5 +91,26 @@ TEST(Dreaming, ASampleOfOrdersAndBadArguments) {
   }
 }
 
+// A robot builds on what it pushed before: its second group has an edge into its first. An order
+// that merges the second first finds that end in neither the map nor the group; the dream used
+// to fail whole ("group 1: merge: edge ... in neither the submission nor the server", seen in
+// issue 35's soak). That order now merges without the edge, and every order is scored.
+TEST(Dreaming, AGroupBuiltOnAnotherGroupDreamsInEveryOrder) {
+  const GraphBatch first = GroupMap(0);
+  GraphBatch second = GroupMap(1, 30.0);
+  Edge onto_first;
+  onto_first.id = Uuid::Generate();
+  onto_first.from = first.nodes.back().id;
+  onto_first.to = second.nodes.front().id;
+  onto_first.kind = EdgeKind::kMetric;
+  second.edges.push_back(onto_first);
+  const std::vector<GraphBatch> groups = {first, second};
+  const DreamScorer count = [](const DreamCandidate& c) {
+    return static_cast<double>(c.map->size());
+  };
+  const DreamResult result = Dream(groups, GraphBatch{}, SharedCorridorVocabulary(), count);
+  EXPECT_EQ(result.orders.size(), 2u);
+}
+
 }  // namespace
 }  // namespace fleetmap

@@ -83,9 +83,15 @@ DreamResult Dream(std::span<const GraphBatch> groups, const GraphBatch& base,
       map = std::move(maps[*step.parent]);  // the parent's last child
     }
 
-    const ServerCatalogue catalogue{[&map](const Uuid& id) { return map->edges.contains(id); },
-                                    [&map](const Uuid& id) { return map->paths.contains(id); },
-                                    {}};
+    ServerCatalogue catalogue{[&map](const Uuid& id) { return map->edges.contains(id); },
+                              [&map](const Uuid& id) { return map->paths.contains(id); },
+                              {}};
+    // Every group was accepted by the server, so an end this order's map lacks is one the
+    // group found on the server or in another group: a robot built on what it pushed before,
+    // and this order merges that group later (or the node was stood in for by a merge before
+    // the base). The order goes on without the edge (edges_unresolved), as the server does
+    // with a node seen only in a submission it could not merge.
+    catalogue.seen_elsewhere = [](const Uuid&) { return true; };
     const Clock::time_point merge_start = Clock::now();
     MergeResult merged;
     try {
