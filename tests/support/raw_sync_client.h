@@ -14,6 +14,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <csignal>
 #include <cstdint>
 #include <optional>
 #include <stdexcept>
@@ -52,11 +53,18 @@ class RawSyncClient {
       throw std::runtime_error("connect to " + address + " failed");
     }
     if (tls) {
+      // OpenSSL writes with write(2), not send(MSG_NOSIGNAL): a server that closes on the
+      // ClientHello (a plain listener) would kill the test with SIGPIPE instead of failing the
+      // handshake. A client should see EPIPE, as this one's send() does.
+      std::signal(SIGPIPE, SIG_IGN);
       ctx_ = SSL_CTX_new(TLS_client_method());
       SSL_CTX_set_min_proto_version(ctx_, TLS1_2_VERSION);
       ssl_ = SSL_new(ctx_);
       SSL_set_fd(ssl_, fd_);
       if (SSL_connect(ssl_) != 1) {
+        SSL_free(ssl_);
+        SSL_CTX_free(ctx_);
+        ::close(fd_);
         throw std::runtime_error("TLS handshake with " + address + " failed");
       }
     }
