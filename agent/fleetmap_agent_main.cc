@@ -26,6 +26,7 @@
 #include "fleetmap/agent/local_map.h"
 #include "fleetmap/agent/sync_client.h"
 #include "fleetmap/core/chunk_memory.h"
+#include "fleetmap/core/clock.h"
 #include "fleetmap/core/error.h"
 #include "fleetmap/policies/download_policy.h"
 #include "fleetmap/store/graph_store.h"
@@ -80,35 +81,6 @@ std::chrono::milliseconds Millis(double seconds, const char* option) {
   return std::chrono::milliseconds(static_cast<std::int64_t>(seconds * 1000.0));
 }
 
-// "HH:MM" (UTC) or plain minutes since midnight.
-double ParseMissionStart(const std::string& text) {
-  const std::size_t colon = text.find(':');
-  try {
-    std::size_t used = 0;
-    double minutes = 0.0;
-    if (colon == std::string::npos) {
-      minutes = std::stod(text, &used);
-      if (used != text.size()) throw std::invalid_argument(text);
-    } else {
-      const std::string hours_text = text.substr(0, colon);
-      const std::string minutes_text = text.substr(colon + 1);
-      const int hours = std::stoi(hours_text, &used);
-      if (used != hours_text.size()) throw std::invalid_argument(text);
-      const int mins = std::stoi(minutes_text, &used);
-      if (used != minutes_text.size() || mins < 0 || mins >= 60 || hours < 0) {
-        throw std::invalid_argument(text);
-      }
-      minutes = hours * 60.0 + mins;
-    }
-    if (minutes < 0.0 || minutes >= 1440.0) throw std::invalid_argument(text);
-    return minutes;
-  } catch (const std::logic_error&) {
-    throw Error(
-        ErrorCode::kInvalidArgument,
-        "--mission-start '" + text + "' is not HH:MM (00:00 to 23:59) or minutes in [0, 1440)");
-  }
-}
-
 std::string ReadToken(const AgentArguments& args) {
   if (!args.token_file.empty()) {
     std::ifstream in(args.token_file);
@@ -152,7 +124,7 @@ AgentSyncOptions SyncOptionsOf(const AgentArguments& args, const std::atomic<boo
   options.retry_for = Millis(args.retry_for_s, "--retry-for");
 
   DownloadParams& download = options.download;
-  download.mission_start_min = ParseMissionStart(args.mission_start);
+  download.mission_start_min = ParseTimeOfDay(args.mission_start, "--mission-start");
   download.window_min = args.window_min;
   download.best_percent = args.percent;
   download.budget_bytes = args.budget_bytes;
@@ -533,7 +505,7 @@ void AddSyncOptions(CLI::App& command, AgentArguments& args) {
   command.add_option("--map-dir", args.map_dir, "the robot's map directory")->capture_default_str();
   command
       .add_option("--mission-start", args.mission_start,
-                  "the next mission's start, HH:MM UTC (or minutes since midnight)")
+                  "the next mission's start, UTC, " + std::string(kTimeOfDayGrammar))
       ->capture_default_str();
   command.add_option("--policy", args.policy, "download policy: copy, tod, tod+paths, budget, ...")
       ->capture_default_str();

@@ -24,6 +24,7 @@
 #include "bench_report.h"
 #include "chain_workload.h"
 #include "commands.h"
+#include "fleetmap/core/clock.h"
 #include "fleetmap/core/error.h"
 #include "fleetmap/store/graph_store.h"
 #include "raw_baseline.h"
@@ -175,10 +176,6 @@ class BenchStore {
   Uuid holds_;
   bool analyzed_ = false;
 };
-
-double SecondsSince(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
 
 // Small n are repeated (fresh store each time) and the median kept: one run of ten calls is
 // mostly noise.

@@ -28,6 +28,7 @@
 
 #include "commands.h"
 #include "fleetmap/core/child_process.h"
+#include "fleetmap/core/clock.h"
 #include "fleetmap/core/error.h"
 #include "fleetmap/core/map_chunks.h"
 #include "fleetmap/experiments/gnuplot.h"
@@ -92,10 +93,6 @@ std::int64_t PeakRssBytes() {
   rusage usage{};
   getrusage(RUSAGE_SELF, &usage);
   return static_cast<std::int64_t>(usage.ru_maxrss) * 1024;
-}
-
-double SecondsSince(Clock::time_point start) {
-  return std::chrono::duration<double>(Clock::now() - start).count();
 }
 
 // ---- the child: one measured step ----

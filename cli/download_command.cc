@@ -8,6 +8,7 @@
 #include <optional>
 
 #include "commands.h"
+#include "fleetmap/core/clock.h"
 #include "fleetmap/core/error.h"
 #include "fleetmap/policies/download_policy.h"
 #include "new_store.h"
@@ -36,14 +37,14 @@ DownloadPolicy PolicyOf(const DownloadArgs& args) {
   DownloadPolicy policy = ParseDownloadPolicy(args.policy);
   const bool copy = !policy.time_of_day && !policy.paths && !policy.cover && !policy.budget_bytes;
   if (!args.mission_start.empty()) {
-    policy.mission_start_min = ParseClockTime(args.mission_start, "--mission-start");
+    policy.mission_start_min = ParseTimeOfDay(args.mission_start, "--mission-start");
   } else if (!copy) {
     throw Error(ErrorCode::kInvalidArgument, "--mission-start HH:MM is required for policy \"" +
                                                  policy.Name() +
                                                  "\" (only \"copy\" ignores the mission time)");
   }
   if (!args.mission_end.empty()) {
-    policy.mission_end_min = ParseClockTime(args.mission_end, "--mission-end");
+    policy.mission_end_min = ParseTimeOfDay(args.mission_end, "--mission-end");
   }
   const auto fail = [](const std::string& message) {
     throw Error(ErrorCode::kInvalidArgument, message);
@@ -209,8 +210,8 @@ void AddDownloadCommand(CLI::App& app) {
       "of the mission start on the 24-hour clock, Eq. 4); paths (nodes on the best p % of the "
       "paths of each of the mission's epochs, Algorithms 2-3, Eq. 7); budget (filled path by "
       "path up to a byte budget); joined with '+', e.g. tod+paths. The download is always "
-      "integral: picked nodes are joined by the nodes between them. Mission times are HH:MM UTC "
-      "on the 24-hour clock; the budget counts landmark bytes.");
+      "integral: picked nodes are joined by the nodes between them. Mission times are UTC, " +
+      std::string(kTimeOfDayGrammar) + "; the budget counts landmark bytes.");
   AddStoreOption(*download, args->store);
   download
       ->add_option("--policy", args->policy,
@@ -221,10 +222,11 @@ void AddDownloadCommand(CLI::App& app) {
                    "within the window")
       ->required();
   download->add_option("--mission-start", args->mission_start,
-                       "Mission start, HH:MM UTC (t_foray); required unless the policy is copy");
+                       "Mission start (t_foray), UTC, " + std::string(kTimeOfDayGrammar) +
+                           "; required unless the policy is copy");
   download->add_option("--mission-end", args->mission_end,
-                       "Mission end, HH:MM UTC; for paths without tod (default: the last epoch "
-                       "with data)");
+                       "Mission end, UTC, " + std::string(kTimeOfDayGrammar) +
+                           "; for paths without tod (default: the last epoch with data)");
   download->add_option("--window-min", args->window_min, "T_w of Eq. 4, minutes")
       ->capture_default_str();
   download->add_option("--epoch-min", args->epoch_min, "Δt of Eq. 5, minutes")

@@ -8,6 +8,7 @@
 #include "commands.h"
 #include "fleetmap/core/error.h"
 #include "fleetmap/core/printable_text.h"
+#include "fleetmap/policies/dream_plan.h"
 #include "fleetmap/server/dream_candidates.h"
 #include "fleetmap/server/nightly_dream.h"
 #include "progress_bar.h"
@@ -149,7 +150,7 @@ void AddDreamCandidateCommands(CLI::App& app) {
   now->add_option("--max-groups", now_args->options.max_groups,
                   "Groups merged in every order at most (k! orders)")
       ->capture_default_str()
-      ->check(CLI::Range(std::size_t{1}, std::size_t{11}));
+      ->check(CLI::Range(std::size_t{1}, std::size_t{kMaxDreamGroups}));
   now->add_option("--max-orders", now_args->max_orders,
                   "Explore at most this many orders (default 0: all)");
   now->add_flag("--json", now_args->json, "Print the candidate's record as JSON");

@@ -77,24 +77,29 @@ std::string OrderText(const std::vector<int>& order) {
   return text;
 }
 
-void RunDream(const DreamArgs& args) {
-  // Everything the user typed is checked before anything is read.
-  std::vector<Uuid> group_ids;
+// The submissions the options name, checked before anything is read.
+struct DreamIds {
+  std::vector<Uuid> groups;
+  Uuid held_out;
+};
+
+DreamIds CheckDreamArgs(const DreamArgs& args) {
+  DreamIds ids;
   for (const std::string& text : args.groups) {
-    group_ids.push_back(ParseUuidArgument(text, "--groups submission"));
+    ids.groups.push_back(ParseUuidArgument(text, "--groups submission"));
   }
-  const Uuid held_out_id = ParseUuidArgument(args.held_out, "--held-out submission");
-  if (group_ids.empty() || group_ids.size() > 12) {
+  ids.held_out = ParseUuidArgument(args.held_out, "--held-out submission");
+  if (ids.groups.empty() || ids.groups.size() > static_cast<std::size_t>(kMaxDreamGroups)) {
     throw Error(ErrorCode::kInvalidArgument,
-                "--groups: dreaming merges 1 to 12 groups (k! orders), not " +
-                    std::to_string(group_ids.size()));
+                "--groups: dreaming merges 1 to " + std::to_string(kMaxDreamGroups) +
+                    " groups (k! orders), not " + std::to_string(ids.groups.size()));
   }
-  if (std::set<Uuid>(group_ids.begin(), group_ids.end()).size() != group_ids.size()) {
+  if (std::set<Uuid>(ids.groups.begin(), ids.groups.end()).size() != ids.groups.size()) {
     throw Error(ErrorCode::kInvalidArgument, "--groups names a submission twice");
   }
-  if (std::find(group_ids.begin(), group_ids.end(), held_out_id) != group_ids.end()) {
+  if (std::find(ids.groups.begin(), ids.groups.end(), ids.held_out) != ids.groups.end()) {
     throw Error(ErrorCode::kInvalidArgument,
-                "--held-out submission " + held_out_id.ToString() +
+                "--held-out submission " + ids.held_out.ToString() +
                     " is also a group: held-out data must not build the maps it judges");
   }
   if (args.max_orders && *args.max_orders == 0) {
@@ -104,6 +109,113 @@ void RunDream(const DreamArgs& args) {
     throw Error(ErrorCode::kInvalidArgument, "--group-seconds (T_G of Eq. 8) must be > 0");
   }
   if (!args.out.empty()) RequireNewStore(args.out, "--out");
+  return ids;
+}
+
+// What a dream read, made and wrote: everything its report shows.
+struct DreamOutcome {
+  DreamIds ids;
+  std::vector<GraphBatch> groups;
+  std::vector<HeldOutOuting> held_out;
+  std::vector<HeldOutReplay> replays;  // one per order of `result`
+  DreamResult result;
+  std::optional<StoreStats> written;  // the best map in --out
+  double t_merge = 0.0;
+  double t_copy = 0.0;
+  std::optional<double> predicted;  // Eq. 8, given --group-seconds
+  std::size_t held_out_frames = 0;
+};
+
+void PrintDreamJson(const DreamArgs& args, const DreamOutcome& d) {
+  nlohmann::ordered_json json;
+  json["groups"] = nlohmann::ordered_json::array();
+  for (const Uuid& id : d.ids.groups) json["groups"].push_back(id.ToString());
+  json["held_out"] = {{"submission", d.ids.held_out.ToString()},
+                      {"outings", d.held_out.size()},
+                      {"frames", d.held_out_frames}};
+  json["gap_m"] = kGapM;
+  json["orders"] = nlohmann::ordered_json::array();
+  for (std::size_t i = 0; i < d.result.orders.size(); ++i) {
+    const HeldOutReplay& replay = d.replays.at(i);
+    json["orders"].push_back({{"order", d.result.orders[i].order},
+                              {"p_gap_exceeds", replay.ProbabilityGapExceeds(kGapM)},
+                              {"not_localised", replay.FractionNotLocalised()},
+                              {"frames", replay.frames},
+                              {"localised_frames", replay.localised_frames},
+                              {"nodes", d.result.orders[i].nodes},
+                              {"score", d.result.orders[i].score}});
+  }
+  json["best"] = d.result.best;
+  json["timings"] = {{"merges", d.result.merge_seconds.size()},
+                     {"first_merges", d.result.first_merge_seconds.size()},
+                     {"copies", d.result.copy_seconds.size()},
+                     {"t_merge_mean_s", d.t_merge},
+                     {"t_copy_mean_s", d.t_copy},
+                     {"score_s", d.result.score_seconds},
+                     {"total_s", d.result.seconds}};
+  if (d.predicted) {
+    json["eq8"] = {{"t_group_s", *args.group_seconds}, {"predicted_ratio", *d.predicted}};
+  }
+  if (d.written) {
+    json["out"] = {{"uri", args.out},
+                   {"nodes", d.written->nodes},
+                   {"edges", d.written->edges},
+                   {"paths", d.written->paths}};
+  }
+  std::cout << json.dump(2) << "\n";
+}
+
+void PrintDreamText(const DreamArgs& args, const DreamOutcome& d) {
+  const auto count = [](std::size_t n, std::string_view one, std::string_view many = {}) {
+    return Count(static_cast<std::int64_t>(n), one, many);
+  };
+  std::printf("dreaming (seed 004 §VI-E): %s, %zu of %zu! orders, %s, %s\n",
+              count(d.ids.groups.size(), "group").c_str(), d.result.orders.size(),
+              d.ids.groups.size(), count(d.result.plan.merges, "merge").c_str(),
+              count(d.result.plan.copies, "copy", "copies").c_str());
+  for (std::size_t g = 0; g < d.ids.groups.size(); ++g) {
+    std::printf("  group %zu  submission %s (%s)\n", g, d.ids.groups[g].ToString().c_str(),
+                count(d.groups[g].nodes.size(), "node").c_str());
+  }
+  std::printf("  held out  submission %s (%s, %s)\n", d.ids.held_out.ToString().c_str(),
+              count(d.held_out.size(), "outing").c_str(),
+              count(d.held_out_frames, "frame").c_str());
+  std::printf("\n%-24s  %14s  %13s  %6s\n", "ORDER", "P(gap > 10 m)", "NOT LOCALISED", "NODES");
+  for (std::size_t i = 0; i < d.result.orders.size(); ++i) {
+    const HeldOutReplay& replay = d.replays.at(i);
+    std::printf("%-24s  %14.4f  %12.1f%%  %6zu%s\n", OrderText(d.result.orders[i].order).c_str(),
+                replay.ProbabilityGapExceeds(kGapM), 100.0 * replay.FractionNotLocalised(),
+                d.result.orders[i].nodes, i == d.result.best ? "  <- best" : "");
+  }
+  const HeldOutReplay& best = d.replays.at(d.result.best);
+  std::printf(
+      "\nbest order: %s (P(gap > 10 m) %.4f, %.1f %% not localised, %zu nodes; lower P "
+      "is better, ties by the share not localised)\n",
+      OrderText(d.result.orders[d.result.best].order).c_str(), best.ProbabilityGapExceeds(kGapM),
+      100.0 * best.FractionNotLocalised(), d.result.orders[d.result.best].nodes);
+  std::printf(
+      "timings: %s of a group into the empty map (mean %.2f s), %s into a parent's map "
+      "(T_M mean %.2f s), %s (T_C mean %.3f s), scoring %.2f s, whole run %.2f s\n",
+      count(d.result.first_merge_seconds.size(), "merge").c_str(),
+      Mean(d.result.first_merge_seconds), count(d.result.merge_seconds.size(), "merge").c_str(),
+      d.t_merge, count(d.result.copy_seconds.size(), "copy", "copies").c_str(), d.t_copy,
+      d.result.score_seconds, d.result.seconds);
+  if (d.predicted) {
+    std::printf(
+        "Eq. 8: with T_G = %.1f s, dreaming takes %.4f of the time of re-running "
+        "single-agent EBN for every order\n",
+        *args.group_seconds, *d.predicted);
+  }
+  if (d.written) {
+    std::printf("best map written to %s: %lld nodes, %lld edges, %lld paths\n", args.out.c_str(),
+                static_cast<long long>(d.written->nodes), static_cast<long long>(d.written->edges),
+                static_cast<long long>(d.written->paths));
+  }
+}
+
+void RunDream(const DreamArgs& args) {
+  DreamOutcome d;
+  d.ids = CheckDreamArgs(args);
 
   const std::unique_ptr<Repository> repository = OpenRepository(args.store);
   const auto read = [&](const Uuid& id, const std::string& option) {
@@ -113,11 +225,10 @@ void RunDream(const DreamArgs& args) {
       throw InContext(error, option + " (in " + repository->store().uri() + ")");
     }
   };
-  std::vector<GraphBatch> groups;
-  for (const Uuid& id : group_ids) groups.push_back(read(id, "--groups"));
-  const GraphBatch held_out_map = read(held_out_id, "--held-out");
-  const std::vector<HeldOutOuting> held_out = HeldOutOutings(held_out_map);
-  const DreamWords words = DreamVocabulary(*repository, groups);
+  for (const Uuid& id : d.ids.groups) d.groups.push_back(read(id, "--groups"));
+  const GraphBatch held_out_map = read(d.ids.held_out, "--held-out");
+  d.held_out = HeldOutOutings(held_out_map);
+  const DreamWords words = DreamVocabulary(*repository, d.groups);
   if (words.trained) {
     std::cerr << "dream: " << repository->store().uri()
               << " has no appearance vocabulary yet; trained one from the groups\n";
@@ -129,109 +240,27 @@ void RunDream(const DreamArgs& args) {
   options.merge = repository->merge_options();
   options.max_orders = args.max_orders;
   options.seed = args.seed;
-  std::vector<HeldOutReplay> replays;
-  const DreamScorer scorer = HeldOutDreamScorer(held_out, options.merge.localiser, kGapM, &replays);
+  const DreamScorer scorer =
+      HeldOutDreamScorer(d.held_out, options.merge.localiser, kGapM, &d.replays);
   ProgressBar bar("dreaming", std::cerr);
-  const DreamResult result =
-      Dream(groups, GraphBatch{}, words.vocabulary, scorer, options,
-            [&bar](std::size_t done, std::size_t all) {
-              bar.Update(static_cast<std::int64_t>(done), static_cast<std::int64_t>(all));
-            });
+  d.result = Dream(d.groups, GraphBatch{}, words.vocabulary, scorer, options,
+                   [&bar](std::size_t done, std::size_t all) {
+                     bar.Update(static_cast<std::int64_t>(done), static_cast<std::int64_t>(all));
+                   });
   bar.Finish();
 
-  std::optional<StoreStats> written;
-  if (!args.out.empty()) written = WriteNewStore(args.out, "--out", result.best_content);
-  const int k = static_cast<int>(groups.size());
-  const double t_merge = Mean(result.merge_seconds);
-  const double t_copy = Mean(result.copy_seconds);
-  std::optional<double> predicted;
-  if (args.group_seconds) predicted = DreamingTimeRatio(k, *args.group_seconds, t_merge, t_copy);
-  std::size_t held_out_frames = 0;
-  for (const HeldOutOuting& outing : held_out) held_out_frames += outing.frames.size();
+  if (!args.out.empty()) d.written = WriteNewStore(args.out, "--out", d.result.best_content);
+  const int k = static_cast<int>(d.groups.size());
+  d.t_merge = Mean(d.result.merge_seconds);
+  d.t_copy = Mean(d.result.copy_seconds);
+  if (args.group_seconds)
+    d.predicted = DreamingTimeRatio(k, *args.group_seconds, d.t_merge, d.t_copy);
+  for (const HeldOutOuting& outing : d.held_out) d.held_out_frames += outing.frames.size();
 
   if (args.json) {
-    nlohmann::ordered_json json;
-    json["groups"] = nlohmann::ordered_json::array();
-    for (const Uuid& id : group_ids) json["groups"].push_back(id.ToString());
-    json["held_out"] = {{"submission", held_out_id.ToString()},
-                        {"outings", held_out.size()},
-                        {"frames", held_out_frames}};
-    json["gap_m"] = kGapM;
-    json["orders"] = nlohmann::ordered_json::array();
-    for (std::size_t i = 0; i < result.orders.size(); ++i) {
-      const HeldOutReplay& replay = replays.at(i);
-      json["orders"].push_back({{"order", result.orders[i].order},
-                                {"p_gap_exceeds", replay.ProbabilityGapExceeds(kGapM)},
-                                {"not_localised", replay.FractionNotLocalised()},
-                                {"frames", replay.frames},
-                                {"localised_frames", replay.localised_frames},
-                                {"nodes", result.orders[i].nodes},
-                                {"score", result.orders[i].score}});
-    }
-    json["best"] = result.best;
-    json["timings"] = {{"merges", result.merge_seconds.size()},
-                       {"first_merges", result.first_merge_seconds.size()},
-                       {"copies", result.copy_seconds.size()},
-                       {"t_merge_mean_s", t_merge},
-                       {"t_copy_mean_s", t_copy},
-                       {"score_s", result.score_seconds},
-                       {"total_s", result.seconds}};
-    if (predicted) {
-      json["eq8"] = {{"t_group_s", *args.group_seconds}, {"predicted_ratio", *predicted}};
-    }
-    if (written) {
-      json["out"] = {{"uri", args.out},
-                     {"nodes", written->nodes},
-                     {"edges", written->edges},
-                     {"paths", written->paths}};
-    }
-    std::cout << json.dump(2) << "\n";
-    return;
-  }
-
-  const auto count = [](std::size_t n, std::string_view one, std::string_view many = {}) {
-    return Count(static_cast<std::int64_t>(n), one, many);
-  };
-  std::printf("dreaming (seed 004 §VI-E): %s, %zu of %zu! orders, %s, %s\n",
-              count(group_ids.size(), "group").c_str(), result.orders.size(), group_ids.size(),
-              count(result.plan.merges, "merge").c_str(),
-              count(result.plan.copies, "copy", "copies").c_str());
-  for (std::size_t g = 0; g < group_ids.size(); ++g) {
-    std::printf("  group %zu  submission %s (%s)\n", g, group_ids[g].ToString().c_str(),
-                count(groups[g].nodes.size(), "node").c_str());
-  }
-  std::printf("  held out  submission %s (%s, %s)\n", held_out_id.ToString().c_str(),
-              count(held_out.size(), "outing").c_str(), count(held_out_frames, "frame").c_str());
-  std::printf("\n%-24s  %14s  %13s  %6s\n", "ORDER", "P(gap > 10 m)", "NOT LOCALISED", "NODES");
-  for (std::size_t i = 0; i < result.orders.size(); ++i) {
-    const HeldOutReplay& replay = replays.at(i);
-    std::printf("%-24s  %14.4f  %12.1f%%  %6zu%s\n", OrderText(result.orders[i].order).c_str(),
-                replay.ProbabilityGapExceeds(kGapM), 100.0 * replay.FractionNotLocalised(),
-                result.orders[i].nodes, i == result.best ? "  <- best" : "");
-  }
-  const HeldOutReplay& best = replays.at(result.best);
-  std::printf(
-      "\nbest order: %s (P(gap > 10 m) %.4f, %.1f %% not localised, %zu nodes; lower P "
-      "is better, ties by the share not localised)\n",
-      OrderText(result.orders[result.best].order).c_str(), best.ProbabilityGapExceeds(kGapM),
-      100.0 * best.FractionNotLocalised(), result.orders[result.best].nodes);
-  std::printf(
-      "timings: %s of a group into the empty map (mean %.2f s), %s into a parent's map "
-      "(T_M mean %.2f s), %s (T_C mean %.3f s), scoring %.2f s, whole run %.2f s\n",
-      count(result.first_merge_seconds.size(), "merge").c_str(), Mean(result.first_merge_seconds),
-      count(result.merge_seconds.size(), "merge").c_str(), t_merge,
-      count(result.copy_seconds.size(), "copy", "copies").c_str(), t_copy, result.score_seconds,
-      result.seconds);
-  if (predicted) {
-    std::printf(
-        "Eq. 8: with T_G = %.1f s, dreaming takes %.4f of the time of re-running "
-        "single-agent EBN for every order\n",
-        *args.group_seconds, *predicted);
-  }
-  if (written) {
-    std::printf("best map written to %s: %lld nodes, %lld edges, %lld paths\n", args.out.c_str(),
-                static_cast<long long>(written->nodes), static_cast<long long>(written->edges),
-                static_cast<long long>(written->paths));
+    PrintDreamJson(args, d);
+  } else {
+    PrintDreamText(args, d);
   }
 }
 
@@ -252,7 +281,9 @@ void AddDreamCommand(CLI::App& app) {
       "--group-seconds, Eq. 8's predicted share of the time single-agent EBN would take. "
       "The repository is only read; --out writes the best map into a new store.");
   AddStoreOption(*dream, args->store);
-  dream->add_option("--groups", args->groups, "Group submissions S1,S2,... (1 to 12)")
+  dream
+      ->add_option("--groups", args->groups,
+                   "Group submissions S1,S2,... (1 to " + std::to_string(kMaxDreamGroups) + ")")
       ->required()
       ->delimiter(',');
   dream->add_option("--held-out", args->held_out, "The held-out submission that judges the maps")

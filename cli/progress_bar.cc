@@ -4,6 +4,8 @@
 
 #include <cstdio>
 
+#include "fleetmap/core/clock.h"
+
 namespace fleetmap::cli {
 
 ProgressBar::ProgressBar(std::string label, std::ostream& out)
@@ -39,7 +41,7 @@ void ProgressBar::Update(std::int64_t done, std::int64_t total) {
 }
 
 void ProgressBar::Finish() {
-  const double elapsed = std::chrono::duration<double>(Clock::now() - start_).count();
+  const double elapsed = SecondsSince(start_);
   char line[160];
   std::snprintf(line, sizeof line, "%s%s: done in %.1f s\n", terminal_ ? "\r" : "", label_.c_str(),
                 elapsed);

@@ -1,6 +1,5 @@
 #include "repository_arguments.h"
 
-#include <charconv>
 #include <cstdlib>
 #include <ctime>
 #include <filesystem>
@@ -58,26 +57,6 @@ Uuid ParseUuidArgument(std::string_view text, std::string_view what) {
                 std::string(what) + " '" + std::string(text) +
                     "' is not a UUID (expected xxxxxxxx-xxxx-xxxx-xxxx-xxxxxxxxxxxx)");
   }
-}
-
-double ParseClockTime(std::string_view text, std::string_view option) {
-  const auto fail = [&] {
-    throw Error(ErrorCode::kInvalidArgument,
-                std::string(option) + " '" + std::string(text) +
-                    "' is not a time of day: expected HH:MM on the 24-hour clock, 00:00 to 23:59 "
-                    "(UTC)");
-  };
-  const auto two_digits = [&](std::string_view digits, int max) {
-    int value = -1;
-    if (digits.size() != 2) fail();
-    const auto [end, error] = std::from_chars(digits.data(), digits.data() + 2, value);
-    if (error != std::errc() || end != digits.data() + 2 || value < 0 || value > max) fail();
-    return value;
-  };
-  if (text.size() != 5 || text[2] != ':') fail();
-  const int hours = two_digits(text.substr(0, 2), 23);
-  const int minutes = two_digits(text.substr(3, 2), 59);
-  return 60.0 * hours + minutes;
 }
 
 void RequireRevision(Repository& repository, RevisionNumber r) {

@@ -1,6 +1,7 @@
 // What the repository commands (init, push, merge, log, checkout, download, dream, ...) share:
 // the --store option, opening the repository it names, and reading and printing the things
-// people type and read: UUIDs, revision numbers, HH:MM mission times, UTC timestamps.
+// people type and read: UUIDs, revision numbers, UTC timestamps (times of day:
+// fleetmap/core/clock.h).
 // Every parse failure throws fleetmap::Error naming the option and the text given.
 #pragma once
 
@@ -38,10 +39,6 @@ std::string SqlitePath(std::string_view uri);
 
 // Canonical UUID text; else Error(kInvalidArgument) "<what> 'text' is not a UUID ...".
 Uuid ParseUuidArgument(std::string_view text, std::string_view what);
-
-// "HH:MM" on the 24-hour clock, 00:00 to 23:59, as minutes since midnight; else
-// Error(kInvalidArgument) naming `option` and the text.
-double ParseClockTime(std::string_view text, std::string_view option);
 
 // Throws Error(kNotFound) unless 0 <= r <= the head, naming the revision, the store and the
 // range of revisions there are.

@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.h"
+#include "fleetmap/core/clock.h"
 #include "fleetmap/core/printable_text.h"
 #include "fleetmap/server/robot_registry.h"
 #include "repository_arguments.h"
@@ -25,18 +26,12 @@ struct RobotListArgs {
   bool json = false;
 };
 
-std::int64_t NowNs() {
-  return std::chrono::duration_cast<std::chrono::nanoseconds>(
-             std::chrono::system_clock::now().time_since_epoch())
-      .count();
-}
-
 void RunRobotAdd(const RobotAddArgs& args) {
   // A new repository may start with its robots, before anything is pushed.
   const std::unique_ptr<Repository> repository = OpenRepository(args.store, /*create=*/true);
   NewRobot added;
   try {
-    added = RobotRegistry(repository->versions()).Add(args.name, NowNs());
+    added = RobotRegistry(repository->versions()).Add(args.name, WallClockNs());
   } catch (const Error& error) {
     throw InContext(error, "robot add " + args.name);
   }

@@ -1,128 +1,31 @@
 #include "staged_output_file.h"
 
-#include <fcntl.h>
-#include <sys/stat.h>
-#include <unistd.h>
-
-#include <array>
-#include <cerrno>
-#include <cstring>
-#include <system_error>
-
 #include "fleetmap/core/error.h"
 
 namespace fleetmap::cli {
 namespace {
 
-// An output buffer over a file descriptor it does not own: std::ofstream can only open by
-// name, and opening by name again would follow whatever is at the name by then.
-class DescriptorBuffer final : public std::streambuf {
- public:
-  explicit DescriptorBuffer(int fd) : fd_(fd) { setp(buffer_.data(), buffer_.data() + size()); }
-
-  // The errno of the first failed write; 0 while none failed.
-  int error() const { return error_; }
-
- protected:
-  int_type overflow(int_type c) override {
-    if (!Drain()) return traits_type::eof();
-    if (!traits_type::eq_int_type(c, traits_type::eof())) {
-      *pptr() = traits_type::to_char_type(c);
-      pbump(1);
-    }
-    return traits_type::not_eof(c);
-  }
-  int sync() override { return Drain() ? 0 : -1; }
-
- private:
-  std::size_t size() const { return buffer_.size(); }
-
-  bool Drain() {
-    for (const char* next = pbase(); next < pptr();) {
-      const ssize_t n = ::write(fd_, next, static_cast<std::size_t>(pptr() - next));
-      if (n < 0 && errno == EINTR) continue;
-      if (n < 0) {
-        if (error_ == 0) error_ = errno;
-        return false;
-      }
-      next += n;
-    }
-    setp(buffer_.data(), buffer_.data() + size());
-    return true;
-  }
-
-  int fd_;
-  int error_ = 0;
-  std::array<char, 1 << 16> buffer_{};
-};
+// A failure of the file is the user's --out: name it so, with the file's own reason.
+[[noreturn]] void ThrowForOut(const std::string& path, const Error& e) {
+  throw Error(ErrorCode::kInvalidArgument, "cannot write --out " + path + ": " + e.message());
+}
 
 }  // namespace
 
-StagedOutputFile::StagedOutputFile(const std::string& path) : path_(path), staging_(path + ".tmp") {
-  if (std::filesystem::is_directory(path_)) {
-    throw Error(ErrorCode::kInvalidArgument, "cannot write --out " + path + ": a directory");
+StagedOutputFile::StagedOutputFile(const std::string& path) : path_(path) {
+  try {
+    file_.emplace(path);
+  } catch (const Error& e) {
+    ThrowForOut(path_, e);
   }
-  CreateStaging();
-  buffer_ = std::make_unique<DescriptorBuffer>(fd_);
-  stream_.rdbuf(buffer_.get());
-}
-
-void StagedOutputFile::CreateStaging() {
-  // 0666 less the umask, as a shell's `>` creates files.
-  constexpr int kFlags = O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC;
-  fd_ = ::open(staging_.c_str(), kFlags, 0666);
-  if (fd_ >= 0 || errno != EEXIST) {
-    if (fd_ < 0) Fail("cannot create " + staging_.string(), errno);
-    return;
-  }
-  struct stat st {};
-  if (::lstat(staging_.c_str(), &st) == 0 && !S_ISREG(st.st_mode)) {
-    Fail(staging_.string() +
-             (S_ISLNK(st.st_mode) ? " is a symbolic link" : " is not a regular file") +
-             ", where this command stages its output; it is not written through: remove it "
-             "and run the command again",
-         0);
-  }
-  // A regular file: what an export or render killed before its rename leaves. Unlinking removes
-  // the name only (never what a link would point to), and O_EXCL refuses whatever may have
-  // taken the name meanwhile.
-  if (::unlink(staging_.c_str()) != 0 && errno != ENOENT) {
-    Fail("cannot remove the stale " + staging_.string(), errno);
-  }
-  fd_ = ::open(staging_.c_str(), kFlags, 0666);
-  if (fd_ < 0) Fail("cannot create " + staging_.string(), errno);
-}
-
-StagedOutputFile::~StagedOutputFile() {
-  if (fd_ >= 0) ::close(fd_);
-  if (committed_) return;
-  std::error_code ignored;
-  std::filesystem::remove(staging_, ignored);
 }
 
 void StagedOutputFile::Commit() {
-  stream_.flush();
-  const int write_error = static_cast<DescriptorBuffer&>(*buffer_).error();
-  if (!stream_ || write_error != 0) Fail("cannot write " + staging_.string(), write_error);
-  // Durable before it is renamed into place, so a power cut cannot leave FILE empty.
-  if (::fsync(fd_) != 0) Fail("cannot sync " + staging_.string(), errno);
-  const int fd = fd_;
-  fd_ = -1;
-  if (::close(fd) != 0) Fail("cannot close " + staging_.string(), errno);
-  std::error_code renamed;
-  std::filesystem::rename(staging_, path_, renamed);
-  if (renamed) {
-    throw Error(ErrorCode::kInvalidArgument, "cannot write --out " + path_.string() +
-                                                 ": cannot rename " + staging_.string() +
-                                                 " into place: " + renamed.message());
+  try {
+    file_->Commit();
+  } catch (const Error& e) {
+    ThrowForOut(path_, e);
   }
-  committed_ = true;
-}
-
-void StagedOutputFile::Fail(const std::string& what, int error) const {
-  throw Error(ErrorCode::kInvalidArgument,
-              "cannot write --out " + path_.string() + ": " + what +
-                  (error != 0 ? std::string(": ") + std::strerror(error) : std::string()));
 }
 
 }  // namespace fleetmap::cli

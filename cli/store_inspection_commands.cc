@@ -10,6 +10,7 @@
 #include <string>
 
 #include "commands.h"
+#include "fleetmap/core/clock.h"
 #include "fleetmap/core/error.h"
 #include "fleetmap/store/graph_store.h"
 #include "fleetmap/store/store_diagnosis.h"
@@ -55,12 +56,6 @@ std::string Bytes(std::int64_t bytes) {
     std::snprintf(text, sizeof text, "%.1f kB", b / 1e3);
   }
   return text;
-}
-
-std::int64_t NowNs() {
-  return std::chrono::duration_cast<std::chrono::nanoseconds>(
-             std::chrono::system_clock::now().time_since_epoch())
-      .count();
 }
 
 void RunInfo(const InspectArgs& args) {
@@ -135,7 +130,7 @@ void RunInfo(const InspectArgs& args) {
 void RunDoctor(const InspectArgs& args) {
   const std::unique_ptr<GraphStore> store = OpenForReading(args.store);
   DiagnosisOptions options;
-  options.now_ns = NowNs();
+  options.now_ns = WallClockNs();
   options.receiving_stuck_after =
       std::chrono::minutes(static_cast<std::int64_t>(args.receiving_stuck_h * 60.0));
   options.queued_stuck_after =

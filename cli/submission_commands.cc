@@ -10,6 +10,7 @@
 #include <optional>
 
 #include "commands.h"
+#include "fleetmap/core/clock.h"
 #include "fleetmap/core/error.h"
 #include "fleetmap/core/printable_text.h"
 #include "fleetmap/store/graph_store.h"
@@ -107,9 +108,7 @@ struct SubmissionsArgs {
 std::optional<SubmissionClaim> QueuedClaim(Repository& repository, const Submission& s) {
   if (s.state != SubmissionState::kQueued) return std::nullopt;
   std::optional<SubmissionClaim> claim = repository.versions().FindClaim(s.id);
-  const std::int64_t now_ns = std::chrono::duration_cast<std::chrono::nanoseconds>(
-                                  std::chrono::system_clock::now().time_since_epoch())
-                                  .count();
+  const std::int64_t now_ns = WallClockNs();
   if (!claim || claim->lease_until_ns <= now_ns) return std::nullopt;
   return claim;
 }

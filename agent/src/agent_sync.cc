@@ -14,6 +14,7 @@
 #include <utility>
 #include <vector>
 
+#include "fleetmap/core/clock.h"
 #include "fleetmap/core/map_chunks.h"
 #include "fleetmap/store/graph_store.h"
 #include "push_plan.h"
@@ -119,10 +120,6 @@ class InstallWriter {
   std::exception_ptr error_;      // guarded by mutex_
   std::thread thread_;            // last: starts once the rest is constructed
 };
-
-double SecondsSince(Clock::time_point start) {
-  return std::chrono::duration<double>(Clock::now() - start).count();
-}
 
 milliseconds Remaining(Clock::time_point deadline) {
   return std::chrono::duration_cast<milliseconds>(deadline - Clock::now());

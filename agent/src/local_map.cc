@@ -14,6 +14,7 @@
 
 #include "background_flusher.h"
 #include "fleetmap/core/error.h"
+#include "fleetmap/core/staged_file.h"
 #include "fleetmap/store/graph_store.h"
 #include "sync_state_file.h"
 
@@ -25,7 +26,6 @@ namespace fs = std::filesystem;
 using agent_internal::BackgroundFlusher;
 using agent_internal::ReadSyncState;
 using agent_internal::SyncStateToJson;
-using agent_internal::SyncToDisk;
 using agent_internal::WriteFileAtomically;
 
 constexpr const char* kStateFile = "sync.json";
@@ -440,83 +440,52 @@ void LocalMap::CommitNewMap(SyncState next_state) {
   state_ = std::move(next_state);
 }
 
-InstallReport LocalMap::Install(const MapDownload& download) {
-  RequireWritable("install");
-  const bool incremental = download.base_revision != 0;
-  if (incremental) {
-    if (download.base_revision != state_.revision) {
-      throw Error(ErrorCode::kInvalidArgument,
-                  "incremental download of revision " + std::to_string(download.revision) +
-                      " is based on revision " + std::to_string(download.base_revision) + ", but " +
-                      dir_.string() + " holds revision " + std::to_string(state_.revision));
-    }
-    if (!state_.request || !(*state_.request == download.request)) {
-      throw Error(ErrorCode::kInvalidArgument,
-                  "incremental download of revision " + std::to_string(download.revision) +
-                      " was asked with other parameters than the installed one in " +
-                      dir_.string());
-    }
+namespace {
+
+// An incremental download must be based on the installed revision, asked the same way.
+void CheckIncrementalBase(const MapDownload& download, const SyncState& state,
+                          const fs::path& dir) {
+  if (download.base_revision != state.revision) {
+    throw Error(ErrorCode::kInvalidArgument,
+                "incremental download of revision " + std::to_string(download.revision) +
+                    " is based on revision " + std::to_string(download.base_revision) + ", but " +
+                    dir.string() + " holds revision " + std::to_string(state.revision));
   }
-  auto check_counts = [&](std::size_t nodes, std::size_t edges, std::size_t paths) {
-    if (nodes != download.nodes || edges != download.edges || paths != download.paths) {
-      throw Error(ErrorCode::kCorrupt, std::string(incremental ? "incremental" : "full") +
-                                           " download of revision " +
-                                           std::to_string(download.revision) + " gives " +
-                                           Counts(nodes, edges, paths) + ", its header says " +
-                                           Counts(download.nodes, download.edges, download.paths) +
-                                           "; " + map_path().string() + " left as it was");
-    }
-  };
-
-  Retirement retirement = Retire(state_, download.revision);
-  std::vector<UnmergedSubmission>& still_unmerged = retirement.still_unmerged;
-  const ElementIds& keep_unmerged = retirement.keep;
-  const std::size_t failed_elements = retirement.failed_elements;
-
-  InstallReport report;
-  report.revision = download.revision;
-  report.incremental = incremental;
-
-  // Nothing changed in the selection and nothing retires: the map stays as it is.
-  const bool nothing_new = download.content.nodes.empty() && download.content.edges.empty() &&
-                           download.content.paths.empty() && download.removed.size() == 0;
-  if (incremental && nothing_new && still_unmerged.size() == state_.unmerged.size()) {
-    check_counts(state_.installed.nodes.size(), state_.installed.edges.size(),
-                 state_.installed.paths.size());
-    report.nodes = state_.installed.nodes.size();
-    report.edges = state_.installed.edges.size();
-    report.paths = state_.installed.paths.size();
-    if (state_.revision != download.revision) {
-      state_.revision = download.revision;
-      SaveState();
-    }
-    return report;
+  if (!state.request || !(*state.request == download.request)) {
+    throw Error(ErrorCode::kInvalidArgument,
+                "incremental download of revision " + std::to_string(download.revision) +
+                    " was asked with other parameters than the installed one in " + dir.string());
   }
+}
 
-  const GraphBatch current = ReadWholeMap(map_uri());
-
-  // The selection the download makes, in full.
-  MapIndex selection;
-  if (incremental) {
-    selection.Add(Filter(current, [&](const Uuid& id, int kind) {
-      return OfKind(state_.installed, kind).contains(id) &&
-             !OfKind(download.removed, kind).contains(id);
-    }));
+// The selection a download gives must have the counts its header says.
+void CheckDownloadCounts(const MapDownload& download, std::size_t nodes, std::size_t edges,
+                         std::size_t paths, const fs::path& map_path) {
+  if (nodes != download.nodes || edges != download.edges || paths != download.paths) {
+    throw Error(ErrorCode::kCorrupt,
+                std::string(download.base_revision != 0 ? "incremental" : "full") +
+                    " download of revision " + std::to_string(download.revision) + " gives " +
+                    Counts(nodes, edges, paths) + ", its header says " +
+                    Counts(download.nodes, download.edges, download.paths) + "; " +
+                    map_path.string() + " left as it was");
   }
-  selection.Add(download.content);
-  check_counts(selection.nodes.size(), selection.edges.size(), selection.paths.size());
+}
 
-  // Local content the server does not have yet, and pushed content not merged yet, stays with
-  // whatever it references.
+// The next map: the selection, plus local content the server does not have yet and pushed
+// content not merged yet, with whatever of `current` it references. Counts what it kept.
+MapIndex KeepLocalContent(const GraphBatch& current, const MapIndex& selection,
+                          const SyncState& state, const Retirement& retirement,
+                          InstallReport& report) {
   MapIndex next = selection;
-  const GraphBatch unsynced = Filter(current, [this](const Uuid& id, int kind) {
-    return !InAny(state_.installed, state_.pushed, id, kind);
+  const GraphBatch unsynced = Filter(current, [&state](const Uuid& id, int kind) {
+    return !InAny(state.installed, state.pushed, id, kind);
   });
-  const GraphBatch unmerged = Filter(
-      current, [&](const Uuid& id, int kind) { return OfKind(keep_unmerged, kind).contains(id); });
+  const GraphBatch unmerged = Filter(current, [&](const Uuid& id, int kind) {
+    return OfKind(retirement.keep, kind).contains(id);
+  });
   report.kept_unsynced = unsynced.nodes.size() + unsynced.edges.size() + unsynced.paths.size();
   report.kept_unmerged = unmerged.nodes.size() + unmerged.edges.size() + unmerged.paths.size();
-  report.kept_failed = std::min(failed_elements, report.kept_unmerged);
+  report.kept_failed = std::min(retirement.failed_elements, report.kept_unmerged);
   next.Add(unsynced);
   // The robot's own unmerged content wins over the download's for the same UUID (a collision
   // the server refuses, issue 35 item 5).
@@ -542,14 +511,16 @@ InstallReport LocalMap::Install(const MapDownload& download) {
       }
     }
   }
-  const GraphBatch next_map = next.ToBatch();
+  return next;
+}
 
-  // Write and check the next map beside the current one.
-  const fs::path new_map = dir_ / kNewMapFile;
+// Writes `next_map` into a new SQLite file and checks it holds all of it; removes the file on
+// failure.
+void WriteNewMap(const fs::path& new_map, const GraphBatch& next_map, std::int64_t revision) {
   RemoveDatabaseFiles(new_map);
   try {
     StoreOptions options;
-    options.durability = Durability::kBuffered;  // fsync'ed as a whole below
+    options.durability = Durability::kBuffered;  // fsync'ed as a whole by CommitNewMap
     const std::unique_ptr<GraphStore> store =
         GraphStore::Open("sqlite:" + new_map.string(), options);
     store->Put(next_map);
@@ -565,14 +536,19 @@ InstallReport LocalMap::Install(const MapDownload& download) {
   } catch (const Error& e) {
     RemoveDatabaseFiles(new_map);
     if (e.code() == ErrorCode::kIntegrity) {
-      throw Error(ErrorCode::kCorrupt, "download of revision " + std::to_string(download.revision) +
+      throw Error(ErrorCode::kCorrupt, "download of revision " + std::to_string(revision) +
                                            " is not an integral map: " + e.message());
     }
     throw;
   }
-  // What the server has that the new map holds: the selection, and known elements kept
-  // outside it (unmerged content and what kept content references).
-  SyncState next_state = state_;
+}
+
+// What the server has that the new map holds: the selection, and known elements kept
+// outside it (unmerged content and what kept content references).
+SyncState NextInstalledState(const SyncState& state, const MapDownload& download,
+                             const MapIndex& selection, const MapIndex& next,
+                             std::vector<UnmergedSubmission> still_unmerged) {
+  SyncState next_state = state;
   next_state.revision = download.revision;
   next_state.request = download.request;
   next_state.installed = IdsOf(selection.ToBatch());
@@ -580,7 +556,7 @@ InstallReport LocalMap::Install(const MapDownload& download) {
   next_state.unmerged = std::move(still_unmerged);
   auto known_outside_selection = [&](const Uuid& id, int kind) {
     return !OfKind(next_state.installed, kind).contains(id) &&
-           InAny(state_.installed, state_.pushed, id, kind);
+           InAny(state.installed, state.pushed, id, kind);
   };
   for (const auto& [id, node] : next.nodes) {
     if (known_outside_selection(id, 0)) next_state.pushed.nodes.insert(id);
@@ -591,7 +567,56 @@ InstallReport LocalMap::Install(const MapDownload& download) {
   for (const auto& [id, path] : next.paths) {
     if (known_outside_selection(id, 2)) next_state.pushed.paths.insert(id);
   }
-  CommitNewMap(std::move(next_state));
+  return next_state;
+}
+
+}  // namespace
+
+InstallReport LocalMap::Install(const MapDownload& download) {
+  RequireWritable("install");
+  const bool incremental = download.base_revision != 0;
+  if (incremental) CheckIncrementalBase(download, state_, dir_);
+  Retirement retirement = Retire(state_, download.revision);
+
+  InstallReport report;
+  report.revision = download.revision;
+  report.incremental = incremental;
+
+  // Nothing changed in the selection and nothing retires: the map stays as it is.
+  const bool nothing_new = download.content.nodes.empty() && download.content.edges.empty() &&
+                           download.content.paths.empty() && download.removed.size() == 0;
+  if (incremental && nothing_new && retirement.still_unmerged.size() == state_.unmerged.size()) {
+    CheckDownloadCounts(download, state_.installed.nodes.size(), state_.installed.edges.size(),
+                        state_.installed.paths.size(), map_path());
+    report.nodes = state_.installed.nodes.size();
+    report.edges = state_.installed.edges.size();
+    report.paths = state_.installed.paths.size();
+    if (state_.revision != download.revision) {
+      state_.revision = download.revision;
+      SaveState();
+    }
+    return report;
+  }
+
+  const GraphBatch current = ReadWholeMap(map_uri());
+
+  // The selection the download makes, in full.
+  MapIndex selection;
+  if (incremental) {
+    selection.Add(Filter(current, [&](const Uuid& id, int kind) {
+      return OfKind(state_.installed, kind).contains(id) &&
+             !OfKind(download.removed, kind).contains(id);
+    }));
+  }
+  selection.Add(download.content);
+  CheckDownloadCounts(download, selection.nodes.size(), selection.edges.size(),
+                      selection.paths.size(), map_path());
+
+  // Write and check the next map beside the current one, then install it with its state.
+  const MapIndex next = KeepLocalContent(current, selection, state_, retirement, report);
+  WriteNewMap(dir_ / kNewMapFile, next.ToBatch(), download.revision);
+  CommitNewMap(
+      NextInstalledState(state_, download, selection, next, std::move(retirement.still_unmerged)));
 
   report.nodes = selection.nodes.size();
   report.edges = selection.edges.size();

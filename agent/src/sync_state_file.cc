@@ -1,8 +1,5 @@
 #include "sync_state_file.h"
 
-#include <fcntl.h>
-#include <unistd.h>
-
 #include <cerrno>
 #include <cstring>
 #include <fstream>
@@ -10,6 +7,7 @@
 #include <sstream>
 
 #include "fleetmap/core/error.h"
+#include "fleetmap/core/staged_file.h"
 
 namespace fleetmap::agent_internal {
 
@@ -226,47 +224,15 @@ SyncState ReadSyncState(const std::filesystem::path& path) {
   return SyncStateFromJson(text.str(), path.string());
 }
 
-void SyncToDisk(const std::filesystem::path& path) {
-  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
-  if (fd < 0) ThrowIo("cannot open for fsync", path);
-  const int rc = ::fsync(fd);
-  const int saved = errno;
-  ::close(fd);
-  errno = saved;
-  if (rc != 0) ThrowIo("cannot fsync", path);
-}
-
 void WriteFileAtomically(const std::filesystem::path& path, const std::string& text) {
-  const std::filesystem::path tmp = path.string() + ".tmp";
-  // Created new, never opened through a link (issue 35 item 6): whatever is at FILE.tmp (a
-  // killed write's leftover, or a symbolic link) is unlinked, which removes the name only.
-  constexpr int kFlags = O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC;
-  int fd = ::open(tmp.c_str(), kFlags, 0644);
-  if (fd < 0 && errno == EEXIST && (::unlink(tmp.c_str()) == 0 || errno == ENOENT)) {
-    fd = ::open(tmp.c_str(), kFlags, 0644);
-  }
-  if (fd < 0) ThrowIo("cannot create", tmp);
-  std::size_t written = 0;
-  while (written < text.size()) {
-    const ssize_t n = ::write(fd, text.data() + written, text.size() - written);
-    if (n < 0) {
-      if (errno == EINTR) continue;
-      const int saved = errno;
-      ::close(fd);
-      errno = saved;
-      ThrowIo("cannot write", tmp);
-    }
-    written += static_cast<std::size_t>(n);
-  }
-  if (::fsync(fd) != 0) {
-    const int saved = errno;
-    ::close(fd);
-    errno = saved;
-    ThrowIo("cannot fsync", tmp);
-  }
-  ::close(fd);
-  if (::rename(tmp.c_str(), path.c_str()) != 0) ThrowIo("cannot rename into place", path);
-  SyncToDisk(path.parent_path().empty() ? std::filesystem::path(".") : path.parent_path());
+  StagedFileOptions options;
+  options.permissions = static_cast<std::filesystem::perms>(0644);
+  // The map directory is the agent's own, and a daemon has nobody to answer a refusal: a link
+  // or leftover at path.tmp is unlinked (the name only) and the state written.
+  options.replace_foreign_staging = true;
+  StagedFile file(path, options);
+  file.stream() << text;
+  file.Commit();
 }
 
 }  // namespace fleetmap::agent_internal

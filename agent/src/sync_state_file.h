@@ -16,10 +16,10 @@ SyncState SyncStateFromJson(const std::string& text, const std::string& source);
 // The state in `path`; the empty state when the file does not exist. Throws as
 // SyncStateFromJson, Error(kBackend) when it cannot be read.
 SyncState ReadSyncState(const std::filesystem::path& path);
-// Writes `text` to `path` so that a crash leaves either the old file or the new one whole:
-// path.tmp, fsync, rename, fsync of the directory. Throws Error(kBackend) naming the file.
+// Writes `text` to `path` so that a crash leaves either the old file or the new one whole
+// (fleetmap/core/staged_file.h: path.tmp, fsync, rename, fsync of the directory), with the
+// agent's choices: mode 0644, and whatever is at path.tmp replaced, never written through.
+// Throws Error(kBackend) naming the file.
 void WriteFileAtomically(const std::filesystem::path& path, const std::string& text);
-// fsync of a file or a directory. Throws Error(kBackend) naming it.
-void SyncToDisk(const std::filesystem::path& path);
 
 }  // namespace fleetmap::agent_internal

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <tuple>
 
+#include "fleetmap/core/clock.h"
 #include "fleetmap/core/error.h"
 
 namespace fleetmap::server {
@@ -16,12 +17,6 @@ struct MergeAbandoned {};
 // Thrown likewise when this instance's lease on the submission ended: another instance may be
 // merging it now.
 struct LeaseLost {};
-
-std::int64_t NowNs() {
-  return std::chrono::duration_cast<std::chrono::nanoseconds>(
-             std::chrono::system_clock::now().time_since_epoch())
-      .count();
-}
 
 // The repository the merge thread works with: its own connection, and the hook that lets a
 // stop abandon a merge.
@@ -272,7 +267,7 @@ void MergeQueue::Run() {
     lease_lost_ = false;
     {
       std::lock_guard lock(mutex_);
-      merging_ = Running{submission, robot, NowNs()};
+      merging_ = Running{submission, robot, WallClockNs()};
       if (const auto found = FindWaiting(submission); found != waiting_.end()) {
         waiting_.erase(found);
       }
@@ -481,7 +476,7 @@ MergeDone MergeQueue::MergeOne(const Uuid& submission) {
     std::lock_guard lock(mutex_);
     retries_.erase(submission);
   }
-  done.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  done.seconds = SecondsSince(start);
   return done;
 }
 

@@ -7,7 +7,9 @@
 #include <set>
 #include <string>
 
+#include "fleetmap/core/clock.h"
 #include "fleetmap/core/error.h"
+#include "fleetmap/policies/dream_plan.h"
 #include "fleetmap/policies/dreaming.h"
 #include "fleetmap/policies/held_out_replay.h"
 
@@ -39,12 +41,6 @@ RevisionNumber LastDreamHead(VersionStore& versions) {
     throw Error(ErrorCode::kCorrupt, "setting " + std::string(kLastDreamKey) + " is '" + *text +
                                          "', not a revision number");
   }
-}
-
-std::int64_t WallNs() {
-  return std::chrono::duration_cast<std::chrono::nanoseconds>(
-             std::chrono::system_clock::now().time_since_epoch())
-      .count();
 }
 
 std::optional<std::int64_t> NsSetting(VersionStore& versions, std::string_view key) {
@@ -89,21 +85,6 @@ GraphBatch Without(const GraphBatch& content, const GraphBatch& base) {
 
 }  // namespace
 
-int ParseDreamTime(std::string_view text) {
-  const auto bad = [&] {
-    return Error(ErrorCode::kInvalidArgument,
-                 "--dream-at '" + std::string(text) + "' is not a UTC time HH:MM (00:00 to 23:59)");
-  };
-  if (text.size() != 5 || text[2] != ':') throw bad();
-  for (std::size_t i : {0, 1, 3, 4}) {
-    if (text[i] < '0' || text[i] > '9') throw bad();
-  }
-  const int hours = (text[0] - '0') * 10 + (text[1] - '0');
-  const int minutes = (text[3] - '0') * 10 + (text[4] - '0');
-  if (hours > 23 || minutes > 59) throw bad();
-  return hours * 60 + minutes;
-}
-
 std::optional<MissedDream> FindMissedDream(VersionStore& versions, std::int64_t now_ns,
                                            int minute_of_day) {
   std::int64_t scheduled = now_ns - now_ns % kDayNs + minute_of_day * kMinuteNs;
@@ -127,17 +108,14 @@ std::optional<MissedDream> FindMissedDream(VersionStore& versions, std::int64_t 
 
 NightlyDreamOutcome RunNightlyDream(Repository& repository, const NightlyDreamOptions& options,
                                     const NightlyDreamProgress& progress) {
-  if (options.max_groups == 0 || options.max_groups > 11) {
+  if (options.max_groups == 0 || options.max_groups > static_cast<std::size_t>(kMaxDreamGroups)) {
     throw Error(ErrorCode::kInvalidArgument,
-                "a nightly dream merges 1 to 11 groups (k! orders), not " +
-                    std::to_string(options.max_groups));
+                "a nightly dream merges 1 to " + std::to_string(kMaxDreamGroups) +
+                    " groups (k! orders), not " + std::to_string(options.max_groups));
   }
   const auto start = std::chrono::steady_clock::now();
-  const auto elapsed = [&] {
-    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  };
   VersionStore& versions = repository.versions();
-  versions.PutSetting(kStartedKey, std::to_string(WallNs()));
+  versions.PutSetting(kStartedKey, std::to_string(WallClockNs()));
   const RevisionNumber head = versions.HeadRevision();
   const RevisionNumber since = LastDreamHead(versions);
 
@@ -153,8 +131,8 @@ NightlyDreamOutcome RunNightlyDream(Repository& repository, const NightlyDreamOp
                       (merged.size() == 1 ? "" : "s") + " merged since revision " +
                       std::to_string(since) +
                       "; a dream needs two: one to hold out and one to merge";
-    versions.PutSetting(kFinishedKey, std::to_string(WallNs()));
-    outcome.seconds = elapsed();
+    versions.PutSetting(kFinishedKey, std::to_string(WallClockNs()));
+    outcome.seconds = SecondsSince(start);
     return outcome;
   }
 
@@ -185,7 +163,7 @@ NightlyDreamOutcome RunNightlyDream(Repository& repository, const NightlyDreamOp
   const DreamResult result = Dream(groups, base, vocabulary, scorer, dream, progress);
 
   DreamCandidateRecord record;
-  record.created_ns = WallNs();
+  record.created_ns = WallClockNs();
   record.base_revision = base_revision;
   record.dreamed_at_head = head;
   for (int g : result.orders[result.best].order) {
@@ -215,7 +193,7 @@ NightlyDreamOutcome RunNightlyDream(Repository& repository, const NightlyDreamOp
     versions.PutSetting(kFinishedKey, std::to_string(record.created_ns));
     transaction.Commit();
   }
-  outcome.seconds = elapsed();
+  outcome.seconds = SecondsSince(start);
   return outcome;
 }
 

@@ -7,6 +7,7 @@
 #include <unordered_map>
 #include <unordered_set>
 
+#include "fleetmap/core/clock.h"
 #include "fleetmap/core/error.h"
 #include "fleetmap/core/map_chunks.h"
 #include "hidden_anchor.h"
@@ -70,10 +71,6 @@ std::uint64_t Fnv1a(std::string_view bytes) {
   return hash;
 }
 
-double SecondsSince(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
-
 MergeRegionOptions RegionOptions(const MergeOptions& merge) {
   // What the replaying localiser can reach (experience_builder.h): between two frames queried
   // by appearance it runs on for at most relocalise_after_m before it would relocalise, and
@@ -109,9 +106,7 @@ Repository::~Repository() {
 
 std::int64_t Repository::Now() const {
   if (options_.now_ns) return options_.now_ns();
-  return std::chrono::duration_cast<std::chrono::nanoseconds>(
-             std::chrono::system_clock::now().time_since_epoch())
-      .count();
+  return WallClockNs();
 }
 
 Submission Repository::Push(const Uuid& id, const Uuid& robot, const std::string& author,

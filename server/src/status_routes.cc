@@ -2,12 +2,12 @@
 
 #include <boost/beast/http/field.hpp>
 #include <boost/beast/http/verb.hpp>
-#include <chrono>
 #include <exception>
 #include <string>
 #include <string_view>
 
 #include "fleet_metrics.h"
+#include "fleetmap/core/clock.h"
 #include "status_page.h"
 
 namespace fleetmap {
@@ -34,9 +34,7 @@ HttpResponse Response(http::status status, unsigned version, bool keep_alive,
 FleetStatus Snapshot(const std::function<FleetStatus()>& status_source) {
   FleetStatus status = status_source();
   if (status.now_ns == 0) {
-    status.now_ns = std::chrono::duration_cast<std::chrono::nanoseconds>(
-                        std::chrono::system_clock::now().time_since_epoch())
-                        .count();
+    status.now_ns = WallClockNs();
   }
   return status;
 }

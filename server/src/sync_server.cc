@@ -17,6 +17,7 @@
 #include "connection_admission.h"
 #include "download_cache.h"
 #include "dream_schedule.h"
+#include "fleetmap/core/clock.h"
 #include "fleetmap/core/error.h"
 #include "fleetmap/server/robot_registry.h"
 #include "fleetmap/wire/secret_file.h"
@@ -33,12 +34,6 @@ namespace {
 
 namespace asio = boost::asio;
 using tcp = asio::ip::tcp;
-
-std::int64_t NowNs() {
-  return std::chrono::duration_cast<std::chrono::nanoseconds>(
-             std::chrono::system_clock::now().time_since_epoch())
-      .count();
-}
 
 // "HOST:PORT" or "[HOST]:PORT" as an endpoint; Error(kInvalidArgument) naming it otherwise.
 tcp::endpoint ParseListen(const std::string& listen) {
@@ -150,7 +145,7 @@ class SyncServer::Impl {
   ~Impl() { Stop(); }
 
   void Start() {
-    started_ns_ = NowNs();
+    started_ns_ = WallClockNs();
     const std::size_t queued = merges_->Start();
     spdlog::info("merge queue: instance {}, {} submissions queued in the store",
                  merges_->instance(), queued);
@@ -194,7 +189,7 @@ class SyncServer::Impl {
   // Not const: it may start a refresh of the robots from the store.
   FleetStatus Status() {
     FleetStatus status = activity_.Snapshot();
-    status.now_ns = NowNs();
+    status.now_ns = WallClockNs();
     status.started_ns = started_ns_;
     status.listen = EndpointText(bound_);
     status.tls = tls_.has_value();
@@ -260,7 +255,7 @@ class SyncServer::Impl {
 
   // Robots and the head's facts, read on a store thread into activity_.
   void RefreshFromStore() {
-    last_refresh_ns_ = NowNs();
+    last_refresh_ns_ = WallClockNs();
     store_->Post([this](Repository& repository) {
       try {
         activity_.SetRobots(RobotRegistry(repository.versions()).List());
@@ -296,8 +291,7 @@ class SyncServer::Impl {
       const std::shared_ptr<const server::DownloadPlan> plan = cache_.PlanOnce(
           key, [&] { return server::PlanDownload(repository, copy, head, kSyncProtocolVersion); });
       spdlog::info("planned a copy of revision {} ahead of downloads: {} nodes, {} edges, {:.3f} s",
-                   head, plan->nodes.size(), plan->edges.size(),
-                   std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+                   head, plan->nodes.size(), plan->edges.size(), SecondsSince(start));
     } catch (const std::exception& error) {
       // Only a head start lost: the download that asks plans (and reports) for itself.
       spdlog::warn("planning a copy of revision {} ahead of downloads: {}", head, error.what());
@@ -319,7 +313,7 @@ class SyncServer::Impl {
   void OnMergeDone(const server::MergeDone& done) {
     if (done.merged) {
       activity_.MergeFinished(true);
-      activity_.MergeRan(done.submission, done.revision, done.seconds, NowNs());
+      activity_.MergeRan(done.submission, done.revision, done.seconds, WallClockNs());
       activity_.SetHead(done.revision, done.head_stats);
       RefreshPicture();
       store_->Post([this, head = done.revision, stats = done.head_stats](Repository& repository) {

@@ -17,6 +17,7 @@
 #include <thread>
 #include <type_traits>
 
+#include "fleetmap/core/clock.h"
 #include "fleetmap/core/error.h"
 #include "fleetmap/core/map_chunks.h"
 #include "fleetmap/core/printable_text.h"
@@ -47,12 +48,6 @@ constexpr std::uint32_t kMaxPreHelloFrameBytes = 4096;
 // A frame's body is read at most this much at a time, into a buffer that grows by what
 // arrived: a prefix announcing 64 MiB costs nothing until 64 MiB come.
 constexpr std::size_t kBodyPieceBytes = std::size_t{64} << 10;
-
-std::int64_t NowNs() {
-  return std::chrono::duration_cast<std::chrono::nanoseconds>(
-             std::chrono::system_clock::now().time_since_epoch())
-      .count();
-}
 
 std::string Seconds(std::chrono::milliseconds d) {
   return fmt::format("{:g} s", static_cast<double>(d.count()) / 1000.0);
@@ -650,7 +645,7 @@ void SyncSession<Stream>::OnHello(const v1::Hello& hello) {
           // Best effort, and last: a store that cannot write (its disk full) must not stop a
           // robot from downloading; the time is kept in memory (ServerActivity) meanwhile.
           try {
-            registry.RecordSync(robot, NowNs());
+            registry.RecordSync(robot, WallClockNs());
           } catch (const std::exception& error) {
             result.sync_not_recorded = error.what();
           }
@@ -682,7 +677,7 @@ void SyncSession<Stream>::OnHello(const v1::Hello& hello) {
         self->robot_joined_ = true;
         self->phase_ = Phase::kReady;
         self->welcomed_ = true;
-        self->context_.activity.RobotSynced(*result.auth.robot, NowNs());
+        self->context_.activity.RobotSynced(*result.auth.robot, WallClockNs());
         if (!result.sync_not_recorded.empty()) {
           self->context_.activity.LastSyncNotRecorded();
           spdlog::warn(
@@ -983,8 +978,7 @@ template <typename Stream>
 void SyncSession<Stream>::LogDownload(const DownloadReport& report,
                                       const v1::DownloadHeader& header, std::uint32_t chunks,
                                       std::uint64_t frame_bytes, const char* how) {
-  const double seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - download_start_).count();
+  const double seconds = SecondsSince(download_start_);
   spdlog::info(
       "download to {}: policy {}, revision {} (base {}), {} nodes, {} chunks, {} bytes in "
       "{:.3f} s ({:.1f} MB/s){}",

@@ -12,6 +12,7 @@
 #include "corridor_robot_map.h"
 #include "expect_error.h"
 #include "fleetmap/core/error.h"
+#include "fleetmap/policies/dream_plan.h"
 #include "fleetmap/server/dream_candidates.h"
 #include "fleetmap/server/repository.h"
 #include "random_robot_map.h"
@@ -278,6 +279,15 @@ TYPED_TEST(NightlyDreamTest, ADamagedCandidateIsRefusedAndTheMapStays) {
     none.max_groups = 0;
     RunNightlyDream(repository, none);
   });
+  // The limit of every dream (dream_plan.h), not one of its own.
+  ExpectError(
+      ErrorCode::kInvalidArgument,
+      [&] {
+        NightlyDreamOptions too_many;
+        too_many.max_groups = kMaxDreamGroups + 1;
+        RunNightlyDream(repository, too_many);
+      },
+      "1 to " + std::to_string(kMaxDreamGroups));
 }
 
 // Issue 35 item 13 (c): a candidate that only ties the order the server merged (here the only
@@ -374,16 +384,6 @@ TYPED_TEST(NightlyDreamTest, AMissedDreamIsToldFromTheStore) {
   }
   ASSERT_TRUE(RunNightlyDream(repository, options).candidate);
   EXPECT_FALSE(FindMissedDream(versions, WallNs(), later));
-}
-
-TEST(DreamTime, ParsesHoursAndMinutesAndNamesWhatItRefuses) {
-  EXPECT_EQ(ParseDreamTime("00:00"), 0);
-  EXPECT_EQ(ParseDreamTime("02:30"), 150);
-  EXPECT_EQ(ParseDreamTime("23:59"), 1439);
-  for (const char* bad : {"24:00", "12:60", "2:30", "02-30", "", "aa:bb", "02:300"}) {
-    ExpectError(
-        ErrorCode::kInvalidArgument, [&] { ParseDreamTime(bad); }, "'" + std::string(bad) + "'");
-  }
 }
 
 }  // namespace

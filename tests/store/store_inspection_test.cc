@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "fleetmap/core/clock.h"
 #include "fleetmap/store/graph_store.h"
 #include "fleetmap/store/store_diagnosis.h"
 #include "fleetmap/store/store_facts.h"
@@ -25,12 +26,6 @@ using testing::StoreBackends;
 
 constexpr std::int64_t kHourNs = 3'600'000'000'000;
 
-std::int64_t NowNs() {
-  return std::chrono::duration_cast<std::chrono::nanoseconds>(
-             std::chrono::system_clock::now().time_since_epoch())
-      .count();
-}
-
 // A submission as a robot's push leaves it: begun `age_ns` ago, one chunk, and completed
 // (queued) unless `complete` is false.
 Submission PushedSubmission(VersionStore& versions, const Uuid& robot, std::int64_t age_ns,
@@ -39,7 +34,7 @@ Submission PushedSubmission(VersionStore& versions, const Uuid& robot, std::int6
   header.id = Uuid::Generate();
   header.robot = robot;
   header.author = "robot-" + robot.ToString().substr(0, 4);
-  header.received_ns = NowNs() - age_ns;
+  header.received_ns = WallClockNs() - age_ns;
   versions.BeginSubmission(header);
   versions.PutSubmissionChunk(header.id, 0, "chunk");
   if (complete) versions.CompleteSubmission(header.id, 42);
@@ -54,7 +49,7 @@ void MergeWhole(GraphStore& store, const GraphBatch& map, const Uuid& robot) {
   GraphStore::Transaction transaction = store.Begin();
   Revision revision;
   revision.number = versions.HeadRevision() + 1;
-  revision.created_ns = NowNs();
+  revision.created_ns = WallClockNs();
   revision.author = submission.author;
   revision.submission = submission.id;
   versions.AppendRevision(revision, map);
@@ -91,7 +86,7 @@ std::string WithoutReaderFiles(std::string state) {
 
 DiagnosisOptions Now() {
   DiagnosisOptions options;
-  options.now_ns = NowNs();
+  options.now_ns = WallClockNs();
   return options;
 }
 

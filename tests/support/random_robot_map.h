@@ -2,20 +2,19 @@
 // to any other map and the sync tests can count exactly; and the clock their stamps come from.
 #pragma once
 
-#include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <random>
 #include <set>
 
+#include "fleetmap/core/clock.h"
 #include "fleetmap/core/graph.h"
 
 namespace fleetmap::testing {
 
+// The tests' name for the wall clock (fleetmap/core/clock.h).
 inline std::int64_t WallNs() {
-  return std::chrono::duration_cast<std::chrono::nanoseconds>(
-             std::chrono::system_clock::now().time_since_epoch())
-      .count();
+  return WallClockNs();
 }
 
 // `landmarks` random landmarks, 3 to 7 m in front of the camera within 4 m either side, with

@@ -11,6 +11,7 @@
 #include <sstream>
 
 #include "fleet_processes.h"
+#include "fleetmap/core/clock.h"
 #include "fleetmap/core/error.h"
 #include "fleetmap/ebn/experience_builder.h"
 #include "fleetmap/experiments/gnuplot.h"
@@ -234,7 +235,7 @@ FleetDemoResult RunFleetDemo(const FleetDemoOptions& options) {
   if (std::optional<fs::path> png = Plot(options.out_dir, result.forays)) {
     result.plots.push_back(*png);
   }
-  result.seconds = std::chrono::duration<double>(Clock::now() - start).count();
+  result.seconds = SecondsSince(start);
   return result;
 }
 

@@ -15,6 +15,7 @@
 #include <unordered_map>
 #include <unordered_set>
 
+#include "fleetmap/core/clock.h"
 #include "fleetmap/core/error.h"
 #include "fleetmap/ebn/localiser.h"
 #include "fleetmap/experiments/task_queue.h"
@@ -36,10 +37,6 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-double SecondsSince(Clock::time_point start) {
-  return std::chrono::duration<double>(Clock::now() - start).count();
-}
-
 void Validate(const FleetExperimentOptions& o) {
   const auto fail = [](const std::string& what) {
     throw Error(ErrorCode::kInvalidArgument, "fleet experiment: " + what);
@@ -55,7 +52,10 @@ void Validate(const FleetExperimentOptions& o) {
   if (!(o.paths_percent > 0.0 && o.paths_percent <= 100.0)) fail("paths_percent in (0, 100]");
   if (!(o.epoch_min > 0.0 && o.epoch_min <= 1440.0)) fail("epoch_min in (0, 1440]");
   if (o.dream_folds < 0 || o.dream_folds > o.folds) fail("dream_folds in [0, folds]");
-  if (o.folds - 1 > 12) fail("at most 12 groups can be dreamt (folds <= 13)");
+  if (o.folds - 1 > kMaxDreamGroups) {
+    fail("at most " + std::to_string(kMaxDreamGroups) +
+         " groups can be dreamt (folds <= " + std::to_string(kMaxDreamGroups + 1) + ")");
+  }
   if (o.threads < 1) fail("threads must be >= 1");
   if (o.work_dir.empty()) fail("work_dir must be set");
 }

@@ -5,6 +5,7 @@
 #include <fstream>
 #include <memory>
 
+#include "fleetmap/core/clock.h"
 #include "fleetmap/core/error.h"
 #include "fleetmap/server/robot_registry.h"
 #include "fleetmap/store/graph_store.h"
@@ -19,12 +20,6 @@ using std::chrono::milliseconds;
 constexpr auto kServerStartTimeout = milliseconds(30'000);
 constexpr auto kDrainTimeout = milliseconds(20'000);
 
-std::int64_t NowNs() {
-  return std::chrono::duration_cast<std::chrono::nanoseconds>(
-             std::chrono::system_clock::now().time_since_epoch())
-      .count();
-}
-
 }  // namespace
 
 std::vector<FleetRobot> RegisterFleetRobots(const std::string& store_uri,
@@ -34,7 +29,7 @@ std::vector<FleetRobot> RegisterFleetRobots(const std::string& store_uri,
   RobotRegistry registry(central->versions());
   std::vector<FleetRobot> robots;
   for (const std::string& name : names) {
-    NewRobot added = registry.Add(name, NowNs());
+    NewRobot added = registry.Add(name, WallClockNs());
     const fs::path dir = robots_dir / name;
     fs::create_directories(dir);
     robots.push_back({name, added.robot.id, added.token, dir});

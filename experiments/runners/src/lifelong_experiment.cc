@@ -5,6 +5,7 @@
 #include <memory>
 #include <mutex>
 
+#include "fleetmap/core/clock.h"
 #include "fleetmap/core/error.h"
 #include "fleetmap/experiments/task_queue.h"
 #include "fleetmap/policies/download_policy.h"
@@ -52,8 +53,7 @@ class LifelongRun {
       row.next_day = HoldOut(day + 1);
       result_.days.push_back(std::move(row));
     }
-    result_.seconds =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    result_.seconds = SecondsSince(start);
     return std::move(result_);
   }
 

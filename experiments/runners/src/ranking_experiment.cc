@@ -5,6 +5,7 @@
 #include <chrono>
 #include <memory>
 
+#include "fleetmap/core/clock.h"
 #include "fleetmap/core/error.h"
 #include "fleetmap/experiments/task_queue.h"
 #include "fleetmap/ranking/distance_ranking.h"
@@ -20,10 +21,6 @@ namespace fleetmap {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-
-double SecondsSince(Clock::time_point start) {
-  return std::chrono::duration<double>(Clock::now() - start).count();
-}
 
 void Validate(const RankingExperimentOptions& o) {
   const auto fail = [](const std::string& what) {

@@ -7,6 +7,7 @@
 #include <limits>
 #include <map>
 #include <sstream>
+#include <tuple>
 #include <utility>
 
 #include "fleetmap/core/error.h"
@@ -74,37 +75,19 @@ std::pair<double, double> GrowthPerOuting(const RankingExperimentResult& result)
           late_n ? late / static_cast<double>(late_n) : 0.0};
 }
 
-}  // namespace
+using ByCores = std::map<int, std::pair<double, double>>;        // Np -> (distance, path)
+using BySize = std::vector<std::tuple<double, double, double>>;  // nodes, distance, path
+using ByWindow = std::vector<std::pair<int, double>>;            // T, path
 
-RankingVerdict JudgeRanking(const RankingExperimentResult& result,
-                            const RankingExperimentOptions& options) {
-  RankingVerdict v;
-  const int np = options.reference_cores;
-  v.path_at_reference = ProbabilityGapExceeds(
-      FullMap(result, options, "path", np, options.default_window), kHeadlineGap_m);
-  v.distance_at_reference =
-      ProbabilityGapExceeds(FullMap(result, options, "distance", np, 0), kHeadlineGap_m);
-  const auto doubled = FullMap(result, options, "distance", 2 * np, 0);
-  v.distance_at_double = doubled.empty() ? std::numeric_limits<double>::quiet_NaN()
-                                         : ProbabilityGapExceeds(doubled, kHeadlineGap_m);
-  v.path_beats_distance = v.path_at_reference < v.distance_at_reference;
-  v.path_matches_double = !doubled.empty() && v.path_at_reference <= v.distance_at_double;
-  return v;
-}
-
-std::string WriteRankingReport(const RankingExperimentResult& result,
-                               const RankingExperimentOptions& options,
-                               const std::filesystem::path& dir, std::ostream& log) {
-  std::filesystem::create_directories(dir);
-  const int np_ref = options.reference_cores;
-
-  // Fig. 11: P(X > 10 m) against Np for both policies. Wide rows (one column per policy) so
-  // each curve is one gnuplot column.
+// Fig. 11: P(X > 10 m) against Np for both policies. Wide rows (one column per policy) so
+// each curve is one gnuplot column.
+ByCores WriteGapByCores(const RankingExperimentResult& result,
+                        const RankingExperimentOptions& options, const std::filesystem::path& dir) {
   std::ostringstream cores_csv;
   cores_csv << "cores,p_gap_gt_10m_distance,p_gap_gt_10m_path,localised_fraction_distance,"
                "localised_fraction_path,attempts_per_frame_distance,attempts_per_frame_path,"
                "frames\n";
-  std::map<int, std::pair<double, double>> by_cores;  // Np -> (distance, path)
+  ByCores by_cores;
   for (int np : options.cores) {
     const auto distance = FullMap(result, options, "distance", np, 0);
     const auto path = FullMap(result, options, "path", np, options.default_window);
@@ -118,11 +101,17 @@ std::string WriteRankingReport(const RankingExperimentResult& result,
               << Fixed(Ratio(tp.attempts, tp.frames), 3) << ',' << td.frames << '\n';
   }
   Save(dir / "p_gap_vs_cores.csv", cores_csv.str());
+  return by_cores;
+}
 
-  // Fig. 9: P(X > 10 m) against map size (mean nodes over folds) at the reference Np.
+// Fig. 9: P(X > 10 m) against map size (mean nodes over folds) at the reference Np.
+BySize WriteGapByMapSize(const RankingExperimentResult& result,
+                         const RankingExperimentOptions& options,
+                         const std::filesystem::path& dir) {
+  const int np_ref = options.reference_cores;
   std::ostringstream size_csv;
   size_csv << "map_step,mean_nodes,p_gap_gt_10m_distance,p_gap_gt_10m_path\n";
-  std::vector<std::tuple<double, double, double>> by_size;  // nodes, distance, path
+  BySize by_size;
   for (int step = 1; step <= options.map_size_steps; ++step) {
     const auto at_step = [&](const std::string& policy) {
       return Select(result, [&](const LocalisationRun& r) {
@@ -140,20 +129,30 @@ std::string WriteRankingReport(const RankingExperimentResult& result,
              << ',' << Fixed(std::get<2>(by_size.back()), 5) << '\n';
   }
   Save(dir / "p_gap_vs_map_size.csv", size_csv.str());
+  return by_size;
+}
 
-  // Fig. 13: Γ(path) against T at the reference Np.
+// Fig. 13: Γ(path) against T at the reference Np.
+ByWindow WriteGapByWindow(const RankingExperimentResult& result,
+                          const RankingExperimentOptions& options,
+                          const std::filesystem::path& dir) {
   std::ostringstream window_csv;
   window_csv << "window_T,p_gap_gt_10m\n";
-  std::vector<std::pair<int, double>> by_window;
+  ByWindow by_window;
   for (int t : options.windows) {
-    const double p =
-        ProbabilityGapExceeds(FullMap(result, options, "path", np_ref, t), kHeadlineGap_m);
+    const double p = ProbabilityGapExceeds(
+        FullMap(result, options, "path", options.reference_cores, t), kHeadlineGap_m);
     by_window.emplace_back(t, p);
     window_csv << t << ',' << Fixed(p, 5) << '\n';
   }
   Save(dir / "p_gap_vs_window.csv", window_csv.str());
+  return by_window;
+}
 
-  // Fig. 12: P(X > x) curves for Γ(distance) at Np and 2 Np, Γ(path) at Np.
+// Fig. 12: P(X > x) curves for Γ(distance) at Np and 2 Np, Γ(path) at Np.
+void WriteGapCurves(const RankingExperimentResult& result, const RankingExperimentOptions& options,
+                    const std::filesystem::path& dir) {
+  const int np_ref = options.reference_cores;
   std::ostringstream curve_csv;
   curve_csv << "x_m,distance_np" << np_ref << ",distance_np" << 2 * np_ref << ",path_np" << np_ref
             << '\n';
@@ -166,8 +165,10 @@ std::string WriteRankingReport(const RankingExperimentResult& result,
               << Fixed(ProbabilityGapExceeds(p1, x), 5) << '\n';
   }
   Save(dir / "p_gap_curve.csv", curve_csv.str());
+}
 
-  // Experience growth of single-agent EBN (seed 002 §II): nodes after each training outing.
+// Experience growth of single-agent EBN (seed 002 §II): nodes after each training outing.
+void WriteGrowth(const RankingExperimentResult& result, const std::filesystem::path& dir) {
   std::ostringstream growth_csv;
   growth_csv << "fold,outing,nodes\n";
   for (const FoldBuild& b : result.builds) {
@@ -176,8 +177,10 @@ std::string WriteRankingReport(const RankingExperimentResult& result,
     }
   }
   Save(dir / "experience_growth.csv", growth_csv.str());
+}
 
-  // Plots: one PNG with four panels.
+// One PNG with four panels from the CSV files; false when gnuplot could not draw it.
+bool PlotRanking(int np_ref, const std::filesystem::path& dir, std::ostream& log) {
   const std::filesystem::path png = dir / "ranking.png";
   std::ostringstream gp;
   gp << "# Generated by `fleetmap experiment ranking`; redraw with: gnuplot ranking.gp\n"
@@ -207,9 +210,14 @@ std::string WriteRankingReport(const RankingExperimentResult& result,
      << "plot " << GnuplotQuote((dir / "p_gap_vs_window.csv").string())
      << " using 1:2 with linespoints title 'path'\n";
   gp << "unset multiplot\n";
-  const bool plotted = RunGnuplot(dir / "ranking.gp", gp.str(), log);
+  return RunGnuplot(dir / "ranking.gp", gp.str(), log);
+}
 
-  // summary.md
+// summary.md's text.
+std::string SummaryText(const RankingExperimentResult& result,
+                        const RankingExperimentOptions& options, const ByCores& by_cores,
+                        const BySize& by_size, const ByWindow& by_window, bool plotted) {
+  const int np_ref = options.reference_cores;
   const RankingVerdict v = JudgeRanking(result, options);
   std::ostringstream md;
   md << "# Ranking experiment: Γ(path) vs Γ(distance) (seed 002 §VII)\n\n"
@@ -258,8 +266,40 @@ std::string WriteRankingReport(const RankingExperimentResult& result,
   md << "## Files\n\n- p_gap_vs_cores.csv, p_gap_vs_map_size.csv, p_gap_vs_window.csv, "
         "p_gap_curve.csv, experience_growth.csv\n";
   if (plotted) md << "- ranking.png (from ranking.gp)\n";
-  Save(dir / "summary.md", md.str());
   return md.str();
+}
+
+}  // namespace
+
+RankingVerdict JudgeRanking(const RankingExperimentResult& result,
+                            const RankingExperimentOptions& options) {
+  RankingVerdict v;
+  const int np = options.reference_cores;
+  v.path_at_reference = ProbabilityGapExceeds(
+      FullMap(result, options, "path", np, options.default_window), kHeadlineGap_m);
+  v.distance_at_reference =
+      ProbabilityGapExceeds(FullMap(result, options, "distance", np, 0), kHeadlineGap_m);
+  const auto doubled = FullMap(result, options, "distance", 2 * np, 0);
+  v.distance_at_double = doubled.empty() ? std::numeric_limits<double>::quiet_NaN()
+                                         : ProbabilityGapExceeds(doubled, kHeadlineGap_m);
+  v.path_beats_distance = v.path_at_reference < v.distance_at_reference;
+  v.path_matches_double = !doubled.empty() && v.path_at_reference <= v.distance_at_double;
+  return v;
+}
+
+std::string WriteRankingReport(const RankingExperimentResult& result,
+                               const RankingExperimentOptions& options,
+                               const std::filesystem::path& dir, std::ostream& log) {
+  std::filesystem::create_directories(dir);
+  const ByCores by_cores = WriteGapByCores(result, options, dir);
+  const BySize by_size = WriteGapByMapSize(result, options, dir);
+  const ByWindow by_window = WriteGapByWindow(result, options, dir);
+  WriteGapCurves(result, options, dir);
+  WriteGrowth(result, dir);
+  const bool plotted = PlotRanking(options.reference_cores, dir, log);
+  const std::string summary = SummaryText(result, options, by_cores, by_size, by_window, plotted);
+  Save(dir / "summary.md", summary);
+  return summary;
 }
 
 }  // namespace fleetmap

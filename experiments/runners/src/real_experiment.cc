@@ -11,6 +11,7 @@
 #include <optional>
 #include <sstream>
 
+#include "fleetmap/core/clock.h"
 #include "fleetmap/core/error.h"
 #include "fleetmap/ebn/appearance_index.h"
 #include "fleetmap/ebn/experience_map.h"
@@ -209,6 +210,245 @@ void WriteSummary(const RealExperimentOptions& options, const RealExperimentResu
   Save(r.summary, md.str());
 }
 
+// One row per pair from the front end and VO; `all_depths` gathers every landmark's depth.
+std::vector<RealFrameRow> FrameRows(const std::vector<ProcessedStereoPair>& pairs,
+                                    std::vector<double>& all_depths) {
+  std::vector<RealFrameRow> rows(pairs.size());
+  for (std::size_t i = 0; i < pairs.size(); ++i) {
+    const ProcessedStereoPair& pair = pairs[i];
+    RealFrameRow& row = rows[i];
+    row.index = static_cast<int>(i);
+    row.stamp_ns = pair.frame.stamp_ns;
+    row.left_keypoints = pair.left_keypoints;
+    row.landmarks = static_cast<int>(pair.frame.landmarks.size());
+    row.median_depth_m = Median(pair.depths_m);
+    row.vo_estimated = pair.odometry.estimated;
+    row.vo_inliers = pair.odometry.inliers;
+    row.position_m = pair.first_T_camera_vo.translation();
+    row.step_m = pair.odometry.prev_T_this.translation().norm();
+    row.front_end_ms = pair.front_end_ms;
+    if (pair.first_T_camera_truth) row.truth_position_m = pair.first_T_camera_truth->translation();
+    all_depths.insert(all_depths.end(), pair.depths_m.begin(), pair.depths_m.end());
+  }
+  return rows;
+}
+
+// The pairs that build the map and those localised against it.
+struct PairSplit {
+  std::vector<int> map, localise;
+};
+
+PairSplit SplitPairs(const RealExperimentOptions& options, int total) {
+  PairSplit split;
+  if (options.split == RealSplit::kInterleaved) {
+    for (int i = 0; i < total; ++i) (i % 2 == 0 ? split.map : split.localise).push_back(i);
+  } else {
+    const int map_frames =
+        std::clamp(static_cast<int>(std::lround(options.map_fraction * total)), 1, total - 1);
+    for (int i = 0; i < total; ++i) (i < map_frames ? split.map : split.localise).push_back(i);
+  }
+  return split;
+}
+
+// The map part's outcome: the map on its SQLite store, the builder's report of each map frame
+// and the pair each experience was made from.
+struct BuiltMap {
+  std::unique_ptr<GraphStore> store;
+  ExperienceMap map;
+  Uuid robot;  // built the map; localises the other part in it
+  std::vector<FrameReport> reports;
+  std::map<Uuid, int> node_pair;
+};
+
+// Single-agent EBN over the map's pairs on a fresh SQLite store (out_dir/real-map.db).
+BuiltMap BuildMap(const RealExperimentOptions& options,
+                  const std::vector<ProcessedStereoPair>& pairs,
+                  const std::vector<int>& map_indices, RankingPolicy& policy,
+                  std::vector<RealFrameRow>& rows) {
+  std::filesystem::create_directories(options.out_dir);
+  const std::filesystem::path map_db = options.out_dir / "real-map.db";
+  for (const char* suffix : {"", "-wal", "-shm"}) {
+    std::filesystem::remove(map_db.string() + suffix);
+  }
+  std::vector<Descriptor256> sample;
+  for (int i : map_indices) {
+    const auto& d = pairs[static_cast<std::size_t>(i)].frame.landmarks.descriptors;
+    sample.insert(sample.end(), d.begin(), d.end());
+  }
+  if (sample.empty()) {
+    throw Error(ErrorCode::kInvalidArgument,
+                options.dataset_dir.string() + ": the map's frames have no landmarks");
+  }
+  const auto vocabulary =
+      std::make_shared<const AppearanceVocabulary>(AppearanceVocabulary::Train(sample));
+  BuiltMap built{GraphStore::Open("sqlite:" + map_db.string()),
+                 ExperienceMap(vocabulary),
+                 Uuid::GenerateRandom(),
+                 {},
+                 {}};
+  BuilderOptions map_options = options.builder;
+  map_options.localise_only = false;
+  ExperienceBuilder builder(built.store.get(), built.map, policy, map_options);
+  OutingStart first;
+  first.robot = built.robot;
+  first.outing = Uuid::GenerateRandom();
+  builder.StartOuting(first);
+  const std::vector<Frame> map_frames = ChainFrames(pairs, map_indices);
+  for (std::size_t k = 0; k < map_indices.size(); ++k) {
+    const int i = map_indices[k];
+    const FrameReport report = builder.Process(map_frames[k]);
+    RealFrameRow& row = rows[static_cast<std::size_t>(i)];
+    row.in_map_part = true;
+    row.localised = report.successes > 0;
+    row.created_experience = report.created_experience;
+    if (report.created_experience) built.node_pair[report.reference] = i;
+    built.reports.push_back(report);
+  }
+  builder.FinishOuting();
+  return built;
+}
+
+// The frame's best inliers against the map nodes the builder could have searched, and whether
+// its view overlaps one of them.
+void CompareWithNodes(const RealExperimentOptions& options,
+                      const std::vector<ProcessedStereoPair>& pairs, const BuiltMap& built,
+                      const ProcessedStereoPair& pair, const Localiser& localiser,
+                      RealFrameRow& row) {
+  const double max_angle_rad = options.overlap_angle_deg * kPi / 180.0;
+  for (const auto& [node, n] : built.node_pair) {
+    const ProcessedStereoPair& made = pairs[static_cast<std::size_t>(n)];
+    const Se3 node_T_frame = made.first_T_camera_vo.inverse() * pair.first_T_camera_vo;
+    // Only nodes the builder could have searched (by VO), so a drive of thousands of frames
+    // does not localise every frame against every node.
+    if (node_T_frame.translation().norm() > options.builder.search_radius_m) continue;
+    const LocalisationResult l = localiser.Localise(pair.frame.landmarks, made.frame.landmarks);
+    if (l.success) row.best_node_inliers = std::max(row.best_node_inliers, l.inliers);
+    if (node_T_frame.translation().norm() <= options.overlap_distance_m &&
+        RotationAngle(node_T_frame) <= max_angle_rad) {
+      row.overlaps_map = true;
+    }
+  }
+}
+
+// The other pairs, localise-only. The run starts from a known pose, as a robot that carries on
+// from where its map's frame left it (seed 002 §III-B's position estimate): for halves the
+// map's last frame; interleaved, the map's first frame, one VO step back.
+void LocaliseOtherPart(const RealExperimentOptions& options,
+                       const std::vector<ProcessedStereoPair>& pairs, const PairSplit& split,
+                       BuiltMap& built, RankingPolicy& policy, const Localiser& localiser,
+                       std::vector<RealFrameRow>& rows, RealExperimentResult& result) {
+  BuilderOptions localise_options = options.builder;
+  localise_options.localise_only = true;
+  ExperienceBuilder localiser_run(nullptr, built.map, policy, localise_options);
+  const int anchor = options.split == RealSplit::kInterleaved ? 0 : result.map_frames - 1;
+  OutingStart start = ContinueFrom(built.reports[static_cast<std::size_t>(anchor)], built.robot);
+  const int anchor_pair = split.map[static_cast<std::size_t>(anchor)];
+  const int first_localised = split.localise.front();
+  start.start_node_T_camera =
+      start.start_node_T_camera *
+      pairs[static_cast<std::size_t>(anchor_pair)].first_T_camera_vo.inverse() *
+      pairs[static_cast<std::size_t>(first_localised)].first_T_camera_vo;
+  localiser_run.StartOuting(start);
+  const std::vector<Frame> localise_frames = ChainFrames(pairs, split.localise);
+  std::vector<double> position_errors, rotation_errors;
+  for (std::size_t k = 0; k < split.localise.size(); ++k) {
+    const int i = split.localise[k];
+    const ProcessedStereoPair& pair = pairs[static_cast<std::size_t>(i)];
+    Frame frame = localise_frames[k];
+    if (k == 0) frame.prev_T_this = Se3::Identity();  // the start pose already holds it
+    const FrameReport report = localiser_run.Process(frame);
+    RealFrameRow& row = rows[static_cast<std::size_t>(i)];
+    row.localised = report.successes > 0;
+    if (row.localised) {
+      const auto made = built.node_pair.find(report.reference);
+      if (made != built.node_pair.end()) {
+        row.localised_against = made->second;
+        const auto& node_truth = pairs[static_cast<std::size_t>(made->second)].first_T_camera_truth;
+        if (node_truth && pair.first_T_camera_truth) {
+          const Se3 truth = node_truth->inverse() * *pair.first_T_camera_truth;
+          const Se3 error = report.reference_T_camera.inverse() * truth;
+          row.position_error_m = error.translation().norm();
+          row.rotation_error_deg = RotationAngle(error) * 180.0 / kPi;
+          position_errors.push_back(*row.position_error_m);
+          rotation_errors.push_back(*row.rotation_error_deg);
+        }
+      }
+    }
+    CompareWithNodes(options, pairs, built, pair, localiser, row);
+    ++result.localised_frames;
+    result.localised_ok += row.localised ? 1 : 0;
+    if (row.overlaps_map) {
+      ++result.overlapping_frames;
+      result.overlapping_ok += row.localised ? 1 : 0;
+    }
+  }
+  localiser_run.FinishOuting();
+  result.localised_with_truth = static_cast<int>(position_errors.size());
+  result.position_error_median_m = Median(position_errors);
+  result.position_error_p90_m = Quantile(position_errors, 0.9);
+  result.rotation_error_median_deg = Median(rotation_errors);
+}
+
+// VO's tracking, path and accuracy against ground truth, depths and the front end's times.
+void MeasureFrames(const std::vector<ProcessedStereoPair>& pairs,
+                   const std::vector<RealFrameRow>& rows, std::vector<double> all_depths,
+                   RealExperimentResult& result) {
+  std::vector<double> front_end_ms, rectify_ms;
+  for (std::size_t i = 0; i < pairs.size(); ++i) {
+    const RealFrameRow& row = rows[i];
+    front_end_ms.push_back(row.front_end_ms);
+    rectify_ms.push_back(pairs[i].rectify_ms);
+    if (i > 0) {
+      ++result.vo_pairs;
+      const bool tracked = row.vo_estimated && row.vo_inliers >= 30;
+      result.vo_pairs_with_30_inliers += tracked ? 1 : 0;
+      // An untracked step is VO's constant-velocity guess, not a measurement: not path.
+      if (row.vo_estimated) {
+        result.max_step_m = std::max(result.max_step_m, row.step_m);
+        result.path_length_m += row.step_m;
+      }
+    }
+  }
+  result.frames = rows;
+  result.end_point_m = pairs.back().first_T_camera_vo.translation().norm();
+  if (result.has_ground_truth) {
+    std::vector<Se3> estimated, truth;
+    for (const ProcessedStereoPair& pair : pairs) {
+      if (!pair.first_T_camera_truth) continue;
+      estimated.push_back(pair.first_T_camera_vo);
+      truth.push_back(*pair.first_T_camera_truth);
+    }
+    double truth_length = 0;
+    for (std::size_t i = 1; i < truth.size(); ++i) {
+      truth_length += (truth[i].translation() - truth[i - 1].translation()).norm();
+    }
+    result.accuracy = MeasureTrajectory(estimated, truth, SubPathLengths(truth_length));
+  }
+  result.median_depth_m = Median(std::move(all_depths));
+  result.front_end_ms_median = Median(front_end_ms);
+  result.front_end_ms_mean = std::accumulate(front_end_ms.begin(), front_end_ms.end(), 0.0) /
+                             static_cast<double>(front_end_ms.size());
+  result.front_end_ms_p90 = Quantile(front_end_ms, 0.9);
+  result.rectify_ms_median = Median(rectify_ms);
+}
+
+// The first frame against the same pair rotated by 180 degrees and against a blank pair.
+std::vector<NegativeControl> NegativeControls(const RealExperimentOptions& options,
+                                              const ProcessedStereoSequence& processed,
+                                              const Localiser& localiser) {
+  const StereoFrontEnd front_end(processed.geometry, options.front_end);
+  cv::Mat rotated_left, rotated_right;
+  cv::rotate(processed.first_left_rectified, rotated_left, cv::ROTATE_180);
+  cv::rotate(processed.first_right_rectified, rotated_right, cv::ROTATE_180);
+  const cv::Mat blank(processed.first_left_rectified.size(), CV_8UC1, cv::Scalar(128));
+  const Landmarks& reference = processed.pairs.front().frame.landmarks;
+  std::vector<NegativeControl> controls;
+  controls.push_back(Control("180-degree rotated pair", front_end, rotated_left, rotated_right,
+                             reference, localiser));
+  controls.push_back(Control("blank pair", front_end, blank, blank, reference, localiser));
+  return controls;
+}
+
 }  // namespace
 
 const char* SplitName(RealSplit split) {
@@ -261,201 +501,30 @@ RealExperimentResult RunRealExperiment(const RealExperimentOptions& options, std
   const ProcessedStereoSequence processed =
       ProcessStereoSequence(sequence, {options.front_end, options.odometry}, progress);
   const std::vector<ProcessedStereoPair>& pairs = processed.pairs;
-  std::vector<RealFrameRow> rows(pairs.size());
   std::vector<double> all_depths;
-  for (int i = 0; i < total; ++i) {
-    const ProcessedStereoPair& pair = pairs[static_cast<std::size_t>(i)];
-    RealFrameRow& row = rows[static_cast<std::size_t>(i)];
-    row.index = i;
-    row.stamp_ns = pair.frame.stamp_ns;
-    row.left_keypoints = pair.left_keypoints;
-    row.landmarks = static_cast<int>(pair.frame.landmarks.size());
-    row.median_depth_m = Median(pair.depths_m);
-    row.vo_estimated = pair.odometry.estimated;
-    row.vo_inliers = pair.odometry.inliers;
-    row.position_m = pair.first_T_camera_vo.translation();
-    row.step_m = pair.odometry.prev_T_this.translation().norm();
-    row.front_end_ms = pair.front_end_ms;
-    if (pair.first_T_camera_truth) row.truth_position_m = pair.first_T_camera_truth->translation();
-    all_depths.insert(all_depths.end(), pair.depths_m.begin(), pair.depths_m.end());
-  }
+  std::vector<RealFrameRow> rows = FrameRows(pairs, all_depths);
 
   // 2. The map, single-agent EBN on a fresh SQLite store.
-  std::vector<int> map_indices, localise_indices;
-  if (options.split == RealSplit::kInterleaved) {
-    for (int i = 0; i < total; ++i) (i % 2 == 0 ? map_indices : localise_indices).push_back(i);
-  } else {
-    const int map_frames =
-        std::clamp(static_cast<int>(std::lround(options.map_fraction * total)), 1, total - 1);
-    for (int i = 0; i < total; ++i) (i < map_frames ? map_indices : localise_indices).push_back(i);
-  }
-  result.map_frames = static_cast<int>(map_indices.size());
-  std::filesystem::create_directories(options.out_dir);
-  const std::filesystem::path map_db = options.out_dir / "real-map.db";
-  for (const char* suffix : {"", "-wal", "-shm"}) {
-    std::filesystem::remove(map_db.string() + suffix);
-  }
-  std::vector<Descriptor256> sample;
-  for (int i : map_indices) {
-    const auto& d = pairs[static_cast<std::size_t>(i)].frame.landmarks.descriptors;
-    sample.insert(sample.end(), d.begin(), d.end());
-  }
-  if (sample.empty()) {
-    throw Error(ErrorCode::kInvalidArgument,
-                options.dataset_dir.string() + ": the map's frames have no landmarks");
-  }
-  const auto vocabulary =
-      std::make_shared<const AppearanceVocabulary>(AppearanceVocabulary::Train(sample));
-  std::unique_ptr<GraphStore> store = GraphStore::Open("sqlite:" + map_db.string());
-  ExperienceMap map(vocabulary);
+  const PairSplit split = SplitPairs(options, total);
+  result.map_frames = static_cast<int>(split.map.size());
   DistanceRanking policy;
-  BuilderOptions map_options = options.builder;
-  map_options.localise_only = false;
-  ExperienceBuilder builder(store.get(), map, policy, map_options);
-  const Uuid robot = Uuid::GenerateRandom();
-  OutingStart first;
-  first.robot = robot;
-  first.outing = Uuid::GenerateRandom();
-  builder.StartOuting(first);
-  std::vector<FrameReport> map_reports;
-  std::map<Uuid, int> node_pair;  // the pair each experience was made from
-  const std::vector<Frame> map_frames = ChainFrames(pairs, map_indices);
-  for (std::size_t k = 0; k < map_indices.size(); ++k) {
-    const int i = map_indices[k];
-    const FrameReport report = builder.Process(map_frames[k]);
-    RealFrameRow& row = rows[static_cast<std::size_t>(i)];
-    row.in_map_part = true;
-    row.localised = report.successes > 0;
-    row.created_experience = report.created_experience;
-    if (report.created_experience) node_pair[report.reference] = i;
-    map_reports.push_back(report);
-  }
-  builder.FinishOuting();
-  result.map_nodes = static_cast<std::int64_t>(map.size());
+  BuiltMap built = BuildMap(options, pairs, split.map, policy, rows);
+  result.map_nodes = static_cast<std::int64_t>(built.map.size());
 
-  // 3. The other pairs, localise-only. The run starts from a known pose, as a robot that
-  // carries on from where its map's frame left it (seed 002 §III-B's position estimate): for
-  // halves the map's last frame; interleaved, the map's first frame, one VO step back.
-  BuilderOptions localise_options = options.builder;
-  localise_options.localise_only = true;
-  ExperienceBuilder localiser_run(nullptr, map, policy, localise_options);
-  const int anchor = options.split == RealSplit::kInterleaved ? 0 : result.map_frames - 1;
-  OutingStart start = ContinueFrom(map_reports[static_cast<std::size_t>(anchor)], robot);
-  const int anchor_pair = map_indices[static_cast<std::size_t>(anchor)];
-  const int first_localised = localise_indices.front();
-  start.start_node_T_camera =
-      start.start_node_T_camera *
-      pairs[static_cast<std::size_t>(anchor_pair)].first_T_camera_vo.inverse() *
-      pairs[static_cast<std::size_t>(first_localised)].first_T_camera_vo;
-  localiser_run.StartOuting(start);
+  // 3. The other pairs, localise-only.
   const Localiser localiser(options.builder.localiser);
-  const double max_angle_rad = options.overlap_angle_deg * kPi / 180.0;
-  const std::vector<Frame> localise_frames = ChainFrames(pairs, localise_indices);
-  std::vector<double> position_errors, rotation_errors;
-  for (std::size_t k = 0; k < localise_indices.size(); ++k) {
-    const int i = localise_indices[k];
-    const ProcessedStereoPair& pair = pairs[static_cast<std::size_t>(i)];
-    Frame frame = localise_frames[k];
-    if (k == 0) frame.prev_T_this = Se3::Identity();  // the start pose already holds it
-    const FrameReport report = localiser_run.Process(frame);
-    RealFrameRow& row = rows[static_cast<std::size_t>(i)];
-    row.localised = report.successes > 0;
-    if (row.localised) {
-      const auto made = node_pair.find(report.reference);
-      if (made != node_pair.end()) {
-        row.localised_against = made->second;
-        const auto& node_truth = pairs[static_cast<std::size_t>(made->second)].first_T_camera_truth;
-        if (node_truth && pair.first_T_camera_truth) {
-          const Se3 truth = node_truth->inverse() * *pair.first_T_camera_truth;
-          const Se3 error = report.reference_T_camera.inverse() * truth;
-          row.position_error_m = error.translation().norm();
-          row.rotation_error_deg = RotationAngle(error) * 180.0 / kPi;
-          position_errors.push_back(*row.position_error_m);
-          rotation_errors.push_back(*row.rotation_error_deg);
-        }
-      }
-    }
-    for (const auto& [node, n] : node_pair) {
-      const ProcessedStereoPair& made = pairs[static_cast<std::size_t>(n)];
-      const Se3 node_T_frame = made.first_T_camera_vo.inverse() * pair.first_T_camera_vo;
-      // Only nodes the builder could have searched (by VO), so a drive of thousands of frames
-      // does not localise every frame against every node.
-      if (node_T_frame.translation().norm() > options.builder.search_radius_m) continue;
-      const LocalisationResult l = localiser.Localise(pair.frame.landmarks, made.frame.landmarks);
-      if (l.success) row.best_node_inliers = std::max(row.best_node_inliers, l.inliers);
-      if (node_T_frame.translation().norm() <= options.overlap_distance_m &&
-          RotationAngle(node_T_frame) <= max_angle_rad) {
-        row.overlaps_map = true;
-      }
-    }
-    ++result.localised_frames;
-    result.localised_ok += row.localised ? 1 : 0;
-    if (row.overlaps_map) {
-      ++result.overlapping_frames;
-      result.overlapping_ok += row.localised ? 1 : 0;
-    }
-  }
-  localiser_run.FinishOuting();
-  result.localised_with_truth = static_cast<int>(position_errors.size());
-  result.position_error_median_m = Median(position_errors);
-  result.position_error_p90_m = Quantile(position_errors, 0.9);
-  result.rotation_error_median_deg = Median(rotation_errors);
+  LocaliseOtherPart(options, pairs, split, built, policy, localiser, rows, result);
 
   // 4. Measures, negative controls, files.
-  std::vector<double> front_end_ms, rectify_ms;
-  for (std::size_t i = 0; i < pairs.size(); ++i) {
-    const RealFrameRow& row = rows[i];
-    front_end_ms.push_back(row.front_end_ms);
-    rectify_ms.push_back(pairs[i].rectify_ms);
-    if (i > 0) {
-      ++result.vo_pairs;
-      const bool tracked = row.vo_estimated && row.vo_inliers >= 30;
-      result.vo_pairs_with_30_inliers += tracked ? 1 : 0;
-      // An untracked step is VO's constant-velocity guess, not a measurement: not path.
-      if (row.vo_estimated) {
-        result.max_step_m = std::max(result.max_step_m, row.step_m);
-        result.path_length_m += row.step_m;
-      }
-    }
-  }
-  result.frames = rows;
-  result.end_point_m = pairs.back().first_T_camera_vo.translation().norm();
-  if (result.has_ground_truth) {
-    std::vector<Se3> estimated, truth;
-    for (const ProcessedStereoPair& pair : pairs) {
-      if (!pair.first_T_camera_truth) continue;
-      estimated.push_back(pair.first_T_camera_vo);
-      truth.push_back(*pair.first_T_camera_truth);
-    }
-    double truth_length = 0;
-    for (std::size_t i = 1; i < truth.size(); ++i) {
-      truth_length += (truth[i].translation() - truth[i - 1].translation()).norm();
-    }
-    result.accuracy = MeasureTrajectory(estimated, truth, SubPathLengths(truth_length));
-  }
-  result.median_depth_m = Median(std::move(all_depths));
-  result.front_end_ms_median = Median(front_end_ms);
-  result.front_end_ms_mean = std::accumulate(front_end_ms.begin(), front_end_ms.end(), 0.0) /
-                             static_cast<double>(front_end_ms.size());
-  result.front_end_ms_p90 = Quantile(front_end_ms, 0.9);
-  result.rectify_ms_median = Median(rectify_ms);
-
-  const StereoFrontEnd front_end(processed.geometry, options.front_end);
-  cv::Mat rotated_left, rotated_right;
-  cv::rotate(processed.first_left_rectified, rotated_left, cv::ROTATE_180);
-  cv::rotate(processed.first_right_rectified, rotated_right, cv::ROTATE_180);
-  const cv::Mat blank(processed.first_left_rectified.size(), CV_8UC1, cv::Scalar(128));
-  const Landmarks& reference = pairs.front().frame.landmarks;
-  result.controls.push_back(Control("180-degree rotated pair", front_end, rotated_left,
-                                    rotated_right, reference, localiser));
-  result.controls.push_back(Control("blank pair", front_end, blank, blank, reference, localiser));
+  MeasureFrames(pairs, rows, std::move(all_depths), result);
+  result.controls = NegativeControls(options, processed, localiser);
   result.acceptance = JudgeRealExperiment(result);
 
   result.csv = options.out_dir / "real.csv";
   WriteCsv(result, result.csv);
   if (Plot(result, options.out_dir, log)) result.png = options.out_dir / "real.png";
   result.summary = options.out_dir / "summary.md";
-  result.seconds = std::chrono::duration<double>(Clock::now() - started).count();
+  result.seconds = SecondsSince(started);
   WriteSummary(options, result);
   return result;
 }

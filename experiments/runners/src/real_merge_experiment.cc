@@ -12,6 +12,7 @@
 #include <unordered_map>
 
 #include "fleet_processes.h"
+#include "fleetmap/core/clock.h"
 #include "fleetmap/core/error.h"
 #include "fleetmap/ebn/experience_map.h"
 #include "fleetmap/ebn/localiser.h"
@@ -215,6 +216,228 @@ std::string SummaryText(const RealMergeOptions& options, const RealMergeResult& 
   return out.str();
 }
 
+void Say(const RealMergeOptions& options, const std::string& line) {
+  if (options.progress) options.progress(line);
+}
+
+void CheckOverlap(const RealMergeOptions& options) {
+  if (!(options.overlap_start > 0.0 && options.overlap_start < options.overlap_end &&
+        options.overlap_end < 1.0)) {
+    throw Error(ErrorCode::kInvalidArgument,
+                "real-merge: the overlap must satisfy 0 < start < end < 1 (got " +
+                    Fixed(options.overlap_start, 3) + ", " + Fixed(options.overlap_end, 3) + ")");
+  }
+}
+
+// The pairs each part is made of (RealMergeResult's rows say which is which).
+struct PairSplit {
+  std::vector<int> a, b, odd;
+};
+
+// Who builds from what: A the even pairs below e n, B those from s n; fills in the rows.
+PairSplit SplitPairs(const RealMergeOptions& options, int n, RealMergeResult& result) {
+  const double a_end = options.overlap_end * n, b_start = options.overlap_start * n;
+  PairSplit split;
+  result.rows.resize(static_cast<std::size_t>(n));
+  for (int i = 0; i < n; ++i) {
+    RealMergePair& row = result.rows[static_cast<std::size_t>(i)];
+    row.index = i;
+    row.odd = i % 2 == 1;
+    row.in_overlap = i >= b_start && i < a_end;
+    row.in_a = !row.odd && i < a_end;
+    row.in_b = !row.odd && i >= b_start;
+    if (row.in_a) split.a.push_back(i);
+    if (row.in_b) split.b.push_back(i);
+    if (row.odd) split.odd.push_back(i);
+  }
+  result.a_pairs = static_cast<int>(split.a.size());
+  result.b_pairs = static_cast<int>(split.b.size());
+  return split;
+}
+
+// A pushes and the server merges; then B, against a head that holds A.
+void PushThroughServer(const RealMergeOptions& options, const std::string& store_uri,
+                       const fs::path& logs, const FleetRobot& robot_a, const FleetRobot& robot_b,
+                       RealMergeResult& result) {
+  FleetServerProcess server(options.fleetmapd, store_uri, logs / "fleetmapd.log");
+  Say(options, "fleetmapd listening on " + server.address());
+  const auto sync = [&](const FleetRobot& robot, std::int64_t& pushed, std::int64_t& revision) {
+    const fs::path log = logs / ("agent-" + robot.name + ".log");
+    ChildProcess agent =
+        StartAgentSync(options.agent, robot, server.address(), {"--policy", "copy"}, log);
+    const nlohmann::json json = FinishAgentSync(agent, robot, log, kSyncTimeout);
+    pushed = json.value("pushed_nodes", std::int64_t{0});
+    revision = json.value("merged_revision", std::int64_t{0});
+    if (json.value("merge_state", std::string()) != "merged") {
+      throw Error(ErrorCode::kBackend,
+                  "real-merge: the merge of " + robot.name + "'s push ended '" +
+                      json.value("merge_state", std::string()) + "' (log " + log.string() + ")");
+    }
+    Say(options, robot.name + " pushed " + std::to_string(pushed) + " nodes; merged as revision " +
+                     std::to_string(revision));
+  };
+  sync(robot_a, result.a_pushed, result.a_revision);
+  sync(robot_b, result.b_pushed, result.b_revision);
+  const std::optional<int> exit = server.Stop();
+  if (exit != 0) {
+    Say(options, "fleetmapd did not drain cleanly (exit " +
+                     (exit ? std::to_string(*exit) : std::string("timeout")) + ")");
+  }
+}
+
+// The head in the server's store: which nodes it holds, what each merge added, and where MERGE
+// put B's omitted nodes. Returns head node -> the pair that made it (-1: neither robot's).
+std::unordered_map<Uuid, int> ReadCentralHead(const std::string& store_uri, const RobotMap& a_map,
+                                              const RobotMap& b_map, RealMergeResult& result) {
+  std::unordered_map<Uuid, int> head_pair;
+  std::unique_ptr<GraphStore> central = GraphStore::Open(store_uri);
+  VersionStore& versions = central->versions();
+  const RevisionNumber head = versions.HeadRevision();
+  for (const Node& node : versions.NodesAt(head, /*with_landmarks=*/false)) {
+    const auto a = a_map.node_pair.find(node.id);
+    const auto b = b_map.node_pair.find(node.id);
+    head_pair.emplace(node.id, a != a_map.node_pair.end()   ? a->second
+                               : b != b_map.node_pair.end() ? b->second
+                                                            : -1);
+  }
+  result.counts.head_nodes = static_cast<std::int64_t>(head_pair.size());
+  for (const auto& [number, added] :
+       {std::pair{result.a_revision, &result.a_added}, {result.b_revision, &result.b_added}}) {
+    if (const std::optional<Revision> revision = versions.FindRevision(number)) {
+      *added = revision->nodes_added;
+    }
+  }
+  for (const auto& [node, pair] : b_map.node_pair) {
+    RealMergePair& row = result.rows[static_cast<std::size_t>(pair)];
+    row.b_node = true;
+    row.b_in_head = head_pair.contains(node);
+    row.b_stand_in = !*row.b_in_head && versions.FindStandIn(node).has_value();
+    result.b_stand_ins += row.b_stand_in ? 1 : 0;
+    if (row.in_overlap) {
+      ++result.counts.b_overlap_nodes;
+      result.counts.b_overlap_omitted += *row.b_in_head ? 0 : 1;
+    }
+  }
+  for (const auto& [node, pair] : a_map.node_pair) {
+    RealMergePair& row = result.rows[static_cast<std::size_t>(pair)];
+    row.a_node = true;
+    row.a_in_head = head_pair.contains(node);
+  }
+  for (RealMergePair& row : result.rows) {
+    if (row.in_a && !row.a_node) row.a_node = false;
+    if (row.in_b && !row.b_node) row.b_node = false;
+  }
+  return head_pair;
+}
+
+// The head as B's agent pulled it: its map, and each node's landmarks and making pair in the
+// order of the pulled nodes.
+struct PulledHead {
+  ExperienceMap map;
+  std::vector<Landmarks> landmarks;
+  std::vector<int> node_pair;
+};
+
+PulledHead ReadPulledHead(const RealMergeOptions& options, const FleetRobot& robot_b,
+                          const std::unordered_map<Uuid, int>& head_pair, RealMergeResult& result) {
+  std::unique_ptr<GraphStore> pulled_store =
+      GraphStore::Open("sqlite:" + (robot_b.dir / "map.db").string());
+  const GraphBatch pulled = pulled_store->ReadMap();
+  result.pulled_nodes = static_cast<std::int64_t>(pulled.nodes.size());
+  if (result.pulled_nodes != result.counts.head_nodes) {
+    Say(options, "note: B's agent holds " + std::to_string(result.pulled_nodes) +
+                     " nodes, the server's head " + std::to_string(result.counts.head_nodes));
+  }
+  std::vector<Descriptor256> sample;
+  std::vector<Landmarks> head_landmarks;
+  std::vector<int> head_node_pair;
+  for (const Node& node : pulled.nodes) {
+    head_landmarks.push_back(DecodeLandmarks(node.landmarks_blob));
+    const auto found = head_pair.find(node.id);
+    head_node_pair.push_back(found == head_pair.end() ? -1 : found->second);
+    sample.insert(sample.end(), head_landmarks.back().descriptors.begin(),
+                  head_landmarks.back().descriptors.end());
+  }
+  if (sample.empty()) {
+    throw Error(ErrorCode::kBackend, "real-merge: the pulled head has no landmarks");
+  }
+  const auto vocabulary =
+      std::make_shared<const AppearanceVocabulary>(AppearanceVocabulary::Train(sample));
+  return {ExperienceMap::FromGraph(pulled.nodes, pulled.edges, vocabulary),
+          std::move(head_landmarks), std::move(head_node_pair)};
+}
+
+// One localise-only outing over the odd pairs, starting lost.
+void LocaliseWithBuilder(const RealMergeOptions& options, const ProcessedStereoSequence& processed,
+                         const FleetRobot& robot_b, const std::vector<int>& odd_indices,
+                         const std::unordered_map<Uuid, int>& head_pair, ExperienceMap& head,
+                         RealMergeResult& result) {
+  DistanceRanking policy;
+  BuilderOptions localise = options.builder;
+  localise.localise_only = true;
+  ExperienceBuilder builder(nullptr, head, policy, localise);
+  OutingStart lost;
+  lost.robot = robot_b.id;
+  lost.outing = Uuid::Generate();
+  builder.StartOuting(lost);
+  const std::vector<Frame> frames = ChainFrames(processed.pairs, odd_indices);
+  for (std::size_t f = 0; f < frames.size(); ++f) {
+    const FrameReport report = builder.Process(frames[f]);
+    RealMergePair& row = result.rows[static_cast<std::size_t>(odd_indices[f])];
+    if (report.successes == 0) continue;
+    row.builder.localised = true;
+    const auto found = head_pair.find(report.reference);
+    row.builder.node_pair = found == head_pair.end() ? -1 : found->second;
+    if (row.builder.node_pair >= 0) {
+      SetError(processed, row.builder.node_pair, row.index, report.reference_T_camera, row.builder);
+    }
+  }
+  builder.FinishOuting();
+}
+
+// The localiser against every head node; the success with most inliers counts.
+void LocaliseDirectly(const RealMergeOptions& options, const ProcessedStereoSequence& processed,
+                      const std::vector<int>& odd_indices, const PulledHead& head,
+                      RealMergeResult& result) {
+  const Localiser localiser(options.builder.localiser);
+  std::mutex mutex;
+  TaskQueue queue;
+  for (const int q : odd_indices) {
+    queue.Push([&, q] {
+      const Landmarks& frame = processed.pairs[static_cast<std::size_t>(q)].frame.landmarks;
+      std::optional<std::pair<std::size_t, LocalisationResult>> best;
+      for (std::size_t k = 0; k < head.landmarks.size(); ++k) {
+        const LocalisationResult l = localiser.Localise(frame, head.landmarks[k]);
+        if (l.success && (!best || l.inliers > best->second.inliers)) best.emplace(k, l);
+      }
+      if (!best) return;
+      const std::lock_guard<std::mutex> lock(mutex);
+      RealMergePair& row = result.rows[static_cast<std::size_t>(q)];
+      row.direct.localised = true;
+      row.direct_inliers = best->second.inliers;
+      row.direct.node_pair = head.node_pair[best->first];
+      if (row.direct.node_pair >= 0) {
+        SetError(processed, row.direct.node_pair, q, best->second.node_T_frame, row.direct);
+      }
+    });
+  }
+  queue.Run(static_cast<int>(std::clamp(std::thread::hardware_concurrency(), 1u, 8u)));
+}
+
+// Measures, judgement, files.
+void SummariseAndWrite(const RealMergeOptions& options, RealMergeResult& result) {
+  result.builder = Summarise(result.rows, &RealMergePair::builder);
+  result.direct = Summarise(result.rows, &RealMergePair::direct);
+  result.counts.odd_pairs = result.builder.pairs;
+  result.counts.odd_localised = result.builder.localised;
+  result.acceptance = JudgeRealMerge(result.counts);
+  result.csv = options.out_dir / "real_merge.csv";
+  WriteCsv(result.csv, result.rows);
+  result.summary = SummaryText(options, result);
+  result.summary_file = options.out_dir / "summary.md";
+  Save(result.summary_file, result.summary);
+}
+
 }  // namespace
 
 std::vector<AcceptanceLine> JudgeRealMerge(const RealMergeCounts& c) {
@@ -235,16 +458,8 @@ std::vector<AcceptanceLine> JudgeRealMerge(const RealMergeCounts& c) {
 }
 
 RealMergeResult RunRealMergeExperiment(const RealMergeOptions& options) {
-  if (!(options.overlap_start > 0.0 && options.overlap_start < options.overlap_end &&
-        options.overlap_end < 1.0)) {
-    throw Error(ErrorCode::kInvalidArgument,
-                "real-merge: the overlap must satisfy 0 < start < end < 1 (got " +
-                    Fixed(options.overlap_start, 3) + ", " + Fixed(options.overlap_end, 3) + ")");
-  }
+  CheckOverlap(options);
   RequireExecutables("real-merge", {options.fleetmapd, options.agent});
-  const auto say = [&](const std::string& line) {
-    if (options.progress) options.progress(line);
-  };
   const Clock::time_point start = Clock::now();
 
   // 1. Every pair through the front end and VO, before anything is written.
@@ -259,27 +474,12 @@ RealMergeResult RunRealMergeExperiment(const RealMergeOptions& options) {
   result.pairs = n;
   result.dataset = sequence.dir.string() + " (" + LayoutName(sequence.layout) + ")" +
                    (sequence.credit.empty() ? "" : "; " + sequence.credit);
-  say("real-merge: " + result.dataset + ", " + std::to_string(n) + " pairs");
+  Say(options, "real-merge: " + result.dataset + ", " + std::to_string(n) + " pairs");
   const ProcessedStereoSequence processed =
       ProcessStereoSequence(sequence, options.pipeline, options.pair_progress);
 
-  // 2. Who builds from what: A the even pairs below e n, B those from s n.
-  const double a_end = options.overlap_end * n, b_start = options.overlap_start * n;
-  std::vector<int> a_indices, b_indices, odd_indices;
-  result.rows.resize(static_cast<std::size_t>(n));
-  for (int i = 0; i < n; ++i) {
-    RealMergePair& row = result.rows[static_cast<std::size_t>(i)];
-    row.index = i;
-    row.odd = i % 2 == 1;
-    row.in_overlap = i >= b_start && i < a_end;
-    row.in_a = !row.odd && i < a_end;
-    row.in_b = !row.odd && i >= b_start;
-    if (row.in_a) a_indices.push_back(i);
-    if (row.in_b) b_indices.push_back(i);
-    if (row.odd) odd_indices.push_back(i);
-  }
-  result.a_pairs = static_cast<int>(a_indices.size());
-  result.b_pairs = static_cast<int>(b_indices.size());
+  // 2. Who builds from what.
+  const PairSplit split = SplitPairs(options, n, result);
 
   // 3. The central store with both robots, fleetmapd, and each robot's map.
   fs::create_directories(options.out_dir);
@@ -292,177 +492,29 @@ RealMergeResult RunRealMergeExperiment(const RealMergeOptions& options) {
       RegisterFleetRobots(store_uri, {"robot-a", "robot-b"}, result.work_dir / "robots");
   const FleetRobot& robot_a = robots[0];
   const FleetRobot& robot_b = robots[1];
-  say("building robot A's map from " + std::to_string(result.a_pairs) + " pairs");
-  const RobotMap a_map = BuildRobotMap(robot_a, processed, a_indices, options.builder);
-  say("building robot B's map from " + std::to_string(result.b_pairs) + " pairs");
-  const RobotMap b_map = BuildRobotMap(robot_b, processed, b_indices, options.builder);
+  Say(options, "building robot A's map from " + std::to_string(result.a_pairs) + " pairs");
+  const RobotMap a_map = BuildRobotMap(robot_a, processed, split.a, options.builder);
+  Say(options, "building robot B's map from " + std::to_string(result.b_pairs) + " pairs");
+  const RobotMap b_map = BuildRobotMap(robot_b, processed, split.b, options.builder);
   result.counts.a_nodes = a_map.nodes;
   result.counts.b_nodes = b_map.nodes;
 
-  // 4. A pushes and the server merges; then B, against a head that holds A.
-  {
-    FleetServerProcess server(options.fleetmapd, store_uri, logs / "fleetmapd.log");
-    say("fleetmapd listening on " + server.address());
-    const auto sync = [&](const FleetRobot& robot, std::int64_t& pushed, std::int64_t& revision) {
-      const fs::path log = logs / ("agent-" + robot.name + ".log");
-      ChildProcess agent =
-          StartAgentSync(options.agent, robot, server.address(), {"--policy", "copy"}, log);
-      const nlohmann::json json = FinishAgentSync(agent, robot, log, kSyncTimeout);
-      pushed = json.value("pushed_nodes", std::int64_t{0});
-      revision = json.value("merged_revision", std::int64_t{0});
-      if (json.value("merge_state", std::string()) != "merged") {
-        throw Error(ErrorCode::kBackend,
-                    "real-merge: the merge of " + robot.name + "'s push ended '" +
-                        json.value("merge_state", std::string()) + "' (log " + log.string() + ")");
-      }
-      say(robot.name + " pushed " + std::to_string(pushed) + " nodes; merged as revision " +
-          std::to_string(revision));
-    };
-    sync(robot_a, result.a_pushed, result.a_revision);
-    sync(robot_b, result.b_pushed, result.b_revision);
-    const std::optional<int> exit = server.Stop();
-    if (exit != 0) {
-      say("fleetmapd did not drain cleanly (exit " +
-          (exit ? std::to_string(*exit) : std::string("timeout")) + ")");
-    }
-  }
+  // 4. A pushes and the server merges; then B.
+  PushThroughServer(options, store_uri, logs, robot_a, robot_b, result);
 
-  // 5. The head in the server's store: which nodes it holds, what each merge added, and
-  // where MERGE put B's omitted nodes.
-  std::unordered_map<Uuid, int> head_pair;  // head node -> the pair that made it
-  {
-    std::unique_ptr<GraphStore> central = GraphStore::Open(store_uri);
-    VersionStore& versions = central->versions();
-    const RevisionNumber head = versions.HeadRevision();
-    for (const Node& node : versions.NodesAt(head, /*with_landmarks=*/false)) {
-      const auto a = a_map.node_pair.find(node.id);
-      const auto b = b_map.node_pair.find(node.id);
-      head_pair.emplace(node.id, a != a_map.node_pair.end()   ? a->second
-                                 : b != b_map.node_pair.end() ? b->second
-                                                              : -1);
-    }
-    result.counts.head_nodes = static_cast<std::int64_t>(head_pair.size());
-    for (const auto& [number, added] :
-         {std::pair{result.a_revision, &result.a_added}, {result.b_revision, &result.b_added}}) {
-      if (const std::optional<Revision> revision = versions.FindRevision(number)) {
-        *added = revision->nodes_added;
-      }
-    }
-    for (const auto& [node, pair] : b_map.node_pair) {
-      RealMergePair& row = result.rows[static_cast<std::size_t>(pair)];
-      row.b_node = true;
-      row.b_in_head = head_pair.contains(node);
-      row.b_stand_in = !*row.b_in_head && versions.FindStandIn(node).has_value();
-      result.b_stand_ins += row.b_stand_in ? 1 : 0;
-      if (row.in_overlap) {
-        ++result.counts.b_overlap_nodes;
-        result.counts.b_overlap_omitted += *row.b_in_head ? 0 : 1;
-      }
-    }
-    for (const auto& [node, pair] : a_map.node_pair) {
-      RealMergePair& row = result.rows[static_cast<std::size_t>(pair)];
-      row.a_node = true;
-      row.a_in_head = head_pair.contains(node);
-    }
-    for (RealMergePair& row : result.rows) {
-      if (row.in_a && !row.a_node) row.a_node = false;
-      if (row.in_b && !row.b_node) row.b_node = false;
-    }
-  }
+  // 5. The head in the server's store.
+  const std::unordered_map<Uuid, int> head_pair = ReadCentralHead(store_uri, a_map, b_map, result);
 
-  // 6. The odd pairs against the head as B's agent pulled it.
-  std::unique_ptr<GraphStore> pulled_store =
-      GraphStore::Open("sqlite:" + (robot_b.dir / "map.db").string());
-  const GraphBatch pulled = pulled_store->ReadMap();
-  result.pulled_nodes = static_cast<std::int64_t>(pulled.nodes.size());
-  if (result.pulled_nodes != result.counts.head_nodes) {
-    say("note: B's agent holds " + std::to_string(result.pulled_nodes) +
-        " nodes, the server's head " + std::to_string(result.counts.head_nodes));
-  }
-  std::vector<Descriptor256> sample;
-  std::vector<Landmarks> head_landmarks;
-  std::vector<int> head_node_pair;
-  for (const Node& node : pulled.nodes) {
-    head_landmarks.push_back(DecodeLandmarks(node.landmarks_blob));
-    const auto found = head_pair.find(node.id);
-    head_node_pair.push_back(found == head_pair.end() ? -1 : found->second);
-    sample.insert(sample.end(), head_landmarks.back().descriptors.begin(),
-                  head_landmarks.back().descriptors.end());
-  }
-  if (sample.empty()) {
-    throw Error(ErrorCode::kBackend, "real-merge: the pulled head has no landmarks");
-  }
-  const auto vocabulary =
-      std::make_shared<const AppearanceVocabulary>(AppearanceVocabulary::Train(sample));
-  ExperienceMap head = ExperienceMap::FromGraph(pulled.nodes, pulled.edges, vocabulary);
-  say("localising " + std::to_string(odd_indices.size()) + " odd pairs against the head (" +
-      std::to_string(head.size()) + " nodes)");
-
-  // 6a. One localise-only outing over the odd pairs, starting lost.
-  {
-    DistanceRanking policy;
-    BuilderOptions localise = options.builder;
-    localise.localise_only = true;
-    ExperienceBuilder builder(nullptr, head, policy, localise);
-    OutingStart lost;
-    lost.robot = robot_b.id;
-    lost.outing = Uuid::Generate();
-    builder.StartOuting(lost);
-    const std::vector<Frame> frames = ChainFrames(processed.pairs, odd_indices);
-    for (std::size_t f = 0; f < frames.size(); ++f) {
-      const FrameReport report = builder.Process(frames[f]);
-      RealMergePair& row = result.rows[static_cast<std::size_t>(odd_indices[f])];
-      if (report.successes == 0) continue;
-      row.builder.localised = true;
-      const auto found = head_pair.find(report.reference);
-      row.builder.node_pair = found == head_pair.end() ? -1 : found->second;
-      if (row.builder.node_pair >= 0) {
-        SetError(processed, row.builder.node_pair, row.index, report.reference_T_camera,
-                 row.builder);
-      }
-    }
-    builder.FinishOuting();
-  }
-
-  // 6b. The localiser against every head node; the success with most inliers counts.
-  {
-    const Localiser localiser(options.builder.localiser);
-    std::mutex mutex;
-    TaskQueue queue;
-    for (const int q : odd_indices) {
-      queue.Push([&, q] {
-        const Landmarks& frame = processed.pairs[static_cast<std::size_t>(q)].frame.landmarks;
-        std::optional<std::pair<std::size_t, LocalisationResult>> best;
-        for (std::size_t k = 0; k < head_landmarks.size(); ++k) {
-          const LocalisationResult l = localiser.Localise(frame, head_landmarks[k]);
-          if (l.success && (!best || l.inliers > best->second.inliers)) best.emplace(k, l);
-        }
-        if (!best) return;
-        const std::lock_guard<std::mutex> lock(mutex);
-        RealMergePair& row = result.rows[static_cast<std::size_t>(q)];
-        row.direct.localised = true;
-        row.direct_inliers = best->second.inliers;
-        row.direct.node_pair = head_node_pair[best->first];
-        if (row.direct.node_pair >= 0) {
-          SetError(processed, row.direct.node_pair, q, best->second.node_T_frame, row.direct);
-        }
-      });
-    }
-    queue.Run(static_cast<int>(std::clamp(std::thread::hardware_concurrency(), 1u, 8u)));
-  }
+  // 6. The odd pairs against the head as B's agent pulled it: by the builder, then directly.
+  PulledHead head = ReadPulledHead(options, robot_b, head_pair, result);
+  Say(options, "localising " + std::to_string(split.odd.size()) + " odd pairs against the head (" +
+                   std::to_string(head.map.size()) + " nodes)");
+  LocaliseWithBuilder(options, processed, robot_b, split.odd, head_pair, head.map, result);
+  LocaliseDirectly(options, processed, split.odd, head, result);
 
   // 7. Measures, judgement, files.
-  result.builder = Summarise(result.rows, &RealMergePair::builder);
-  result.direct = Summarise(result.rows, &RealMergePair::direct);
-  result.counts.odd_pairs = result.builder.pairs;
-  result.counts.odd_localised = result.builder.localised;
-  result.acceptance = JudgeRealMerge(result.counts);
-  result.csv = options.out_dir / "real_merge.csv";
-  WriteCsv(result.csv, result.rows);
-  result.summary = SummaryText(options, result);
-  result.summary_file = options.out_dir / "summary.md";
-  Save(result.summary_file, result.summary);
-  result.seconds = std::chrono::duration<double>(Clock::now() - start).count();
+  SummariseAndWrite(options, result);
+  result.seconds = SecondsSince(start);
   return result;
 }
 

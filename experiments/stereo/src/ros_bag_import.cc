@@ -5,7 +5,10 @@
 #include <cctype>
 #include <map>
 #include <memory>
+#include <optional>
 #include <string_view>
+#include <utility>
+#include <vector>
 
 #include "camera_info_calibration.h"
 #include "fleetmap/core/error.h"
@@ -198,12 +201,7 @@ std::int64_t StampOf(const RosHeader& header, const RosBagMessage& m, std::int64
   return m.receive_time_ns;
 }
 
-}  // namespace
-
-RosBagImportResult ImportRosBag(
-    const fs::path& bag, GraphStore& store, const fs::path& root,
-    const RosBagImportOptions& options,
-    const std::function<void(std::uint64_t done, std::uint64_t total)>& progress) {
+void CheckImportOptions(const RosBagImportOptions& options) {
   CheckLayoutName(options.platform, "platform");
   for (const std::string* sensor :
        {&options.stereo_sensor, &options.imu_sensor, &options.gps_sensor}) {
@@ -212,8 +210,10 @@ RosBagImportResult ImportRosBag(
   if (options.pair_tolerance_ns < 0) {
     throw Error(ErrorCode::kInvalidArgument, "the pair tolerance must not be negative");
   }
-  RosBagReader reader(bag);
-  const std::string name = bag.string();
+}
+
+// The bag's topics from its connections, which must agree on each topic's type.
+Topics ReadTopics(const RosBagReader& reader, const std::string& name) {
   Topics topics;
   for (const RosConnection& c : reader.connections()) {
     Topic& t = topics[c.topic];
@@ -225,6 +225,136 @@ RosBagImportResult ImportRosBag(
     t.md5sum = c.md5sum;
     t.messages += c.messages;
   }
+  return topics;
+}
+
+// Writes each stereo pair the pairing makes into the stereo log, all of one image size.
+class StereoPairWriter {
+ public:
+  StereoPairWriter(const std::string& bag, const std::string& stereo_sensor, StagedRecordFile& log)
+      : bag_(bag), log_(log), type_(v1::StereoImagePair::descriptor()->full_name()) {
+    pair_.set_left_camera(stereo_sensor + "/cam0");
+    pair_.set_right_camera(stereo_sensor + "/cam1");
+    pair_.set_encoding("png");
+  }
+
+  void Write(StereoFrame& left, StereoFrame& right) {
+    const auto size = std::pair{left.width_px, left.height_px};
+    if (std::pair{right.width_px, right.height_px} != size ||
+        (image_size_ && *image_size_ != size)) {
+      const auto [w, h] = image_size_.value_or(size);
+      throw Error(ErrorCode::kInvalidArgument,
+                  "ROS bag " + bag_ + ": the stereo pair stamped " + std::to_string(left.stamp_ns) +
+                      " ns" + " has a " + std::to_string(left.width_px) + "x" +
+                      std::to_string(left.height_px) + " left and a " +
+                      std::to_string(right.width_px) + "x" + std::to_string(right.height_px) +
+                      " right image where the pairs before are " + std::to_string(w) + "x" +
+                      std::to_string(h) + "; a stereo log holds one image size");
+    }
+    image_size_ = size;
+    pair_.set_stamp_ns(left.stamp_ns);
+    pair_.set_width_px(left.width_px);
+    pair_.set_height_px(left.height_px);
+    pair_.set_left_image(std::move(left.png));
+    pair_.set_right_image(std::move(right.png));
+    pair_.SerializeToString(&payload_);
+    log_.Append(left.stamp_ns, type_, payload_);
+  }
+
+  // Width and height of the pairs written; nullopt before the first.
+  const std::optional<std::pair<std::uint32_t, std::uint32_t>>& image_size() const {
+    return image_size_;
+  }
+
+ private:
+  const std::string& bag_;
+  StagedRecordFile& log_;
+  const std::string type_;
+  v1::StereoImagePair pair_;
+  std::optional<std::pair<std::uint32_t, std::uint32_t>> image_size_;
+  std::string payload_;
+};
+
+// Refuses a bag that gave no stereo pair, IMU sample or GPS fix, saying why.
+void RequireSomethingImported(const RosBagImportResult& result, const Topics& topics,
+                              const RosBagImportOptions& o, const std::string& name) {
+  if (result.pairs == 0 && result.imu_samples == 0 && result.gps_fixes == 0) {
+    throw Error(
+        ErrorCode::kInvalidArgument,
+        "ROS bag " + name + " holds nothing to import: no stereo pair" +
+            (o.left_topic.empty() ? " (no two image topics chosen; its image topics: " +
+                                        List(TopicsOfType(topics, kImageType)) + ")"
+                                  : " (" + std::to_string(result.unmatched_left) + " left and " +
+                                        std::to_string(result.unmatched_right) +
+                                        " right frames, none within the tolerance)") +
+            ", no " + std::string(kImuType) + " and no " + std::string(kNavSatFixType) +
+            " messages");
+  }
+}
+
+// The stereo calibration from the cameras' camera_info, written beside the stereo log; else
+// the note of why there is none. REQUIRES: result.pairs > 0 (so the image size is known).
+void StoreCalibration(const std::optional<RosCameraInfo>& left_info,
+                      const std::optional<RosCameraInfo>& right_info,
+                      const std::pair<std::uint32_t, std::uint32_t>& image_size,
+                      const RosBagImportOptions& o, const StagedRecordFile& stereo_log,
+                      internal::WrittenPaths& written, RosBagImportResult& result) {
+  if (!left_info || !right_info) {
+    result.calibration_note = "no calibration stored: the bag has no camera_info for the " +
+                              std::string(!left_info && !right_info ? "two cameras"
+                                          : !left_info              ? "left camera"
+                                                                    : "right camera") +
+                              " (--left-info-topic, --right-info-topic)";
+  } else if (const std::optional<internal::RosStereoCalibration> rig =
+                 internal::StereoCalibrationFromCameraInfo(
+                     *left_info, *right_info, static_cast<int>(image_size.first),
+                     static_cast<int>(image_size.second), o.stereo_sensor,
+                     result.calibration_note)) {
+    result.left_calibration = StereoCalibrationPath(stereo_log.final_path(), 0);
+    result.right_calibration = StereoCalibrationPath(stereo_log.final_path(), 1);
+    written.AddFile(result.left_calibration);
+    WriteEurocCamera(rig->left, result.left_calibration);
+    written.AddFile(result.right_calibration);
+    WriteEurocCamera(rig->right, result.right_calibration);
+    result.baseline_m = rig->baseline_m;
+  } else {
+    result.calibration_note = "no calibration stored: " + result.calibration_note;
+  }
+}
+
+// Publishes the logs that hold records and indexes them in the store, in one transaction.
+void PublishAndIndex(const std::vector<StagedRecordFile*>& all_logs, GraphStore& store,
+                     const fs::path& root, const std::string& platform,
+                     RosBagImportResult& result) {
+  std::vector<StagedRecordFile*> logs;
+  for (StagedRecordFile* log : all_logs) {
+    if (log->records() == 0) continue;
+    log->Publish();
+    logs.push_back(log);
+    result.record_files.push_back(log->final_path());
+  }
+  GraphStore::Transaction txn = store.Begin();
+  for (const StagedRecordFile* log : logs) {
+    IngestResult one =
+        IngestRecordFile(store.sensors(), root, log->final_path(), platform, log->sensor());
+    result.index.files += one.files;
+    result.index.records += one.records;
+    result.index.inserted += one.inserted;
+    for (RecordProblem& p : one.problems) result.index.problems.push_back(std::move(p));
+  }
+  txn.Commit();
+}
+
+}  // namespace
+
+RosBagImportResult ImportRosBag(
+    const fs::path& bag, GraphStore& store, const fs::path& root,
+    const RosBagImportOptions& options,
+    const std::function<void(std::uint64_t done, std::uint64_t total)>& progress) {
+  CheckImportOptions(options);
+  RosBagReader reader(bag);
+  const std::string name = bag.string();
+  Topics topics = ReadTopics(reader, name);
   RosBagImportOptions o = options;
   AssignRoles(topics, o, name);
 
@@ -234,36 +364,13 @@ RosBagImportResult ImportRosBag(
   StagedRecordFile imu_log(root, o.platform, o.imu_sensor, written);
   StagedRecordFile gps_log(root, o.platform, o.gps_sensor, written);
 
-  const std::string pair_type = v1::StereoImagePair::descriptor()->full_name();
-  v1::StereoImagePair pair;
-  pair.set_left_camera(o.stereo_sensor + "/cam0");
-  pair.set_right_camera(o.stereo_sensor + "/cam1");
-  pair.set_encoding("png");
-  std::optional<std::pair<std::uint32_t, std::uint32_t>> image_size;
-  std::string payload;
-  internal::StereoStampPairing pairing(o.pair_tolerance_ns, [&](StereoFrame& left,
-                                                                StereoFrame& right) {
-    const auto size = std::pair{left.width_px, left.height_px};
-    if (std::pair{right.width_px, right.height_px} != size || (image_size && *image_size != size)) {
-      const auto [w, h] = image_size.value_or(size);
-      throw Error(ErrorCode::kInvalidArgument,
-                  "ROS bag " + name + ": the stereo pair stamped " + std::to_string(left.stamp_ns) +
-                      " ns" + " has a " + std::to_string(left.width_px) + "x" +
-                      std::to_string(left.height_px) + " left and a " +
-                      std::to_string(right.width_px) + "x" + std::to_string(right.height_px) +
-                      " right image where the pairs before are " + std::to_string(w) + "x" +
-                      std::to_string(h) + "; a stereo log holds one image size");
-    }
-    image_size = size;
-    pair.set_stamp_ns(left.stamp_ns);
-    pair.set_width_px(left.width_px);
-    pair.set_height_px(left.height_px);
-    pair.set_left_image(std::move(left.png));
-    pair.set_right_image(std::move(right.png));
-    pair.SerializeToString(&payload);
-    stereo_log.Append(left.stamp_ns, pair_type, payload);
-  });
+  StereoPairWriter stereo_writer(name, o.stereo_sensor, stereo_log);
+  internal::StereoStampPairing pairing(o.pair_tolerance_ns,
+                                       [&stereo_writer](StereoFrame& left, StereoFrame& right) {
+                                         stereo_writer.Write(left, right);
+                                       });
   std::optional<RosCameraInfo> left_info, right_info;
+  std::string payload;
   const RosBagMessage* message = nullptr;  // the one being imported
   // A decoded message as a record of `log`, converted by `to_record`.
   const auto append = [&](const auto& decoded, auto to_record, StagedRecordFile& log) {
@@ -324,60 +431,12 @@ RosBagImportResult ImportRosBag(
   for (const auto& [topic, t] : topics) {
     result.topics.push_back(RosBagTopicUse{topic, t.type, t.messages, RoleName(t.role)});
   }
-  if (result.pairs == 0 && result.imu_samples == 0 && result.gps_fixes == 0) {
-    throw Error(
-        ErrorCode::kInvalidArgument,
-        "ROS bag " + name + " holds nothing to import: no stereo pair" +
-            (o.left_topic.empty() ? " (no two image topics chosen; its image topics: " +
-                                        List(TopicsOfType(topics, kImageType)) + ")"
-                                  : " (" + std::to_string(result.unmatched_left) + " left and " +
-                                        std::to_string(result.unmatched_right) +
-                                        " right frames, none within the tolerance)") +
-            ", no " + std::string(kImuType) + " and no " + std::string(kNavSatFixType) +
-            " messages");
-  }
-
+  RequireSomethingImported(result, topics, o, name);
   if (result.pairs > 0) {
-    if (!left_info || !right_info) {
-      result.calibration_note = "no calibration stored: the bag has no camera_info for the " +
-                                std::string(!left_info && !right_info ? "two cameras"
-                                            : !left_info              ? "left camera"
-                                                                      : "right camera") +
-                                " (--left-info-topic, --right-info-topic)";
-    } else if (const std::optional<internal::RosStereoCalibration> rig =
-                   internal::StereoCalibrationFromCameraInfo(
-                       *left_info, *right_info, static_cast<int>(image_size->first),
-                       static_cast<int>(image_size->second), o.stereo_sensor,
-                       result.calibration_note)) {
-      result.left_calibration = StereoCalibrationPath(stereo_log.final_path(), 0);
-      result.right_calibration = StereoCalibrationPath(stereo_log.final_path(), 1);
-      written.AddFile(result.left_calibration);
-      WriteEurocCamera(rig->left, result.left_calibration);
-      written.AddFile(result.right_calibration);
-      WriteEurocCamera(rig->right, result.right_calibration);
-      result.baseline_m = rig->baseline_m;
-    } else {
-      result.calibration_note = "no calibration stored: " + result.calibration_note;
-    }
+    StoreCalibration(left_info, right_info, *stereo_writer.image_size(), o, stereo_log, written,
+                     result);
   }
-
-  std::vector<StagedRecordFile*> logs;
-  for (StagedRecordFile* log : {&stereo_log, &imu_log, &gps_log}) {
-    if (log->records() == 0) continue;
-    log->Publish();
-    logs.push_back(log);
-    result.record_files.push_back(log->final_path());
-  }
-  GraphStore::Transaction txn = store.Begin();
-  for (const StagedRecordFile* log : logs) {
-    IngestResult one =
-        IngestRecordFile(store.sensors(), root, log->final_path(), o.platform, log->sensor());
-    result.index.files += one.files;
-    result.index.records += one.records;
-    result.index.inserted += one.inserted;
-    for (RecordProblem& p : one.problems) result.index.problems.push_back(std::move(p));
-  }
-  txn.Commit();
+  PublishAndIndex({&stereo_log, &imu_log, &gps_log}, store, root, o.platform, result);
   written.Keep();
   return result;
 }

@@ -1,15 +1,13 @@
 // Staged files under a record root (written_paths.h).
 #include "written_paths.h"
 
-#include <fcntl.h>
 #include <unistd.h>
 
-#include <cerrno>
-#include <cstring>
 #include <system_error>
 #include <utility>
 
 #include "fleetmap/core/error.h"
+#include "fleetmap/core/staged_file.h"
 #include "fleetmap/records/record_layout.h"
 
 namespace fleetmap::internal {
@@ -43,17 +41,6 @@ void WrittenPaths::CreateDirectories(const fs::path& dir) {
 void WrittenPaths::Renamed(const fs::path& from, const fs::path& to) {
   for (fs::path& f : files_) {
     if (f == from) f = to;
-  }
-}
-
-void SyncDirectory(const fs::path& dir) {
-  const int fd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-  const bool failed = fd < 0 || ::fsync(fd) != 0;
-  const int saved_errno = errno;
-  if (fd >= 0) ::close(fd);
-  if (failed) {
-    throw Error(ErrorCode::kBackend,
-                "cannot sync directory " + dir.string() + ": " + std::strerror(saved_errno));
   }
 }
 
@@ -104,7 +91,7 @@ void StagedRecordFile::Publish() {
                                          final_.string() + ": " + ec.message());
   }
   written_.Renamed(partial_, final_);
-  SyncDirectory(final_.parent_path());
+  SyncToDisk(final_.parent_path());  // the rename survives a power cut
 }
 
 }  // namespace fleetmap::internal

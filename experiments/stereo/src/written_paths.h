@@ -38,16 +38,15 @@ class WrittenPaths {
   bool kept_ = false;
 };
 
-// Makes a rename in `dir` durable: the new directory entry survives a power cut. Throws
-// Error(kBackend) naming the directory.
-void SyncDirectory(const std::filesystem::path& dir);
-
 // One record file of a platform's sensor under a root, written as a hidden partial file beside
 // its final place (".NAME.rec.partial-PID", never picked up as a log) and renamed into place by
-// Publish. The final name comes from the first record's stamp (RecordFilePath); a file of that
-// name already there is refused with Error(kConflict) at the first Append and again at Publish
-// (importing the same data twice would index it twice under another file). Everything it
-// writes is registered with `written`, which must outlive it.
+// Publish. It is not a core StagedFile (fleetmap/core/staged_file.h): RecordWriter writes the
+// records through a descriptor of its own, and the rename must refuse, not replace, a file
+// already at the final name; it shares the core's SyncToDisk. The final name comes from the
+// first record's stamp (RecordFilePath); a file of that name already there is refused with
+// Error(kConflict) at the first Append and again at Publish (importing the same data twice
+// would index it twice under another file). Everything it writes is registered with
+// `written`, which must outlive it.
 class StagedRecordFile {
  public:
   StagedRecordFile(std::filesystem::path root, std::string platform, std::string sensor,

@@ -49,9 +49,10 @@ void Emit(const Trie& node, std::optional<std::size_t> parent, std::vector<int>&
 }  // namespace
 
 DreamPlan PlanDreaming(int groups, std::optional<std::size_t> max_orders, std::uint64_t seed) {
-  if (groups < 1 || groups > 12) {
-    throw Error(ErrorCode::kInvalidArgument,
-                "dreaming: groups must be in [1, 12], not " + std::to_string(groups));
+  if (groups < 1 || groups > kMaxDreamGroups) {
+    throw Error(ErrorCode::kInvalidArgument, "dreaming: groups must be in [1, " +
+                                                 std::to_string(kMaxDreamGroups) + "], not " +
+                                                 std::to_string(groups));
   }
   if (max_orders && *max_orders < 1) {
     throw Error(ErrorCode::kInvalidArgument, "dreaming: max_orders must be >= 1");

@@ -4,16 +4,13 @@
 #include <string>
 #include <unordered_set>
 
+#include "fleetmap/core/clock.h"
 #include "fleetmap/core/error.h"
 
 namespace fleetmap {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-
-double SecondsSince(Clock::time_point start) {
-  return std::chrono::duration<double>(Clock::now() - start).count();
-}
 
 // One step's map: the mirror MERGE works on, and the same map as content.
 struct DreamMap {

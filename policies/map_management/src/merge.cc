@@ -8,6 +8,7 @@
 #include <unordered_map>
 #include <unordered_set>
 
+#include "fleetmap/core/clock.h"
 #include "fleetmap/core/error.h"
 #include "fleetmap/policies/segment_discovery.h"
 #include "fleetmap/policies/subset_contraction.h"
@@ -75,8 +76,7 @@ class Merger {
     std::sort(result_.stand_ins.begin(), result_.stand_ins.end(),
               [](const NodeStandIn& a, const NodeStandIn& b) { return a.node < b.node; });
     result_.report.stand_ins = result_.stand_ins.size();
-    result_.report.seconds =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    result_.report.seconds = SecondsSince(start);
     return std::move(result_);
   }
 

@@ -16,6 +16,7 @@
 #include <type_traits>
 #include <vector>
 
+#include "fleetmap/core/clock.h"
 #include "fleetmap/core/error.h"
 #include "sqlite/element_rows.h"
 #include "sqlite/statement.h"
@@ -659,11 +660,7 @@ class SqliteVersionStore final : public VersionStore {
   };
 
   // SQLite is a local file, so the host's clock is the database's.
-  static std::int64_t NowNs() {
-    return std::chrono::duration_cast<std::chrono::nanoseconds>(
-               std::chrono::system_clock::now().time_since_epoch())
-        .count();
-  }
+  static std::int64_t NowNs() { return WallClockNs(); }
 
   // Runs fn as one atomic unit: under a savepoint inside an open transaction (so a failure
   // undoes only fn's writes), else in a BEGIN IMMEDIATE transaction of its own.

@@ -18,7 +18,6 @@
 #include <functional>
 #include <optional>
 #include <string>
-#include <string_view>
 
 #include "fleetmap/server/dream_candidates.h"
 #include "fleetmap/server/repository.h"
@@ -26,7 +25,7 @@
 namespace fleetmap {
 
 struct NightlyDreamOptions {
-  std::size_t max_groups = 4;             // 4! = 24 orders
+  std::size_t max_groups = 4;             // 4! = 24 orders; at most kMaxDreamGroups
   std::optional<std::size_t> max_orders;  // none: every order of the groups
   double gap_m = 10.0;                    // seed 002 §VII-B: gaps beyond 10 m are failures
 };
@@ -39,10 +38,6 @@ struct NightlyDreamOutcome {
 
 // Called with (steps done, steps in all) as the dream's merges progress.
 using NightlyDreamProgress = std::function<void(std::size_t, std::size_t)>;
-
-// fleetmapd's `--dream-at HH:MM` (UTC, 00:00 to 23:59) as minutes after midnight. Throws
-// Error(kInvalidArgument) naming the text otherwise.
-int ParseDreamTime(std::string_view text);
 
 // A scheduled dream that did not run (issue 35 item 13 b): fleetmapd was down at its time, or
 // it was killed (or stopped) mid-dream.
@@ -62,7 +57,8 @@ std::optional<MissedDream> FindMissedDream(VersionStore& versions, std::int64_t 
 
 // Runs one nightly dream on `repository` (which it reads, and writes only the candidate, the
 // last dream's mark and when the dream started and finished to). Throws Error(kInvalidArgument) for
-// max_groups of 0 or more than 11, and as the store and Dream do.
+// max_groups of 0 or more than kMaxDreamGroups (policies/dream_plan.h), and as the store and
+// Dream do.
 NightlyDreamOutcome RunNightlyDream(Repository& repository, const NightlyDreamOptions& options,
                                     const NightlyDreamProgress& progress = {});
 

@@ -101,7 +101,7 @@ struct SyncServerOptions {
   // batches in memory per download at most).
   std::size_t download_batch_bytes = std::size_t{4} << 20;
   // The nightly dream (nightly_dream.h): run daily at this UTC minute of the day (0 to 1439;
-  // see ParseDreamTime in fleetmapd), on a store connection of its own. None: never.
+  // fleetmapd --dream-at, read by ParseTimeOfDay), on a store connection of its own. None: never.
   std::optional<int> dream_at_minute;
   NightlyDreamOptions dream;
 };

@@ -15,6 +15,12 @@
 
 namespace fleetmap {
 
+// The most groups a dream merges, wherever k comes from (`fleetmap dream --groups`, the
+// nightly dream's max_groups, the fleet experiment's folds): k! orders grow so fast that 12
+// (4.8e8 orders) is already far past what can be explored, and a held-out submission is not a
+// group (the nightly dream holds one out on top of its k).
+inline constexpr int kMaxDreamGroups = 12;
+
 struct DreamStep {
   std::optional<std::size_t> parent;  // the step whose map this one extends; none: a group
   int group = 0;                      // the group merged in (0 … k − 1)
@@ -31,8 +37,8 @@ struct DreamPlan {
 };
 
 // All k! orders when `max_orders` is none or at least k!; else `max_orders` distinct orders
-// drawn with `seed` (deterministic). Throws Error(kInvalidArgument) unless 1 <= k <= 12 and
-// max_orders >= 1.
+// drawn with `seed` (deterministic). Throws Error(kInvalidArgument) unless
+// 1 <= k <= kMaxDreamGroups and max_orders >= 1.
 DreamPlan PlanDreaming(int groups, std::optional<std::size_t> max_orders = std::nullopt,
                        std::uint64_t seed = 1);
 

@@ -74,8 +74,9 @@ DreamScorer HeldOutDreamScorer(std::span<const HeldOutOuting> held_out,
 // Called after each step with (steps done, steps in all).
 using DreamProgress = std::function<void(std::size_t, std::size_t)>;
 
-// Throws Error(kInvalidArgument) for fewer than 1 or more than 12 groups, a null vocabulary or
-// scorer, and whatever Merge throws for a group's content (naming the group).
+// Throws Error(kInvalidArgument) for fewer than 1 or more than kMaxDreamGroups (dream_plan.h)
+// groups, a null vocabulary or scorer, and whatever Merge throws for a group's content (naming
+// the group).
 DreamResult Dream(std::span<const GraphBatch> groups, const GraphBatch& base,
                   std::shared_ptr<const AppearanceVocabulary> vocabulary, const DreamScorer& scorer,
                   const DreamOptions& options = {}, const DreamProgress& progress = {});
