@@ -640,14 +640,7 @@ class SyncRun {
                       std::to_string(end.chunk_count()) + ", " + std::to_string(end.total_bytes()) +
                       " bytes) and digest; nothing installed");
     }
-    v1::SyncFrame bye;
-    bye.mutable_bye();
-    try {
-      client.Send(bye);
-    } catch (const SyncLinkError&) {
-      // The download is whole; a server that closed first loses nothing.
-    }
-    client.Close();
+    SayBye(client);  // the download is whole
 
     result_.downloaded_nodes = nodes;
     result_.downloaded_edges = edges;

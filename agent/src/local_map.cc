@@ -16,6 +16,7 @@
 #include "fleetmap/core/error.h"
 #include "fleetmap/core/staged_file.h"
 #include "fleetmap/store/graph_store.h"
+#include "sorted_by_id.h"
 #include "sync_state_file.h"
 
 namespace fleetmap {
@@ -25,6 +26,7 @@ namespace {
 namespace fs = std::filesystem;
 using agent_internal::BackgroundFlusher;
 using agent_internal::ReadSyncState;
+using agent_internal::SortById;
 using agent_internal::SyncStateToJson;
 using agent_internal::WriteFileAtomically;
 
@@ -60,15 +62,6 @@ void Rename(const fs::path& from, const fs::path& to) {
     throw Error(ErrorCode::kBackend, "cannot rename " + from.string() + " to " + to.string() +
                                          ": " + std::strerror(errno));
   }
-}
-
-template <typename Element>
-void SortById(std::vector<Element>& elements) {
-  std::sort(elements.begin(), elements.end(),
-            [](const Element& a, const Element& b) { return a.id < b.id; });
-  elements.erase(std::unique(elements.begin(), elements.end(),
-                             [](const Element& a, const Element& b) { return a.id == b.id; }),
-                 elements.end());
 }
 
 void SortById(GraphBatch& batch) {

@@ -12,6 +12,7 @@
 #include "fleetmap/core/proto_convert.h"
 #include "fleetmap/map.pb.h"
 #include "fleetmap/wire/sync_frame.h"
+#include "sorted_by_id.h"
 
 namespace fleetmap::agent_internal {
 
@@ -88,15 +89,6 @@ struct ChunkTally {
     submission.digest = digest.value();
   }
 };
-
-template <typename Element>
-void SortById(std::vector<Element>& elements) {
-  std::sort(elements.begin(), elements.end(),
-            [](const Element& a, const Element& b) { return a.id < b.id; });
-  elements.erase(std::unique(elements.begin(), elements.end(),
-                             [](const Element& a, const Element& b) { return a.id == b.id; }),
-                 elements.end());
-}
 
 // Calls `fn` with each node of `ids` (ordered by UUID), landmarks included, read kNodeBatch at
 // a time. Throws Error(kNotFound) naming a node map.db does not hold.
