@@ -28,7 +28,7 @@
 #include "fleetmap/core/chunk_memory.h"
 #include "fleetmap/core/clock.h"
 #include "fleetmap/core/error.h"
-#include "fleetmap/policies/download_policy.h"
+#include "fleetmap/map_management/download_policy.h"
 #include "fleetmap/store/graph_store.h"
 #include "fleetmap/store/sqlite_process_setup.h"
 #include "fleetmap/wire/secret_file.h"

@@ -6,6 +6,7 @@
 namespace fleetmap::cli {
 
 void AddDemoCommand(CLI::App& app);
+// `fleetmap bench graph|index|scale` (bench_commands.cc; the workloads are experiments/bench).
 void AddBenchCommand(CLI::App& app);
 void AddExperimentCommand(CLI::App& app);
 // `fleetmap experiment real`: real stereo images through the EBN core (real_experiment_command.cc);
@@ -39,12 +40,6 @@ void AddRecordsIndexCommands(CLI::App& records);
 void AddRecordsImportBagCommand(CLI::App& records);
 // `fleetmap query datum|nearest|join|batch-join`: seed 000 Eqs. 1-2 (query_command.cc).
 void AddQueryCommand(CLI::App& app);
-// `fleetmap bench index`: seed 000 Table 1 (bench_index_command.cc). Registers after
-// AddBenchCommand.
-void AddBenchIndexCommand(CLI::App& app);
-// `fleetmap bench scale`: merge, download and store growth with the map (issue 21;
-// bench_scale_command.cc). Registers after AddBenchCommand.
-void AddBenchScaleCommand(CLI::App& app);
 // `fleetmap annotate bbox|rm` and `fleetmap query annotated`: annotations on raw sensor data
 // (annotation_commands.cc). Shares `query` with the sensor-index queries.
 void AddAnnotationCommands(CLI::App& app);

@@ -12,7 +12,7 @@
 #include "commands.h"
 #include "fleetmap/core/error.h"
 #include "fleetmap/core/uuid.h"
-#include "fleetmap/experiments/fleet_demo.h"
+#include "fleetmap/runners/fleet_demo.h"
 
 namespace fleetmap::cli {
 

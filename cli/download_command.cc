@@ -10,7 +10,7 @@
 #include "commands.h"
 #include "fleetmap/core/clock.h"
 #include "fleetmap/core/error.h"
-#include "fleetmap/policies/download_policy.h"
+#include "fleetmap/map_management/download_policy.h"
 #include "new_store.h"
 #include "repository_arguments.h"
 

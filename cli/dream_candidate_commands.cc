@@ -8,9 +8,9 @@
 #include "commands.h"
 #include "fleetmap/core/error.h"
 #include "fleetmap/core/printable_text.h"
-#include "fleetmap/policies/dream_plan.h"
-#include "fleetmap/server/dream_candidates.h"
-#include "fleetmap/server/nightly_dream.h"
+#include "fleetmap/map_management/dream_plan.h"
+#include "fleetmap/repository/dream_candidates.h"
+#include "fleetmap/repository/nightly_dream.h"
 #include "progress_bar.h"
 #include "repository_arguments.h"
 

@@ -11,9 +11,9 @@
 
 #include "commands.h"
 #include "fleetmap/core/error.h"
-#include "fleetmap/policies/dream_plan.h"
-#include "fleetmap/policies/dreaming.h"
-#include "fleetmap/policies/held_out_replay.h"
+#include "fleetmap/map_management/dream_plan.h"
+#include "fleetmap/map_management/dreaming.h"
+#include "fleetmap/map_management/held_out_replay.h"
 #include "new_store.h"
 #include "progress_bar.h"
 #include "repository_arguments.h"

@@ -24,8 +24,6 @@ int main(int argc, char** argv) {
   fleetmap::cli::AddRobotCommands(app);
   fleetmap::cli::AddRecordsCommands(app);
   fleetmap::cli::AddQueryCommand(app);
-  fleetmap::cli::AddBenchIndexCommand(app);
-  fleetmap::cli::AddBenchScaleCommand(app);
   fleetmap::cli::AddAnnotationCommands(app);
   fleetmap::cli::AddImagesCommand(app);
   fleetmap::cli::AddStoreInspectionCommands(app);

@@ -9,7 +9,7 @@
 
 #include "commands.h"
 #include "fleetmap/core/error.h"
-#include "fleetmap/experiments/real_experiment.h"
+#include "fleetmap/runners/real_experiment.h"
 #include "progress_bar.h"
 
 namespace fleetmap::cli {

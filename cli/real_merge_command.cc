@@ -10,7 +10,7 @@
 
 #include "commands.h"
 #include "fleetmap/core/error.h"
-#include "fleetmap/experiments/real_merge_experiment.h"
+#include "fleetmap/runners/real_merge_experiment.h"
 #include "progress_bar.h"
 
 namespace fleetmap::cli {

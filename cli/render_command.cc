@@ -14,7 +14,7 @@
 #include "fleetmap/interchange/map_picture.h"
 #include "fleetmap/interchange/svg_canvas.h"
 #include "fleetmap/raster/png_canvas.h"
-#include "fleetmap/server/revision_picture.h"
+#include "fleetmap/repository/revision_picture.h"
 #include "repository_arguments.h"
 #include "staged_output_file.h"
 

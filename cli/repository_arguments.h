@@ -13,7 +13,7 @@
 
 #include "fleetmap/core/error.h"
 #include "fleetmap/core/uuid.h"
-#include "fleetmap/server/repository.h"
+#include "fleetmap/repository/repository.h"
 #include "fleetmap/store/version_store.h"
 
 namespace fleetmap::cli {

@@ -11,7 +11,7 @@
 #include "commands.h"
 #include "fleetmap/core/error.h"
 #include "fleetmap/core/printable_text.h"
-#include "fleetmap/server/dream_candidates.h"
+#include "fleetmap/repository/dream_candidates.h"
 #include "new_store.h"
 #include "repository_arguments.h"
 

@@ -9,7 +9,7 @@
 #include "commands.h"
 #include "fleetmap/core/clock.h"
 #include "fleetmap/core/printable_text.h"
-#include "fleetmap/server/robot_registry.h"
+#include "fleetmap/repository/robot_registry.h"
 #include "repository_arguments.h"
 
 namespace fleetmap::cli {

@@ -22,9 +22,9 @@
 #include "fleetmap/core/chunk_memory.h"
 #include "fleetmap/core/clock.h"
 #include "fleetmap/core/error.h"
-#include "fleetmap/policies/dream_plan.h"
-#include "fleetmap/server/status_http.h"
-#include "fleetmap/server/sync_server.h"
+#include "fleetmap/daemon/status_http.h"
+#include "fleetmap/daemon/sync_server.h"
+#include "fleetmap/map_management/dream_plan.h"
 #include "fleetmap/store/sqlite_process_setup.h"
 
 namespace {

@@ -12,8 +12,8 @@
 #include <random>
 #include <vector>
 
-#include "fleetmap/policies/download_policy.h"
-#include "fleetmap/policies/integral_selection.h"
+#include "fleetmap/map_management/download_policy.h"
+#include "fleetmap/map_management/integral_selection.h"
 
 namespace fleetmap {
 namespace {

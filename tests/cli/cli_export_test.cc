@@ -11,7 +11,7 @@
 #include <sstream>
 #include <tuple>
 
-#include "fleetmap/server/repository.h"
+#include "fleetmap/repository/repository.h"
 #include "fleetmap/store/graph_store.h"
 #include "fleetmap_cli_run.h"
 #include "g2o_reader.h"

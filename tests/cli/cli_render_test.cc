@@ -16,8 +16,8 @@
 
 #include "fleetmap/interchange/graph_layout.h"
 #include "fleetmap/interchange/map_picture.h"
-#include "fleetmap/server/repository.h"
-#include "fleetmap/server/revision_picture.h"
+#include "fleetmap/repository/repository.h"
+#include "fleetmap/repository/revision_picture.h"
 #include "fleetmap/store/graph_store.h"
 #include "fleetmap_cli_run.h"
 #include "scratch_dir.h"

@@ -12,9 +12,9 @@
 #include <sstream>
 
 #include "corridor_robot_map.h"
-#include "fleetmap/policies/held_out_replay.h"
+#include "fleetmap/map_management/held_out_replay.h"
 #include "fleetmap/ranking/distance_ranking.h"
-#include "fleetmap/server/repository.h"
+#include "fleetmap/repository/repository.h"
 #include "fleetmap/store/graph_store.h"
 #include "fleetmap_cli_run.h"
 #include "scratch_dir.h"

@@ -23,8 +23,8 @@
 
 #include "fleet_processes.h"
 #include "fleetmap/core/error.h"
-#include "fleetmap/server/nightly_dream.h"
-#include "fleetmap/server/repository.h"
+#include "fleetmap/repository/nightly_dream.h"
+#include "fleetmap/repository/repository.h"
 #include "fleetmap/store/graph_store.h"
 #include "fleetmap/store/version_store.h"
 #include "scratch_dir.h"

@@ -14,8 +14,8 @@
 
 #include "fleet_processes.h"
 #include "fleetmap/core/graph.h"
-#include "fleetmap/policies/subset_contraction.h"
-#include "fleetmap/server/repository.h"
+#include "fleetmap/map_management/subset_contraction.h"
+#include "fleetmap/repository/repository.h"
 #include "fleetmap/store/graph_store.h"
 #include "fleetmap/store/version_store.h"
 #include "random_robot_map.h"

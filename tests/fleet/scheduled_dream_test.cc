@@ -17,8 +17,8 @@
 
 #include "corridor_robot_map.h"
 #include "fleet_processes.h"
-#include "fleetmap/server/dream_candidates.h"
-#include "fleetmap/server/repository.h"
+#include "fleetmap/repository/dream_candidates.h"
+#include "fleetmap/repository/repository.h"
 #include "fleetmap_cli_run.h"
 #include "scratch_dir.h"
 #include "store_backends.h"

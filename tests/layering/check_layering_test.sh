@@ -79,3 +79,13 @@ for i in $(seq 1 12); do printf '#pragma once\n' >"$work/tree/core/include/fleet
 expect_fail "a public folder of 13 headers" "13 public headers (at most 12)"
 
 echo "check-layering: every rule refuses the tree that breaks it"
+
+make_tree
+mkdir -p "$work/tree/ebn/include/fleetmap/other"
+printf '#pragma once\n' >"$work/tree/ebn/include/fleetmap/other/thing.h"
+expect_fail "a public header under another library's prefix" "a public header of fleetmap_ebn under fleetmap/other/, not fleetmap/ebn/"
+
+make_tree
+mv "$work/tree/store" "$work/tree/storage"
+sed -i "s#/tree/store|#/tree/storage|#" "$work/layering.txt"
+expect_fail "a library in a folder not named for it" "fleetmap_store lives in a folder named storage, not store"

@@ -15,8 +15,8 @@
 #include <vector>
 
 #include "fleetmap/core/error.h"
-#include "fleetmap/policies/download_policy.h"
-#include "fleetmap/policies/subset_contraction.h"
+#include "fleetmap/map_management/download_policy.h"
+#include "fleetmap/map_management/subset_contraction.h"
 #include "numbered_uuid.h"
 
 namespace fleetmap {

@@ -1,5 +1,5 @@
 // Dreaming's plan of merge orders (seed 004 §VI-E) and Eq. 8.
-#include "fleetmap/policies/dream_plan.h"
+#include "fleetmap/map_management/dream_plan.h"
 
 #include <gtest/gtest.h>
 

@@ -1,6 +1,6 @@
 // Dreaming (seed 004 §VI-E): groups merged in every order as a prefix tree of real merges, each
 // candidate map scored, the best kept.
-#include "fleetmap/policies/dreaming.h"
+#include "fleetmap/map_management/dreaming.h"
 
 #include <gtest/gtest.h>
 

@@ -1,6 +1,6 @@
 // DOWNLOAD's map integrity: completed selections have no dangling edges and no more metric
 // components than the map parts they came from.
-#include "fleetmap/policies/integral_selection.h"
+#include "fleetmap/map_management/integral_selection.h"
 
 #include <gtest/gtest.h>
 

@@ -1,5 +1,5 @@
 // MERGE (seed 004 §V-A) on the two-condition corridor, with real SQLite stores on both sides.
-#include "fleetmap/policies/merge.h"
+#include "fleetmap/map_management/merge.h"
 
 #include <gtest/gtest.h>
 

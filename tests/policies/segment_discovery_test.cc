@@ -1,5 +1,5 @@
 // MERGE's segment discovery (seed 004 Algorithm 1): every branch, and chains fed in any order.
-#include "fleetmap/policies/segment_discovery.h"
+#include "fleetmap/map_management/segment_discovery.h"
 
 #include <gtest/gtest.h>
 

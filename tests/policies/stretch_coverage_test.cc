@@ -1,6 +1,6 @@
 // DOWNLOAD's coverage guarantee (issue 19, stretch_coverage.h) on maps built by hand along a
 // straight 30 m route: stretches of 10 m, experiences as chains of nodes every 2 m.
-#include "fleetmap/policies/stretch_coverage.h"
+#include "fleetmap/map_management/stretch_coverage.h"
 
 #include <gtest/gtest.h>
 
@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "fleetmap/core/error.h"
-#include "fleetmap/policies/download_policy.h"
+#include "fleetmap/map_management/download_policy.h"
 #include "numbered_uuid.h"
 
 namespace fleetmap {

@@ -1,7 +1,7 @@
 // Path memory that survives a download (subset_contraction.h, issue 34): contracted paths keep
 // every sent node on exactly its paths, so Γ(path) (seed 002 Eqs. 5-9) reads the same counts
 // over a download as over the whole map restricted to the nodes sent.
-#include "fleetmap/policies/subset_contraction.h"
+#include "fleetmap/map_management/subset_contraction.h"
 
 #include <gtest/gtest.h>
 
@@ -11,7 +11,7 @@
 #include <set>
 #include <vector>
 
-#include "fleetmap/policies/download_policy.h"
+#include "fleetmap/map_management/download_policy.h"
 #include "fleetmap/ranking/path_memory.h"
 #include "fleetmap/ranking/path_ranking.h"
 #include "fleetmap/ranking/path_weights.h"

@@ -18,7 +18,7 @@
 
 #include "fleetmap/core/child_process.h"
 #include "fleetmap/core/graph.h"
-#include "fleetmap/server/robot_registry.h"
+#include "fleetmap/repository/robot_registry.h"
 #include "fleetmap/store/graph_store.h"
 #include "fleetmapd_process.h"
 #include "random_robot_map.h"

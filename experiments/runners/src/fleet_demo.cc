@@ -1,4 +1,4 @@
-#include "fleetmap/experiments/fleet_demo.h"
+#include "fleetmap/runners/fleet_demo.h"
 
 #include <chrono>
 #include <cmath>
@@ -14,8 +14,8 @@
 #include "fleetmap/core/clock.h"
 #include "fleetmap/core/error.h"
 #include "fleetmap/ebn/experience_builder.h"
-#include "fleetmap/experiments/gnuplot.h"
 #include "fleetmap/ranking/distance_ranking.h"
+#include "fleetmap/runners/gnuplot.h"
 #include "fleetmap/store/graph_store.h"
 #include "fleetmap/store/version_store.h"
 #include "fleetmap/world/world.h"

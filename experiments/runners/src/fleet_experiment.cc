@@ -1,4 +1,4 @@
-#include "fleetmap/experiments/fleet_experiment.h"
+#include "fleetmap/runners/fleet_experiment.h"
 
 #include <algorithm>
 #include <atomic>
@@ -18,14 +18,14 @@
 #include "fleetmap/core/clock.h"
 #include "fleetmap/core/error.h"
 #include "fleetmap/ebn/localiser.h"
-#include "fleetmap/experiments/task_queue.h"
-#include "fleetmap/policies/download_policy.h"
-#include "fleetmap/policies/dreaming.h"
+#include "fleetmap/map_management/download_policy.h"
+#include "fleetmap/map_management/dreaming.h"
 #include "fleetmap/ranking/distance_ranking.h"
 #include "fleetmap/ranking/path_memory.h"
 #include "fleetmap/ranking/path_ranking.h"
 #include "fleetmap/ranking/time_of_day.h"
-#include "fleetmap/server/repository.h"
+#include "fleetmap/repository/repository.h"
+#include "fleetmap/runners/task_queue.h"
 #include "fleetmap/store/graph_store.h"
 #include "fleetmap/world/world.h"
 #include "fleetmap/world/world_runs.h"

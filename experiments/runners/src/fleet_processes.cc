@@ -7,7 +7,7 @@
 
 #include "fleetmap/core/clock.h"
 #include "fleetmap/core/error.h"
-#include "fleetmap/server/robot_registry.h"
+#include "fleetmap/repository/robot_registry.h"
 #include "fleetmap/store/graph_store.h"
 
 namespace fleetmap {

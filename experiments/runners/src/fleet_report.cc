@@ -1,4 +1,4 @@
-#include "fleetmap/experiments/fleet_report.h"
+#include "fleetmap/runners/fleet_report.h"
 
 #include <algorithm>
 #include <cmath>
@@ -9,7 +9,7 @@
 #include <utility>
 
 #include "fleetmap/core/error.h"
-#include "fleetmap/experiments/gnuplot.h"
+#include "fleetmap/runners/gnuplot.h"
 #include "report_text.h"
 
 namespace fleetmap {

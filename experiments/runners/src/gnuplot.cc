@@ -1,4 +1,4 @@
-#include "fleetmap/experiments/gnuplot.h"
+#include "fleetmap/runners/gnuplot.h"
 
 #include <cstdlib>
 #include <fstream>

@@ -1,4 +1,4 @@
-#include "fleetmap/experiments/lifelong_experiment.h"
+#include "fleetmap/runners/lifelong_experiment.h"
 
 #include <atomic>
 #include <chrono>
@@ -7,11 +7,11 @@
 
 #include "fleetmap/core/clock.h"
 #include "fleetmap/core/error.h"
-#include "fleetmap/experiments/task_queue.h"
-#include "fleetmap/policies/download_policy.h"
+#include "fleetmap/map_management/download_policy.h"
 #include "fleetmap/ranking/distance_ranking.h"
 #include "fleetmap/ranking/path_ranking.h"
-#include "fleetmap/server/repository.h"
+#include "fleetmap/repository/repository.h"
+#include "fleetmap/runners/task_queue.h"
 #include "fleetmap/store/graph_store.h"
 #include "fleetmap/world/world.h"
 #include "fleetmap/world/world_runs.h"

@@ -1,11 +1,11 @@
-#include "fleetmap/experiments/lifelong_report.h"
+#include "fleetmap/runners/lifelong_report.h"
 
 #include <algorithm>
 #include <numeric>
 #include <sstream>
 
 #include "fleetmap/core/error.h"
-#include "fleetmap/experiments/gnuplot.h"
+#include "fleetmap/runners/gnuplot.h"
 #include "report_text.h"
 
 namespace fleetmap {

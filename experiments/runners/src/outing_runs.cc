@@ -4,7 +4,7 @@
 
 #include <algorithm>
 
-#include "fleetmap/experiments/task_queue.h"
+#include "fleetmap/runners/task_queue.h"
 
 namespace fleetmap {
 

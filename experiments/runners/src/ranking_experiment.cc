@@ -1,4 +1,4 @@
-#include "fleetmap/experiments/ranking_experiment.h"
+#include "fleetmap/runners/ranking_experiment.h"
 
 #include <algorithm>
 #include <atomic>
@@ -7,10 +7,10 @@
 
 #include "fleetmap/core/clock.h"
 #include "fleetmap/core/error.h"
-#include "fleetmap/experiments/task_queue.h"
 #include "fleetmap/ranking/distance_ranking.h"
 #include "fleetmap/ranking/path_memory.h"
 #include "fleetmap/ranking/path_ranking.h"
+#include "fleetmap/runners/task_queue.h"
 #include "fleetmap/store/graph_store.h"
 #include "fleetmap/world/world.h"
 #include "fleetmap/world/world_runs.h"

@@ -1,4 +1,4 @@
-#include "fleetmap/experiments/ranking_report.h"
+#include "fleetmap/runners/ranking_report.h"
 
 #include <algorithm>
 #include <cmath>
@@ -11,7 +11,7 @@
 #include <utility>
 
 #include "fleetmap/core/error.h"
-#include "fleetmap/experiments/gnuplot.h"
+#include "fleetmap/runners/gnuplot.h"
 #include "report_text.h"
 
 namespace fleetmap {

@@ -1,5 +1,5 @@
 // The EBN core on a real stereo sequence (real_experiment.h).
-#include "fleetmap/experiments/real_experiment.h"
+#include "fleetmap/runners/real_experiment.h"
 
 #include <algorithm>
 #include <chrono>
@@ -15,8 +15,8 @@
 #include "fleetmap/core/error.h"
 #include "fleetmap/ebn/appearance_index.h"
 #include "fleetmap/ebn/experience_map.h"
-#include "fleetmap/experiments/gnuplot.h"
 #include "fleetmap/ranking/distance_ranking.h"
+#include "fleetmap/runners/gnuplot.h"
 #include "fleetmap/store/graph_store.h"
 #include "report_text.h"
 

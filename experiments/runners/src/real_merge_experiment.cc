@@ -1,5 +1,5 @@
 // Two robots' maps of one real drive, merged through fleetmapd (real_merge_experiment.h).
-#include "fleetmap/experiments/real_merge_experiment.h"
+#include "fleetmap/runners/real_merge_experiment.h"
 
 #include <algorithm>
 #include <chrono>
@@ -16,8 +16,8 @@
 #include "fleetmap/core/error.h"
 #include "fleetmap/ebn/experience_map.h"
 #include "fleetmap/ebn/localiser.h"
-#include "fleetmap/experiments/task_queue.h"
 #include "fleetmap/ranking/distance_ranking.h"
+#include "fleetmap/runners/task_queue.h"
 #include "fleetmap/stereo/stereo_sequence.h"
 #include "fleetmap/store/graph_store.h"
 #include "fleetmap/store/version_store.h"

@@ -1,4 +1,4 @@
-#include "fleetmap/experiments/task_queue.h"
+#include "fleetmap/runners/task_queue.h"
 
 #include <thread>
 #include <vector>

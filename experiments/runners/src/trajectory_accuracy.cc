@@ -1,5 +1,5 @@
 // Drift and absolute trajectory error against ground truth (trajectory_accuracy.h).
-#include "fleetmap/experiments/trajectory_accuracy.h"
+#include "fleetmap/runners/trajectory_accuracy.h"
 
 #include <Eigen/Geometry>
 #include <algorithm>

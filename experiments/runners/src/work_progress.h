@@ -7,7 +7,7 @@
 #include <cstdint>
 #include <mutex>
 
-#include "fleetmap/experiments/ranking_experiment.h"
+#include "fleetmap/runners/ranking_experiment.h"
 
 namespace fleetmap {
 

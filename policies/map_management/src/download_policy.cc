@@ -1,4 +1,4 @@
-#include "fleetmap/policies/download_policy.h"
+#include "fleetmap/map_management/download_policy.h"
 
 #include <algorithm>
 #include <cmath>
@@ -10,7 +10,7 @@
 
 #include "download_policy_budget.h"
 #include "fleetmap/core/error.h"
-#include "fleetmap/policies/subset_contraction.h"
+#include "fleetmap/map_management/subset_contraction.h"
 #include "fleetmap/ranking/path_memory.h"
 #include "fleetmap/ranking/path_weights.h"
 #include "fleetmap/ranking/time_of_day.h"

@@ -4,7 +4,7 @@
 #include <deque>
 #include <limits>
 
-#include "fleetmap/policies/integral_selection.h"
+#include "fleetmap/map_management/integral_selection.h"
 #include "fleetmap/ranking/time_of_day.h"
 
 namespace fleetmap::internal {

@@ -1,5 +1,5 @@
 // DOWNLOAD's byte budget (seed 004 §V-B; "budget" in download_policy.h), private to
-// fleetmap_policies: the fill order and an integral selection grown under the budget.
+// fleetmap_map_management: the fill order and an integral selection grown under the budget.
 //
 // Why the selection is grown rather than rebuilt: the budget must count the bridging nodes
 // (the robot receives them too), so every candidate is judged by the bytes of an integral map.
@@ -22,7 +22,7 @@
 #include <vector>
 
 #include "fleetmap/core/graph.h"
-#include "fleetmap/policies/integral_selection.h"
+#include "fleetmap/map_management/integral_selection.h"
 
 namespace fleetmap::internal {
 

@@ -1,4 +1,4 @@
-#include "fleetmap/policies/dream_plan.h"
+#include "fleetmap/map_management/dream_plan.h"
 
 #include <algorithm>
 #include <map>

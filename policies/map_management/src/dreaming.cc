@@ -1,4 +1,4 @@
-#include "fleetmap/policies/dreaming.h"
+#include "fleetmap/map_management/dreaming.h"
 
 #include <chrono>
 #include <string>

@@ -1,4 +1,4 @@
-#include "fleetmap/policies/held_out_replay.h"
+#include "fleetmap/map_management/held_out_replay.h"
 
 #include <algorithm>
 #include <map>

@@ -1,4 +1,4 @@
-#include "fleetmap/policies/integral_selection.h"
+#include "fleetmap/map_management/integral_selection.h"
 
 #include <algorithm>
 #include <deque>

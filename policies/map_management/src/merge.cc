@@ -1,4 +1,4 @@
-#include "fleetmap/policies/merge.h"
+#include "fleetmap/map_management/merge.h"
 
 #include <algorithm>
 #include <chrono>
@@ -10,8 +10,8 @@
 
 #include "fleetmap/core/clock.h"
 #include "fleetmap/core/error.h"
-#include "fleetmap/policies/segment_discovery.h"
-#include "fleetmap/policies/subset_contraction.h"
+#include "fleetmap/map_management/segment_discovery.h"
+#include "fleetmap/map_management/subset_contraction.h"
 #include "fleetmap/ranking/distance_ranking.h"
 
 namespace fleetmap {

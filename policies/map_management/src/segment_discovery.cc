@@ -1,4 +1,4 @@
-#include "fleetmap/policies/segment_discovery.h"
+#include "fleetmap/map_management/segment_discovery.h"
 
 #include <algorithm>
 

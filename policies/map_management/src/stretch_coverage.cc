@@ -1,4 +1,4 @@
-#include "fleetmap/policies/stretch_coverage.h"
+#include "fleetmap/map_management/stretch_coverage.h"
 
 #include <algorithm>
 #include <cmath>

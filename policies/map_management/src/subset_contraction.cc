@@ -1,4 +1,4 @@
-#include "fleetmap/policies/subset_contraction.h"
+#include "fleetmap/map_management/subset_contraction.h"
 
 #include <algorithm>
 #include <optional>

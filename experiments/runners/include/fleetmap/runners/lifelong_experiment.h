@@ -1,0 +1,87 @@
+// A map that stops growing (issue 34 item 3): a fleet's forays merged day after day on the
+// synthetic world, the way a depot runs for months.
+//
+// Each day, every foray of the day starts from the head as it was at the start of the day
+// (its robot docked and pulled a copy overnight), drives its outing with single-agent EBN onto
+// that copy (ranking by Γ(path) over the copy's path memory, as a fleet's robots do: seed 002
+// shows Γ(distance) degrading as a place's experiences multiply, which would make a robot build
+// experiences where its map already has one), and pushes what it built; the server merges the day's
+// submissions in the order the forays ended (seed 004 §V-A). After the day's merges the next
+// day's forays are held out: before they drive, each is localised, localise-only by the fleet's
+// localiser (Γ(path)), against the whole head (copy) and against the downloads it would take
+// for its own start time (seed 004 §V-B).
+//
+// Churchill and Newman found that the experiences a route needs tend to a constant as it is
+// driven again and again: per day this reports the nodes MERGE added and the size of the map,
+// so the growth curve shows whether ours do.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "fleetmap/ebn/experience_builder.h"
+#include "fleetmap/map_management/merge.h"
+#include "fleetmap/map_management/stretch_coverage.h"
+#include "fleetmap/runners/ranking_experiment.h"
+#include "fleetmap/world/world_config.h"
+
+namespace fleetmap {
+
+struct LifelongOptions {
+  WorldConfig world{};
+  int days = 30;           // days merged, >= 2; the day after the last is held out too
+  int forays_per_day = 3;  // >= 1
+  // Forays build with single-agent EBN at Np = build_cores, ranking by `build_policy`: "path"
+  // (Γ(path) over the copy's path memory and the foray's own steps, the fleet's localiser) or
+  // "distance" (Γ(distance), the paper's baseline). MERGE replays with the same options (its own
+  // Γ(distance)); held-out forays localise with Γ(path) at Np = test_cores, window T.
+  std::string build_policy = "path";
+  int build_cores = 4;
+  int test_cores = 4;
+  int test_window = 20;
+  BuilderOptions builder = RankingBuilderOptions();
+  MergeOptions merge = {};
+  // The downloads each held-out foray is also localised in, beside copy (download_policy.h
+  // names), with these parameters.
+  std::vector<std::string> policies = {"tod+cover", "tod+paths+cover"};
+  double tod_window_min = 180.0;
+  double paths_percent = 50.0;
+  double epoch_min = 60.0;
+  CoverageOptions coverage = {};
+  int threads = 2;                 // >= 1
+  std::filesystem::path work_dir;  // the repository goes here (created; removed by the caller)
+};
+
+// The next day's forays localised in one map, before they drive.
+struct LifelongHeldOut {
+  std::string map;          // "copy" or a policy name
+  double mean_nodes = 0.0;  // of the map or download, over the forays
+  std::int64_t frames = 0;
+  std::int64_t not_localised = 0;
+  std::int64_t beyond_10m = 0;  // frames with X > 10 m (seed 004 §VI-B)
+};
+
+struct LifelongDay {
+  int day = 0;  // 1-based: the first day merged is day 1
+  int forays = 0;
+  std::size_t nodes_built = 0;            // new nodes the day's forays pushed
+  std::size_t nodes_added = 0;            // of those, MERGE added
+  std::size_t map_nodes = 0;              // at the head after the day
+  std::int64_t map_bytes = 0;             // landmark bytes at the head
+  std::vector<LifelongHeldOut> next_day;  // copy first, then the policies in order
+};
+
+struct LifelongResult {
+  std::vector<LifelongDay> days;
+  std::int64_t frames_rendered = 0;
+  double seconds = 0.0;
+};
+
+// Throws Error(kInvalidArgument) for options out of range (and as the world and the
+// repository do).
+LifelongResult RunLifelongExperiment(const LifelongOptions& options,
+                                     const ProgressCallback& progress = {});
+
+}  // namespace fleetmap

@@ -1,0 +1,120 @@
+// A DOWNLOAD (seed 004 §V-B) as fleetmapd sends it (sync.proto DownloadHeader, DownloadChunk*,
+// DownloadEnd). The selection is made on the map without landmarks (a DownloadPlan: ids and
+// the small elements, a few bytes per node); the landmarks are then read, encoded and sent a
+// batch at a time (DownloadEncoder), so a download's memory is a couple of batches whatever
+// the map's size. Incremental (base_revision in the history): the chunks carry only what the
+// selection gained since the base, and the header lists what it lost.
+//
+// Protocol version 3 streams: the header goes first, the chunk count, bytes and digest last, in
+// DownloadEnd. Version 2 wants them in the header, so its sessions get the whole download
+// encoded first (EncodeDownload), as before streaming. From version 4 a download also carries
+// the map's path memory and metric neighbourhood contracted over the nodes it leaves out
+// (subset_contraction.h); versions 2 and 3 get the edges with both ends sent, as before.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "fleetmap/core/map_chunks.h"
+#include "fleetmap/map_management/download_policy.h"
+#include "fleetmap/repository/repository.h"
+#include "fleetmap/sync.pb.h"
+
+namespace fleetmap::daemon {
+
+// About this many bytes of chunks per batch: large enough that a store call and a socket write
+// per batch cost nothing next to the bytes, small enough that two of them in memory (one being
+// written, the next being read) are noise beside the server's footprint.
+inline constexpr std::size_t kDownloadBatchBytes = std::size_t{4} << 20;
+
+// What a download sends, chosen without reading a landmark (but see PlanDownload for a budget).
+// Immutable once made; shared by the sessions sending it.
+struct DownloadPlan {
+  v1::DownloadHeader header;  // version 3's: no chunk_count, total_bytes, digest
+  DownloadReport report;      // of the selection at the head; bytes counted as they are sent
+  std::vector<Path> paths;    // to send, by start then id
+  std::vector<Uuid> nodes;    // to send, by stamp then id (the order of VersionStore::NodesAt)
+  std::vector<Edge> edges;    // to send, by id
+  std::int64_t mean_node_bytes = 0;  // landmark bytes per node in the map, to size batches
+};
+
+// The policy a request names: ParseDownloadPolicy(policy), then its parameters where the
+// request sets them (> 0; the mission start always), the nodes to include; validated. Throws
+// Error(kInvalidArgument) naming what is wrong.
+DownloadPolicy PolicyOfRequest(const v1::DownloadRequest& request);
+
+// The plan of the download `request` asks for at revision `head` (the repository's head, read
+// by the caller) for a robot of `protocol_version`: Repository::SelectForDownload's selection,
+// made on bare nodes, contracted from version 4 on. A budget has
+// to weigh every node by its landmarks (SelectDownload reads a node's bytes off its blob), so
+// with "budget" the map's landmarks are read for the selection and dropped before it returns:
+// only that policy's memory still grows with the map. Throws as PolicyOfRequest and the store.
+std::shared_ptr<const DownloadPlan> PlanDownload(Repository& repository,
+                                                 const v1::DownloadRequest& request,
+                                                 RevisionNumber head,
+                                                 std::uint32_t protocol_version);
+
+// Encodes a plan into DownloadChunk frames a batch at a time: paths, nodes (their landmarks
+// read from the store per batch), edges, as EncodeMapChunks orders a map; an empty download
+// is one empty chunk. Chunks are numbered from 0 across batches and digested as they go.
+//
+// Threading: one thread at a time (a store worker; the session hands it from job to job).
+class DownloadEncoder {
+ public:
+  explicit DownloadEncoder(std::shared_ptr<const DownloadPlan> plan,
+                           std::size_t batch_bytes = kDownloadBatchBytes);
+
+  // The next batch of frames, each with its length prefix, about batch_bytes together; empty
+  // once every chunk is out (done()). Reads landmarks through `repository`. Throws as
+  // GraphStore::GetNodes (a node the plan names and the store no longer has: kNotFound).
+  std::vector<std::string> NextBatch(Repository& repository);
+  bool done() const { return done_; }
+
+  // What the chunks given so far add up to (version 3's DownloadEnd once done()).
+  v1::DownloadEnd End() const;
+  // Landmark bytes of the nodes encoded so far.
+  std::int64_t landmark_bytes() const { return landmark_bytes_; }
+  const DownloadPlan& plan() const { return *plan_; }
+  const std::shared_ptr<const DownloadPlan>& shared_plan() const { return plan_; }
+
+ private:
+  // Turns `map` into chunk frames appended to `frames` (its landmarks moved into them).
+  void Encode(GraphBatch map, std::vector<std::string>& frames);
+
+  std::shared_ptr<const DownloadPlan> plan_;
+  std::size_t batch_bytes_;
+  std::size_t nodes_per_batch_;
+  enum class Stage { kPaths, kNodes, kEdges, kDone } stage_ = Stage::kPaths;
+  std::size_t next_ = 0;  // next node or edge of the stage
+  bool done_ = false;
+  std::uint32_t chunks_ = 0;
+  std::uint64_t bytes_ = 0;
+  MapContentDigest digest_;
+  std::int64_t landmark_bytes_ = 0;
+};
+
+// A download encoded whole, each frame with its prefix: what a version 2 session sends, and
+// what the DownloadCache keeps of small downloads in either version.
+struct EncodedDownload {
+  std::uint32_t protocol_version = 0;
+  v1::DownloadHeader header;  // as sent (version 2: with chunk_count, total_bytes, digest)
+  v1::DownloadEnd end;        // the totals (sent empty in version 2)
+  DownloadReport report;
+  std::vector<std::string> frames;  // header, chunks, end
+  std::uint64_t frame_bytes = 0;    // sum of frames' sizes
+};
+
+// The whole download in `protocol_version`'s frames (2 or 3). Memory: all of it.
+std::shared_ptr<const EncodedDownload> EncodeDownload(Repository& repository,
+                                                      const v1::DownloadRequest& request,
+                                                      RevisionNumber head,
+                                                      std::uint32_t protocol_version);
+
+// The framed DownloadHeader and DownloadEnd of a plan in version 3.
+std::string HeaderFrame(const v1::DownloadHeader& header);
+std::string EndFrame(const v1::DownloadEnd& end);
+
+}  // namespace fleetmap::daemon

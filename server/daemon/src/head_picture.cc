@@ -1,0 +1,77 @@
+#include "head_picture.h"
+
+#include <map>
+#include <utility>
+
+#include "fleetmap/interchange/svg_canvas.h"
+#include "fleetmap/repository/revision_picture.h"
+#include "fleetmap/repository/robot_registry.h"
+
+namespace fleetmap::daemon {
+namespace {
+
+std::vector<RevisionRow> RecentRevisions(Repository& repository, RevisionNumber head) {
+  VersionStore& versions = repository.versions();
+  std::map<Uuid, std::string> robot_names;
+  for (const RegisteredRobot& robot : RobotRegistry(versions).List()) {
+    robot_names[robot.id] = robot.name;
+  }
+  std::vector<RevisionRow> rows;
+  for (RevisionNumber r = head; r >= 1 && rows.size() < FleetStatus::kRecentRevisions; --r) {
+    const std::optional<Revision> revision = versions.FindRevision(r);
+    if (!revision) continue;
+    RevisionRow row{r,
+                    std::string(RevisionKindName(revision->kind)),
+                    revision->author,
+                    "",
+                    revision->created_ns,
+                    revision->nodes_added,
+                    revision->nodes_hidden};
+    if (revision->kind == RevisionKind::kMerge) {
+      if (const auto submission = versions.FindSubmission(revision->submission)) {
+        const auto name = robot_names.find(submission->robot);
+        row.robot = name != robot_names.end() ? name->second : submission->robot.ToString();
+      }
+    }
+    rows.push_back(std::move(row));
+  }
+  return rows;
+}
+
+}  // namespace
+
+void HeadPicture::Refresh(Repository& repository) {
+  const RevisionNumber head = repository.Head();
+  {
+    std::lock_guard lock(mutex_);
+    if (drawing_ || head == drawn_) return;
+    drawing_ = true;
+  }
+  try {
+    const MapPicture picture =
+        ComposeRevisionPicture(repository, head, NodeColouring::kTimeOfDay,
+                               "revision " + std::to_string(head) + " (the head)");
+    SvgCanvas canvas("fleetmap: the map at revision " + std::to_string(head));
+    picture.Draw(canvas);
+    auto svg = std::make_shared<const std::string>(canvas.svg());
+    std::vector<RevisionRow> history = RecentRevisions(repository, head);
+    std::lock_guard lock(mutex_);
+    svg_ = std::move(svg);
+    history_ = std::move(history);
+    drawn_ = head;
+    drawing_ = false;
+  } catch (...) {
+    std::lock_guard lock(mutex_);
+    drawing_ = false;
+    throw;
+  }
+}
+
+void HeadPicture::AddTo(FleetStatus& status) const {
+  std::lock_guard lock(mutex_);
+  status.head_picture_svg = svg_;
+  status.picture_revision = drawn_;
+  status.recent_revisions = history_;
+}
+
+}  // namespace fleetmap::daemon

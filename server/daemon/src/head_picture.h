@@ -1,0 +1,41 @@
+// The status page's picture of the head and its recent history (fleet_status.h
+// head_picture_svg, recent_revisions), drawn once per head revision, not per request.
+//
+// Cost: Refresh runs on a store worker (never on the HTTP thread) and, only when the head has
+// moved since the picture it holds, reads the head's nodes without landmarks and its edges,
+// lays them out and writes SVG (time O(nodes + edges), about 80 bytes of SVG per node and per
+// edge drawn), plus the last FleetStatus::kRecentRevisions revisions and the robots. At most
+// one drawing runs at a time; a refresh that finds one running returns at once and the next
+// refresh (a merge, or the status page's periodic look at the store) catches up. A request
+// only copies the pointer to the finished SVG.
+//
+// Threading: every member is safe from any thread.
+#pragma once
+
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "fleetmap/daemon/fleet_status.h"
+#include "fleetmap/repository/repository.h"
+
+namespace fleetmap::daemon {
+
+class HeadPicture {
+ public:
+  // Draws the head's picture and reads the history when the head is not the one drawn.
+  // Throws as the store does (the picture held stays as it was).
+  void Refresh(Repository& repository);
+  // Sets status's picture and history to the latest drawn.
+  void AddTo(FleetStatus& status) const;
+
+ private:
+  mutable std::mutex mutex_;
+  bool drawing_ = false;                    // guarded by mutex_
+  std::int64_t drawn_ = -1;                 // guarded by mutex_
+  std::shared_ptr<const std::string> svg_;  // guarded by mutex_
+  std::vector<RevisionRow> history_;        // guarded by mutex_
+};
+
+}  // namespace fleetmap::daemon

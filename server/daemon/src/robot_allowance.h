@@ -1,0 +1,62 @@
+// What one authenticated robot may hold of fleetmapd at once (issue 35 item 8): its sessions,
+// and the bytes of the frames it has announced and not yet seen handled, across those
+// sessions. Without it one robot's 30 sessions, each 60 MiB into a 64 MiB frame, took the
+// server from 137 MB to 1.74 GB. Strangers are bounded before their hello
+// (connection_admission.h); this bounds a robot once it is known, so one robot (a bug, a
+// stolen token) cannot spend the memory every other robot syncs with.
+//
+// A frame's announced length is reserved when its length prefix arrives (before a byte of the
+// body is read) and released when the session is done with the frame: the bound is on what
+// the robot may make the server hold, whatever pace its bytes come at.
+//
+// Threading: every member is safe from any thread (one mutex).
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <mutex>
+#include <unordered_map>
+
+#include "fleetmap/core/uuid.h"
+
+namespace fleetmap::daemon {
+
+struct RobotLimits {
+  std::size_t sessions = 4;                              // sessions past their hello, per robot
+  std::uint64_t frame_bytes = std::uint64_t{128} << 20;  // announced frame bytes in flight
+};
+
+class RobotAllowance {
+ public:
+  // REQUIRES: both limits at least 1 (Error(kInvalidArgument) otherwise).
+  explicit RobotAllowance(RobotLimits limits);
+
+  // A session of `robot` past its hello: true when it fits (and is counted), false when the
+  // robot holds `sessions` already.
+  bool JoinSession(const Uuid& robot);
+  // REQUIRES: a JoinSession of `robot` that returned true, not yet left.
+  void LeaveSession(const Uuid& robot);
+
+  // A frame of `bytes` announced by `robot`: true when it fits beside the robot's frames in
+  // flight (and is reserved), false otherwise; `in_flight` is set to what the robot held
+  // before it either way.
+  bool ReserveFrame(const Uuid& robot, std::uint64_t bytes, std::uint64_t& in_flight);
+  // REQUIRES: a ReserveFrame of `robot` and `bytes` that returned true, not yet released.
+  void ReleaseFrame(const Uuid& robot, std::uint64_t bytes);
+
+  const RobotLimits& limits() const { return limits_; }
+
+ private:
+  struct Usage {
+    std::size_t sessions = 0;
+    std::uint64_t frame_bytes = 0;
+  };
+  // Forgets a robot that holds nothing. REQUIRES: mutex_ held.
+  void ForgetIfIdleLocked(std::unordered_map<Uuid, Usage>::iterator it);
+
+  const RobotLimits limits_;
+  std::mutex mutex_;
+  std::unordered_map<Uuid, Usage> usage_;  // guarded by mutex_; robots holding something
+};
+
+}  // namespace fleetmap::daemon

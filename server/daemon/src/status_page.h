@@ -1,0 +1,37 @@
+// The status page of fleetmapd (GET / on the status HTTP server): one self-contained HTML
+// document (inline CSS, no scripts, no external assets) with the facts of a FleetStatus —
+// a summary (revision, map size, merge queue, sessions), the robots in
+// <table id="robots"> (a header row in <thead>, one row per robot in <tbody>: name, UUID, last
+// sync as UTC ISO time and "N min ago", pushes, downloads) and the totals since start; above
+// the robots, the head's picture (<figure id="map"> with <img src="/map.svg?r=REVISION">, or a
+// line saying it is being drawn) and the latest revisions in <table id="history"> (revision,
+// kind, robot, author, time, nodes added and hidden).
+//
+// Every string that comes from the fleet (robot names, UUIDs, error codes, addresses) is
+// HTML-escaped. Relative times ("5 min ago") are taken against status.now_ns.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <string_view>
+
+#include "fleetmap/daemon/fleet_status.h"
+
+namespace fleetmap {
+
+// The page for one snapshot. Pure: the same status gives the same page.
+std::string FleetStatusPage(const FleetStatus& status);
+
+// `text` with &, <, >, " and ' replaced by character references: safe inside element content
+// and inside a double- or single-quoted attribute value.
+std::string EscapeHtml(std::string_view text);
+
+// "2024-05-01T12:34:56Z" for UTC nanoseconds since the Unix epoch (truncated to the second).
+std::string UtcIsoTime(std::int64_t utc_ns);
+
+// How long before `now_ns` the moment `then_ns` was, for a person: "0 min ago" ... "119 min
+// ago", then "N h ago" up to 47 h, then "N d ago". A `then_ns` after `now_ns` (clocks of two
+// machines) reads "0 min ago".
+std::string TimeAgo(std::int64_t then_ns, std::int64_t now_ns);
+
+}  // namespace fleetmap

@@ -1,0 +1,22 @@
+// The picture of the map at one revision of a Repository (fleetmap/interchange/map_picture.h):
+// what `fleetmap render` writes and fleetmapd's status page shows.
+//
+// Reads the revision's nodes without their landmarks and its edges, lays them out
+// (graph_layout.h) and composes the picture; colouring by revision also reads which revision
+// added each node (one query per revision that added nodes). Nothing is drawn yet: draw the
+// result on an SvgCanvas or a PngCanvas.
+#pragma once
+
+#include <string>
+
+#include "fleetmap/interchange/map_picture.h"
+#include "fleetmap/repository/repository.h"
+
+namespace fleetmap {
+
+// REQUIRES: r is in the repository's history (else the store's Error(kNotFound)). A revision
+// without nodes gives MapPicture's empty picture.
+MapPicture ComposeRevisionPicture(Repository& repository, RevisionNumber r, NodeColouring colouring,
+                                  const std::string& title);
+
+}  // namespace fleetmap
