@@ -23,7 +23,9 @@ TEST(ChildProcess, ReadsLinesAndTheExitCode) {
 }
 
 TEST(ChildProcess, ReadingGivesUpAtItsDeadlineAndASignalEndsTheChild) {
-  ChildProcess child({"/bin/sh", "-c", "sleep 30"});
+  // exec: the shell becomes the sleeper, so the SIGKILL below ends it and nothing is left
+  // holding the test's stderr open for ctest to wait on.
+  ChildProcess child({"/bin/sh", "-c", "exec sleep 30"});
   const auto start = std::chrono::steady_clock::now();
   EXPECT_EQ(child.ReadLine(milliseconds(200)), std::nullopt);
   EXPECT_LT(std::chrono::steady_clock::now() - start, milliseconds(5000));

@@ -265,6 +265,11 @@ struct QueuedBehindALock {
   std::filesystem::path agent_log;
 };
 
+// The killed fleetmapd and the one started after it are the same server restarted: under its
+// own name the new one takes back the claim the dead one held at once, instead of waiting out its
+// 30 s lease (which the multi-instance tests cover); what these tests hold up is the store lock.
+constexpr const char* kRestartedInstance = "nothing-lost-restarted";
+
 QueuedBehindALock QueueASubmission(const std::filesystem::path& dir, const std::string& uri) {
   QueuedBehindALock queued;
   queued.robot = RegisterRobot(uri, "gamma", dir / "gamma");
@@ -272,7 +277,8 @@ QueuedBehindALock QueueASubmission(const std::filesystem::path& dir, const std::
   WriteLocalMap(queued.robot, queued.pushed);
   queued.agent_log = dir / "agent.log";
   Fleetmapd first =
-      StartFleetmapd(uri, dir / "fleetmapd-1.log", {"--debug-merge-delay-ms", "60000"});
+      StartFleetmapd(uri, dir / "fleetmapd-1.log",
+                     {"--debug-merge-delay-ms", "60000", "--instance", kRestartedInstance});
   EXPECT_FALSE(first.address.empty());
   EXPECT_EQ(
       FinishSync(*StartSync(queued.robot, first.address, queued.agent_log), queued.agent_log).exit,
@@ -294,7 +300,8 @@ TYPED_TEST(NothingLostTest, LockHeldTwiceTheBusyTimeoutDuringAMergeThenMerges) {
   auto lock = std::make_unique<StoreWriteLock>(uri);
   Fleetmapd server = StartFleetmapd(
       uri, this->dir_ / "fleetmapd-2.log",
-      {"--busy-timeout-ms", std::to_string(kBusyTimeout.count()), "--merge-max-retry-ms", "1000"});
+      {"--busy-timeout-ms", std::to_string(kBusyTimeout.count()), "--merge-max-retry-ms", "1000",
+       "--instance", kRestartedInstance});
   ASSERT_FALSE(server.address.empty());
   // The merge's claim met the lock: it failed transiently and is retried; the submission is
   // still queued, not failed.
@@ -332,7 +339,8 @@ TYPED_TEST(NothingLostTest, LockHeldTenBusyTimeoutsWhileAnAgentWaitsNeitherSpins
   auto lock = std::make_unique<StoreWriteLock>(uri);
   Fleetmapd server = StartFleetmapd(
       uri, this->dir_ / "fleetmapd-2.log",
-      {"--busy-timeout-ms", std::to_string(kBusyTimeout.count()), "--merge-max-retry-ms", "1000"});
+      {"--busy-timeout-ms", std::to_string(kBusyTimeout.count()), "--merge-max-retry-ms", "1000",
+       "--instance", kRestartedInstance});
   ASSERT_FALSE(server.address.empty());
   const auto waited_from = Clock::now();
   std::unique_ptr<ChildProcess> agent =
