@@ -15,7 +15,15 @@ set(FLEETMAP_PCH_STD_HEADERS <algorithm> <chrono> <cstdint> <filesystem> <functi
                              <memory> <optional> <set> <span> <string> <string_view>
                              <unordered_map> <unordered_set> <utility> <vector>)
 
-# fleetmap_define_pch_donors(): the two donors, after find_package of Eigen and GoogleTest.
+# The test binaries whose cases drive built programs in subprocesses (fleetmap_test's
+# DRIVES_PROCESSES: fleetmapd, fleetmap-agent, fleetmap) are compiled without optimisation
+# (issue 36): code generation at -O2 was two thirds of their compile time, and what they measure
+# runs in the programs, built -O2 as ever. Not for binaries that run library code in-process:
+# the linker keeps the first copy of an inline function it meets, the test's unoptimised one,
+# and the library would run it (the fleet experiment's test took 1.5x as long).
+set(FLEETMAP_PROCESS_TEST_OPTIONS -O0)
+
+# fleetmap_define_pch_donors(): the donors, after find_package of Eigen and GoogleTest.
 function(fleetmap_define_pch_donors)
   if(NOT FLEETMAP_PCH OR FLEETMAP_FUZZ)
     return()
@@ -26,19 +34,26 @@ function(fleetmap_define_pch_donors)
   target_compile_options(fleetmap_pch PRIVATE ${FLEETMAP_WARNINGS})
   target_precompile_headers(fleetmap_pch PRIVATE ${FLEETMAP_PCH_STD_HEADERS} <Eigen/Core>
                             <Eigen/Geometry>)
-  add_library(fleetmap_test_pch OBJECT ${CMAKE_BINARY_DIR}/fleetmap_pch_donor.cc)
-  target_link_libraries(fleetmap_test_pch PRIVATE Eigen3::Eigen GTest::gtest
-                        nlohmann_json::nlohmann_json)
-  target_compile_options(fleetmap_test_pch PRIVATE ${FLEETMAP_WARNINGS})
-  target_precompile_headers(fleetmap_test_pch PRIVATE ${FLEETMAP_PCH_STD_HEADERS} <Eigen/Core>
-                            <Eigen/Geometry> <gtest/gtest.h> <nlohmann/json.hpp>)
+  # Tests: one donor for optimised binaries, one for the unoptimised ones (fleetmap_test's
+  # DRIVES_PROCESSES): GCC uses a precompiled header only under the options it was made with.
+  foreach(donor fleetmap_test_pch fleetmap_process_test_pch)
+    add_library(${donor} OBJECT ${CMAKE_BINARY_DIR}/fleetmap_pch_donor.cc)
+    target_link_libraries(${donor} PRIVATE Eigen3::Eigen GTest::gtest
+                          nlohmann_json::nlohmann_json)
+    target_compile_options(${donor} PRIVATE ${FLEETMAP_WARNINGS})
+    target_precompile_headers(${donor} PRIVATE ${FLEETMAP_PCH_STD_HEADERS} <Eigen/Core>
+                              <Eigen/Geometry> <gtest/gtest.h> <nlohmann/json.hpp>)
+  endforeach()
+  target_compile_options(fleetmap_process_test_pch PRIVATE ${FLEETMAP_PROCESS_TEST_OPTIONS})
 endfunction()
 
-# fleetmap_use_pch(TARGET [TEST]): TARGET reuses the donor's precompiled headers.
+# fleetmap_use_pch(TARGET [TEST|PROCESS_TEST]): TARGET reuses the donor's precompiled headers.
 function(fleetmap_use_pch target)
   set(donor fleetmap_pch)
   if(ARGV1 STREQUAL "TEST")
     set(donor fleetmap_test_pch)
+  elseif(ARGV1 STREQUAL "PROCESS_TEST")
+    set(donor fleetmap_process_test_pch)
   endif()
   if(TARGET ${donor})
     target_precompile_headers(${target} REUSE_FROM ${donor})
