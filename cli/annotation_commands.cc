@@ -33,7 +33,7 @@ struct RemoveArgs {
   bool json = false;
 };
 
-struct QueryArgs {
+struct AnnotatedQueryArgs {
   std::string store = kDefaultStore;
   std::string platform;
   std::int64_t from_ns = 0;
@@ -104,7 +104,7 @@ PlatformId ResolvePlatform(GraphStore& store, const std::string& text) {
               "--platform '" + text + "': no such platform in " + store.uri());
 }
 
-void RunQuery(const QueryArgs& args) {
+void RunQuery(const AnnotatedQueryArgs& args) {
   // The filter first: a typo is reported before any store is touched.
   AnnotatedDataQuery query;
   query.filter = ParseLabelFilter(args.filter);
@@ -177,7 +177,7 @@ void AddAnnotationCommands(CLI::App& app) {
       app.get_subcommands([](CLI::App* sub) { return sub->get_name() == "query"; });
   CLI::App* query =
       found.empty() ? app.add_subcommand("query", "Query raw sensor data") : found.front();
-  auto query_args = std::make_shared<QueryArgs>();
+  auto query_args = std::make_shared<AnnotatedQueryArgs>();
   CLI::App* annotated = query->add_subcommand(
       "annotated", "Data of a platform in a time window carrying annotations with given labels");
   AddStoreOption(*annotated, query_args->store);

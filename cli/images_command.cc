@@ -21,7 +21,7 @@
 namespace fleetmap::cli {
 namespace {
 
-struct IngestArgs {
+struct ImageIngestArgs {
   std::string dir;
   std::string root;
   std::string layout = "auto";
@@ -32,7 +32,7 @@ struct IngestArgs {
 
 // --layout, else the folder's look. A --platform that names a dataset ("kitti", "euroc") only
 // admits that dataset's layouts, so a folder that holds both kinds is read as the one meant.
-StereoLayout ChooseLayout(const IngestArgs& args) {
+StereoLayout ChooseLayout(const ImageIngestArgs& args) {
   if (args.layout != "auto") return ParseStereoLayout(args.layout);
   if (args.platform != "euroc" && args.platform != "kitti") return DetectStereoLayout(args.dir);
   for (const StereoLayout layout :
@@ -47,7 +47,7 @@ StereoLayout ChooseLayout(const IngestArgs& args) {
                   LayoutName(found) + " to ingest it under this platform");
 }
 
-void RunIngest(const IngestArgs& args) {
+void RunImageIngest(const ImageIngestArgs& args) {
   // The folder first: a bad folder should not create a store or touch the root.
   const StereoSequence sequence = LoadStereoSequence(args.dir, ChooseLayout(args));
   const std::string platform =
@@ -73,7 +73,7 @@ void AddImagesCommand(CLI::App& app) {
       app.add_subcommand("images", "Camera images as raw sensor data: ingest stereo sequences");
   images->require_subcommand(1);
 
-  auto args = std::make_shared<IngestArgs>();
+  auto args = std::make_shared<ImageIngestArgs>();
   CLI::App* ingest = images->add_subcommand(
       "ingest", "Copy a EuRoC or KITTI stereo folder into one indexed record file under --root");
   ingest->footer(
@@ -114,7 +114,7 @@ void AddImagesCommand(CLI::App& app) {
   ingest->add_option("--sensor", args->sensor, "The stereo camera's sensor name")
       ->capture_default_str();
   AddStoreOption(*ingest, args->store);
-  ingest->callback([args] { RunIngest(*args); });
+  ingest->callback([args] { RunImageIngest(*args); });
 }
 
 }  // namespace fleetmap::cli

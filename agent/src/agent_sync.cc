@@ -14,6 +14,7 @@
 #include <utility>
 #include <vector>
 
+#include "element_counts.h"
 #include "fleetmap/core/clock.h"
 #include "fleetmap/core/map_chunks.h"
 #include "fleetmap/store/graph_store.h"
@@ -125,11 +126,6 @@ milliseconds Remaining(Clock::time_point deadline) {
   return std::chrono::duration_cast<milliseconds>(deadline - Clock::now());
 }
 
-std::string Counts(std::size_t nodes, std::size_t edges, std::size_t paths) {
-  return std::to_string(nodes) + " nodes, " + std::to_string(edges) + " edges, " +
-         std::to_string(paths) + " paths";
-}
-
 std::string Mib(std::uint64_t bytes) {
   char text[32];
   std::snprintf(text, sizeof text, "%.2f MiB", static_cast<double>(bytes) / (1 << 20));
@@ -227,7 +223,7 @@ class SyncRun {
     result_.kept_unmerged = report.kept_unmerged;
     result_.kept_failed = report.kept_failed;
     Progress("installed revision " + std::to_string(report.revision) + ": " +
-             Counts(report.nodes, report.edges, report.paths) +
+             agent_internal::ElementCounts(report.nodes, report.edges, report.paths) +
              (report.incremental ? " (incremental)" : " (full)") +
              (report.kept_unsynced > 0
                   ? ", kept " + std::to_string(report.kept_unsynced) + " unsynced elements"
@@ -367,8 +363,9 @@ class SyncRun {
     client.Send(begin);
     const v1::PushReady ready = client.Expect(v1::SyncFrame::kPushReady, during).push_ready();
     Progress("pushing submission " + id + ": " +
-             Counts(content.nodes.size(), content.edges.size(), content.paths.size()) + ", " +
-             std::to_string(chunks) + " chunks, " + Mib(content.total_bytes) +
+             agent_internal::ElementCounts(content.nodes.size(), content.edges.size(),
+                                           content.paths.size()) +
+             ", " + std::to_string(chunks) + " chunks, " + Mib(content.total_bytes) +
              (ready.complete() ? " (stored whole before)"
               : ready.next_chunk() > 0
                   ? " (resuming at chunk " + std::to_string(ready.next_chunk() + 1) + ")"
@@ -551,7 +548,7 @@ class SyncRun {
              (header.base_revision() != 0
                   ? " (changes since revision " + std::to_string(header.base_revision()) + ")"
                   : " (full)") +
-             ": " + Counts(header.nodes(), header.edges(), header.paths()));
+             ": " + agent_internal::ElementCounts(header.nodes(), header.edges(), header.paths()));
     Received received;
     MapDownload& download = received.download;
     download.revision = header.revision();

@@ -13,6 +13,7 @@
 #include <utility>
 
 #include "background_flusher.h"
+#include "element_counts.h"
 #include "fleetmap/core/error.h"
 #include "fleetmap/core/staged_file.h"
 #include "fleetmap/store/graph_store.h"
@@ -145,11 +146,6 @@ struct MapIndex {
     return batch;
   }
 };
-
-std::string Counts(std::size_t nodes, std::size_t edges, std::size_t paths) {
-  return std::to_string(nodes) + " nodes, " + std::to_string(edges) + " edges, " +
-         std::to_string(paths) + " paths";
-}
 
 // Unmerged submissions a download of `revision` reflects retire; the others' content stays.
 struct Retirement {
@@ -458,9 +454,9 @@ void CheckDownloadCounts(const MapDownload& download, std::size_t nodes, std::si
     throw Error(ErrorCode::kCorrupt,
                 std::string(download.base_revision != 0 ? "incremental" : "full") +
                     " download of revision " + std::to_string(download.revision) + " gives " +
-                    Counts(nodes, edges, paths) + ", its header says " +
-                    Counts(download.nodes, download.edges, download.paths) + "; " +
-                    map_path.string() + " left as it was");
+                    agent_internal::ElementCounts(nodes, edges, paths) + ", its header says " +
+                    agent_internal::ElementCounts(download.nodes, download.edges, download.paths) +
+                    "; " + map_path.string() + " left as it was");
   }
 }
 
@@ -522,9 +518,11 @@ void WriteNewMap(const fs::path& new_map, const GraphBatch& next_map, std::int64
         static_cast<std::size_t>(stats.edges) != next_map.edges.size() ||
         static_cast<std::size_t>(stats.paths) != next_map.paths.size()) {
       throw Error(ErrorCode::kCorrupt,
-                  new_map.string() + " holds " + Counts(stats.nodes, stats.edges, stats.paths) +
+                  new_map.string() + " holds " +
+                      agent_internal::ElementCounts(stats.nodes, stats.edges, stats.paths) +
                       " after writing " +
-                      Counts(next_map.nodes.size(), next_map.edges.size(), next_map.paths.size()));
+                      agent_internal::ElementCounts(next_map.nodes.size(), next_map.edges.size(),
+                                                    next_map.paths.size()));
     }
   } catch (const Error& e) {
     RemoveDatabaseFiles(new_map);
@@ -740,8 +738,10 @@ InstallReport MapInstallation::Commit() {
       selection.paths.size() != download.paths) {
     throw Error(ErrorCode::kCorrupt,
                 "full download of revision " + std::to_string(download.revision) + " gives " +
-                    Counts(selection.nodes.size(), selection.edges.size(), selection.paths.size()) +
-                    ", its header says " + Counts(download.nodes, download.edges, download.paths) +
+                    agent_internal::ElementCounts(selection.nodes.size(), selection.edges.size(),
+                                                  selection.paths.size()) +
+                    ", its header says " +
+                    agent_internal::ElementCounts(download.nodes, download.edges, download.paths) +
                     "; " + map.map_path().string() + " left as it was");
   }
   Retirement retirement = Retire(state, download.revision);
@@ -824,9 +824,10 @@ InstallReport MapInstallation::Commit() {
     if (static_cast<std::size_t>(stats.nodes) != nodes ||
         static_cast<std::size_t>(stats.edges) != edges ||
         static_cast<std::size_t>(stats.paths) != paths) {
-      throw Error(ErrorCode::kCorrupt, new_map.string() + " holds " +
-                                           Counts(stats.nodes, stats.edges, stats.paths) +
-                                           " after writing " + Counts(nodes, edges, paths));
+      throw Error(ErrorCode::kCorrupt,
+                  new_map.string() + " holds " +
+                      agent_internal::ElementCounts(stats.nodes, stats.edges, stats.paths) +
+                      " after writing " + agent_internal::ElementCounts(nodes, edges, paths));
     }
     s.transaction->Commit();
     s.transaction.reset();

@@ -30,6 +30,7 @@
 #include "fleetmap/repository/robot_registry.h"
 #include "fleetmap/store/graph_store.h"
 #include "fleetmap/wire/sync_frame.h"
+#include "program_run.h"
 #include "scratch_dir.h"
 
 namespace fleetmap {
@@ -37,10 +38,7 @@ namespace {
 
 namespace fs = std::filesystem;
 using std::chrono::milliseconds;
-
-bool Contains(const std::string& text, const std::string& part) {
-  return text.find(part) != std::string::npos;
-}
+using testing::Contains;
 
 // A port nothing listens on right now (bound and released; the kernel does not hand it out
 // again at once).

@@ -17,8 +17,8 @@
 namespace fleetmap {
 namespace {
 
-constexpr std::size_t kPlaces = 5000;
-constexpr std::size_t kDescriptorsPerPlace = 150;
+constexpr std::size_t kIndexPlaces = 5000;
+constexpr std::size_t kIndexDescriptorsPerPlace = 150;
 constexpr std::size_t kTrainingPlaces = 200;
 
 Uuid PlaceId(std::size_t place) {
@@ -38,16 +38,16 @@ const Map& TheMap() {
   static const Map map = [] {
     Map m;
     std::mt19937 rng(11);
-    for (std::size_t p = 0; p < kPlaces; ++p) {
-      m.places.push_back(testing::RandomDescriptors(kDescriptorsPerPlace, rng));
+    for (std::size_t p = 0; p < kIndexPlaces; ++p) {
+      m.places.push_back(testing::RandomDescriptors(kIndexDescriptorsPerPlace, rng));
     }
-    for (std::size_t p = 0; p < kPlaces; p += kPlaces / kTrainingPlaces) {
+    for (std::size_t p = 0; p < kIndexPlaces; p += kIndexPlaces / kTrainingPlaces) {
       m.training_sample.insert(m.training_sample.end(), m.places[p].begin(), m.places[p].end());
     }
     m.vocabulary = std::make_shared<const AppearanceVocabulary>(
         AppearanceVocabulary::Train(m.training_sample));
     m.index = std::make_unique<AppearanceIndex>(m.vocabulary);
-    for (std::size_t p = 0; p < kPlaces; ++p) m.index->Add(PlaceId(p), m.places[p]);
+    for (std::size_t p = 0; p < kIndexPlaces; ++p) m.index->Add(PlaceId(p), m.places[p]);
     return m;
   }();
   return map;
@@ -70,7 +70,7 @@ void BM_AppearanceQuery(benchmark::State& state) {
   std::vector<std::size_t> truth;
   std::vector<std::vector<Descriptor256>> queries;
   for (int q = 0; q < 64; ++q) {
-    truth.push_back(rng() % kPlaces);
+    truth.push_back(rng() % kIndexPlaces);
     queries.push_back(testing::RevisitPlace(map.places[truth.back()], rng));
   }
   std::size_t next = 0, queried = 0, top1 = 0;
@@ -90,7 +90,7 @@ void BM_AppearanceAdd(benchmark::State& state) {
   AppearanceIndex index = *map.index;
   std::size_t added = 0;
   for (auto _ : state) {
-    index.Add(PlaceId(kPlaces + added), map.places[added % kPlaces]);
+    index.Add(PlaceId(kIndexPlaces + added), map.places[added % kIndexPlaces]);
     ++added;
   }
   state.counters["places_at_end"] = static_cast<double>(index.size());
@@ -103,7 +103,7 @@ void BM_AppearanceReAdd(benchmark::State& state) {
   AppearanceIndex index = *map.index;
   std::size_t next = 0;
   for (auto _ : state) {
-    index.Add(PlaceId(next % kPlaces), map.places[(next + 1) % kPlaces]);
+    index.Add(PlaceId(next % kIndexPlaces), map.places[(next + 1) % kIndexPlaces]);
     ++next;
   }
 }

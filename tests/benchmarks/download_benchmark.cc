@@ -19,9 +19,9 @@ namespace fleetmap {
 namespace {
 
 constexpr int kOutings = 40;
-constexpr int kPlaces = 500;
-constexpr int kPaths = 300;
-constexpr std::int64_t kNsPerMinute = 60'000'000'000;
+constexpr int kDownloadPlaces = 500;
+constexpr int kDownloadPaths = 300;
+constexpr std::int64_t kDownloadNsPerMinute = 60'000'000'000;
 
 struct DownloadScene {
   std::vector<Node> nodes;
@@ -40,13 +40,13 @@ Uuid NextId(std::mt19937_64& rng) {
   return Uuid(bytes);
 }
 
-DownloadScene MakeScene() {
+DownloadScene MakeDownloadScene() {
   DownloadScene scene;
   std::mt19937_64 rng(11);
   std::uniform_int_distribution<int> minute_of_day(0, 1439);
   std::vector<int> outing_minute;
   const auto node_at = [](int outing, int place) {
-    return static_cast<std::size_t>(outing * kPlaces + place);
+    return static_cast<std::size_t>(outing * kDownloadPlaces + place);
   };
   const auto add_edge = [&scene, &rng](const Uuid& from, const Uuid& to, EdgeKind kind,
                                        const Uuid& path) {
@@ -60,10 +60,10 @@ DownloadScene MakeScene() {
   };
   for (int outing = 0; outing < kOutings; ++outing) {
     outing_minute.push_back(minute_of_day(rng));
-    for (int place = 0; place < kPlaces; ++place) {
+    for (int place = 0; place < kDownloadPlaces; ++place) {
       Node node;
       node.id = NextId(rng);
-      node.stamp_ns = (outing * 1440 + outing_minute.back()) * kNsPerMinute +
+      node.stamp_ns = (outing * 1440 + outing_minute.back()) * kDownloadNsPerMinute +
                       std::int64_t{place} * 2'000'000'000;
       node.landmarks_blob.assign(1000, 'x');
       scene.nodes.push_back(node);
@@ -76,7 +76,7 @@ DownloadScene MakeScene() {
       }
     }
   }
-  for (int p = 0; p < kPaths; ++p) {
+  for (int p = 0; p < kDownloadPaths; ++p) {
     Path path;
     path.id = NextId(rng);
     scene.paths.push_back(path);
@@ -90,7 +90,7 @@ DownloadScene MakeScene() {
     if (near.empty()) near.push_back(p % kOutings);
     std::uniform_int_distribution<std::size_t> pick(0, near.size() - 1);
     Uuid previous;
-    for (int place = 0; place < kPlaces; ++place) {
+    for (int place = 0; place < kDownloadPlaces; ++place) {
       const Uuid& at = scene.nodes[node_at(near[pick(rng)], place)].id;
       if (place > 0) add_edge(previous, at, EdgeKind::kPath, path.id);
       previous = at;
@@ -99,17 +99,18 @@ DownloadScene MakeScene() {
   return scene;
 }
 
-const DownloadScene& Scene() {
-  static const DownloadScene scene = MakeScene();
+const DownloadScene& TheDownloadScene() {
+  static const DownloadScene scene = MakeDownloadScene();
   return scene;
 }
 
 void RunPolicy(benchmark::State& state, const char* name) {
-  const DownloadScene& scene = Scene();
+  const DownloadScene& scene = TheDownloadScene();
   DownloadPolicy policy = ParseDownloadPolicy(name);
   policy.mission_start_min = 9 * 60;
   policy.window_min = 180;
-  if (policy.budget_bytes) policy.budget_bytes = std::int64_t{kOutings * kPlaces} * 1000 / 4;
+  if (policy.budget_bytes)
+    policy.budget_bytes = std::int64_t{kOutings * kDownloadPlaces} * 1000 / 4;
   DownloadSelection selection;
   for (auto _ : state) {
     selection = SelectDownload(scene.nodes, scene.edges, scene.paths, policy);
@@ -144,7 +145,7 @@ BENCHMARK(BM_Download_TodPathsBudget)->Unit(benchmark::kMillisecond);
 // One MakeIntegral over the whole map for a path's worth of nodes: what a budget check would
 // cost if every candidate were judged by rebuilding the integral map.
 void BM_Download_OneMakeIntegral(benchmark::State& state) {
-  const DownloadScene& scene = Scene();
+  const DownloadScene& scene = TheDownloadScene();
   std::vector<Uuid> selected;
   for (const Edge& edge : scene.edges) {
     if (edge.kind == EdgeKind::kPath && edge.path == scene.paths[0].id) {

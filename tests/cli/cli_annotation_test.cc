@@ -18,9 +18,7 @@ using testing::StoreBackends;
 
 using RunResult = testing::CliRun;
 
-RunResult RunCli(const ScratchDir& dir, const std::vector<std::string>& args) {
-  return testing::RunFleetmapCli(dir.path(), args);
-}
+using testing::RunCli;
 
 template <typename Backend>
 class CliAnnotationTest : public ::testing::Test {

@@ -29,9 +29,7 @@ using testing::Contains;
 using testing::DescribeCliRun;
 using testing::ReadWholeFile;
 
-RunResult RunCli(const ScratchDir& dir, const std::vector<std::string>& args) {
-  return testing::RunFleetmapCli(dir.path(), args);
-}
+using testing::RunCli;
 
 // A robot's map of the given corridor outings (0: day, 1: night), built into a new SQLite
 // store at `file`, as the robot would keep it.

@@ -114,12 +114,6 @@ struct Sockets {
   }
 };
 
-std::string LengthPrefix(std::uint32_t n) {
-  const char prefix[4] = {static_cast<char>(n >> 24), static_cast<char>(n >> 16),
-                          static_cast<char>(n >> 8), static_cast<char>(n)};
-  return std::string(prefix, 4);
-}
-
 double Seconds(Clock::duration d) {
   return std::chrono::duration<double>(d).count();
 }

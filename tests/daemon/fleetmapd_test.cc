@@ -54,13 +54,6 @@ std::string ErrorTextOf(const std::optional<v1::SyncFrame>& frame) {
   return frame && frame->has_error() ? frame->error().text() : "";
 }
 
-// A frame's 4-byte length prefix alone.
-std::string LengthPrefix(std::uint32_t n) {
-  const char prefix[4] = {static_cast<char>(n >> 24), static_cast<char>(n >> 16),
-                          static_cast<char>(n >> 8), static_cast<char>(n)};
-  return std::string(prefix, 4);
-}
-
 // A push as a robot sends it: the chunks of a map and their digest.
 struct PushPlan {
   Uuid id = Uuid::GenerateRandom();

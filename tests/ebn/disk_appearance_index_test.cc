@@ -21,20 +21,20 @@ namespace {
 using testing::RandomDescriptors;
 using testing::RevisitPlace;
 
-constexpr std::size_t kPlaces = 400;
-constexpr std::size_t kDescriptorsPerPlace = 150;
+constexpr std::size_t kDiskPlaces = 400;
+constexpr std::size_t kDiskDescriptorsPerPlace = 150;
 
-struct Places {
+struct DiskPlaces {
   std::vector<std::vector<Descriptor256>> descriptors;
   std::vector<Uuid> ids;
   std::shared_ptr<const AppearanceVocabulary> vocabulary;
   std::vector<std::vector<WordCount>> bags;
 
-  explicit Places(std::uint32_t seed) {
+  explicit DiskPlaces(std::uint32_t seed) {
     std::mt19937 rng(seed);
     std::vector<Descriptor256> sample;
-    for (std::size_t p = 0; p < kPlaces; ++p) {
-      descriptors.push_back(RandomDescriptors(kDescriptorsPerPlace, rng));
+    for (std::size_t p = 0; p < kDiskPlaces; ++p) {
+      descriptors.push_back(RandomDescriptors(kDiskDescriptorsPerPlace, rng));
       ids.push_back(Uuid::GenerateRandom());
       if (p % 4 == 0)
         sample.insert(sample.end(), descriptors.back().begin(), descriptors.back().end());
@@ -54,29 +54,29 @@ struct Places {
 
 // The share of revisited places whose own node is among the best `k`, querying at most
 // `words` words of each.
-double Recall(const DiskAppearanceIndex& index, const Places& places, std::uint32_t seed, int k,
+double Recall(const DiskAppearanceIndex& index, const DiskPlaces& places, std::uint32_t seed, int k,
               int words, std::uint64_t max_postings = kDefaultMaxQueryPostings) {
   std::mt19937 rng(seed);
   int found = 0;
-  for (std::size_t p = 0; p < kPlaces; ++p) {
+  for (std::size_t p = 0; p < kDiskPlaces; ++p) {
     const std::vector<Descriptor256> revisit = RevisitPlace(places.descriptors[p], rng);
     for (const AppearanceMatch& match :
          index.Query(BagOfWords(*places.vocabulary, revisit), k, words, max_postings)) {
       found += match.node == places.ids[p];
     }
   }
-  return static_cast<double>(found) / kPlaces;
+  return static_cast<double>(found) / kDiskPlaces;
 }
 
 TEST(DiskAppearanceIndexTest, RevisitedPlacesAreFoundAmongMany) {
   for (const std::uint32_t seed : {1u, 2u, 3u}) {
     ScratchDir dir("disk-appearance");
-    const Places places(seed);
+    const DiskPlaces places(seed);
     auto index = DiskAppearanceIndex::Open(dir.path());
     EXPECT_EQ(index->size(), 0u);
     EXPECT_TRUE(index->Query(places.bags[0], 3).empty());
-    places.Append(*index, 0, kPlaces, 1);
-    EXPECT_EQ(index->size(), kPlaces);
+    places.Append(*index, 0, kDiskPlaces, 1);
+    EXPECT_EQ(index->size(), kDiskPlaces);
     // Each place queried by itself scores 1 and comes first.
     const auto self = index->Query(places.bags[17], 3);
     ASSERT_FALSE(self.empty());
@@ -96,9 +96,9 @@ TEST(DiskAppearanceIndexTest, RevisitedPlacesAreFoundAmongMany) {
 TEST(DiskAppearanceIndexTest, BoundedPostingsStillFindRevisits) {
   for (const std::uint32_t seed : {4u, 5u, 6u}) {
     ScratchDir dir("disk-appearance");
-    const Places places(seed);
+    const DiskPlaces places(seed);
     auto index = DiskAppearanceIndex::Open(dir.path());
-    places.Append(*index, 0, kPlaces, 1);
+    places.Append(*index, 0, kDiskPlaces, 1);
     std::map<std::size_t, std::uint64_t> holders;  // postings per word
     for (const auto& bag : places.bags) {
       for (const WordCount& wc : bag) ++holders[wc.word];
@@ -110,9 +110,9 @@ TEST(DiskAppearanceIndexTest, BoundedPostingsStillFindRevisits) {
         << "seed " << seed;
     // A bound below one word's postings still reads the heaviest word, never none: the place
     // itself holds it as the query does, so it scores the whole query (1), as high as any.
-    const auto one_word = index->Query(places.bags[9], static_cast<int>(kPlaces), 100'000, 1);
+    const auto one_word = index->Query(places.bags[9], static_cast<int>(kDiskPlaces), 100'000, 1);
     ASSERT_FALSE(one_word.empty()) << "seed " << seed;
-    EXPECT_LT(one_word.size(), kPlaces) << "only the holders of one word";
+    EXPECT_LT(one_word.size(), kDiskPlaces) << "only the holders of one word";
     bool found = false;
     for (const AppearanceMatch& match : one_word) {
       if (match.node != places.ids[9]) continue;
@@ -125,23 +125,23 @@ TEST(DiskAppearanceIndexTest, BoundedPostingsStillFindRevisits) {
 
 TEST(DiskAppearanceIndexTest, AnswersSurviveReopeningAndSegmentMerges) {
   ScratchDir dir("disk-appearance");
-  const Places places(11);
+  const DiskPlaces places(11);
   ScratchDir whole_dir("disk-appearance-whole");
   auto whole = DiskAppearanceIndex::Open(whole_dir.path());
-  places.Append(*whole, 0, kPlaces, 1);
+  places.Append(*whole, 0, kDiskPlaces, 1);
   {
     auto index = DiskAppearanceIndex::Open(dir.path());
     // 40 revisions of 10 places: merged as it goes, so segments stay about log2(40).
     for (std::size_t r = 0; r < 40; ++r) places.Append(*index, r * 10, r * 10 + 10, r + 1);
-    EXPECT_EQ(index->size(), kPlaces);
+    EXPECT_EQ(index->size(), kDiskPlaces);
     EXPECT_LE(index->segment_count(), 7u);
     EXPECT_EQ(index->mark(), (DiskIndexMark{40, 40'000, 7}));
   }
   auto reopened = DiskAppearanceIndex::Open(dir.path());
-  EXPECT_EQ(reopened->size(), kPlaces);
+  EXPECT_EQ(reopened->size(), kDiskPlaces);
   EXPECT_EQ(reopened->mark(), (DiskIndexMark{40, 40'000, 7}));
   std::mt19937 rng(5);
-  for (std::size_t p = 0; p < kPlaces; p += 13) {
+  for (std::size_t p = 0; p < kDiskPlaces; p += 13) {
     const auto bag = BagOfWords(*places.vocabulary, RevisitPlace(places.descriptors[p], rng));
     const auto merged = reopened->Query(bag, 5);
     const auto single = whole->Query(bag, 5);
@@ -162,17 +162,17 @@ TEST(DiskAppearanceIndexTest, AnswersSurviveReopeningAndSegmentMerges) {
 // Queries share scoring memory per thread (so a query costs its postings, not the map's
 // size): no score may leak from one query, or one index, into the next.
 TEST(DiskAppearanceIndexTest, QueriesLeaveNothingBehindForTheNext) {
-  const Places places(21);
+  const DiskPlaces places(21);
   ScratchDir big_dir("disk-appearance-big");
   ScratchDir small_dir("disk-appearance-small");
   auto big = DiskAppearanceIndex::Open(big_dir.path());
   auto small = DiskAppearanceIndex::Open(small_dir.path());
-  places.Append(*big, 0, kPlaces, 1);
-  places.Append(*small, 0, kPlaces / 8, 1);
+  places.Append(*big, 0, kDiskPlaces, 1);
+  places.Append(*small, 0, kDiskPlaces / 8, 1);
   const auto first = small->Query(places.bags[3], 5);
   ASSERT_FALSE(first.empty());
-  for (std::size_t p = 0; p < kPlaces; p += 7) big->Query(places.bags[p], 5);
-  for (std::size_t p = 0; p < kPlaces / 8; ++p) small->Query(places.bags[p], 5);
+  for (std::size_t p = 0; p < kDiskPlaces; p += 7) big->Query(places.bags[p], 5);
+  for (std::size_t p = 0; p < kDiskPlaces / 8; ++p) small->Query(places.bags[p], 5);
   const auto again = small->Query(places.bags[3], 5);
   ASSERT_EQ(again.size(), first.size());
   for (std::size_t i = 0; i < first.size(); ++i) {
@@ -184,7 +184,7 @@ TEST(DiskAppearanceIndexTest, QueriesLeaveNothingBehindForTheNext) {
 
 TEST(DiskAppearanceIndexTest, ResetEmptiesAndRecordsTheNewMark) {
   ScratchDir dir("disk-appearance");
-  const Places places(21);
+  const DiskPlaces places(21);
   auto index = DiskAppearanceIndex::Open(dir.path());
   places.Append(*index, 0, 100, 3);
   // A stray segment from a crash before its manifest: Reset sweeps it too.
@@ -197,7 +197,7 @@ TEST(DiskAppearanceIndexTest, ResetEmptiesAndRecordsTheNewMark) {
 
 TEST(DiskAppearanceIndexTest, DamagedFilesAreRefusedByName) {
   ScratchDir dir("disk-appearance");
-  const Places places(31);
+  const DiskPlaces places(31);
   places.Append(*DiskAppearanceIndex::Open(dir.path()), 0, 50, 1);
   std::filesystem::path segment;
   for (const auto& entry : std::filesystem::directory_iterator(dir.path())) {

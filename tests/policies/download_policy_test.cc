@@ -4,6 +4,7 @@
 
 #include <vector>
 
+#include "day_stamps.h"
 #include "fleetmap/core/error.h"
 #include "fleetmap/ranking/path_weights.h"
 #include "fleetmap/ranking/time_of_day.h"
@@ -11,15 +12,6 @@
 
 namespace fleetmap {
 namespace {
-
-constexpr std::int64_t kNsPerMinute = 60'000'000'000;
-constexpr std::int64_t kDay = 1440 * kNsPerMinute;
-// Some day in June 2014, midnight UTC.
-constexpr std::int64_t kMidnight = 16'222 * kDay;
-
-std::int64_t At(int hours, int minutes, int days_later = 0) {
-  return kMidnight + days_later * kDay + (hours * 60 + minutes) * kNsPerMinute;
-}
 
 TEST(TimeOfDay, MinuteOfDayIgnoresTheDate) {
   EXPECT_DOUBLE_EQ(MinuteOfDay(At(0, 0)), 0.0);
@@ -46,13 +38,9 @@ TEST(TimeOfDay, RejectsBadMissionTimeAndWindow) {
   EXPECT_THROW(WithinTimeOfDayWindow(At(1, 0), 60.0, 0.0), Error);
 }
 
-Uuid Id(int n) {
-  return NumberedUuid(n);
-}
-
 Node NodeAt(int n, std::int64_t stamp_ns) {
   Node node;
-  node.id = Id(n);
+  node.id = NumberedUuid(n);
   node.stamp_ns = stamp_ns;
   return node;
 }
@@ -69,9 +57,9 @@ struct Example {
 
 Example MakeExample() {
   Example example;
-  example.p1 = example.memory.AddPathEdge(Id(101), Id(1), Id(2));
-  example.p2 = example.memory.AddPathEdge(Id(102), Id(1), Id(3));
-  example.p3 = example.memory.AddPathEdge(Id(103), Id(3), Id(4));
+  example.p1 = example.memory.AddPathEdge(NumberedUuid(101), NumberedUuid(1), NumberedUuid(2));
+  example.p2 = example.memory.AddPathEdge(NumberedUuid(102), NumberedUuid(1), NumberedUuid(3));
+  example.p3 = example.memory.AddPathEdge(NumberedUuid(103), NumberedUuid(3), NumberedUuid(4));
   example.nodes = {NodeAt(1, At(6, 10)), NodeAt(2, At(7, 0, 2)), NodeAt(3, At(13, 0, 5)),
                    NodeAt(4, At(13, 30)), NodeAt(5, At(2, 0))};
   return example;
@@ -94,7 +82,7 @@ TEST(PathWeights, CountAndWeightMatchTheHandWorkedExample) {
   EXPECT_DOUBLE_EQ(weights.Weight(e.p1, 0), 0.0);  // no data in that epoch
   EXPECT_EQ(weights.first_epoch(), 1);
   EXPECT_EQ(weights.last_epoch(), 2);
-  EXPECT_EQ(e.memory.path_id(e.p3), Id(103));
+  EXPECT_EQ(e.memory.path_id(e.p3), NumberedUuid(103));
 }
 
 TEST(PathWeights, BestPathsPerEpochWithMissingAndOutOfRangeBounds) {

@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "day_stamps.h"
 #include "fleetmap/core/error.h"
 #include "fleetmap/map_management/download_policy.h"
 #include "fleetmap/map_management/subset_contraction.h"
@@ -23,15 +24,6 @@ namespace fleetmap {
 namespace {
 
 constexpr auto& Id = NumberedUuid;
-constexpr auto& Ids = NumberedUuids;
-
-constexpr std::int64_t kNsPerMinute = 60'000'000'000;
-constexpr std::int64_t kDay = 1440 * kNsPerMinute;
-constexpr std::int64_t kMidnight = 16'222 * kDay;  // some day in June 2014, 00:00 UTC
-
-std::int64_t At(int hours, int minutes, int days_later = 0) {
-  return kMidnight + days_later * kDay + (hours * 60 + minutes) * kNsPerMinute;
-}
 
 struct TestMap {
   std::vector<Node> nodes;
@@ -262,9 +254,9 @@ TestMap TwoPartMap() {
 TEST(DownloadSelect, CopyKeepsEverything) {
   const TestMap map = TwoPartMap();
   const DownloadSelection copy = map.Select(ParseDownloadPolicy("copy"));
-  EXPECT_EQ(copy.nodes, Ids({1, 2, 3, 4, 5}));
-  EXPECT_EQ(copy.edges, Ids({101, 102, 103, 201, 202, 203}));
-  EXPECT_EQ(copy.paths, Ids({90, 91}));
+  EXPECT_EQ(copy.nodes, NumberedUuids({1, 2, 3, 4, 5}));
+  EXPECT_EQ(copy.edges, NumberedUuids({101, 102, 103, 201, 202, 203}));
+  EXPECT_EQ(copy.paths, NumberedUuids({90, 91}));
   EXPECT_EQ(copy.report.policy, "copy");
   EXPECT_EQ(copy.report.map_nodes, 5u);
   EXPECT_EQ(copy.report.picked_nodes, 5u);
@@ -303,8 +295,8 @@ TEST(DownloadSelect, TimeOfDayWindowWrapsAroundMidnight) {
   tod.mission_start_min = 23 * 60 + 30;
   tod.window_min = 60;
   const DownloadSelection download = map.Select(tod);
-  EXPECT_EQ(download.nodes, Ids({1, 2, 4}));
-  EXPECT_EQ(download.edges, Ids({101}));
+  EXPECT_EQ(download.nodes, NumberedUuids({1, 2, 4}));
+  EXPECT_EQ(download.edges, NumberedUuids({101}));
   EXPECT_EQ(download.report.picked_nodes, 3u);
   EXPECT_EQ(download.report.bytes, 20);
   EXPECT_EQ(download.report.map_bytes, 40);
@@ -315,7 +307,7 @@ TEST(DownloadSelect, TimeOfDayWindowWrapsAroundMidnight) {
 
   // At 12:00 the same window keeps n3 only.
   tod.mission_start_min = 12 * 60;
-  EXPECT_EQ(map.Select(tod).nodes, Ids({3}));
+  EXPECT_EQ(map.Select(tod).nodes, NumberedUuids({3}));
 }
 
 // The chain 1-3-2: a mission at 23:30 picks n1 (23:00) and n2 (00:15); n3 (12:00) joins them
@@ -331,8 +323,8 @@ TEST(DownloadSelect, BridgingNodesKeepTheDownloadInOnePiece) {
   tod.mission_start_min = 23 * 60 + 30;
   tod.window_min = 60;
   const DownloadSelection download = map.Select(tod);
-  EXPECT_EQ(download.nodes, Ids({1, 2, 3}));
-  EXPECT_EQ(download.edges, Ids({101, 102}));
+  EXPECT_EQ(download.nodes, NumberedUuids({1, 2, 3}));
+  EXPECT_EQ(download.edges, NumberedUuids({101, 102}));
   EXPECT_EQ(download.report.picked_nodes, 2u);
   EXPECT_EQ(download.report.integrity.fragments_before, 2u);
   EXPECT_EQ(download.report.integrity.bridging_nodes, 1u);
@@ -384,9 +376,9 @@ TEST(DownloadSelect, PathsTakesTheBestPathOfEachEpochOfTheMission) {
   paths.mission_start_min = 6 * 60 + 30;
   paths.mission_end_min = 7 * 60 + 30;
   DownloadSelection download = map.Select(paths);
-  EXPECT_EQ(download.nodes, Ids({1, 2}));
-  EXPECT_EQ(download.edges, Ids({11, 21}));
-  EXPECT_EQ(download.paths, Ids({101}));
+  EXPECT_EQ(download.nodes, NumberedUuids({1, 2}));
+  EXPECT_EQ(download.edges, NumberedUuids({11, 21}));
+  EXPECT_EQ(download.paths, NumberedUuids({101}));
   EXPECT_EQ(download.report.paths_chosen, 1u);
   EXPECT_EQ(download.report.epoch_start, 1);
   EXPECT_EQ(download.report.epoch_end, 1);
@@ -395,9 +387,9 @@ TEST(DownloadSelect, PathsTakesTheBestPathOfEachEpochOfTheMission) {
   // No end: epochs 1 … k_max = 2, so P1 and P3. P2's edge 1→3 has both ends and comes too.
   paths.mission_end_min.reset();
   download = map.Select(paths);
-  EXPECT_EQ(download.nodes, Ids({1, 2, 3, 4}));
-  EXPECT_EQ(download.edges, Ids({11, 12, 13, 21, 22, 23}));
-  EXPECT_EQ(download.paths, Ids({101, 102, 103}));
+  EXPECT_EQ(download.nodes, NumberedUuids({1, 2, 3, 4}));
+  EXPECT_EQ(download.edges, NumberedUuids({11, 12, 13, 21, 22, 23}));
+  EXPECT_EQ(download.paths, NumberedUuids({101, 102, 103}));
   EXPECT_EQ(download.report.paths_chosen, 2u);
   EXPECT_EQ(download.report.picked_nodes, 4u);
   EXPECT_EQ(download.report.epoch_start, 1);
@@ -407,8 +399,8 @@ TEST(DownloadSelect, PathsTakesTheBestPathOfEachEpochOfTheMission) {
   // Starting at 13:00 (epoch 2) with no end: P3 only.
   paths.mission_start_min = 13 * 60;
   download = map.Select(paths);
-  EXPECT_EQ(download.nodes, Ids({3, 4}));
-  EXPECT_EQ(download.paths, Ids({103}));
+  EXPECT_EQ(download.nodes, NumberedUuids({3, 4}));
+  EXPECT_EQ(download.paths, NumberedUuids({103}));
   ExpectIntegral(map, download);
 
   // Starting at 20:00 (epoch 3, after k_max) with no end: Algorithm 3 walks no epoch.
@@ -428,7 +420,7 @@ TEST(DownloadSelect, TimeOfDayAndPathsIntersect) {
   policy.mission_start_min = 7 * 60;
   policy.window_min = 30;
   DownloadSelection download = map.Select(policy);
-  EXPECT_EQ(download.nodes, Ids({2}));
+  EXPECT_EQ(download.nodes, NumberedUuids({2}));
   EXPECT_TRUE(download.edges.empty());
   EXPECT_TRUE(download.paths.empty());
   EXPECT_EQ(download.report.picked_nodes, 1u);
@@ -441,7 +433,7 @@ TEST(DownloadSelect, TimeOfDayAndPathsIntersect) {
   policy.mission_start_min = 23 * 60 + 30;
   policy.window_min = 7 * 60;
   download = map.Select(policy);
-  EXPECT_EQ(download.nodes, Ids({1}));
+  EXPECT_EQ(download.nodes, NumberedUuids({1}));
   EXPECT_EQ(download.report.paths_chosen, 2u);
   EXPECT_EQ(download.report.epoch_start, 2);
   EXPECT_EQ(download.report.epoch_end, 1);
@@ -450,7 +442,7 @@ TEST(DownloadSelect, TimeOfDayAndPathsIntersect) {
   // T_w = 12 h keeps the whole clock and every epoch: k_min … k_max = 1 … 2, P* = {P1, P3}.
   policy.window_min = 720;
   download = map.Select(policy);
-  EXPECT_EQ(download.nodes, Ids({1, 2, 3, 4}));
+  EXPECT_EQ(download.nodes, NumberedUuids({1, 2, 3, 4}));
   EXPECT_EQ(download.report.epoch_start, 1);
   EXPECT_EQ(download.report.epoch_end, 2);
   ExpectIntegral(map, download);
@@ -466,8 +458,8 @@ TEST(DownloadSelect, PathsAreBridgedAlongTheMetricChain) {
   DownloadPolicy policy = ParseDownloadPolicy("paths");
   policy.mission_start_min = 9 * 60;
   const DownloadSelection download = map.Select(policy);
-  EXPECT_EQ(download.nodes, Ids({1, 2, 3, 4}));
-  EXPECT_EQ(download.edges, Ids({11, 12, 13, 21}));
+  EXPECT_EQ(download.nodes, NumberedUuids({1, 2, 3, 4}));
+  EXPECT_EQ(download.edges, NumberedUuids({11, 12, 13, 21}));
   EXPECT_EQ(download.report.picked_nodes, 2u);
   EXPECT_EQ(download.report.integrity.bridging_nodes, 2u);
   EXPECT_EQ(download.report.integrity.fragments_before, 2u);
@@ -509,9 +501,9 @@ TEST(DownloadSelect, BudgetTakesPathsByWeightAndSkipsOneThatDoesNotFit) {
   // A (40) fits; B would make 40 + 140: skipped; C (20) fits: 60. Bare nodes by clock distance
   // from 10:00: n11 (30 min, 10 bytes) fits exactly, 70; then n10 (60 min) cannot.
   const DownloadSelection download = map.Select(policy);
-  EXPECT_EQ(download.nodes, Ids({1, 2, 3, 4, 5, 6, 11}));
-  EXPECT_EQ(download.edges, Ids({11, 12, 13, 14, 15, 21, 22, 23, 26}));
-  EXPECT_EQ(download.paths, Ids({101, 103}));
+  EXPECT_EQ(download.nodes, NumberedUuids({1, 2, 3, 4, 5, 6, 11}));
+  EXPECT_EQ(download.edges, NumberedUuids({11, 12, 13, 14, 15, 21, 22, 23, 26}));
+  EXPECT_EQ(download.paths, NumberedUuids({101, 103}));
   EXPECT_EQ(download.report.bytes, 70);
   EXPECT_EQ(download.report.map_bytes, 200);
   EXPECT_EQ(download.report.picked_nodes, 7u);
@@ -523,7 +515,7 @@ TEST(DownloadSelect, BudgetTakesPathsByWeightAndSkipsOneThatDoesNotFit) {
   // With room for B and its bridges (40 + 140 + n11), C comes free as B's bridge: 190.
   policy.budget_bytes = 190;
   const DownloadSelection wider = map.Select(policy);
-  EXPECT_EQ(wider.nodes, Ids({1, 2, 3, 4, 5, 6, 7, 8, 9, 11}));
+  EXPECT_EQ(wider.nodes, NumberedUuids({1, 2, 3, 4, 5, 6, 7, 8, 9, 11}));
   EXPECT_EQ(wider.report.bytes, 190);
   EXPECT_EQ(wider.report.picked_nodes, 10u);  // C's turn picks n5, n6 on merit
   EXPECT_EQ(wider.report.integrity.bridging_nodes, 0u);
@@ -531,7 +523,7 @@ TEST(DownloadSelect, BudgetTakesPathsByWeightAndSkipsOneThatDoesNotFit) {
 
   // 179: A with B and its bridges is 180, so B is skipped; A, C and n11 (70), then n10 (80).
   policy.budget_bytes = 179;
-  EXPECT_EQ(map.Select(policy).nodes, Ids({1, 2, 3, 4, 5, 6, 10, 11}));
+  EXPECT_EQ(map.Select(policy).nodes, NumberedUuids({1, 2, 3, 4, 5, 6, 10, 11}));
 }
 
 // The chain 1-2-3-4-5, 10 bytes each; one path P (101) over n1 and n4 only (edge 21), and n5
@@ -554,8 +546,8 @@ TEST(DownloadSelect, BudgetCountsBridgingNodes) {
 
   policy.budget_bytes = 45;  // P with bridges: 40; n5 would make 50
   DownloadSelection download = map.Select(policy);
-  EXPECT_EQ(download.nodes, Ids({1, 2, 3, 4}));
-  EXPECT_EQ(download.edges, Ids({11, 12, 13, 21}));
+  EXPECT_EQ(download.nodes, NumberedUuids({1, 2, 3, 4}));
+  EXPECT_EQ(download.edges, NumberedUuids({11, 12, 13, 21}));
   EXPECT_EQ(download.report.bytes, 40);
   EXPECT_EQ(download.report.picked_nodes, 2u);
   EXPECT_EQ(download.report.integrity.fragments_before, 2u);
@@ -564,7 +556,7 @@ TEST(DownloadSelect, BudgetCountsBridgingNodes) {
 
   policy.budget_bytes = 50;
   download = map.Select(policy);
-  EXPECT_EQ(download.nodes, Ids({1, 2, 3, 4, 5}));
+  EXPECT_EQ(download.nodes, NumberedUuids({1, 2, 3, 4, 5}));
   EXPECT_EQ(download.report.picked_nodes, 3u);
   EXPECT_EQ(download.report.integrity.bridging_nodes, 2u);
   ExpectIntegral(map, download);
@@ -572,7 +564,7 @@ TEST(DownloadSelect, BudgetCountsBridgingNodes) {
   // P alone is 20 bytes, but integral it is 40: it does not fit 35, and then n5 alone does.
   policy.budget_bytes = 35;
   download = map.Select(policy);
-  EXPECT_EQ(download.nodes, Ids({5}));
+  EXPECT_EQ(download.nodes, NumberedUuids({5}));
   EXPECT_EQ(download.report.bytes, 10);
   ExpectIntegral(map, download);
 
@@ -615,9 +607,9 @@ TEST(DownloadSelect, BudgetKeepsItsOwnBridgesWhenMakeIntegralsDoNotFit) {
   // 40: MakeIntegral's 120 does not fit; the fill's own selection does.
   policy.budget_bytes = 40;
   DownloadSelection download = map.Select(policy);
-  EXPECT_EQ(download.nodes, Ids({1, 3, 4, 5}));
-  EXPECT_EQ(download.edges, Ids({14, 15, 16, 21, 22}));
-  EXPECT_EQ(download.paths, Ids({101, 102}));
+  EXPECT_EQ(download.nodes, NumberedUuids({1, 3, 4, 5}));
+  EXPECT_EQ(download.edges, NumberedUuids({14, 15, 16, 21, 22}));
+  EXPECT_EQ(download.paths, NumberedUuids({101, 102}));
   EXPECT_EQ(download.report.bytes, 40);
   EXPECT_EQ(download.report.picked_nodes, 2u);
   EXPECT_EQ(download.report.integrity.fragments_before, 2u);
@@ -627,8 +619,8 @@ TEST(DownloadSelect, BudgetKeepsItsOwnBridgesWhenMakeIntegralsDoNotFit) {
   // 120: MakeIntegral of the picks fits, so the download is that, as without a budget.
   policy.budget_bytes = 120;
   download = map.Select(policy);
-  EXPECT_EQ(download.nodes, Ids({1, 2, 4, 6}));
-  EXPECT_EQ(download.edges, Ids({11, 12, 13, 21, 22}));
+  EXPECT_EQ(download.nodes, NumberedUuids({1, 2, 4, 6}));
+  EXPECT_EQ(download.edges, NumberedUuids({11, 12, 13, 21, 22}));
   EXPECT_EQ(download.report.bytes, 120);
   EXPECT_EQ(download.report.integrity.bridging_nodes, 2u);
   ExpectIntegral(map, download);
@@ -636,8 +628,8 @@ TEST(DownloadSelect, BudgetKeepsItsOwnBridgesWhenMakeIntegralsDoNotFit) {
   // 39: B with its bridges does not fit at all.
   policy.budget_bytes = 39;
   download = map.Select(policy);
-  EXPECT_EQ(download.nodes, Ids({1}));
-  EXPECT_EQ(download.edges, Ids({21}));
+  EXPECT_EQ(download.nodes, NumberedUuids({1}));
+  EXPECT_EQ(download.edges, NumberedUuids({21}));
   ExpectIntegral(map, download);
 }
 
@@ -666,7 +658,7 @@ TEST(DownloadSelect, BudgetSpendsTheRoomMakeIntegralLeavesOnANextRound) {
   policy.window_min = 60;
   policy.budget_bytes = 125;
   const DownloadSelection download = map.Select(policy);
-  EXPECT_EQ(download.nodes, Ids({1, 2, 4, 6, 7}));
+  EXPECT_EQ(download.nodes, NumberedUuids({1, 2, 4, 6, 7}));
   EXPECT_EQ(download.report.bytes, 50);
   EXPECT_EQ(download.report.picked_nodes, 3u);
   EXPECT_EQ(download.report.integrity.bridging_nodes, 2u);
@@ -698,7 +690,7 @@ TEST(DownloadSelect, BudgetBridgesThroughThePathsOwnNodes) {
   policy.window_min = 60;
   policy.budget_bytes = 50;
   const DownloadSelection download = map.Select(policy);
-  EXPECT_EQ(download.nodes, Ids({1, 4, 5, 6, 7}));
+  EXPECT_EQ(download.nodes, NumberedUuids({1, 4, 5, 6, 7}));
   EXPECT_EQ(download.report.picked_nodes, 4u);
   EXPECT_EQ(download.report.bytes, 50);
   ExpectIntegral(map, download);
@@ -723,7 +715,7 @@ TEST(DownloadSelect, BudgetSkipsABareNodeWhoseBridgesDoNotFit) {
   // all, over 35): skipped; n5 fits (20); n2 (30), n3 (40, over): n2 only.
   policy.budget_bytes = 35;
   const DownloadSelection download = map.Select(policy);
-  EXPECT_EQ(download.nodes, Ids({1, 2, 5}));
+  EXPECT_EQ(download.nodes, NumberedUuids({1, 2, 5}));
   EXPECT_EQ(download.report.bytes, 30);
   ExpectIntegral(map, download);
 }
@@ -760,7 +752,7 @@ TEST(DownloadSelect, BudgetWeighsPathsOverTheMissionsEpochs) {
   policy.budget_bytes = 30;
   // A first (its 30 bytes fit); then B's allowed node n4 would make 40.
   DownloadSelection download = map.Select(policy);
-  EXPECT_EQ(download.nodes, Ids({1, 2, 3}));
+  EXPECT_EQ(download.nodes, NumberedUuids({1, 2, 3}));
   EXPECT_EQ(download.report.epoch_start, 10);
   EXPECT_EQ(download.report.epoch_end, 10);
   ExpectIntegral(map, download);
@@ -770,8 +762,8 @@ TEST(DownloadSelect, BudgetWeighsPathsOverTheMissionsEpochs) {
   policy.mission_start_min = 10 * 60 + 30;
   policy.budget_bytes = 40;
   download = map.Select(policy);
-  EXPECT_EQ(download.nodes, Ids({4, 5, 6, 7}));
-  EXPECT_EQ(download.paths, Ids({102}));
+  EXPECT_EQ(download.nodes, NumberedUuids({4, 5, 6, 7}));
+  EXPECT_EQ(download.paths, NumberedUuids({102}));
   EXPECT_EQ(download.report.epoch_start, 10);
   EXPECT_EQ(download.report.epoch_end, 15);
   ExpectIntegral(map, download);
@@ -786,14 +778,14 @@ TEST(DownloadSelect, PathsAndBudgetFillFromTheBestPathsOnly) {
   // n3 would join for 30.
   policy.budget_bytes = 30;
   DownloadSelection download = map.Select(policy);
-  EXPECT_EQ(download.nodes, Ids({1, 2}));
+  EXPECT_EQ(download.nodes, NumberedUuids({1, 2}));
   EXPECT_EQ(download.report.paths_chosen, 2u);
   EXPECT_EQ(download.report.bytes, 20);
   ExpectIntegral(map, download);
 
   policy.budget_bytes = 1000;  // everything P* allows, never n5
   download = map.Select(policy);
-  EXPECT_EQ(download.nodes, Ids({1, 2, 3, 4}));
+  EXPECT_EQ(download.nodes, NumberedUuids({1, 2, 3, 4}));
   ExpectIntegral(map, download);
 }
 
@@ -804,7 +796,7 @@ TEST(DownloadSelect, TimeOfDayBudgetNeverPicksNodesOutsideTheWindow) {
   policy.window_min = 30;  // 08:30 … 09:30: n10 only
   policy.budget_bytes = 1000;
   const DownloadSelection download = map.Select(policy);
-  EXPECT_EQ(download.nodes, Ids({10}));
+  EXPECT_EQ(download.nodes, NumberedUuids({10}));
   EXPECT_EQ(download.report.bytes, 10);
   ExpectIntegral(map, download);
 }
@@ -824,10 +816,10 @@ TEST(DownloadSelect, IncludedNodesAreKeptWhateverThePolicyPicks) {
   DownloadPolicy tod = ParseDownloadPolicy("tod");
   tod.mission_start_min = 12 * 60;
   tod.window_min = 60;
-  EXPECT_EQ(map.Select(tod).nodes, Ids({2, 3, 4, 5}));
+  EXPECT_EQ(map.Select(tod).nodes, NumberedUuids({2, 3, 4, 5}));
   tod.include = {Id(1)};
   const DownloadSelection with_dock = map.Select(tod);
-  EXPECT_EQ(with_dock.nodes, Ids({1, 2, 3, 4, 5}));
+  EXPECT_EQ(with_dock.nodes, NumberedUuids({1, 2, 3, 4, 5}));
   EXPECT_EQ(with_dock.report.picked_nodes, 5u);
   ExpectIntegral(map, with_dock);
   // Under a budget the dock comes first: 30 bytes hold it and the two nodes nearest it.

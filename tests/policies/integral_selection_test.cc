@@ -14,14 +14,12 @@ namespace fleetmap {
 namespace {
 
 // Short names for the readable test UUIDs.
-constexpr auto& Id = NumberedUuid;
-constexpr auto& Ids = NumberedUuids;
 
 Edge Metric(int id, int from, int to) {
   Edge edge;
-  edge.id = Id(id);
-  edge.from = Id(from);
-  edge.to = Id(to);
+  edge.id = NumberedUuid(id);
+  edge.from = NumberedUuid(from);
+  edge.to = NumberedUuid(to);
   edge.kind = EdgeKind::kMetric;
   return edge;
 }
@@ -29,7 +27,7 @@ Edge Metric(int id, int from, int to) {
 Edge PathEdge(int id, int from, int to) {
   Edge edge = Metric(id, from, to);
   edge.kind = EdgeKind::kPath;
-  edge.path = Id(999);
+  edge.path = NumberedUuid(999);
   return edge;
 }
 
@@ -42,7 +40,7 @@ struct Map {
 
 Map MakeMap() {
   Map map;
-  for (int n : {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 20, 21}) map.nodes.push_back(Id(n));
+  for (int n : {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 20, 21}) map.nodes.push_back(NumberedUuid(n));
   for (int i = 0; i < 9; ++i) map.edges.push_back(Metric(100 + i, i, i + 1));
   map.edges.push_back(Metric(109, 3, 10));
   map.edges.push_back(Metric(110, 10, 11));
@@ -54,28 +52,28 @@ Map MakeMap() {
 
 TEST(IntegralSelection, GapsInAChainAreBridgedByTheShortestWay) {
   const Map map = MakeMap();
-  const std::vector<Uuid> selected = Ids({0, 1, 5, 6, 11});
+  const std::vector<Uuid> selected = NumberedUuids({0, 1, 5, 6, 11});
   const IntegralSelection result = MakeIntegral(map.nodes, map.edges, selected);
   // 1 → 5 needs 2, 3, 4; 11 hangs off 3 through 10.
-  EXPECT_EQ(result.nodes, Ids({0, 1, 2, 3, 4, 5, 6, 10, 11}));
+  EXPECT_EQ(result.nodes, NumberedUuids({0, 1, 2, 3, 4, 5, 6, 10, 11}));
   EXPECT_EQ(result.report.map_components, 2u);
   EXPECT_EQ(result.report.touched_components, 1u);
   EXPECT_EQ(result.report.fragments_before, 3u);
   EXPECT_EQ(result.report.components_after, 1u);
   EXPECT_EQ(result.report.bridging_nodes, 4u);
   // Metric edges inside the selection only; the path edge 0→9 lost its end 9.
-  EXPECT_EQ(result.edges, Ids({100, 101, 102, 103, 104, 105, 109, 110}));
+  EXPECT_EQ(result.edges, NumberedUuids({100, 101, 102, 103, 104, 105, 109, 110}));
 }
 
 TEST(IntegralSelection, SeparateMapPartsStaySeparateAndPathEdgesNeverBridge) {
   const Map map = MakeMap();
-  const std::vector<Uuid> selected = Ids({1, 20, 21});
+  const std::vector<Uuid> selected = NumberedUuids({1, 20, 21});
   const IntegralSelection result = MakeIntegral(map.nodes, map.edges, selected);
-  EXPECT_EQ(result.nodes, Ids({1, 20, 21}));
+  EXPECT_EQ(result.nodes, NumberedUuids({1, 20, 21}));
   EXPECT_EQ(result.report.touched_components, 2u);
   EXPECT_EQ(result.report.components_after, 2u);
   EXPECT_EQ(result.report.bridging_nodes, 0u);
-  EXPECT_EQ(result.edges, Ids({111, 201}));  // the path edge 1→20 has both ends: kept
+  EXPECT_EQ(result.edges, NumberedUuids({111, 201}));  // the path edge 1→20 has both ends: kept
 }
 
 TEST(IntegralSelection, EverySelectionComesOutWithoutDanglingEdgesOrNewFragments) {
@@ -84,7 +82,7 @@ TEST(IntegralSelection, EverySelectionComesOutWithoutDanglingEdgesOrNewFragments
   for (int mask = 0; mask < 1024; ++mask) {
     std::vector<Uuid> selected;
     for (int i = 0; i < 10; ++i) {
-      if (mask & (1 << i)) selected.push_back(Id(i));
+      if (mask & (1 << i)) selected.push_back(NumberedUuid(i));
     }
     const IntegralSelection result = MakeIntegral(map.nodes, map.edges, selected);
     EXPECT_EQ(result.report.components_after, mask == 0 ? 0u : 1u) << mask;
@@ -115,11 +113,11 @@ TEST(IntegralSelection, EmptySelectionAndBadInput) {
   EXPECT_EQ(empty.report.map_components, 2u);
   EXPECT_EQ(empty.report.components_after, 0u);
 
-  const std::vector<Uuid> unknown = Ids({1, 77});
+  const std::vector<Uuid> unknown = NumberedUuids({1, 77});
   EXPECT_THROW(MakeIntegral(map.nodes, map.edges, unknown), Error);
   std::vector<Edge> dangling = map.edges;
   dangling.push_back(Metric(300, 9, 88));
-  const std::vector<Uuid> one = Ids({1});
+  const std::vector<Uuid> one = NumberedUuids({1});
   EXPECT_THROW(MakeIntegral(map.nodes, dangling, one), Error);
 }
 

@@ -16,20 +16,16 @@
 namespace fleetmap {
 namespace {
 
-Uuid Id(int n) {
-  return NumberedUuid(n);
-}
-
 // Seed 002 Fig. 5: P1 = n1 n2 n3 n4 n9 and P2 = n6 n7 n8 n4 n5; the robot is at n_k = n4 with
 // candidates Y = {n5, n9} and has just tried W = {n1, n2, n3, n4, n8}, Z = [1, 1, 1, 1, 0].
 PathMemory Figure5Memory() {
   PathMemory memory;
-  const Uuid p1 = Id(101), p2 = Id(102);
+  const Uuid p1 = NumberedUuid(101), p2 = NumberedUuid(102);
   for (const auto& [a, b] : std::vector<std::pair<int, int>>{{1, 2}, {2, 3}, {3, 4}, {4, 9}}) {
-    memory.AddPathEdge(p1, Id(a), Id(b));
+    memory.AddPathEdge(p1, NumberedUuid(a), NumberedUuid(b));
   }
   for (const auto& [a, b] : std::vector<std::pair<int, int>>{{6, 7}, {7, 8}, {8, 4}, {4, 5}}) {
-    memory.AddPathEdge(p2, Id(a), Id(b));
+    memory.AddPathEdge(p2, NumberedUuid(a), NumberedUuid(b));
   }
   return memory;
 }
@@ -37,7 +33,7 @@ PathMemory Figure5Memory() {
 void ObserveFigure5(PathRanking& ranking) {
   for (const auto& [node, success] :
        std::vector<std::pair<int, bool>>{{1, true}, {2, true}, {3, true}, {8, false}, {4, true}}) {
-    const LocalisationAttempt attempt{Id(node), success};
+    const LocalisationAttempt attempt{NumberedUuid(node), success};
     ranking.ObserveIteration({&attempt, 1});
   }
 }
@@ -45,12 +41,13 @@ void ObserveFigure5(PathRanking& ranking) {
 TEST(PathMemory, CountsPathsSharedByTwoNodes) {
   const PathMemory memory = Figure5Memory();
   EXPECT_EQ(memory.path_count(), 2u);
-  EXPECT_EQ(memory.SharedPaths(Id(4), Id(9)), 1);  // P1
-  EXPECT_EQ(memory.SharedPaths(Id(4), Id(5)), 1);  // P2
-  EXPECT_EQ(memory.SharedPaths(Id(3), Id(9)), 1);  // linked by P1 though not adjacent
-  EXPECT_EQ(memory.SharedPaths(Id(1), Id(5)), 0);
-  EXPECT_EQ(memory.SharedPaths(Id(4), Id(4)), 2);
-  EXPECT_TRUE(memory.PathsThrough(Id(77)).empty());
+  EXPECT_EQ(memory.SharedPaths(NumberedUuid(4), NumberedUuid(9)), 1);  // P1
+  EXPECT_EQ(memory.SharedPaths(NumberedUuid(4), NumberedUuid(5)), 1);  // P2
+  EXPECT_EQ(memory.SharedPaths(NumberedUuid(3), NumberedUuid(9)),
+            1);  // linked by P1 though not adjacent
+  EXPECT_EQ(memory.SharedPaths(NumberedUuid(1), NumberedUuid(5)), 0);
+  EXPECT_EQ(memory.SharedPaths(NumberedUuid(4), NumberedUuid(4)), 2);
+  EXPECT_TRUE(memory.PathsThrough(NumberedUuid(77)).empty());
 }
 
 TEST(PathRanking, Figure5PosteriorsMatchHandComputation) {
@@ -64,28 +61,30 @@ TEST(PathRanking, Figure5PosteriorsMatchHandComputation) {
   // p(Z | n5) = (1/7)^3 (2/7) (5/7). Prior N_5k = 1 (P2).
   const double expected_n9 = std::log(2.0) + std::log(std::pow(2.0 / 9, 4) * (8.0 / 9));
   const double expected_n5 = std::log(2.0) + std::log(std::pow(1.0 / 7, 3) * (2.0 / 7) * (5.0 / 7));
-  EXPECT_NEAR(ranking.LogPosterior(Id(4), Id(9)), expected_n9, 1e-12);
-  EXPECT_NEAR(ranking.LogPosterior(Id(4), Id(5)), expected_n5, 1e-12);
+  EXPECT_NEAR(ranking.LogPosterior(NumberedUuid(4), NumberedUuid(9)), expected_n9, 1e-12);
+  EXPECT_NEAR(ranking.LogPosterior(NumberedUuid(4), NumberedUuid(5)), expected_n5, 1e-12);
 
   // The figure's conclusion: n9 is the better bet, although n5 is nearer.
-  std::vector<Candidate> candidates{{Id(5), 1.0}, {Id(9), 2.0}};
-  ranking.Rank(Id(4), candidates);
-  EXPECT_EQ(candidates[0].node, Id(9));
-  EXPECT_EQ(candidates[1].node, Id(5));
+  std::vector<Candidate> candidates{{NumberedUuid(5), 1.0}, {NumberedUuid(9), 2.0}};
+  ranking.Rank(NumberedUuid(4), candidates);
+  EXPECT_EQ(candidates[0].node, NumberedUuid(9));
+  EXPECT_EQ(candidates[1].node, NumberedUuid(5));
 }
 
 TEST(PathRanking, PriorAloneFavoursNodesWithMorePathsFromReference) {
   PathMemory memory = Figure5Memory();
-  memory.AddPathEdge(Id(103), Id(4), Id(5));                         // a second path from n4 to n5
+  memory.AddPathEdge(NumberedUuid(103), NumberedUuid(4),
+                     NumberedUuid(5));                               // a second path from n4 to n5
   PathRanking ranking(std::move(memory), {.window_iterations = 0});  // T = 0: prior only
   ObserveFigure5(ranking);
   EXPECT_EQ(ranking.observation_count(), 0u);
   // π ∝ N_ik + 1: n5 has 2 + 1, n9 has 1 + 1.
-  EXPECT_NEAR(ranking.LogPosterior(Id(4), Id(5)) - ranking.LogPosterior(Id(4), Id(9)),
+  EXPECT_NEAR(ranking.LogPosterior(NumberedUuid(4), NumberedUuid(5)) -
+                  ranking.LogPosterior(NumberedUuid(4), NumberedUuid(9)),
               std::log(3.0 / 2.0), 1e-12);
-  std::vector<Candidate> candidates{{Id(9), 1.0}, {Id(5), 2.0}};
-  ranking.Rank(Id(4), candidates);
-  EXPECT_EQ(candidates[0].node, Id(5));
+  std::vector<Candidate> candidates{{NumberedUuid(9), 1.0}, {NumberedUuid(5), 2.0}};
+  ranking.Rank(NumberedUuid(4), candidates);
+  EXPECT_EQ(candidates[0].node, NumberedUuid(5));
 }
 
 TEST(PathRanking, WindowForgetsIterationsOlderThanT) {
@@ -93,33 +92,35 @@ TEST(PathRanking, WindowForgetsIterationsOlderThanT) {
   ObserveFigure5(ranking);  // only n8 (failed) and n4 (succeeded) stay
   EXPECT_EQ(ranking.observation_count(), 2u);
   // n9: Z_9 = [0 for n8, 1 for n4], D = 1 + 2 = 3: θ(n8) = 1/3 failed, θ(n4) = 2/3 succeeded.
-  EXPECT_NEAR(ranking.LogPosterior(Id(4), Id(9)), std::log(2.0) + std::log((2.0 / 3) * (2.0 / 3)),
-              1e-12);
+  EXPECT_NEAR(ranking.LogPosterior(NumberedUuid(4), NumberedUuid(9)),
+              std::log(2.0) + std::log((2.0 / 3) * (2.0 / 3)), 1e-12);
   // n5: Z_5 = [1, 1], D = 2 + 2 = 4: θ = 2/4 for both.
-  EXPECT_NEAR(ranking.LogPosterior(Id(4), Id(5)),
+  EXPECT_NEAR(ranking.LogPosterior(NumberedUuid(4), NumberedUuid(5)),
               std::log(2.0) + std::log((1 - 2.0 / 4) * (2.0 / 4)), 1e-12);
 }
 
 TEST(PathRanking, LatestOutcomeOfARepeatedNodeCounts) {
   PathRanking ranking(Figure5Memory(), {.window_iterations = 10});
-  const LocalisationAttempt failed{Id(1), false}, succeeded{Id(1), true};
+  const LocalisationAttempt failed{NumberedUuid(1), false}, succeeded{NumberedUuid(1), true};
   ranking.ObserveIteration({&failed, 1});
   ranking.ObserveIteration({&succeeded, 1});
   EXPECT_EQ(ranking.observation_count(), 1u);
   // W = {n1}, z = 1; n9 shares P1 with it: D = 1 + 1, θ = 2/2.
-  EXPECT_NEAR(ranking.LogPosterior(Id(4), Id(9)), std::log(2.0) + std::log(1.0), 1e-12);
+  EXPECT_NEAR(ranking.LogPosterior(NumberedUuid(4), NumberedUuid(9)), std::log(2.0) + std::log(1.0),
+              1e-12);
 }
 
 TEST(PathRanking, PathEdgesAddedDuringTheOutingCountAtOnce) {
   PathRanking ranking(PathMemory{}, {.window_iterations = 10});
-  const LocalisationAttempt attempts[] = {{Id(1), true}, {Id(3), false}};
+  const LocalisationAttempt attempts[] = {{NumberedUuid(1), true}, {NumberedUuid(3), false}};
   ranking.ObserveIteration(attempts);
   // No paths yet: D = 2, θ = 1/2 for both observations.
-  EXPECT_NEAR(ranking.LogPosterior(Uuid(), Id(2)), 2 * std::log(0.5), 1e-12);
-  ranking.ObservePathEdge(Id(200), Id(1), Id(2));  // n1, already in W, joins a path with n2
+  EXPECT_NEAR(ranking.LogPosterior(Uuid(), NumberedUuid(2)), 2 * std::log(0.5), 1e-12);
+  ranking.ObservePathEdge(NumberedUuid(200), NumberedUuid(1),
+                          NumberedUuid(2));  // n1, already in W, joins a path with n2
   // Z = [1, 0], D = 3: θ(n1) = 2/3 succeeded, θ(n3) = 1/3 failed.
-  EXPECT_NEAR(ranking.LogPosterior(Uuid(), Id(2)), 2 * std::log(2.0 / 3), 1e-12);
-  EXPECT_EQ(ranking.memory().SharedPaths(Id(1), Id(2)), 1);
+  EXPECT_NEAR(ranking.LogPosterior(Uuid(), NumberedUuid(2)), 2 * std::log(2.0 / 3), 1e-12);
+  EXPECT_EQ(ranking.memory().SharedPaths(NumberedUuid(1), NumberedUuid(2)), 1);
 }
 
 TEST(PathRanking, StartOutingClearsObservationsButKeepsMemory) {
@@ -128,7 +129,7 @@ TEST(PathRanking, StartOutingClearsObservationsButKeepsMemory) {
   ranking.StartOuting();
   EXPECT_EQ(ranking.observation_count(), 0u);
   EXPECT_EQ(ranking.memory().path_count(), 2u);
-  EXPECT_NEAR(ranking.LogPosterior(Id(4), Id(9)), std::log(2.0), 1e-12);
+  EXPECT_NEAR(ranking.LogPosterior(NumberedUuid(4), NumberedUuid(9)), std::log(2.0), 1e-12);
 }
 
 // Eqs. 5–9 evaluated term by term from their definitions, for checking the fast path.
@@ -158,7 +159,8 @@ TEST_P(PathRankingMatchesDefinition, OnARandomMap) {
   PathMemory memory;
   for (int i = 0; i < kNodes; ++i) {
     for (int k = per_node(rng); k > 0; --k) {
-      memory.AddPathEdge(Id(10'000 + pick_path(rng)), Id(i), Id(pick_node(rng)));
+      memory.AddPathEdge(NumberedUuid(10'000 + pick_path(rng)), NumberedUuid(i),
+                         NumberedUuid(pick_node(rng)));
     }
   }
   PathRanking ranking(memory, {.window_iterations = 30});
@@ -168,7 +170,8 @@ TEST_P(PathRankingMatchesDefinition, OnARandomMap) {
     std::vector<LocalisationAttempt> attempts;
     for (int a = 0; a < 4; ++a) {
       // Some attempts on nodes on no path, which count in |W| but link to nothing.
-      const Uuid node = t % 7 == 0 && a == 0 ? Id(5000 + t) : Id(pick_node(rng));
+      const Uuid node =
+          t % 7 == 0 && a == 0 ? NumberedUuid(5000 + t) : NumberedUuid(pick_node(rng));
       attempts.push_back({node, success(rng)});
     }
     ranking.ObserveIteration(attempts);
@@ -183,9 +186,10 @@ TEST_P(PathRankingMatchesDefinition, OnARandomMap) {
     }
   }
   ASSERT_EQ(ranking.observation_count(), window.size());
-  const Uuid reference = Id(pick_node(rng));
+  const Uuid reference = NumberedUuid(pick_node(rng));
   for (int c = 0; c < 40; ++c) {
-    const Uuid candidate = Id(c == 0 ? 5000 : pick_node(rng));  // one candidate on no path
+    const Uuid candidate =
+        NumberedUuid(c == 0 ? 5000 : pick_node(rng));  // one candidate on no path
     const double expected = DirectLogPosterior(memory, reference, candidate, window);
     const double actual = ranking.LogPosterior(reference, candidate);
     if (std::isinf(expected)) {
@@ -204,11 +208,12 @@ TEST(PathRanking, RejectsNegativeWindow) {
 
 TEST(DistanceRanking, NearestFirstTiesByUuid) {
   DistanceRanking ranking;
-  std::vector<Candidate> candidates{{Id(3), 2.0}, {Id(2), 1.0}, {Id(1), 2.0}};
+  std::vector<Candidate> candidates{
+      {NumberedUuid(3), 2.0}, {NumberedUuid(2), 1.0}, {NumberedUuid(1), 2.0}};
   ranking.Rank(Uuid(), candidates);
-  EXPECT_EQ(candidates[0].node, Id(2));
-  EXPECT_EQ(candidates[1].node, Id(1));
-  EXPECT_EQ(candidates[2].node, Id(3));
+  EXPECT_EQ(candidates[0].node, NumberedUuid(2));
+  EXPECT_EQ(candidates[1].node, NumberedUuid(1));
+  EXPECT_EQ(candidates[2].node, NumberedUuid(3));
 }
 
 }  // namespace

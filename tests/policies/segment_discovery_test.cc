@@ -14,7 +14,6 @@ namespace {
 
 // Short names for the readable test UUIDs.
 constexpr auto& Id = NumberedUuid;
-constexpr auto& Ids = NumberedUuids;
 
 TEST(SegmentDiscovery, EveryBranchOfAlgorithm1) {
   SegmentDiscovery discovery;
@@ -22,14 +21,14 @@ TEST(SegmentDiscovery, EveryBranchOfAlgorithm1) {
   EXPECT_EQ(discovery.Add(Id(2), Id(3)), SegmentStep::kPrepend);  // source known: target joins
   EXPECT_EQ(discovery.Add(Id(0), Id(1)), SegmentStep::kAppend);   // target known: source joins
   ASSERT_EQ(discovery.segment_count(), 1u);
-  EXPECT_EQ(discovery.Segments()[0], Ids({0, 1, 2, 3}));
+  EXPECT_EQ(discovery.Segments()[0], NumberedUuids({0, 1, 2, 3}));
 
   EXPECT_EQ(discovery.Add(Id(5), Id(6)), SegmentStep::kNew);
   EXPECT_EQ(discovery.segment_count(), 2u);
   EXPECT_EQ(discovery.SegmentOf(Id(6)), 1u);
   EXPECT_EQ(discovery.Add(Id(3), Id(5)), SegmentStep::kFuse);  // both known: one segment
   ASSERT_EQ(discovery.segment_count(), 1u);
-  EXPECT_EQ(discovery.Segments()[0], Ids({0, 1, 2, 3, 5, 6}));
+  EXPECT_EQ(discovery.Segments()[0], NumberedUuids({0, 1, 2, 3, 5, 6}));
   EXPECT_EQ(discovery.SegmentOf(Id(6)), 0u);
   EXPECT_FALSE(discovery.SegmentOf(Id(4)).has_value());
 }
@@ -40,7 +39,7 @@ TEST(SegmentDiscovery, FuseKeepsTheSourceSegmentFirst) {
   discovery.Add(Id(20), Id(21));
   EXPECT_EQ(discovery.Add(Id(21), Id(10)), SegmentStep::kFuse);  // later segment runs into it
   ASSERT_EQ(discovery.segment_count(), 1u);
-  EXPECT_EQ(discovery.Segments()[0], Ids({20, 21, 10, 11}));
+  EXPECT_EQ(discovery.Segments()[0], NumberedUuids({20, 21, 10, 11}));
 }
 
 TEST(SegmentDiscovery, LoopInsideOneSegmentChangesNothing) {
@@ -50,7 +49,7 @@ TEST(SegmentDiscovery, LoopInsideOneSegmentChangesNothing) {
   EXPECT_EQ(discovery.Add(Id(3), Id(1)), SegmentStep::kFuse);
   EXPECT_EQ(discovery.Add(Id(2), Id(2)), SegmentStep::kFuse);
   ASSERT_EQ(discovery.segment_count(), 1u);
-  EXPECT_EQ(discovery.Segments()[0], Ids({1, 2, 3}));
+  EXPECT_EQ(discovery.Segments()[0], NumberedUuids({1, 2, 3}));
 }
 
 TEST(SegmentDiscovery, ChainsInAnyEdgeOrderComeOutInChainOrder) {

@@ -8,20 +8,13 @@
 #include <set>
 #include <vector>
 
+#include "day_stamps.h"
 #include "fleetmap/core/error.h"
 #include "fleetmap/map_management/download_policy.h"
 #include "numbered_uuid.h"
 
 namespace fleetmap {
 namespace {
-
-constexpr std::int64_t kNsPerMinute = 60'000'000'000;
-constexpr std::int64_t kDay = 1440 * kNsPerMinute;
-constexpr std::int64_t kMidnight = 16'222 * kDay;  // some day in June 2014
-
-std::int64_t At(int hours, int minutes = 0, int days_later = 0) {
-  return kMidnight + days_later * kDay + (hours * 60 + minutes) * kNsPerMinute;
-}
 
 Se3 Along(double x_m) {
   Se3 pose = Se3::Identity();

@@ -20,21 +20,17 @@
 namespace fleetmap {
 namespace {
 
-Uuid Id(int n) {
-  return NumberedUuid(n);
-}
-
 // Path edges of `path` along `walk`, their ids ascending in walking order (as the builder's
 // time-ordered ids are).
 std::vector<Edge> Walk(int path, const std::vector<int>& walk, int first_edge_id) {
   std::vector<Edge> edges;
   for (std::size_t i = 0; i + 1 < walk.size(); ++i) {
     Edge edge;
-    edge.id = Id(first_edge_id + static_cast<int>(i));
-    edge.from = Id(walk[i]);
-    edge.to = Id(walk[i + 1]);
+    edge.id = NumberedUuid(first_edge_id + static_cast<int>(i));
+    edge.from = NumberedUuid(walk[i]);
+    edge.to = NumberedUuid(walk[i + 1]);
     edge.kind = EdgeKind::kPath;
-    edge.path = Id(path);
+    edge.path = NumberedUuid(path);
     edges.push_back(edge);
   }
   return edges;
@@ -42,7 +38,7 @@ std::vector<Edge> Walk(int path, const std::vector<int>& walk, int first_edge_id
 
 std::vector<Uuid> Sent(std::initializer_list<int> numbers) {
   std::vector<Uuid> ids;
-  for (int n : numbers) ids.push_back(Id(n));
+  for (int n : numbers) ids.push_back(NumberedUuid(n));
   std::sort(ids.begin(), ids.end());
   return ids;
 }
@@ -79,14 +75,14 @@ TEST(PathContraction, AChainOverLeftOutNodesBecomesOneDerivedEdge) {
   EXPECT_TRUE(contracted.kept.empty());
   ASSERT_EQ(contracted.derived.size(), 1u);
   const Edge& edge = contracted.derived[0];
-  EXPECT_EQ(edge.from, Id(1));
-  EXPECT_EQ(edge.to, Id(4));
+  EXPECT_EQ(edge.from, NumberedUuid(1));
+  EXPECT_EQ(edge.to, NumberedUuid(4));
   EXPECT_EQ(edge.kind, EdgeKind::kPath);
-  EXPECT_EQ(edge.path, Id(900));
-  EXPECT_EQ(edge.id, DerivedPathEdgeId(Id(900), Id(1), Id(4)));
+  EXPECT_EQ(edge.path, NumberedUuid(900));
+  EXPECT_EQ(edge.id, DerivedPathEdgeId(NumberedUuid(900), NumberedUuid(1), NumberedUuid(4)));
   EXPECT_TRUE(IsDerivedEdge(edge));
   EXPECT_FALSE(IsDerivedEdge(map[0]));
-  EXPECT_EQ(contracted.paths, std::vector<Uuid>{Id(900)});
+  EXPECT_EQ(contracted.paths, std::vector<Uuid>{NumberedUuid(900)});
 }
 
 TEST(PathContraction, EdgesBetweenSentNodesStayAndNothingRepeatsThem) {
@@ -94,7 +90,7 @@ TEST(PathContraction, EdgesBetweenSentNodesStayAndNothingRepeatsThem) {
   // return to the same node, no edge.
   const std::vector<Edge> map = Walk(900, {1, 2, 3, 2, 4}, 100);
   const ContractedPaths contracted = ContractPaths(map, Sent({1, 2, 4}));
-  EXPECT_EQ(contracted.kept, (std::vector<Uuid>{Id(100), Id(103)}));
+  EXPECT_EQ(contracted.kept, (std::vector<Uuid>{NumberedUuid(100), NumberedUuid(103)}));
   EXPECT_TRUE(contracted.derived.empty());
 }
 
@@ -104,17 +100,18 @@ TEST(PathContraction, FollowsThePathsOrderThroughARevisit) {
   const std::vector<Edge> map = Walk(900, {1, 5, 2, 5, 3}, 100);
   const ContractedPaths contracted = ContractPaths(map, Sent({1, 2, 3}));
   EXPECT_EQ(Ends(contracted.derived),
-            (std::set<std::pair<Uuid, Uuid>>{{Id(1), Id(2)}, {Id(2), Id(3)}}));
+            (std::set<std::pair<Uuid, Uuid>>{{NumberedUuid(1), NumberedUuid(2)},
+                                             {NumberedUuid(2), NumberedUuid(3)}}));
 }
 
 TEST(PathContraction, ALoneSentNodeKeepsItsPathByASelfEdge) {
   const std::vector<Edge> map = Walk(900, {1, 2, 3}, 100);
   const ContractedPaths contracted = ContractPaths(map, Sent({2, 7}));
   ASSERT_EQ(contracted.derived.size(), 1u);
-  EXPECT_EQ(contracted.derived[0].from, Id(2));
-  EXPECT_EQ(contracted.derived[0].to, Id(2));
+  EXPECT_EQ(contracted.derived[0].from, NumberedUuid(2));
+  EXPECT_EQ(contracted.derived[0].to, NumberedUuid(2));
   EXPECT_TRUE(IsDerivedEdge(contracted.derived[0]));
-  EXPECT_EQ(contracted.paths, std::vector<Uuid>{Id(900)});
+  EXPECT_EQ(contracted.paths, std::vector<Uuid>{NumberedUuid(900)});
 }
 
 TEST(PathContraction, APathWithNoSentNodeIsLeftOut) {
@@ -122,21 +119,24 @@ TEST(PathContraction, APathWithNoSentNodeIsLeftOut) {
   const std::vector<Edge> other = Walk(901, {4, 5}, 200);
   map.insert(map.end(), other.begin(), other.end());
   const ContractedPaths contracted = ContractPaths(map, Sent({4}));
-  EXPECT_EQ(contracted.paths, std::vector<Uuid>{Id(901)});
+  EXPECT_EQ(contracted.paths, std::vector<Uuid>{NumberedUuid(901)});
 }
 
 TEST(PathContraction, DerivedIdsDependOnPathAndEnds) {
-  EXPECT_EQ(DerivedPathEdgeId(Id(1), Id(2), Id(3)), DerivedPathEdgeId(Id(1), Id(2), Id(3)));
-  EXPECT_NE(DerivedPathEdgeId(Id(1), Id(2), Id(3)), DerivedPathEdgeId(Id(1), Id(3), Id(2)));
-  EXPECT_NE(DerivedPathEdgeId(Id(1), Id(2), Id(3)), DerivedPathEdgeId(Id(4), Id(2), Id(3)));
+  EXPECT_EQ(DerivedPathEdgeId(NumberedUuid(1), NumberedUuid(2), NumberedUuid(3)),
+            DerivedPathEdgeId(NumberedUuid(1), NumberedUuid(2), NumberedUuid(3)));
+  EXPECT_NE(DerivedPathEdgeId(NumberedUuid(1), NumberedUuid(2), NumberedUuid(3)),
+            DerivedPathEdgeId(NumberedUuid(1), NumberedUuid(3), NumberedUuid(2)));
+  EXPECT_NE(DerivedPathEdgeId(NumberedUuid(1), NumberedUuid(2), NumberedUuid(3)),
+            DerivedPathEdgeId(NumberedUuid(4), NumberedUuid(2), NumberedUuid(3)));
   Edge forged;
-  forged.id = Id(77);
-  forged.from = Id(2);
-  forged.to = Id(3);
+  forged.id = NumberedUuid(77);
+  forged.from = NumberedUuid(2);
+  forged.to = NumberedUuid(3);
   forged.kind = EdgeKind::kPath;
-  forged.path = Id(1);
+  forged.path = NumberedUuid(1);
   EXPECT_FALSE(IsDerivedEdge(forged));
-  forged.id = DerivedPathEdgeId(Id(1), Id(2), Id(3));
+  forged.id = DerivedPathEdgeId(NumberedUuid(1), NumberedUuid(2), NumberedUuid(3));
   EXPECT_TRUE(IsDerivedEdge(forged));
   forged.kind = EdgeKind::kMetric;
   EXPECT_FALSE(IsDerivedEdge(forged));
@@ -172,7 +172,7 @@ TEST(PathContraction, PathRankingOverADownloadEqualsTheWholeMapsRestrictedToTheN
     std::vector<Uuid> sent;
     const double share = 0.1 + 0.8 * (rng() % 1000) / 1000.0;
     for (int n = 1; n <= node_count; ++n) {
-      if ((rng() % 1000) / 1000.0 < share) sent.push_back(Id(n));
+      if ((rng() % 1000) / 1000.0 < share) sent.push_back(NumberedUuid(n));
     }
     std::sort(sent.begin(), sent.end());
 

@@ -17,7 +17,7 @@
 namespace fleetmap {
 namespace {
 
-FleetExperimentOptions SmallOptions(const std::filesystem::path& dir) {
+FleetExperimentOptions SmallFleetOptions(const std::filesystem::path& dir) {
   FleetExperimentOptions options;
   options.world.route.length_m = 200.0;
   options.world.route.corner_radius_m = 14.0;
@@ -37,7 +37,7 @@ class FleetExperimentTest : public ::testing::Test {
 };
 
 TEST_F(FleetExperimentTest, EveryFigureIsBuiltAndLocalisedOnTheHeldOutFrames) {
-  const FleetExperimentOptions options = SmallOptions(dir_ / "work");
+  const FleetExperimentOptions options = SmallFleetOptions(dir_ / "work");
   std::int64_t last_done = 0, total = 0;
   const FleetExperimentResult result =
       RunFleetExperiment(options, [&](std::int64_t done, std::int64_t all) {
@@ -196,16 +196,16 @@ TEST_F(FleetExperimentTest, EveryFigureIsBuiltAndLocalisedOnTheHeldOutFrames) {
 }
 
 TEST_F(FleetExperimentTest, RejectsBadOptions) {
-  FleetExperimentOptions options = SmallOptions(dir_ / "work");
+  FleetExperimentOptions options = SmallFleetOptions(dir_ / "work");
   options.folds = 2;
   EXPECT_THROW(RunFleetExperiment(options), Error);
-  options = SmallOptions(dir_ / "work");
+  options = SmallFleetOptions(dir_ / "work");
   options.test_policy = "nearest";
   EXPECT_THROW(RunFleetExperiment(options), Error);
-  options = SmallOptions(dir_ / "work");
+  options = SmallFleetOptions(dir_ / "work");
   options.dream_folds = 9;
   EXPECT_THROW(RunFleetExperiment(options), Error);
-  options = SmallOptions(dir_ / "work");
+  options = SmallFleetOptions(dir_ / "work");
   options.work_dir.clear();
   EXPECT_THROW(RunFleetExperiment(options), Error);
 }

@@ -34,7 +34,7 @@ HeldOutRun HeldOut(const std::string& map, std::int64_t beyond, std::int64_t los
   return run;
 }
 
-FleetDownload Download(const std::string& policy, std::size_t nodes) {
+FleetDownload PolicyDownload(const std::string& policy, std::size_t nodes) {
   FleetDownload d;
   d.policy = policy;
   d.nodes = nodes;
@@ -68,8 +68,9 @@ FleetExperimentResult GoodResult() {
             HeldOut("copy", 30, 1000),           HeldOut("tod", 30, 1000),
             HeldOut("tod+paths", 30, 1000),      HeldOut("tod+cover", 30, 1000),
             HeldOut("tod+paths+cover", 30, 1000)};
-  r.downloads = {Download("copy", 1000), Download("tod", 800), Download("tod+paths", 700),
-                 Download("tod+cover", 700), Download("tod+paths+cover", 600)};
+  r.downloads = {PolicyDownload("copy", 1000), PolicyDownload("tod", 800),
+                 PolicyDownload("tod+paths", 700), PolicyDownload("tod+cover", 700),
+                 PolicyDownload("tod+paths+cover", 600)};
   // The frontier: one point at half of copy's nodes failing 1.4 x as often as copy (30 frames of
   // 10000 beyond 10 m), and one smaller that fails far more.
   r.frontier = {Point("tod+cover k=1 cap=1", 0.50, 42), Point("tod T_w=60", 0.30, 400)};

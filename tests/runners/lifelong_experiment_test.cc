@@ -15,7 +15,7 @@
 namespace fleetmap {
 namespace {
 
-LifelongOptions SmallOptions(const std::filesystem::path& dir) {
+LifelongOptions SmallLifelongOptions(const std::filesystem::path& dir) {
   LifelongOptions options;
   options.world.route.length_m = 150.0;
   options.world.route.corner_radius_m = 14.0;
@@ -29,7 +29,7 @@ LifelongOptions SmallOptions(const std::filesystem::path& dir) {
 
 TEST(LifelongExperimentTest, EveryDayIsMergedAndTheNextDayHeldOutInCopyAndEachDownload) {
   const ScratchDir dir("fleetmap-lifelong-test");
-  const LifelongOptions options = SmallOptions(dir / "work");
+  const LifelongOptions options = SmallLifelongOptions(dir / "work");
   std::int64_t last_done = 0, total = 0;
   const LifelongResult result =
       RunLifelongExperiment(options, [&](std::int64_t done, std::int64_t all) {
@@ -68,15 +68,15 @@ TEST(LifelongExperimentTest, EveryDayIsMergedAndTheNextDayHeldOutInCopyAndEachDo
 
 TEST(LifelongExperimentTest, RejectsBadOptions) {
   const ScratchDir dir("fleetmap-lifelong-test");
-  LifelongOptions options = SmallOptions(dir / "work");
+  LifelongOptions options = SmallLifelongOptions(dir / "work");
   options.days = 1;
   EXPECT_THROW(RunLifelongExperiment(options), Error);
-  options = SmallOptions(dir / "work");
+  options = SmallLifelongOptions(dir / "work");
   options.policies = {"copy"};
   EXPECT_THROW(RunLifelongExperiment(options), Error);
   options.policies = {"tod+nonsense"};
   EXPECT_THROW(RunLifelongExperiment(options), Error);
-  options = SmallOptions(dir / "work");
+  options = SmallLifelongOptions(dir / "work");
   options.build_policy = "random";
   EXPECT_THROW(RunLifelongExperiment(options), Error);
 }

@@ -16,7 +16,7 @@
 namespace fleetmap {
 namespace {
 
-RankingExperimentOptions SmallOptions(const std::filesystem::path& dir) {
+RankingExperimentOptions SmallRankingOptions(const std::filesystem::path& dir) {
   RankingExperimentOptions options;
   options.world.route.length_m = 200.0;
   options.world.route.corner_radius_m = 14.0;
@@ -38,7 +38,7 @@ class RankingExperimentTest : public ::testing::Test {
 };
 
 TEST_F(RankingExperimentTest, EveryFoldBuildsAndEveryRunLocalisesTheHeldOutFrames) {
-  const RankingExperimentOptions options = SmallOptions(dir_ / "work");
+  const RankingExperimentOptions options = SmallRankingOptions(dir_ / "work");
   std::int64_t last_done = 0, total = 0;
   const RankingExperimentResult result =
       RunRankingExperiment(options, [&](std::int64_t done, std::int64_t all) {
@@ -85,7 +85,7 @@ TEST_F(RankingExperimentTest, EveryFoldBuildsAndEveryRunLocalisesTheHeldOutFrame
 }
 
 TEST_F(RankingExperimentTest, SameWorldSameNumbers) {
-  RankingExperimentOptions options = SmallOptions(dir_ / "a");
+  RankingExperimentOptions options = SmallRankingOptions(dir_ / "a");
   options.cores = {2};
   options.windows = {10};
   options.map_size_steps = 1;
@@ -102,13 +102,13 @@ TEST_F(RankingExperimentTest, SameWorldSameNumbers) {
 }
 
 TEST_F(RankingExperimentTest, RejectsBadOptions) {
-  RankingExperimentOptions options = SmallOptions(dir_.path());
+  RankingExperimentOptions options = SmallRankingOptions(dir_.path());
   options.folds = 1;
   EXPECT_THROW(RunRankingExperiment(options), Error);
-  options = SmallOptions(dir_.path());
+  options = SmallRankingOptions(dir_.path());
   options.cores = {0};
   EXPECT_THROW(RunRankingExperiment(options), Error);
-  options = SmallOptions(dir_.path());
+  options = SmallRankingOptions(dir_.path());
   options.world.schedule.outings = 2;  // fewer outings than folds
   EXPECT_THROW(RunRankingExperiment(options), Error);
 }

@@ -29,7 +29,7 @@ RealExperimentResult AtTheThresholds() {
 }
 
 // The lines in the order JudgeRealExperiment gives them with ground truth.
-enum Line { kTracked, kTranslationalDrift, kRotationalDrift, kLocalised, kPositionError };
+enum JudgedLine { kTracked, kTranslationalDrift, kRotationalDrift, kLocalised, kPositionError };
 
 std::vector<bool> Passes(const std::vector<RealAcceptanceLine>& lines) {
   std::vector<bool> pass;
@@ -38,7 +38,7 @@ std::vector<bool> Passes(const std::vector<RealAcceptanceLine>& lines) {
 }
 
 // All lines pass but `failing`.
-std::vector<bool> AllBut(Line failing) {
+std::vector<bool> AllBut(JudgedLine failing) {
   std::vector<bool> pass(5, true);
   pass[failing] = false;
   return pass;

@@ -34,7 +34,7 @@ using testing::ReadFileBytes;
 using testing::SyntheticEuroc;
 using testing::SyntheticKitti;
 
-constexpr int kPairs = 5;
+constexpr int kIngestPairs = 5;
 constexpr std::int64_t kMs = 1'000'000;
 
 // Every path under `dir` (empty when `dir` is missing), for "nothing was left" checks.
@@ -73,7 +73,7 @@ class ImageIngestTest : public ::testing::Test {
   }
 
   ScratchDir scratch_{"fleetmap-image-ingest"};
-  SyntheticEuroc folder_{scratch_ / "seq", kPairs};
+  SyntheticEuroc folder_{scratch_ / "seq", kIngestPairs};
   std::unique_ptr<GraphStore> store_;
 };
 
@@ -84,13 +84,14 @@ TEST_F(ImageIngestTest, WritesOneRecordPerPairAndIndexesIt) {
   const fs::path relative = RecordFilePath("euroc", "stereo", folder_.stamps().front());
   EXPECT_EQ(relative, fs::path("euroc/stereo/2014-06-25/euroc-stereo-20140625-165433.rec"));
   EXPECT_EQ(r.record_file, fs::absolute(root() / relative).lexically_normal());
-  EXPECT_EQ(r.pairs, kPairs);
+  EXPECT_EQ(r.pairs, kIngestPairs);
   EXPECT_EQ(r.bytes, fs::file_size(r.record_file));
-  EXPECT_EQ(r.index.records, kPairs);
-  EXPECT_EQ(r.index.inserted, kPairs);
+  EXPECT_EQ(r.index.records, kIngestPairs);
+  EXPECT_EQ(r.index.inserted, kIngestPairs);
   EXPECT_TRUE(r.index.problems.empty());
   ASSERT_FALSE(progress.empty());
-  EXPECT_EQ(progress.back(), std::make_pair(std::int64_t{kPairs}, std::int64_t{kPairs}));
+  EXPECT_EQ(progress.back(),
+            std::make_pair(std::int64_t{kIngestPairs}, std::int64_t{kIngestPairs}));
   for (std::size_t i = 1; i < progress.size(); ++i) {
     EXPECT_GT(progress[i].first, progress[i - 1].first);
   }
@@ -100,8 +101,8 @@ TEST_F(ImageIngestTest, WritesOneRecordPerPairAndIndexesIt) {
   std::vector<Record> records;
   while (std::optional<Record> record = reader.Next()) records.push_back(std::move(*record));
   EXPECT_TRUE(reader.problems().empty());
-  ASSERT_EQ(records.size(), static_cast<std::size_t>(kPairs));
-  for (int i = 0; i < kPairs; ++i) {
+  ASSERT_EQ(records.size(), static_cast<std::size_t>(kIngestPairs));
+  for (int i = 0; i < kIngestPairs; ++i) {
     SCOPED_TRACE("pair " + std::to_string(i));
     EXPECT_EQ(records[i].header.type, "fleetmap.v1.StereoImagePair");
     EXPECT_EQ(records[i].header.stamp_ns, folder_.stamps()[i]);
@@ -126,8 +127,8 @@ TEST_F(ImageIngestTest, WritesOneRecordPerPairAndIndexesIt) {
   ASSERT_TRUE(platform && sensor);
   EXPECT_EQ(sensor->type, "fleetmap.v1.StereoImagePair");
   const std::vector<Datum> data = index().DataOfFile(relative.generic_string());
-  ASSERT_EQ(data.size(), static_cast<std::size_t>(kPairs));
-  for (int i = 0; i < kPairs; ++i) {
+  ASSERT_EQ(data.size(), static_cast<std::size_t>(kIngestPairs));
+  for (int i = 0; i < kIngestPairs; ++i) {
     EXPECT_EQ(data[i].stamp_ns, folder_.stamps()[i]);
     EXPECT_EQ(data[i].offset, records[i].location.offset);
     EXPECT_EQ(data[i].length, records[i].location.length);
@@ -154,11 +155,11 @@ TEST_F(ImageIngestTest, IngestingTwiceIsAConflictAndKeepsTheFirstLog) {
   ExpectError(
       ErrorCode::kConflict, [&] { Ingest(); }, first.record_file.string());
   EXPECT_EQ(ReadFileBytes(first.record_file), bytes);
-  EXPECT_EQ(index().CountData(), kPairs);
+  EXPECT_EQ(index().CountData(), kIngestPairs);
   RecordReader reader(first.record_file);
   int records = 0;
   while (reader.Next()) ++records;
-  EXPECT_EQ(records, kPairs);
+  EXPECT_EQ(records, kIngestPairs);
   EXPECT_TRUE(reader.problems().empty());
   EXPECT_TRUE(fs::exists(first.left_calibration));
   EXPECT_EQ(Contents(first.record_file.parent_path()).size(), 3u);
@@ -166,8 +167,8 @@ TEST_F(ImageIngestTest, IngestingTwiceIsAConflictAndKeepsTheFirstLog) {
 
 TEST_F(ImageIngestTest, UnreadableImageLeavesNothing) {
   // The last pair's right image: four pairs were already written when it is read.
-  testing::WriteFileBytes(folder_.Image(1, kPairs - 1), "garbage, not a PNG");
-  ExpectIngestFailsCleanly(ErrorCode::kCorrupt, folder_.Image(1, kPairs - 1).string());
+  testing::WriteFileBytes(folder_.Image(1, kIngestPairs - 1), "garbage, not a PNG");
+  ExpectIngestFailsCleanly(ErrorCode::kCorrupt, folder_.Image(1, kIngestPairs - 1).string());
 }
 
 TEST_F(ImageIngestTest, WrongSizeImageLeavesNothing) {
@@ -286,7 +287,7 @@ class ImagesCommandTest : public ::testing::Test {
   std::string store_uri() const { return "sqlite:" + (scratch_ / "index.db").string(); }
 
   ScratchDir scratch_{"fleetmap-images-command"};
-  SyntheticEuroc folder_{scratch_ / "seq", kPairs};
+  SyntheticEuroc folder_{scratch_ / "seq", kIngestPairs};
 };
 
 TEST_F(ImagesCommandTest, IngestPrintsTheSummaryAndPairsAreQueryable) {

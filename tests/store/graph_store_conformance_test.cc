@@ -17,6 +17,7 @@
 #include "fleetmap/core/error.h"
 #include "fleetmap/core/graph.h"
 #include "fleetmap/store/graph_store.h"
+#include "graph_elements.h"
 #include "store_backends.h"
 
 namespace fleetmap {
@@ -27,20 +28,11 @@ using testing::PostgresBackend;
 using testing::SqliteBackend;
 using testing::StoreBackends;
 
-Node MakeNode(const Uuid& robot, const Uuid& outing, std::int64_t stamp_ns,
-              std::string blob = "landmarks") {
-  return Node{Uuid::Generate(), stamp_ns, robot, outing, std::move(blob)};
-}
-
 Edge MetricEdge(const Uuid& from, const Uuid& to, double dx = 1.0) {
   Se3 from_T_to = Se3::Identity();
   from_T_to.translation() = Eigen::Vector3d(dx, 0.25, -0.5);
   from_T_to.linear() = Eigen::AngleAxisd(0.1, Eigen::Vector3d::UnitZ()).toRotationMatrix();
   return Edge{Uuid::Generate(), from, to, EdgeKind::kMetric, from_T_to, Uuid()};
-}
-
-Edge PathEdge(const Uuid& from, const Uuid& to, const Uuid& path) {
-  return Edge{Uuid::Generate(), from, to, EdgeKind::kPath, Se3::Identity(), path};
 }
 
 // A linear chain n0 -> n1 -> ... of metric edges `step_m` long.
@@ -52,13 +44,6 @@ GraphBatch Chain(int n, double step_m = 1.0, const Uuid& robot = Uuid::Generate(
     batch.edges.push_back(MetricEdge(batch.nodes[i].id, batch.nodes[i + 1].id, step_m));
   }
   return batch;
-}
-
-template <typename T>
-std::vector<Uuid> Ids(const std::vector<T>& items) {
-  std::vector<Uuid> ids;
-  for (const T& item : items) ids.push_back(item.id);
-  return ids;
 }
 
 template <typename Backend>

@@ -16,6 +16,7 @@
 #include "fleetmap/core/error.h"
 #include "fleetmap/store/graph_store.h"
 #include "fleetmap/store/version_store.h"
+#include "graph_elements.h"
 #include "store_backends.h"
 
 namespace fleetmap {
@@ -26,19 +27,10 @@ using testing::PostgresBackend;
 using testing::SqliteBackend;
 using testing::StoreBackends;
 
-Node MakeNode(const Uuid& robot, const Uuid& outing, std::int64_t stamp_ns,
-              std::string blob = "landmarks") {
-  return Node{Uuid::Generate(), stamp_ns, robot, outing, std::move(blob)};
-}
-
-Edge MetricEdge(const Uuid& from, const Uuid& to) {
+Edge UnitMetricEdge(const Uuid& from, const Uuid& to) {
   Se3 from_T_to = Se3::Identity();
   from_T_to.translation() = Eigen::Vector3d(1.0, 0.25, -0.5);
   return Edge{Uuid::Generate(), from, to, EdgeKind::kMetric, from_T_to, Uuid()};
-}
-
-Edge PathEdge(const Uuid& from, const Uuid& to, const Uuid& path) {
-  return Edge{Uuid::Generate(), from, to, EdgeKind::kPath, Se3::Identity(), path};
 }
 
 Path MakePath(std::int64_t start_ns) {
@@ -46,23 +38,16 @@ Path MakePath(std::int64_t start_ns) {
 }
 
 // A chain n0 -> n1 -> ... of metric edges; stamps from first_stamp_ns on.
-GraphBatch Chain(int n, std::int64_t first_stamp_ns) {
+GraphBatch StampedChain(int n, std::int64_t first_stamp_ns) {
   GraphBatch batch;
   const Uuid robot = Uuid::Generate(), outing = Uuid::Generate();
   for (int i = 0; i < n; ++i) {
     batch.nodes.push_back(MakeNode(robot, outing, first_stamp_ns + i, "lm" + std::to_string(i)));
   }
   for (int i = 0; i + 1 < n; ++i) {
-    batch.edges.push_back(MetricEdge(batch.nodes[i].id, batch.nodes[i + 1].id));
+    batch.edges.push_back(UnitMetricEdge(batch.nodes[i].id, batch.nodes[i + 1].id));
   }
   return batch;
-}
-
-template <typename T>
-std::vector<Uuid> Ids(const std::vector<T>& items) {
-  std::vector<Uuid> ids;
-  for (const T& item : items) ids.push_back(item.id);
-  return ids;
 }
 
 template <typename T>
@@ -156,7 +141,7 @@ class VersionStoreConformance : public ::testing::Test {
   // The history described at History.
   History MakeHistory() {
     History h;
-    h.base = Chain(3, 100);
+    h.base = StampedChain(3, 100);
     store_->Put(h.base);
     const Node& b0 = h.base.nodes[0];
     const Node& b1 = h.base.nodes[1];
@@ -165,15 +150,15 @@ class VersionStoreConformance : public ::testing::Test {
     h.n1 = MakeNode(robot, outing, 200, "n1 landmarks");
     h.n2 = MakeNode(robot, outing, 201, "n2");
     h.p = MakePath(50);
-    h.e12 = MetricEdge(h.n1.id, h.n2.id);
-    h.eb = MetricEdge(b0.id, h.n1.id);
+    h.e12 = UnitMetricEdge(h.n1.id, h.n2.id);
+    h.eb = UnitMetricEdge(b0.id, h.n1.id);
     h.pe = PathEdge(b0.id, b1.id, h.p.id);
     h.r1 = Commit(GraphBatch{{h.p}, {h.n1, h.n2}, {h.e12, h.eb, h.pe}, {}});
-    h.e0 = MetricEdge(h.n1.id, b2.id);
+    h.e0 = UnitMetricEdge(h.n1.id, b2.id);
     store_->PutEdge(h.e0);
     h.n3 = MakeNode(robot, outing, 150, "n3");
-    h.e23 = MetricEdge(h.n2.id, h.n3.id);
-    h.eb12 = MetricEdge(b1.id, b2.id);
+    h.e23 = UnitMetricEdge(h.n2.id, h.n3.id);
+    h.eb12 = UnitMetricEdge(b1.id, b2.id);
     h.pe2 = PathEdge(b1.id, b2.id, h.p.id);
     h.r2 = Commit(GraphBatch{{}, {h.n3}, {h.e23, h.eb12, h.pe2}, {}});
     return h;
@@ -198,7 +183,7 @@ TYPED_TEST(VersionStoreConformance, FreshStoreIsAtSchemaTwoWithEmptyHistory) {
 
 // A store written before version control (schema 1) keeps its map, as revision 0.
 TYPED_TEST(VersionStoreConformance, SchemaOneStoreMigratesWithItsMapAtRevisionZero) {
-  const GraphBatch old = Chain(3, 0);
+  const GraphBatch old = StampedChain(3, 0);
   this->store_->Put(old);
   this->store_.reset();
   // Back to schema 1: undo 0006 (claims: columns of submissions, dropped with it), 0005
@@ -228,7 +213,7 @@ TYPED_TEST(VersionStoreConformance, SchemaOneStoreMigratesWithItsMapAtRevisionZe
   EXPECT_EQ(this->versions().HeadRevision(), 0);
   EXPECT_EQ(this->versions().NodesAt(0), old.nodes);
   EXPECT_EQ(this->versions().VersionOf(old.edges[1].id), (ElementVersion{0, std::nullopt}));
-  EXPECT_EQ(this->Commit(Chain(2, 10)).number, 1);
+  EXPECT_EQ(this->Commit(StampedChain(2, 10)).number, 1);
 }
 
 // --- Submissions --------------------------------------------------------------------------
@@ -584,7 +569,7 @@ TYPED_TEST(VersionStoreConformance, SubmissionNodesTellWhichSubmissionsCarriedAN
 }
 
 TYPED_TEST(VersionStoreConformance, StandInsAreKeptWithTheirPoseAndFirstOneWins) {
-  const GraphBatch map = Chain(2, 100);
+  const GraphBatch map = StampedChain(2, 100);
   this->Commit(map);
   const Uuid omitted = Uuid::Generate();
   Se3 pose = Se3FromTranslationQuaternion(Eigen::Vector3d(1.5, -2.0, 0.25),
@@ -605,7 +590,7 @@ TYPED_TEST(VersionStoreConformance, StandInsAreKeptWithTheirPoseAndFirstOneWins)
 // --- Appending revisions ------------------------------------------------------------------
 
 TYPED_TEST(VersionStoreConformance, AppendRevisionRecordsWhatItAdds) {
-  GraphBatch additions = Chain(3, 100);
+  GraphBatch additions = StampedChain(3, 100);
   const Path path = MakePath(10);
   additions.paths.push_back(path);
   additions.edges.push_back(PathEdge(additions.nodes[0].id, additions.nodes[2].id, path.id));
@@ -638,23 +623,23 @@ TYPED_TEST(VersionStoreConformance, AppendRevisionRecordsWhatItAdds) {
 }
 
 TYPED_TEST(VersionStoreConformance, AppendRevisionWithStaleNumberIsConflict) {
-  this->Commit(Chain(2, 0));
+  this->Commit(StampedChain(2, 0));
   auto txn = this->store_->Begin();
   ExpectError(
-      ErrorCode::kConflict, [&] { this->versions().AppendRevision(Merge(1), Chain(2, 10)); },
+      ErrorCode::kConflict, [&] { this->versions().AppendRevision(Merge(1), StampedChain(2, 10)); },
       "revision 1");
   ExpectError(
-      ErrorCode::kConflict, [&] { this->versions().AppendRevision(Merge(3), Chain(2, 10)); },
+      ErrorCode::kConflict, [&] { this->versions().AppendRevision(Merge(3), StampedChain(2, 10)); },
       "revision 3");
   ExpectError(ErrorCode::kConflict,
-              [&] { this->versions().AppendRevision(Merge(0), Chain(2, 10)); });
+              [&] { this->versions().AppendRevision(Merge(0), StampedChain(2, 10)); });
   txn.Rollback();
   EXPECT_EQ(this->versions().HeadRevision(), 1);
   EXPECT_EQ(this->versions().ListRevisions().size(), 1u);
 }
 
 TYPED_TEST(VersionStoreConformance, AppendRevisionNeedsATransactionAndAMerge) {
-  const GraphBatch additions = Chain(2, 0);
+  const GraphBatch additions = StampedChain(2, 0);
   ExpectError(
       ErrorCode::kInvalidArgument, [&] { this->versions().AppendRevision(Merge(1), additions); },
       "Transaction");
@@ -671,12 +656,12 @@ TYPED_TEST(VersionStoreConformance, AppendRevisionNeedsATransactionAndAMerge) {
 }
 
 TYPED_TEST(VersionStoreConformance, AppendRevisionRefusesAnElementAlreadyStored) {
-  const GraphBatch old = Chain(2, 0);
+  const GraphBatch old = StampedChain(2, 0);
   this->store_->Put(old);
   const Node fresh = MakeNode(Uuid::Generate(), Uuid::Generate(), 50);
   for (const GraphBatch& additions :
        {GraphBatch{{}, {fresh, old.nodes[1]}, {}, {}},
-        GraphBatch{{}, {fresh}, {old.edges[0], MetricEdge(fresh.id, old.nodes[0].id)}, {}}}) {
+        GraphBatch{{}, {fresh}, {old.edges[0], UnitMetricEdge(fresh.id, old.nodes[0].id)}, {}}}) {
     const Uuid& stored = additions.edges.empty() ? old.nodes[1].id : old.edges[0].id;
     {
       auto txn = this->store_->Begin();
@@ -691,7 +676,7 @@ TYPED_TEST(VersionStoreConformance, AppendRevisionRefusesAnElementAlreadyStored)
   }
   // Putting first and appending after is the same mistake: the additions are stored by then.
   auto txn = this->store_->Begin();
-  const GraphBatch late = Chain(2, 60);
+  const GraphBatch late = StampedChain(2, 60);
   this->store_->Put(late);
   ExpectError(
       ErrorCode::kConflict, [&] { this->versions().AppendRevision(Merge(1), late); },
@@ -699,10 +684,10 @@ TYPED_TEST(VersionStoreConformance, AppendRevisionRefusesAnElementAlreadyStored)
 }
 
 TYPED_TEST(VersionStoreConformance, RolledBackRevisionLeavesHeadAndMapUnchanged) {
-  const GraphBatch base = Chain(2, 0);
+  const GraphBatch base = StampedChain(2, 0);
   this->store_->Put(base);
   const StoreStats before = this->versions().StatsAt(0);
-  const GraphBatch additions = Chain(4, 10);
+  const GraphBatch additions = StampedChain(4, 10);
   {
     auto txn = this->store_->Begin();
     EXPECT_EQ(this->versions().AppendRevision(Merge(1), additions).number, 1);
@@ -724,7 +709,7 @@ TYPED_TEST(VersionStoreConformance, RolledBackRevisionLeavesHeadAndMapUnchanged)
 
 TYPED_TEST(VersionStoreConformance, TwoWritersRacingForOneNumberMakeOneRevision) {
   auto other = GraphStore::Open(this->backend_->Uri());
-  const GraphBatch mine = Chain(3, 0), theirs = Chain(3, 10);
+  const GraphBatch mine = StampedChain(3, 0), theirs = StampedChain(3, 10);
   auto txn = this->store_->Begin();
   this->versions().AppendRevision(Merge(1), mine);
   this->store_->Put(mine);
@@ -752,7 +737,7 @@ TYPED_TEST(VersionStoreConformance, TwoWritersRacingForOneNumberMakeOneRevision)
 // record however many elements it adds (one set-wise check on PostgreSQL).
 TYPED_TEST(VersionStoreConformance, LargeRevisionIsCheckedAndRecordedWhole) {
   constexpr int kNodes = 100000;
-  const GraphBatch first = Chain(kNodes, 0);
+  const GraphBatch first = StampedChain(kNodes, 0);
   const auto start = std::chrono::steady_clock::now();
   const Revision r1 = this->Commit(first);
   const double seconds =
@@ -763,7 +748,7 @@ TYPED_TEST(VersionStoreConformance, LargeRevisionIsCheckedAndRecordedWhole) {
   EXPECT_LT(seconds, 120.0);
 
   // One stored node among many new ones is found and named.
-  GraphBatch second = Chain(kNodes, kNodes);
+  GraphBatch second = StampedChain(kNodes, kNodes);
   second.nodes[kNodes / 2] = first.nodes[kNodes / 3];
   second.edges.clear();
   auto txn = this->store_->Begin();
@@ -890,7 +875,7 @@ TYPED_TEST(VersionStoreConformance, CheckoutBeforeARevertStillShowsTheOldMap) {
   const std::vector<Path> paths2 = this->versions().PathsAt(2);
   const StoreStats stats2 = this->versions().StatsAt(2), stats1 = this->versions().StatsAt(1);
   this->Revert(1);
-  this->Commit(Chain(2, 500));  // and the history goes on
+  this->Commit(StampedChain(2, 500));  // and the history goes on
   EXPECT_EQ(this->versions().NodesAt(2), nodes2);
   EXPECT_EQ(Ids(this->versions().EdgesAt(2)), edges2);
   EXPECT_EQ(this->versions().PathsAt(2), paths2);
@@ -990,14 +975,14 @@ TYPED_TEST(VersionStoreConformance, ChangesInBothDirections) {
 
 TYPED_TEST(VersionStoreConformance, VersionOfUnknownAndUnversionedElements) {
   EXPECT_EQ(this->versions().VersionOf(Uuid::Generate()), std::nullopt);
-  const GraphBatch plain = Chain(2, 0);
+  const GraphBatch plain = StampedChain(2, 0);
   this->store_->Put(plain);
   const Path path = MakePath(0);
   this->store_->PutPath(path);
   for (const Uuid& id : {plain.nodes[0].id, plain.edges[0].id, path.id}) {
     EXPECT_EQ(this->versions().VersionOf(id), (ElementVersion{0, std::nullopt}));
   }
-  const GraphBatch versioned = Chain(2, 10);
+  const GraphBatch versioned = StampedChain(2, 10);
   this->Commit(versioned);
   EXPECT_EQ(this->versions().VersionOf(versioned.edges[0].id), (ElementVersion{1, std::nullopt}));
 }
@@ -1018,7 +1003,7 @@ TYPED_TEST(VersionStoreConformance, PromotionAddsHidesAndLeavesNoDanglingEdge) {
   const History h = this->MakeHistory();
   // The candidate kept n1 but not n2 or n3, and placed a node of its own after n1.
   const Node n4 = MakeNode(h.n1.robot, h.n1.outing, 300, "n4");
-  const Edge e14 = MetricEdge(h.n1.id, n4.id);
+  const Edge e14 = UnitMetricEdge(h.n1.id, n4.id);
   const GraphBatch additions{{}, {n4}, {e14}, {}};
   Revision r3;
   {
@@ -1054,7 +1039,7 @@ TYPED_TEST(VersionStoreConformance, PromotionAddsHidesAndLeavesNoDanglingEdge) {
 
 TYPED_TEST(VersionStoreConformance, PromotionRefusesWhatItCannotRecord) {
   const History h = this->MakeHistory();
-  const GraphBatch additions = Chain(2, 400);
+  const GraphBatch additions = StampedChain(2, 400);
   {
     auto txn = this->store_->Begin();
     // Another kind, a stale number, a node both added and hidden, an element already stored.
@@ -1105,7 +1090,8 @@ TYPED_TEST(VersionStoreConformance, SchemaSixStoreMigratesWithItsHistoryIntact) 
   ExpectError(
       ErrorCode::kConflict, [&] { this->Revert(2); }, "already reverted");
   auto txn = this->store_->Begin();
-  EXPECT_EQ(this->versions().AppendPromotion(Promotion(4), Chain(1, 900), {h.n1.id}).number, 4);
+  EXPECT_EQ(this->versions().AppendPromotion(Promotion(4), StampedChain(1, 900), {h.n1.id}).number,
+            4);
   txn.Commit();
   EXPECT_EQ(this->versions().VersionOf(h.n1.id), (ElementVersion{1, 4}));
 }

@@ -31,6 +31,11 @@ inline CliRun RunFleetmapCli(const std::filesystem::path& scratch_dir,
 }
 
 // The command line, its exit code and both streams: what a failed expectation should show.
+// The CLI run in the scratch directory DIR.
+inline CliRun RunCli(const ScratchDir& dir, const std::vector<std::string>& args) {
+  return RunFleetmapCli(dir.path(), args);
+}
+
 inline std::string DescribeCliRun(const std::vector<std::string>& args, const CliRun& run) {
   std::string text = "fleetmap";
   for (const std::string& arg : args) text += " " + arg;

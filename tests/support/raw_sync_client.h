@@ -26,6 +26,13 @@
 
 namespace fleetmap::testing {
 
+// A frame's 4-byte big-endian length prefix alone (sync_frame.h), for hand-made frames.
+inline std::string LengthPrefix(std::uint32_t n) {
+  const char prefix[4] = {static_cast<char>(n >> 24), static_cast<char>(n >> 16),
+                          static_cast<char>(n >> 8), static_cast<char>(n)};
+  return std::string(prefix, 4);
+}
+
 class RawSyncClient {
  public:
   // Connects to "127.0.0.1:PORT" (and does the TLS handshake when `tls`). Throws

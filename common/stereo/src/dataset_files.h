@@ -5,11 +5,34 @@
 
 #include <filesystem>
 #include <string>
+#include <string_view>
 #include <system_error>
 
 #include "fleetmap/core/error.h"
 
 namespace fleetmap::dataset_files {
+
+// Whether PATH is a directory, a regular file, or anything at all; false when it cannot be told.
+inline bool IsDirectory(const std::filesystem::path& path) {
+  std::error_code ec;
+  return std::filesystem::is_directory(path, ec);
+}
+inline bool IsFile(const std::filesystem::path& path) {
+  std::error_code ec;
+  return std::filesystem::is_regular_file(path, ec);
+}
+inline bool Exists(const std::filesystem::path& path) {
+  std::error_code ec;
+  return std::filesystem::exists(path, ec);
+}
+
+// TEXT without the blanks (spaces, tabs, CR, LF) at either end of a line of a dataset's file.
+inline std::string_view Trim(std::string_view text) {
+  const auto first = text.find_first_not_of(" \t\r\n");
+  if (first == std::string_view::npos) return {};
+  const auto last = text.find_last_not_of(" \t\r\n");
+  return text.substr(first, last - first + 1);
+}
 
 inline void RequireDirectory(const std::filesystem::path& dir, const std::string& what) {
   std::error_code ec;

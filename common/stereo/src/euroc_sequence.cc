@@ -34,15 +34,10 @@ struct CameraFolder {
   std::string csv_name() const { return name + "/data.csv"; }
 };
 
-std::string_view Trim(std::string_view text) {
-  const auto first = text.find_first_not_of(" \t\r");
-  if (first == std::string_view::npos) return {};
-  const auto last = text.find_last_not_of(" \t\r");
-  return text.substr(first, last - first + 1);
-}
-
+using dataset_files::Exists;
 using dataset_files::RequireDirectory;
 using dataset_files::RequireFile;
+using dataset_files::Trim;
 
 // Parses DIR/camN/data.csv: '#' lines are comments (the header), blank lines are skipped, every
 // other line is "timestamp_ns,filename" with stamps strictly increasing.
@@ -90,11 +85,6 @@ std::vector<CsvRow> ReadCameraCsv(const fs::path& sequence_dir, const CameraFold
   }
   if (in.bad()) throw Error(ErrorCode::kBackend, "read error in " + csv.string());
   return rows;
-}
-
-bool Exists(const fs::path& file) {
-  std::error_code ec;
-  return fs::exists(file, ec);
 }
 
 void RequireListedImage(const CameraFolder& camera, const CsvRow& row) {

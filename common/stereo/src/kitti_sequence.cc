@@ -30,6 +30,12 @@ namespace fleetmap {
 namespace {
 
 namespace fs = std::filesystem;
+using dataset_files::Exists;
+using dataset_files::IsDirectory;
+using dataset_files::IsFile;
+using dataset_files::RequireDirectory;
+using dataset_files::RequireFile;
+using dataset_files::Trim;
 
 // KITTI records at 10 Hz; odometry sequences without times.txt get this spacing.
 constexpr std::int64_t kKittiFramePeriodNs = 100'000'000;
@@ -39,13 +45,6 @@ constexpr double kKittiRateHz = 10.0;
 constexpr double kRotationTolerance = 1e-3;
 
 using Projection = Eigen::Matrix<double, 3, 4, Eigen::RowMajor>;
-
-std::string_view Trim(std::string_view text) {
-  const auto first = text.find_first_not_of(" \t\r\n");
-  if (first == std::string_view::npos) return {};
-  const auto last = text.find_last_not_of(" \t\r\n");
-  return text.substr(first, last - first + 1);
-}
 
 std::vector<std::string_view> Words(std::string_view text) {
   std::vector<std::string_view> words;
@@ -68,25 +67,6 @@ bool ParseDouble(std::string_view text, double& value) {
   return !text.empty() && error == std::errc() && end == text.data() + text.size() &&
          std::isfinite(value);
 }
-
-bool IsDirectory(const fs::path& path) {
-  std::error_code ec;
-  return fs::is_directory(path, ec);
-}
-
-// Optional files: present (even as something unreadable, which reading then names) or not.
-bool Exists(const fs::path& path) {
-  std::error_code ec;
-  return fs::exists(path, ec);
-}
-
-bool IsFile(const fs::path& path) {
-  std::error_code ec;
-  return fs::is_regular_file(path, ec);
-}
-
-using dataset_files::RequireDirectory;
-using dataset_files::RequireFile;
 
 // One non-blank line of a text file, numbered from 1.
 struct TextLine {

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <system_error>
 
+#include "dataset_files.h"
 #include "fleetmap/core/error.h"
 #include "kitti_sequence.h"
 
@@ -11,21 +12,13 @@ namespace fleetmap {
 namespace {
 
 namespace fs = std::filesystem;
+using dataset_files::IsDirectory;
+using dataset_files::IsFile;
 
 constexpr const char* kEurocCredit = "EuRoC MAV dataset, ASL, ETH Zurich";
 
 constexpr StereoLayout kLayouts[] = {StereoLayout::kEuroc, StereoLayout::kKittiOdometry,
                                      StereoLayout::kKittiRaw};
-
-bool IsDirectory(const fs::path& path) {
-  std::error_code ec;
-  return fs::is_directory(path, ec);
-}
-
-bool IsFile(const fs::path& path) {
-  std::error_code ec;
-  return fs::is_regular_file(path, ec);
-}
 
 // Ground truth at each pair's stamp (euroc_sequence.h's csv), re-based on the first covered pair.
 std::vector<std::optional<Eigen::Isometry3d>> EurocGroundTruth(const fs::path& csv,

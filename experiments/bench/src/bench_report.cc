@@ -27,12 +27,6 @@ std::string Grouped(double value) {
   return digits;
 }
 
-std::string Format(const char* format, double value) {
-  char buffer[64];
-  std::snprintf(buffer, sizeof buffer, format, value);
-  return buffer;
-}
-
 std::string DurabilityLabel(const std::string& durability) {
   return durability == "synchronous" ? "sync" : "buffered";
 }
@@ -59,6 +53,12 @@ const BenchRow* LargestN(const std::vector<BenchRow>& rows, Keep keep) {
 }
 
 }  // namespace
+
+std::string Format(const char* format, double value) {
+  char buffer[64];
+  std::snprintf(buffer, sizeof buffer, format, value);
+  return buffer;
+}
 
 void PrintTable(std::ostream& out, const std::vector<BenchRow>& rows) {
   char line[256];

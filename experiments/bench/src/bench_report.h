@@ -28,6 +28,9 @@ struct BenchRow {
 };
 
 // Fixed-width table: backend, durability, op, mode, n, ours s, raw s, ours/raw, ours nodes/s.
+// VALUE printed with a printf FORMAT of one double conversion ("%.1f"), for the tables.
+std::string Format(const char* format, double value);
+
 void PrintTable(std::ostream& out, const std::vector<BenchRow>& rows);
 
 // Throws Error(kBackend) when the file cannot be written.

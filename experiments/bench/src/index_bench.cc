@@ -24,6 +24,7 @@
 #include <string>
 #include <vector>
 
+#include "bench_report.h"
 #include "fleetmap/core/error.h"
 #include "fleetmap/core/uuid.h"
 #include "fleetmap/store/graph_store.h"
@@ -231,12 +232,6 @@ Figures RunOne(const std::string& backend, const std::string& uri, const IndexBe
   std::cerr << "[" << backend << "] batch join: " << f.batch_rows << " camera rows over "
             << static_cast<double>(span) / kHour << " h\n";
   return f;
-}
-
-std::string Format(const char* fmt, double v) {
-  char text[64];
-  std::snprintf(text, sizeof text, fmt, v);
-  return text;
 }
 
 void PrintTable(const std::vector<Figures>& all) {

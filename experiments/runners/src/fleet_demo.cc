@@ -29,8 +29,6 @@ using Clock = std::chrono::steady_clock;
 using std::chrono::milliseconds;
 namespace fs = std::filesystem;
 
-constexpr auto kSyncTimeout = milliseconds(150'000);
-
 std::string ClockText(double time_of_day_h) {
   const int minutes = static_cast<int>(std::lround(time_of_day_h * 60.0)) % 1440;
   char text[8];

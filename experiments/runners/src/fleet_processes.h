@@ -76,6 +76,10 @@ ChildProcess StartAgentSync(const std::filesystem::path& agent, const FleetRobot
                             const std::string& server, const std::vector<std::string>& extra,
                             const std::filesystem::path& log);
 
+// How long an experiment waits for one agent's sync: a cold download of a whole map and a merge
+// behind the other robots' on a 2-core machine, with room to spare.
+constexpr std::chrono::milliseconds kSyncTimeout{150'000};
+
 // Waits up to `timeout` for a sync StartAgentSync started and returns its --json result.
 // Throws Error(kBackend) naming the robot, the exit status and the log's tail when it failed
 // or did not finish.

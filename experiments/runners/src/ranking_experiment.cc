@@ -44,7 +44,7 @@ void Validate(const RankingExperimentOptions& o) {
 }
 
 // Everything one fold needs after its map is built, shared read-only by its runs.
-struct FoldState {
+struct RankingFoldState {
   std::vector<std::size_t> test_outings;      // indexes into the schedule, in time order
   std::vector<std::size_t> training_outings;  // likewise
   std::unique_ptr<ExperienceMap> map;
@@ -112,14 +112,14 @@ class Experiment {
             .push_back(i);
       }
     }
-    for (const FoldState& fold : folds_) {
+    for (const RankingFoldState& fold : folds_) {
       if (fold.test_outings.empty() || fold.training_outings.empty()) {
         throw Error(ErrorCode::kInvalidArgument, "ranking experiment: too few outings for " +
                                                      std::to_string(options_.folds) + " folds");
       }
     }
     std::int64_t total = 0;
-    for (const FoldState& fold : folds_) {
+    for (const RankingFoldState& fold : folds_) {
       const std::int64_t test = Frames(fold.test_outings);
       total += Frames(fold.training_outings);
       total += test * static_cast<std::int64_t>(RunsPerFold());
@@ -156,7 +156,7 @@ class Experiment {
     return specs;
   }
 
-  OutingStart Start(std::size_t outing, const FoldState& fold) const {
+  OutingStart Start(std::size_t outing, const RankingFoldState& fold) const {
     return DepotStart(outings_[outing], *fold.map);
   }
 
@@ -164,7 +164,7 @@ class Experiment {
 
   FoldBuild Build(int fold_number) {
     const Clock::time_point start = Clock::now();
-    FoldState& fold = folds_[static_cast<std::size_t>(fold_number)];
+    RankingFoldState& fold = folds_[static_cast<std::size_t>(fold_number)];
     const std::string uri =
         "sqlite:" + (options_.work_dir / ("fold-" + std::to_string(fold_number) + ".db")).string();
     std::unique_ptr<GraphStore> store =
@@ -212,7 +212,7 @@ class Experiment {
   }
 
   LocalisationRun Localise(const RunSpec& spec) {
-    const FoldState& fold = folds_[static_cast<std::size_t>(spec.fold)];
+    const RankingFoldState& fold = folds_[static_cast<std::size_t>(spec.fold)];
     std::unique_ptr<RankingPolicy> policy;
     if (spec.policy == "path") {
       policy = std::make_unique<PathRanking>(fold.memory, PathRankingOptions{spec.window});
@@ -258,7 +258,7 @@ class Experiment {
   std::vector<Outing> outings_;
   std::vector<std::vector<Frame>> frames_;
   std::shared_ptr<const AppearanceVocabulary> vocabulary_;
-  std::vector<FoldState> folds_;
+  std::vector<RankingFoldState> folds_;
 
   std::mutex runs_mutex_;
   std::vector<LocalisationRun> runs_;

@@ -17,7 +17,7 @@
 namespace fleetmap {
 namespace {
 
-constexpr double kHeadlineGap_m = 10.0;  // seed 002 §VII: P(travel > 10 m unlocalised)
+constexpr double kRankingHeadlineGap_m = 10.0;  // seed 002 §VII: P(travel > 10 m unlocalised)
 
 template <typename Keep>
 std::vector<const LocalisationRun*> Select(const RankingExperimentResult& result, Keep keep) {
@@ -92,8 +92,8 @@ ByCores WriteGapByCores(const RankingExperimentResult& result,
     const auto distance = FullMap(result, options, "distance", np, 0);
     const auto path = FullMap(result, options, "path", np, options.default_window);
     const Totals td = Sum(distance), tp = Sum(path);
-    by_cores[np] = {ProbabilityGapExceeds(distance, kHeadlineGap_m),
-                    ProbabilityGapExceeds(path, kHeadlineGap_m)};
+    by_cores[np] = {ProbabilityGapExceeds(distance, kRankingHeadlineGap_m),
+                    ProbabilityGapExceeds(path, kRankingHeadlineGap_m)};
     cores_csv << np << ',' << Fixed(by_cores[np].first, 5) << ',' << Fixed(by_cores[np].second, 5)
               << ',' << Fixed(Ratio(td.localised, td.frames), 4) << ','
               << Fixed(Ratio(tp.localised, tp.frames), 4) << ','
@@ -123,8 +123,8 @@ BySize WriteGapByMapSize(const RankingExperimentResult& result,
     double nodes = 0.0;
     for (const LocalisationRun* r : distance) nodes += static_cast<double>(r->map_nodes);
     nodes /= distance.empty() ? 1.0 : static_cast<double>(distance.size());
-    by_size.emplace_back(nodes, ProbabilityGapExceeds(distance, kHeadlineGap_m),
-                         ProbabilityGapExceeds(path, kHeadlineGap_m));
+    by_size.emplace_back(nodes, ProbabilityGapExceeds(distance, kRankingHeadlineGap_m),
+                         ProbabilityGapExceeds(path, kRankingHeadlineGap_m));
     size_csv << step << ',' << Fixed(nodes, 1) << ',' << Fixed(std::get<1>(by_size.back()), 5)
              << ',' << Fixed(std::get<2>(by_size.back()), 5) << '\n';
   }
@@ -141,7 +141,7 @@ ByWindow WriteGapByWindow(const RankingExperimentResult& result,
   ByWindow by_window;
   for (int t : options.windows) {
     const double p = ProbabilityGapExceeds(
-        FullMap(result, options, "path", options.reference_cores, t), kHeadlineGap_m);
+        FullMap(result, options, "path", options.reference_cores, t), kRankingHeadlineGap_m);
     by_window.emplace_back(t, p);
     window_csv << t << ',' << Fixed(p, 5) << '\n';
   }
@@ -276,12 +276,12 @@ RankingVerdict JudgeRanking(const RankingExperimentResult& result,
   RankingVerdict v;
   const int np = options.reference_cores;
   v.path_at_reference = ProbabilityGapExceeds(
-      FullMap(result, options, "path", np, options.default_window), kHeadlineGap_m);
+      FullMap(result, options, "path", np, options.default_window), kRankingHeadlineGap_m);
   v.distance_at_reference =
-      ProbabilityGapExceeds(FullMap(result, options, "distance", np, 0), kHeadlineGap_m);
+      ProbabilityGapExceeds(FullMap(result, options, "distance", np, 0), kRankingHeadlineGap_m);
   const auto doubled = FullMap(result, options, "distance", 2 * np, 0);
   v.distance_at_double = doubled.empty() ? std::numeric_limits<double>::quiet_NaN()
-                                         : ProbabilityGapExceeds(doubled, kHeadlineGap_m);
+                                         : ProbabilityGapExceeds(doubled, kRankingHeadlineGap_m);
   v.path_beats_distance = v.path_at_reference < v.distance_at_reference;
   v.path_matches_double = !doubled.empty() && v.path_at_reference <= v.distance_at_double;
   return v;

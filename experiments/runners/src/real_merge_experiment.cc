@@ -30,7 +30,6 @@ namespace {
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
 
-constexpr auto kSyncTimeout = std::chrono::milliseconds(150'000);
 constexpr double kDegreesPerRadian = 180.0 / 3.14159265358979323846;
 constexpr int kMinPairs = 8;  // so that A, B, their overlap and the odd pairs are not empty
 
@@ -230,14 +229,14 @@ void CheckOverlap(const RealMergeOptions& options) {
 }
 
 // The pairs each part is made of (RealMergeResult's rows say which is which).
-struct PairSplit {
+struct MergeParts {
   std::vector<int> a, b, odd;
 };
 
 // Who builds from what: A the even pairs below e n, B those from s n; fills in the rows.
-PairSplit SplitPairs(const RealMergeOptions& options, int n, RealMergeResult& result) {
+MergeParts SplitPairs(const RealMergeOptions& options, int n, RealMergeResult& result) {
   const double a_end = options.overlap_end * n, b_start = options.overlap_start * n;
-  PairSplit split;
+  MergeParts split;
   result.rows.resize(static_cast<std::size_t>(n));
   for (int i = 0; i < n; ++i) {
     RealMergePair& row = result.rows[static_cast<std::size_t>(i)];
@@ -479,7 +478,7 @@ RealMergeResult RunRealMergeExperiment(const RealMergeOptions& options) {
       ProcessStereoSequence(sequence, options.pipeline, options.pair_progress);
 
   // 2. Who builds from what.
-  const PairSplit split = SplitPairs(options, n, result);
+  const MergeParts split = SplitPairs(options, n, result);
 
   // 3. The central store with both robots, fleetmapd, and each robot's map.
   fs::create_directories(options.out_dir);

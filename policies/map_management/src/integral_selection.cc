@@ -13,7 +13,7 @@ namespace {
 constexpr std::size_t kNone = std::numeric_limits<std::size_t>::max();
 
 // The map as dense indexes (in ascending UUID order) with sorted metric adjacency.
-struct DenseMap {
+struct DenseAdjacency {
   std::vector<Uuid> ids;
   std::unordered_map<Uuid, std::size_t> index;
   std::vector<std::vector<std::size_t>> neighbours;  // metric edges, both directions
@@ -24,8 +24,8 @@ struct DenseMap {
   }
 };
 
-DenseMap MakeDense(std::span<const Uuid> map_nodes, std::span<const Edge> map_edges) {
-  DenseMap map;
+DenseAdjacency MakeDense(std::span<const Uuid> map_nodes, std::span<const Edge> map_edges) {
+  DenseAdjacency map;
   map.ids.assign(map_nodes.begin(), map_nodes.end());
   std::sort(map.ids.begin(), map.ids.end());
   map.ids.erase(std::unique(map.ids.begin(), map.ids.end()), map.ids.end());
@@ -49,7 +49,7 @@ DenseMap MakeDense(std::span<const Uuid> map_nodes, std::span<const Edge> map_ed
 }
 
 // Component label of every node, over the nodes `allowed` (all when empty); kNone elsewhere.
-std::size_t Label(const DenseMap& map, const std::vector<char>& allowed,
+std::size_t Label(const DenseAdjacency& map, const std::vector<char>& allowed,
                   std::vector<std::size_t>& label) {
   label.assign(map.ids.size(), kNone);
   std::size_t count = 0;
@@ -76,7 +76,7 @@ std::size_t Label(const DenseMap& map, const std::vector<char>& allowed,
 
 IntegralSelection MakeIntegral(std::span<const Uuid> map_nodes, std::span<const Edge> map_edges,
                                std::span<const Uuid> selected) {
-  const DenseMap map = MakeDense(map_nodes, map_edges);
+  const DenseAdjacency map = MakeDense(map_nodes, map_edges);
   std::vector<char> chosen(map.ids.size(), 0);
   for (const Uuid& id : selected) {
     const std::size_t i = map.At(id);

@@ -6,14 +6,9 @@
 #include <utility>
 #include <vector>
 
+#include "element_visibility.h"
+
 namespace fleetmap {
-namespace {
-
-bool VisibleAt(const std::optional<ElementVersion>& version, RevisionNumber head) {
-  return version && version->added <= head && (!version->hidden || *version->hidden > head);
-}
-
-}  // namespace
 
 std::optional<NodeStandIn> AnchorThroughHidden(GraphStore& store, RevisionNumber head,
                                                const Uuid& hidden,

@@ -5,15 +5,11 @@
 #include <queue>
 #include <unordered_map>
 
+#include "element_visibility.h"
 #include "fleetmap/core/error.h"
 
 namespace fleetmap {
 namespace {
-
-// Visible at `head`: added by then and not hidden by then.
-bool VisibleAt(const std::optional<ElementVersion>& version, RevisionNumber head) {
-  return version && version->added <= head && (!version->hidden || *version->hidden > head);
-}
 
 // The submission's nodes the server lacks that are worth an appearance query: along each
 // outing in capture order, the first, then one every `every_m` of odometry (the robot's

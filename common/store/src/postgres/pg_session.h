@@ -10,6 +10,7 @@
 // Threading: as the owning GraphStore (one thread at a time).
 #pragma once
 
+#include <cstdio>
 #include <functional>
 #include <memory>
 #include <pqxx/pqxx>
@@ -21,6 +22,14 @@
 #include "fleetmap/core/error.h"
 
 namespace fleetmap::internal {
+
+// A double as text with 17 significant digits, as it travels to the server: an exact round
+// trip, whatever the library's own formatting does.
+inline std::string Text(double value) {
+  char buffer[32];
+  std::snprintf(buffer, sizeof buffer, "%.17g", value);
+  return buffer;
+}
 
 class PgSession {
  public:

@@ -16,13 +16,6 @@ namespace {
 
 constexpr SqlDialect kDialect = SqlDialect::kPostgres;
 
-// Doubles as text with 17 significant digits: an exact round trip.
-std::string Text(double value) {
-  char buffer[32];
-  std::snprintf(buffer, sizeof buffer, "%.17g", value);
-  return buffer;
-}
-
 class PostgresAnnotationStore final : public AnnotationStore {
  public:
   explicit PostgresAnnotationStore(PgSession& session) : session_(session) {}

@@ -41,14 +41,6 @@ namespace {
 // Any constant will do; it only has to be the same in every fleetmap binary.
 constexpr long long kMigrationLockKey = 0x666c6565746d6170LL;  // "fleetmap"
 
-// Doubles travel as text with 17 significant digits: exact round trip, whatever the
-// library's own formatting does.
-std::string Text(double value) {
-  char buffer[32];
-  std::snprintf(buffer, sizeof buffer, "%.17g", value);
-  return buffer;
-}
-
 std::string NullableUuidText(const Uuid& id) {
   return id.IsNil() ? std::string() : id.ToString();
 }

@@ -58,12 +58,6 @@ std::string InsertRowsSql(const char* table, const char* columns, const char* ro
   return sql + " ON CONFLICT (id) DO NOTHING";
 }
 
-std::string Sql(std::initializer_list<std::string_view> parts) {
-  std::string sql;
-  for (std::string_view p : parts) sql += p;
-  return sql;
-}
-
 // Turns foreign-key enforcement off for the life of the object (see DoPut).
 // REQUIRES: no transaction open on db (SQLite ignores the pragma inside one).
 class ForeignKeysOff {

@@ -21,7 +21,7 @@ namespace fleetmap::internal {
 namespace {
 
 constexpr std::int64_t kOpenEnd = std::numeric_limits<std::int64_t>::max();
-constexpr int kChunkRows = 128;
+constexpr int kDataRowsPerStatement = 128;
 // A Data row with its file's path. CROSS JOIN makes SQLite's planner walk data first (by the
 // query's index) and look each file up by its key; files first would scan every file.
 constexpr const char* kDataColumns =
@@ -115,7 +115,7 @@ class SqliteSensorIndex final : public SensorIndex {
                     "SELECT DISTINCT sensor FROM sensor_mounts WHERE platform = ?1"
                     " AND from_ns <= ?3 AND (to_ns IS NULL OR to_ns > ?2) ORDER BY sensor"),
         insert_one_(db, InsertDataSql(1).c_str()),
-        insert_chunk_(db, InsertDataSql(kChunkRows).c_str()),
+        insert_chunk_(db, InsertDataSql(kDataRowsPerStatement).c_str()),
         id_by_location_(db, "SELECT data_id FROM data WHERE file_id = ?1 AND \"offset\" = ?2"),
         insert_file_(db, "INSERT INTO files (file) VALUES (?1) ON CONFLICT (file) DO NOTHING"),
         file_id_(db, "SELECT file_id FROM files WHERE file = ?1"),
@@ -273,22 +273,24 @@ class SqliteSensorIndex final : public SensorIndex {
     std::vector<DataId> ids;
     ids.reserve(rows.size());
     std::size_t i = 0;
-    for (; i + kChunkRows <= rows.size(); i += kChunkRows) {
+    for (; i + kDataRowsPerStatement <= rows.size(); i += kDataRowsPerStatement) {
       int inserted = 0;
       {
         StatementUse s(insert_chunk_);
-        for (int r = 0; r < kChunkRows; ++r) BindDatum(*s, r * 7, rows[i + r], file_ids_[i + r]);
+        for (int r = 0; r < kDataRowsPerStatement; ++r)
+          BindDatum(*s, r * 7, rows[i + r], file_ids_[i + r]);
         inserted = s->Run();
       }
       *inserted_rows += inserted;
-      if (inserted == kChunkRows) {
+      if (inserted == kDataRowsPerStatement) {
         // Fresh rowids of one INSERT are consecutive (max(rowid) + 1 each): SQLite only picks
         // random ones once the largest rowid is taken, 2^63 - 1, which an index never reaches.
         const std::int64_t last = sqlite3_last_insert_rowid(db_);
-        for (int r = 0; r < kChunkRows; ++r) ids.push_back(last - kChunkRows + 1 + r);
+        for (int r = 0; r < kDataRowsPerStatement; ++r)
+          ids.push_back(last - kDataRowsPerStatement + 1 + r);
       } else {
         // Those inserted before the duplicate are found again by (file, offset).
-        for (int r = 0; r < kChunkRows; ++r) {
+        for (int r = 0; r < kDataRowsPerStatement; ++r) {
           ids.push_back(InsertOne(rows[i + r], file_ids_[i + r], nullptr));
         }
       }

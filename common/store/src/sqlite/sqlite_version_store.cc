@@ -26,12 +26,6 @@ namespace fleetmap::internal {
 
 namespace {
 
-std::string Sql(std::initializer_list<std::string_view> parts) {
-  std::string sql;
-  for (std::string_view p : parts) sql += p;
-  return sql;
-}
-
 // Elements per statement in AppendRevision: SQLite sets up a statement (a cursor on every
 // index it touches) each time it runs, and 32 elements pay that once instead of 32 times
 // (as the graph store's batch inserts do); AppendRevision of 10^5 elements takes about as

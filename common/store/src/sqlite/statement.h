@@ -5,6 +5,7 @@
 #include <sqlite3.h>
 
 #include <cstdint>
+#include <initializer_list>
 #include <string>
 #include <string_view>
 
@@ -12,6 +13,13 @@
 #include "fleetmap/core/uuid.h"
 
 namespace fleetmap::internal {
+
+// One SQL statement from pieces (column lists shared between statements, say).
+inline std::string Sql(std::initializer_list<std::string_view> parts) {
+  std::string sql;
+  for (std::string_view p : parts) sql += p;
+  return sql;
+}
 
 // Throws Error(kBackend) (or kIntegrity for constraint failures) with context.
 [[noreturn]] void ThrowSqlite(sqlite3* db, int rc, const std::string& context);
