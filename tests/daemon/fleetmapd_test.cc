@@ -1114,6 +1114,10 @@ TEST_F(FleetmapdSqliteTest, ARobotsSessionsAndFramesInFlightAreCappedAndOthersSt
   for (std::size_t i = 1; i < 3; ++i) {
     ASSERT_TRUE(sessions[i]->SendBytes(LengthPrefix(kFrameBytes) + std::string(1024, 'x')));
   }
+  // The server reserves room in the order it reads the announcements, one session's read at a
+  // time: let it read the first two before the third arrives, or which of the three is refused
+  // is a race (a fresh-clone CI run saw session 2 refused and session 3 held).
+  std::this_thread::sleep_for(milliseconds(500));
   ASSERT_TRUE(sessions[3]->SendBytes(LengthPrefix(kFrameBytes)));
   const std::optional<v1::SyncFrame> over = sessions[3]->Receive();
   EXPECT_EQ(ErrorCodeOf(over), v1::ErrorFrame::BUSY) << Describe(over);
