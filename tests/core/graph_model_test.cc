@@ -100,6 +100,59 @@ TEST(Landmarks, BlobWithoutStereoDecodesWithoutCamera) {
   EXPECT_EQ(DecodeLandmarks(EncodeLandmarks(plain)).stereo, std::nullopt);
 }
 
+// Pyramid levels and the scale factor survive the blob; landmarks without levels still write
+// no levels field (old and new blobs of the same landmarks are equal, as above).
+TEST(Landmarks, PyramidLevelsRoundTrip) {
+  Landmarks l = SomeLandmarks(6);
+  l.stereo = SomeStereoCamera();
+  l.stereo->level_scale = 1.2f;
+  l.levels = {0, 1, 7, 3, Landmarks::kMaxLevel, 0};
+  const Landmarks back = DecodeLandmarks(EncodeLandmarks(l));
+  EXPECT_EQ(back.levels, l.levels);
+  EXPECT_EQ(back.stereo->level_scale, 1.2f);
+  EXPECT_EQ(back, l);
+  Landmarks unknown = SomeLandmarks(6);
+  unknown.stereo = SomeStereoCamera();
+  const std::string blob = EncodeLandmarks(unknown);
+  v1::Landmarks proto;
+  ASSERT_TRUE(proto.ParseFromString(blob));
+  EXPECT_TRUE(proto.levels().empty());
+  EXPECT_EQ(proto.stereo().level_scale(), 0.f);  // absent: unknown, decoded as 1
+  EXPECT_EQ(DecodeLandmarks(blob).stereo->level_scale, 1.f);
+  EXPECT_TRUE(DecodeLandmarks(blob).levels.empty());
+}
+
+// Levels that do not fit the points, or out of range, or a scale out of [1, 4]: refused by Encode
+// as invalid, and decoded as corrupt when a blob carries them.
+TEST(Landmarks, MalformedPyramidLevelsAreRefused) {
+  Landmarks l = SomeLandmarks(4);
+  l.stereo = SomeStereoCamera();
+  l.levels = {0, 1, 2};
+  ExpectError(
+      ErrorCode::kInvalidArgument, [&] { EncodeLandmarks(l); }, "3 pyramid levels for 4");
+  l.levels = {0, 1, 2, 32};
+  ExpectError(
+      ErrorCode::kInvalidArgument, [&] { EncodeLandmarks(l); }, "pyramid level 32");
+  l.levels = {0, 1, 2, 3};
+  l.stereo->level_scale = 0.5f;
+  ExpectError(
+      ErrorCode::kInvalidArgument, [&] { EncodeLandmarks(l); }, "pyramid scale");
+
+  l.stereo->level_scale = 1.2f;
+  v1::Landmarks proto;
+  ASSERT_TRUE(proto.ParseFromString(EncodeLandmarks(l)));
+  for (const std::string& levels :
+       {std::string("\x00\x01\x02", 3), std::string("\x00\x01\x02\x21", 4)}) {
+    proto.set_levels(levels);
+    ExpectError(
+        ErrorCode::kCorrupt, [&] { DecodeLandmarks(proto.SerializeAsString()); }, "landmark blob");
+  }
+  proto.set_levels(std::string("\x00\x01\x02\x03", 4));
+  proto.mutable_stereo()->set_level_scale(9.f);
+  ExpectError(
+      ErrorCode::kCorrupt, [&] { DecodeLandmarks(proto.SerializeAsString()); }, "pyramid scale");
+}
+
 // Each fault of a stereo camera: refused by Encode as an invalid argument, and the same values
 // written into a blob by hand (as another writer or a damaged file might) decode as corrupt.
 TEST(Landmarks, MalformedStereoCameraIsRefused) {

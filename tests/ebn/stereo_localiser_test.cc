@@ -192,6 +192,42 @@ TEST(StereoLocaliser, ThresholdBitesAtTheWorkedResiduals) {
   EXPECT_EQ(LocaliserOptions{}.reprojection_threshold_px, 2.8);
 }
 
+// A keypoint found at pyramid level l was measured scale^l times less precisely, and is judged
+// per that sigma (stereo_reprojection.h). The near outlier (2.966102 px) at level 1 with scale
+// 1.2 is 2.471752 sigma: an inlier once both views say so, still an outlier when only the frame
+// does (the node's view judges its own measurement by its own level). Levels not given are 0.
+TEST(StereoLocaliser, PyramidLevelsScaleEachMatchsThreshold) {
+  StereoCamera camera = HandCamera();
+  camera.level_scale = 1.2f;
+  HandScene scene = MakeHandScene(camera, camera);
+  std::vector<std::uint8_t> levels(scene.frame.size(), 0);
+  levels.back() = 1;  // the near outlier
+  scene.frame.levels = levels;
+  EXPECT_EQ(Localiser().Localise(scene.frame, scene.node).inliers, kAnchors + 2);
+  scene.node.levels = levels;
+  EXPECT_EQ(Localiser().Localise(scene.frame, scene.node).inliers, kAnchors + 3);
+  // The same levels with a scale of 1 (unknown) change nothing.
+  scene.frame.stereo->level_scale = scene.node.stereo->level_scale = 1.0f;
+  EXPECT_EQ(Localiser().Localise(scene.frame, scene.node).inliers, kAnchors + 2);
+  // A higher level of the near inlier (2.651515 px) keeps it; level 0 everywhere is as before.
+  scene.frame.levels.assign(scene.frame.size(), 0);
+  scene.node.levels = scene.frame.levels;
+  EXPECT_EQ(Localiser().Localise(scene.frame, scene.node).inliers, kAnchors + 2);
+}
+
+TEST(StereoLocaliser, LevelsThatDoNotFitThePointsAreRefused) {
+  HandScene scene = MakeHandScene(HandCamera(), HandCamera());
+  scene.frame.levels.assign(scene.frame.size() - 1, 0);
+  ExpectError(
+      ErrorCode::kInvalidArgument, [&] { Localiser().Localise(scene.frame, scene.node); },
+      "42 pyramid levels");
+  scene.frame.levels.assign(scene.frame.size(), 0);
+  scene.node.levels.assign(scene.node.size(), Landmarks::kMaxLevel + 1);
+  ExpectError(
+      ErrorCode::kInvalidArgument, [&] { Localiser().Localise(scene.frame, scene.node); },
+      "pyramid level above 31");
+}
+
 // rect_q_camera is honoured: the whole scene expressed in an unrectified camera frame pitched
 // 25 degrees from the rectified one (p_camera = rect_R_camera^T p_rect), with that rotation
 // given, is judged exactly as the rectified scene. Judged in the unrectified frame instead (the

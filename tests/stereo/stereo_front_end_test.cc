@@ -476,6 +476,15 @@ TEST(StereoFrontEndTest, RealPairsTriangulateAtTheRoomsScale) {
     EXPECT_GT(median, 0.5) << "pair " << i;
     EXPECT_LT(median, 10.0) << "pair " << i;
     EXPECT_EQ(r.frame.stamp_ns, pair.stamp_ns);
+    // Each landmark carries its left keypoint's pyramid level; a real image has keypoints on
+    // several levels, and the camera says by how much each level scales.
+    const Landmarks& l = r.frame.landmarks;
+    ASSERT_EQ(l.levels.size(), l.size()) << "pair " << i;
+    EXPECT_GT(*std::max_element(l.levels.begin(), l.levels.end()), 2) << "pair " << i;
+    EXPECT_LT(*std::max_element(l.levels.begin(), l.levels.end()),
+              StereoFrontEndOptions{}.orb_levels);
+    EXPECT_EQ(std::count(l.levels.begin(), l.levels.end(), 0) > 0, true) << "pair " << i;
+    EXPECT_FLOAT_EQ(l.stereo->level_scale, StereoFrontEndOptions{}.orb_scale_factor);
   }
 }
 

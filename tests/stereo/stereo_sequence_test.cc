@@ -209,6 +209,25 @@ TEST_F(KittiOdometryTest, KeyedCalibrationWithTimesAndNumberedFolders) {
   EXPECT_NEAR(LoadStereoSequence(numbered.dir()).right.body_T_sensor.translation().x(), 0.3, 1e-12);
 }
 
+// KITTI's colour cameras sit a few millimetres forward of camera 0: P = K [I | t] with t_z != 0
+// puts cx t_z into P[0][3]. The baseline is t_x alone (camera 3 of sequences 04-12 as P1:
+// 0.4733 m, where -P1[0][3] / P1[0][0] would say 0.4692 m), and a left camera that is itself
+// offset (camera 2 as P0) counts from its own centre.
+TEST_F(KittiOdometryTest, BaselineLeavesOutTheCamerasForwardOffset) {
+  const double f = SyntheticKitti::kFocalPx, cx = SyntheticKitti::kCxPx;
+  const double cy = SyntheticKitti::kCyPx;
+  const auto projection = [&](double tx, double ty, double tz) {
+    return KittiNumbers({f, 0, cx, f * tx + cx * tz, 0, f, cy, f * ty + cy * tz, 0, 0, 1, tz});
+  };
+  WriteTextFile(folder_.Calib(), SyntheticKitti::P0() + "\n" + projection(-0.4733, 0.002, 0.0049));
+  EXPECT_NEAR(LoadStereoSequence(folder_.dir()).right.body_T_sensor.translation().x(), 0.4733,
+              1e-9);
+  WriteTextFile(folder_.Calib(),
+                projection(0.06, 0.0002, 0.0027) + "\n" + projection(-0.4733, 0.002, 0.0049));
+  EXPECT_NEAR(LoadStereoSequence(folder_.dir()).right.body_T_sensor.translation().x(), 0.5333,
+              1e-9);
+}
+
 TEST_F(KittiOdometryTest, PosesAreRebasedOnTheFirstLine) {
   // The excerpt was cut out of a longer drive: line 1 is not the identity.
   const Eigen::Isometry3d world_T_first = Pose(0.7, {12.0, -0.4, 80.0});
@@ -266,8 +285,8 @@ TEST_F(KittiOdometryTest, NonPositiveBaseline) {
   // The right camera's P with the sign of its translation flipped: it would sit on the left.
   WriteTextFile(folder_.Calib(), SyntheticKitti::P0() + "\n" + SyntheticKitti::P1(-0.54));
   ExpectLoadError(ErrorCode::kInvalidArgument,
-                  {File(folder_.Calib()) + " line 2 (P1): baseline -P1[0][3] / P1[0][0] = -0.54",
-                   "not positive"});
+                  {File(folder_.Calib()) + " line 2 (P1): baseline (P1's centre x less P0's",
+                   "= -0.54 m", "not positive"});
   WriteTextFile(folder_.Calib(), SyntheticKitti::P0() + "\n" + SyntheticKitti::P0());
   ExpectLoadError(ErrorCode::kInvalidArgument, {"line 2 (P1): baseline", "= 0 m"});
 }
@@ -790,7 +809,7 @@ TEST_P(KittiExcerptTest, LoadsWithCalibrationAndGroundTruth) {
 INSTANTIATE_TEST_SUITE_P(
     SharedData, KittiExcerptTest,
     ::testing::Values(KittiExcerpt{"seq1", 1226, 370, 707.0912, 0.5372, 59.86, 0},
-                      KittiExcerpt{"seq2", 1241, 376, 718.856, 0.4692, 51.76, 98}),
+                      KittiExcerpt{"seq2", 1241, 376, 718.856, 0.4733, 51.76, 98}),
     [](const auto& test) { return std::string(test.param.name); });
 
 TEST(EurocExcerptTest, LoadsAsAStereoSequenceWithoutGroundTruth) {

@@ -83,6 +83,48 @@ TEST(VisualOdometryTest, AFrameThatDoesNotTrackKeepsTheLastMotion) {
   EXPECT_FALSE(vo.Track(again).estimated);
 }
 
+// A corridor driven in 40 steps, each frame seeing the same landmarks with its own depth noise
+// (what stereo gives): chained steps drift. Each step averaged with the same step measured from
+// the frame before the previous (fuse_frame_before) ends closer to the truth, over 6 drives.
+TEST(VisualOdometryTest, FusingTheFrameBeforeDriftsLessThanFrameToFrame) {
+  Se3 step = Se3::Identity();
+  step.translate(Eigen::Vector3d(0.0, 0.0, 0.5));
+  step.rotate(Eigen::AngleAxisd(0.01, Eigen::Vector3d::UnitY()));
+  double fused_error_m = 0, plain_error_m = 0;
+  for (unsigned seed = 1; seed <= 6; ++seed) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<float> lateral(-8.f, 8.f), ahead(2.f, 60.f);
+    Landmarks world;
+    for (int i = 0; i < 1500; ++i) {
+      world.points_camera.emplace_back(lateral(rng), lateral(rng) * 0.2f, ahead(rng));
+    }
+    world.descriptors = testing::RandomDescriptors(1500, rng);
+    for (const bool fuse : {true, false}) {
+      VisualOdometryOptions options;
+      options.fuse_frame_before = fuse;
+      VisualOdometry vo(options);
+      std::mt19937 noise_rng(seed * 100);
+      std::normal_distribution<double> depth_noise(0.0, 0.01);
+      Se3 world_T_camera = Se3::Identity(), estimated = Se3::Identity();
+      for (int k = 0; k < 40; ++k) {
+        if (k > 0) world_T_camera = world_T_camera * step;
+        Landmarks seen = SeenAfter(world, world_T_camera);
+        // Stereo's error grows with the square of the depth and lies along the ray.
+        for (Eigen::Vector3f& p : seen.points_camera) {
+          p *= static_cast<float>(1.0 + depth_noise(noise_rng) * p.z() / 10.0);
+        }
+        Frame frame = MakeFrame(k, std::move(seen));
+        vo.Track(frame);
+        estimated = estimated * frame.prev_T_this;
+      }
+      const double error_m = (estimated.translation() - world_T_camera.translation()).norm();
+      (fuse ? fused_error_m : plain_error_m) += error_m / 6;
+    }
+  }
+  EXPECT_LT(fused_error_m, 0.6 * plain_error_m)
+      << "fused " << fused_error_m << " m, frame to frame " << plain_error_m << " m";
+}
+
 TEST(VisualOdometryTest, OptionsOutOfRangeAreRefused) {
   VisualOdometryOptions o;
   o.min_inliers = o.localiser.min_inliers - 1;

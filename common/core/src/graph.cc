@@ -1,5 +1,6 @@
 #include "fleetmap/core/graph.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 
@@ -90,9 +91,11 @@ void Validate(const Annotation& annotation) {
 namespace {
 
 // What is wrong with a stereo camera description, or empty when nothing is.
-std::string StereoCameraFault(float focal_px, float baseline_m, const float* q, int q_size) {
+std::string StereoCameraFault(float focal_px, float baseline_m, const float* q, int q_size,
+                              float level_scale) {
   if (!(std::isfinite(focal_px) && focal_px > 0)) return "focal length must be positive";
   if (!(std::isfinite(baseline_m) && baseline_m > 0)) return "baseline must be positive";
+  if (!(level_scale >= 1 && level_scale <= 4)) return "pyramid scale must be in [1, 4]";
   if (q_size != 4) return "rotation needs 4 quaternion terms, has " + std::to_string(q_size);
   double norm_sq = 0;
   for (int k = 0; k < 4; ++k) {
@@ -101,6 +104,24 @@ std::string StereoCameraFault(float focal_px, float baseline_m, const float* q, 
   }
   if (std::abs(norm_sq - 1.0) > 1e-3) return "rotation is not a unit quaternion";
   return {};
+}
+
+// What is wrong with the landmarks' pyramid levels, or empty when nothing is.
+std::string LevelsFault(std::size_t levels, std::size_t points, std::uint8_t highest) {
+  if (levels != 0 && levels != points) {
+    return std::to_string(levels) + " pyramid levels for " + std::to_string(points) + " points";
+  }
+  if (highest > Landmarks::kMaxLevel) {
+    return "pyramid level " + std::to_string(highest) + " above " +
+           std::to_string(Landmarks::kMaxLevel);
+  }
+  return {};
+}
+
+std::uint8_t Highest(const std::uint8_t* levels, std::size_t n) {
+  std::uint8_t highest = 0;
+  for (std::size_t i = 0; i < n; ++i) highest = std::max(highest, levels[i]);
+  return highest;
 }
 
 }  // namespace
@@ -126,14 +147,23 @@ std::string EncodeLandmarks(const Landmarks& landmarks) {
   }
   if (landmarks.stereo) {
     const StereoCamera& camera = *landmarks.stereo;
-    const std::string fault =
-        StereoCameraFault(camera.focal_px, camera.baseline_m, camera.rect_q_camera.data(), 4);
+    const std::string fault = StereoCameraFault(camera.focal_px, camera.baseline_m,
+                                                camera.rect_q_camera.data(), 4, camera.level_scale);
     if (!fault.empty())
       throw Error(ErrorCode::kInvalidArgument, "landmarks' stereo camera: " + fault);
     v1::StereoCamera* stereo = proto.mutable_stereo();
     stereo->set_focal_px(camera.focal_px);
     stereo->set_baseline_m(camera.baseline_m);
     for (float q : camera.rect_q_camera) stereo->add_rect_q_camera(q);
+    // 1 is "unknown" and stays absent, so blobs without levels are byte for byte as before.
+    if (camera.level_scale != 1) stereo->set_level_scale(camera.level_scale);
+  }
+  const std::string levels_fault =
+      LevelsFault(landmarks.levels.size(), landmarks.size(),
+                  Highest(landmarks.levels.data(), landmarks.levels.size()));
+  if (!levels_fault.empty()) throw Error(ErrorCode::kInvalidArgument, "landmarks: " + levels_fault);
+  if (!landmarks.levels.empty()) {
+    proto.set_levels(landmarks.levels.data(), landmarks.levels.size());
   }
   return proto.SerializeAsString();
 }
@@ -162,17 +192,25 @@ Landmarks DecodeLandmarks(const std::string& blob) {
   }
   if (proto.has_stereo()) {
     const v1::StereoCamera& stereo = proto.stereo();
+    // Absent (0) in blobs written before levels existed: unknown, 1.
+    const float level_scale = stereo.level_scale() == 0 ? 1.0f : stereo.level_scale();
     const std::string fault =
         StereoCameraFault(stereo.focal_px(), stereo.baseline_m(), stereo.rect_q_camera().data(),
-                          stereo.rect_q_camera_size());
+                          stereo.rect_q_camera_size(), level_scale);
     if (!fault.empty()) throw Error(ErrorCode::kCorrupt, "landmark blob's stereo camera: " + fault);
     StereoCamera camera;
     camera.focal_px = stereo.focal_px();
     camera.baseline_m = stereo.baseline_m();
+    camera.level_scale = level_scale;
     for (int k = 0; k < 4; ++k)
       camera.rect_q_camera[static_cast<std::size_t>(k)] = stereo.rect_q_camera(k);
     landmarks.stereo = camera;
   }
+  const auto* levels = reinterpret_cast<const std::uint8_t*>(proto.levels().data());
+  const std::string levels_fault =
+      LevelsFault(proto.levels().size(), n, Highest(levels, proto.levels().size()));
+  if (!levels_fault.empty()) throw Error(ErrorCode::kCorrupt, "landmark blob: " + levels_fault);
+  landmarks.levels.assign(levels, levels + proto.levels().size());
   return landmarks;
 }
 

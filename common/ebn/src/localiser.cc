@@ -2,6 +2,7 @@
 
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <optional>
@@ -98,6 +99,37 @@ void CheckConsistent(const Landmarks& landmarks, const char* what) {
                     std::to_string(landmarks.points_camera.size()) + " points but " +
                     std::to_string(landmarks.descriptors.size()) + " descriptors");
   }
+  if (!landmarks.levels.empty() && landmarks.levels.size() != landmarks.size()) {
+    throw Error(ErrorCode::kInvalidArgument,
+                std::string("localise: ") + what + " has " + std::to_string(landmarks.size()) +
+                    " points but " + std::to_string(landmarks.levels.size()) + " pyramid levels");
+  }
+  for (const std::uint8_t level : landmarks.levels) {
+    if (level > Landmarks::kMaxLevel) {
+      throw Error(ErrorCode::kInvalidArgument, std::string("localise: ") + what +
+                                                   " has a pyramid level above " +
+                                                   std::to_string(Landmarks::kMaxLevel));
+    }
+  }
+}
+
+// Each match's pixel noise in one view (stereo_reprojection.h): level_scale^level of the
+// keypoint it was measured at; empty (all 1) when the landmarks carry no levels.
+Eigen::VectorXd MatchSigmas(const Landmarks& landmarks, const std::vector<DescriptorMatch>& matches,
+                            bool frame_side) {
+  if (landmarks.levels.empty() || !landmarks.stereo) return {};
+  std::array<double, Landmarks::kMaxLevel + 1> sigma_of_level{};
+  sigma_of_level[0] = 1.0;
+  for (std::size_t l = 1; l < sigma_of_level.size(); ++l) {
+    sigma_of_level[l] = sigma_of_level[l - 1] * landmarks.stereo->level_scale;
+  }
+  Eigen::VectorXd sigma(static_cast<Eigen::Index>(matches.size()));
+  for (std::size_t k = 0; k < matches.size(); ++k) {
+    const int index = frame_side ? matches[k].query_index : matches[k].train_index;
+    sigma(static_cast<Eigen::Index>(k)) =
+        sigma_of_level[landmarks.levels[static_cast<std::size_t>(index)]];
+  }
+  return sigma;
 }
 
 }  // namespace
@@ -140,7 +172,9 @@ LocalisationResult Localiser::Localise(const Landmarks& frame, const Landmarks& 
   // Which residual judges a hypothesis (localiser.h): pixels when a stereo camera is known.
   std::optional<StereoReprojection> stereo;
   if (frame.stereo || node.stereo) {
-    stereo.emplace(c.p_frame, c.p_node, frame.stereo, node.stereo);
+    stereo.emplace(c.p_frame, c.p_node, frame.stereo, node.stereo,
+                   MatchSigmas(frame, matches, /*frame_side=*/true),
+                   MatchSigmas(node, matches, /*frame_side=*/false));
     result.stereo_residuals = true;
   }
   const auto inliers_of = [&](const Se3& node_T_frame) {

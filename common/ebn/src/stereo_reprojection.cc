@@ -40,8 +40,11 @@ Eigen::Matrix3d Skew(const Eigen::Vector3d& w) {
 }  // namespace
 
 StereoReprojection::View StereoReprojection::MakeView(const StereoCamera& camera,
-                                                      const Eigen::Matrix3Xd& points) {
+                                                      const Eigen::Matrix3Xd& points,
+                                                      const Eigen::VectorXd& sigma) {
   View view;
+  view.inverse_variance = sigma.size() == 0 ? Eigen::VectorXd::Ones(points.cols())
+                                            : Eigen::VectorXd(sigma.array().square().inverse());
   const auto& q = camera.rect_q_camera;
   view.rect_R_points = Eigen::Quaterniond(q[0], q[1], q[2], q[3]).normalized().toRotationMatrix();
   view.focal_px = camera.focal_px;
@@ -60,10 +63,11 @@ StereoReprojection::View StereoReprojection::MakeView(const StereoCamera& camera
 StereoReprojection::StereoReprojection(const Eigen::Matrix3Xd& p_frame,
                                        const Eigen::Matrix3Xd& p_node,
                                        const std::optional<StereoCamera>& frame_camera,
-                                       const std::optional<StereoCamera>& node_camera)
+                                       const std::optional<StereoCamera>& node_camera,
+                                       Eigen::VectorXd frame_sigma, Eigen::VectorXd node_sigma)
     : p_frame_(p_frame), p_node_(p_node) {
-  if (frame_camera) frame_view_ = MakeView(*frame_camera, p_frame);
-  if (node_camera) node_view_ = MakeView(*node_camera, p_node);
+  if (frame_camera) frame_view_ = MakeView(*frame_camera, p_frame, frame_sigma);
+  if (node_camera) node_view_ = MakeView(*node_camera, p_node, node_sigma);
 }
 
 std::vector<int> StereoReprojection::Inliers(const Se3& node_T_frame, double threshold_px) const {
@@ -71,7 +75,8 @@ std::vector<int> StereoReprojection::Inliers(const Se3& node_T_frame, double thr
   const auto explains = [threshold_sq](const View& view, const Eigen::Vector3d& p, Eigen::Index k) {
     const Eigen::Vector3d q = view.rect_R_points * p;
     if (!(q.z() > kMinDepth_m)) return false;
-    return (Project(view.focal_px, view.baseline_m, q) - view.measured.col(k)).squaredNorm() <
+    return (Project(view.focal_px, view.baseline_m, q) - view.measured.col(k)).squaredNorm() *
+               view.inverse_variance(k) <
            threshold_sq;
   };
   const Se3 frame_T_node = node_T_frame.inverse();
@@ -101,8 +106,9 @@ Se3 StereoReprojection::Refine(const Se3& node_T_frame, const std::vector<int>& 
       const Eigen::Vector3d e = Project(view.focal_px, view.baseline_m, q) - view.measured.col(k);
       const Eigen::Matrix<double, 3, 6> j =
           ProjectJacobian(view.focal_px, view.baseline_m, q) * dq_dxi;
-      h.noalias() += j.transpose() * j;
-      g.noalias() += j.transpose() * e;
+      const double w = view.inverse_variance(k);
+      h.noalias() += w * (j.transpose() * j);
+      g.noalias() += w * (j.transpose() * e);
     };
     for (int index : inliers) {
       const Eigen::Index k = index;

@@ -230,8 +230,19 @@ PinholeCamera RectifiedCamera(const std::string& name, const Projection& P, cv::
   return camera;
 }
 
+// Where a rectified camera's centre sits, in metres along the rectified x axis, from its
+// projection P = K [I | t]: P[0][3] = fx t_x + cx t_z, so t_x = (P[0][3] - cx P[2][3]) / fx.
+// KITTI's colour cameras (2 and 3) have t_z of a few millimetres; ignoring it in P[0][3] gives
+// cx t_z / fx of baseline error (camera 3 of sequences 04-12: 0.4692 instead of 0.4733 m, 0.9 %
+// of scale on every stereo depth).
+double RectifiedCentreX(const Projection& P) {
+  return -(P(0, 3) - P(0, 2) * P(2, 3)) / P(0, 0);
+}
+
 // Checks a rectified pair's projection matrices and returns the baseline: for a horizontal rig
-// rectified to camera 0, P_right = K [I | (-b, 0, 0)], so b = -P_right[0][3] / P_right[0][0].
+// rectified to camera 0, P_right = K [I | (-b, t_y, t_z)] with t_y, t_z zero or millimetres, so
+// b is the right centre's x less the left's (RectifiedCentreX). The millimetres of t_y and t_z
+// are left out of the rig: at 5 m they move a point by under 0.3 px.
 double RectifiedBaseline(const Projection& left, int left_line, const std::string& left_field,
                          const Projection& right, int right_line, const std::string& right_field,
                          const fs::path& file) {
@@ -244,12 +255,12 @@ double RectifiedBaseline(const Projection& left, int left_line, const std::strin
       Malformed(file, line, *field, what.str());
     }
   }
-  const double baseline_m = -right(0, 3) / right(0, 0);
+  const double baseline_m = RectifiedCentreX(right) - RectifiedCentreX(left);
   if (!(baseline_m > 0)) {
     std::ostringstream what;
     // + 0.0 prints a baseline of -0 (P[0][3] = 0) as 0.
-    what << "baseline -" << right_field << "[0][3] / " << right_field
-         << "[0][0] = " << baseline_m + 0.0
+    what << "baseline (" << right_field << "'s centre x less " << left_field
+         << "'s, each -(P[0][3] - P[0][2] P[2][3]) / P[0][0]) = " << baseline_m + 0.0
          << " m is not positive (the right camera must lie to the right of the left one)";
     Malformed(file, right_line, right_field, what.str());
   }

@@ -121,7 +121,8 @@ StereoFrontEnd::StereoFrontEnd(const RectifiedStereoGeometry& geometry,
     throw Error(ErrorCode::kInvalidArgument,
                 "stereo geometry needs a positive focal length, baseline and image size");
   }
-  if (options.orb_features < 1 || !(options.orb_scale_factor > 1) || options.orb_levels < 1 ||
+  if (options.orb_features < 1 ||
+      !(options.orb_scale_factor > 1 && options.orb_scale_factor <= 4) || options.orb_levels < 1 ||
       options.orb_fast_threshold < 1 || options.grid_columns < 1 || options.grid_rows < 1 ||
       !(options.detect_oversampling >= 1) || !(options.disparity_sigma_px > 0) ||
       !(options.max_relative_depth_sigma > 0)) {
@@ -163,10 +164,12 @@ StereoFrontEndResult StereoFrontEnd::Process(std::int64_t stamp_ns, const cv::Ma
   const Eigen::Quaterniond rect_q_left(geometry_.rect_R_left);
   camera.rect_q_camera = {static_cast<float>(rect_q_left.w()), static_cast<float>(rect_q_left.x()),
                           static_cast<float>(rect_q_left.y()), static_cast<float>(rect_q_left.z())};
+  camera.level_scale = options_.orb_scale_factor;
   landmarks.stereo = camera;
   const double min_disparity_px = options_.disparity_sigma_px / options_.max_relative_depth_sigma;
   landmarks.points_camera.reserve(matches.size());
   landmarks.descriptors.reserve(matches.size());
+  landmarks.levels.reserve(matches.size());
   for (const StereoMatch& m : matches) {
     if (m.disparity_px < min_disparity_px) {
       ++result.dropped_uncertain_depth;
@@ -176,6 +179,10 @@ StereoFrontEndResult StereoFrontEnd::Process(std::int64_t stamp_ns, const cv::Ma
         TriangulateRectified(geometry_, m.u_left_px, m.v_px, m.disparity_px);
     landmarks.points_camera.push_back((left_R_rect * p_rect).cast<float>());
     landmarks.descriptors.push_back(DescriptorRow(left.descriptors, m.left_index));
+    // The left keypoint's pyramid level is the match's pixel noise (graph.h Landmarks::levels).
+    const int octave = left.keypoints[static_cast<std::size_t>(m.left_index)].octave;
+    landmarks.levels.push_back(
+        static_cast<std::uint8_t>(std::clamp(octave, 0, int{Landmarks::kMaxLevel})));
     result.depths_m.push_back(p_rect.z());
     result.left_pixels.emplace_back(m.u_left_px, m.v_px);
   }

@@ -29,6 +29,10 @@ struct StereoCamera {
   // The rotation from the frame the points are expressed in (the left camera's own) into the
   // rectified left frame, as a unit quaternion w, x, y, z; identity for pre-rectified images.
   std::array<float, 4> rect_q_camera{1, 0, 0, 0};
+  // The image pyramid's scale factor between levels, in [1, 4]: a keypoint detected at level
+  // l was measured in an image shrunk by level_scale^l, so its pixel noise is that many times
+  // larger (Landmarks::levels). 1 when unknown.
+  float level_scale = 1;
 
   friend bool operator==(const StereoCamera&, const StereoCamera&) = default;
 };
@@ -37,10 +41,16 @@ struct StereoCamera {
 // with one descriptor each. INVARIANT: points_camera.size() == descriptors.size().
 // `stereo` is set for landmarks triangulated by a stereo camera; landmarks without it (the
 // synthetic world, maps made before it existed) are localised by 3-D residuals.
+// `levels` is the pyramid level each point's keypoint was detected at (its pixel noise is
+// stereo->level_scale^level pixels of the full image); empty when unknown, which means level 0
+// for every point. INVARIANT: levels is empty or levels.size() == size(), each <= kMaxLevel.
 struct Landmarks {
+  static constexpr std::uint8_t kMaxLevel = 31;
+
   std::vector<Eigen::Vector3f> points_camera;
   std::vector<Descriptor256> descriptors;
   std::optional<StereoCamera> stereo;
+  std::vector<std::uint8_t> levels;
 
   std::size_t size() const { return points_camera.size(); }
   friend bool operator==(const Landmarks&, const Landmarks&) = default;

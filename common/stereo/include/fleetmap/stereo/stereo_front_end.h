@@ -27,7 +27,7 @@ namespace fleetmap {
 // baseline, 2-80 m) rigs: nothing here depends on the scene's scale.
 struct StereoFrontEndOptions {
   // ORB (OpenCV's): keypoints kept in the left image, pyramid, FAST threshold.
-  int orb_features = 1500;
+  int orb_features = 2000;
   float orb_scale_factor = 1.2f;
   int orb_levels = 8;
   int orb_fast_threshold = 12;
