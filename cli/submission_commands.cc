@@ -188,8 +188,10 @@ void PrintMerge(const Uuid& id, const MergeOutcome& outcome) {
               PrintableText(outcome.revision.author).c_str());
   std::printf("  segments   %zu, decided in %zu stretches: %zu added, %zu omitted (localised)\n",
               r.segments, r.stretches, r.stretches_added, r.stretches_omitted);
-  std::printf("  nodes      %zu submitted, %zu duplicates, %zu added\n", r.submitted_nodes,
-              r.duplicate_nodes, r.nodes_added);
+  std::printf(
+      "  nodes      %zu submitted, %zu duplicates, %zu added (%zu localised at the ends of added "
+      "stretches left out)\n",
+      r.submitted_nodes, r.duplicate_nodes, r.nodes_added, r.localised_ends_omitted);
   std::printf(
       "  edges      %zu metric added (%zu links to the map), %zu path added, %zu path "
       "dropped\n",

@@ -55,15 +55,15 @@ TEST(Dreaming, EveryOrderRunsOnSharedPrefixesAndTheBestIsKept) {
   std::size_t night_kept = 0;
   for (const Node& node : groups[1].nodes) night_kept += best_nodes.contains(node.id) ? 1 : 0;
   EXPECT_GE(night_kept, groups[1].nodes.size() / 2);
-  // The far-half day map is redundant after the whole day map: orders that merge the whole
-  // day map first keep fewer nodes than orders that merge the half first.
-  double whole_first = 0, half_first = 0;
+  // The far-half day map is redundant beside the whole day map in either order: merged first,
+  // the half stays and the whole adds only its near half (the stretch across the half's start
+  // is added from its first frame that did not localise: merge.cc Decide); merged after, the
+  // half is omitted. So no order holds much more than the whole day map and the night map.
   for (const DreamOrderResult& order : result.orders) {
-    const auto whole = std::find(order.order.begin(), order.order.end(), 0);
-    const auto half = std::find(order.order.begin(), order.order.end(), 2);
-    (whole < half ? whole_first : half_first) += order.score;
+    EXPECT_LE(order.nodes,
+              groups[0].nodes.size() + groups[1].nodes.size() + groups[2].nodes.size() / 5)
+        << "order " << order.order[0] << order.order[1] << order.order[2];
   }
-  EXPECT_LE(whole_first, half_first);
 }
 
 TEST(Dreaming, ASampleOfOrdersAndBadArguments) {

@@ -326,25 +326,32 @@ class Merger {
     return frames;
   }
 
-  // Omits a stretch that localises well enough, else adds it to the server map.
-  void Decide(std::span<const Replayed> stretch) {
+  // Omits a stretch that localises well enough, else adds it to the server map, less the
+  // frames at either end that localised: the server already holds their place (issue 37 item
+  // 4: where a robot drives on past the end of what the server knows, the stretch that
+  // straddles the end is added from the first frame that did not localise, not from the last
+  // one that did; on real drives a node spans metres, and that frame is a whole node).
+  void Decide(std::span<const Replayed> whole_stretch) {
     ++result_.report.stretches;
     std::vector<const Replayed*> localised;
-    for (const Replayed& frame : stretch) {
+    for (const Replayed& frame : whole_stretch) {
       if (frame.localised) localised.push_back(&frame);
     }
     const double fraction =
-        static_cast<double>(localised.size()) / static_cast<double>(stretch.size());
+        static_cast<double>(localised.size()) / static_cast<double>(whole_stretch.size());
     if (fraction >= options_.omit_localised_fraction) {
       ++result_.report.stretches_omitted;
-      // The frames that did not localise stand in by their dead-reckoned place, so the robot's
-      // edges through them still join what it adds to the server map at both ends.
-      for (const Replayed& frame : stretch) {
-        if (frame.placed) stands_in_for_.emplace(frame.node, *frame.placed);
-      }
+      StandInFor(whole_stretch);
       return;
     }
     ++result_.report.stretches_added;
+    std::size_t first = 0, end = whole_stretch.size();
+    while (whole_stretch[first].localised) ++first;  // fraction < 1: some frame did not
+    while (whole_stretch[end - 1].localised) --end;
+    StandInFor(whole_stretch.first(first));
+    StandInFor(whole_stretch.subspan(end));
+    result_.report.localised_ends_omitted += whole_stretch.size() - (end - first);
+    const std::span<const Replayed> stretch = whole_stretch.subspan(first, end - first);
     for (const Replayed& frame : stretch) {
       const Node& node = *fresh_.at(frame.node);
       server_.AddNode(node, landmarks_.at(frame.node));
@@ -355,6 +362,10 @@ class Merger {
     // an omitted node through the server node it stands in by.
     for (const Replayed& frame : stretch) {
       for (const Edge* edge : metric_of_[frame.node]) CarryMetric(*edge);
+    }
+    localised.clear();
+    for (const Replayed& frame : stretch) {
+      if (frame.localised) localised.push_back(&frame);
     }
     // Links to the server map where the stretch localised, at its first and last such frames
     // (a stretch with a single localised frame gets none: one success among failures is the
@@ -370,6 +381,15 @@ class Merger {
     // from the one beside it, beyond the search).
     for (const Replayed& frame : stretch) {
       if (!frame.localised && frame.placed) Link(*frame.placed, frame.node);
+    }
+  }
+
+  // Omitted frames stand in by where their replay placed them (localised, or through their
+  // localised neighbours), so the robot's edges through them still join what it adds to the
+  // server map at both ends.
+  void StandInFor(std::span<const Replayed> omitted) {
+    for (const Replayed& frame : omitted) {
+      if (frame.placed) stands_in_for_.emplace(frame.node, *frame.placed);
     }
   }
 
@@ -436,7 +456,15 @@ class Merger {
   }
 
   void AddMetric(const Edge& edge) {
-    server_.AddMetricEdge(edge.from, edge.to, edge.from_T_to);
+    // The store keeps every edge, and a map loaded from it one relative pose per pair of nodes
+    // (ExperienceMap::FromGraph); the map merged into keeps the same, so later segments replay
+    // against what a reload would give (a link and a robot edge carried onto a stand-in can
+    // join the same two nodes).
+    bool linked = false;
+    for (const ExperienceMap::MetricLink& link : server_.at(*server_.Find(edge.from)).links) {
+      linked |= link.to == *server_.Find(edge.to);
+    }
+    if (!linked) server_.AddMetricEdge(edge.from, edge.to, edge.from_T_to);
     result_.additions.edges.push_back(edge);
     written_edges_.insert(edge.id);
     ++result_.report.metric_edges_added;

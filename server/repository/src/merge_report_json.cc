@@ -12,6 +12,7 @@ std::string MergeReportJson(const MergeReport& r) {
   json["stretches"] = r.stretches;
   json["stretches_added"] = r.stretches_added;
   json["stretches_omitted"] = r.stretches_omitted;
+  json["localised_ends_omitted"] = r.localised_ends_omitted;
   json["nodes_added"] = r.nodes_added;
   json["metric_edges_added"] = r.metric_edges_added;
   json["links_added"] = r.links_added;

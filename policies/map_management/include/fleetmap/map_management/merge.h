@@ -54,6 +54,8 @@ struct MergeReport {
   std::size_t stretches = 0;        // the parts of segments inclusion was decided on
   std::size_t stretches_added = 0;
   std::size_t stretches_omitted = 0;
+  // Frames at the ends of added stretches that localised, omitted with them (merge.cc Decide).
+  std::size_t localised_ends_omitted = 0;
   std::size_t nodes_added = 0;
   std::size_t metric_edges_added = 0;  // the robot's, plus links to the server map
   std::size_t links_added = 0;         // of those, the links
