@@ -14,6 +14,9 @@ void AddExperimentCommand(CLI::App& app);
 void AddRealExperimentCommand(CLI::App& experiment);
 // `fleetmap experiment real-merge` (real_merge_command.cc); registered by AddRealExperimentCommand.
 void AddRealMergeExperimentCommand(CLI::App& experiment);
+// `fleetmap experiment conditions`: a real stereo pair re-rendered at other hours and weathers
+// (conditions_command.cc); registered by AddExperimentCommand beside `real`.
+void AddConditionsExperimentCommand(CLI::App& experiment);
 // The repository (seed 004 §IV–§VI), registered in the order a user meets them: init
 // (repository_commands.cc); push, submissions, merge (submission_commands.cc); log, checkout,
 // diff, revert (repository_commands.cc); download; dream.

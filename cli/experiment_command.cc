@@ -418,6 +418,7 @@ void AddExperimentCommand(CLI::App& app) {
   lifelong->callback([lifelong_args] { RunLifelong(*lifelong_args); });
 
   AddRealExperimentCommand(*experiment);
+  AddConditionsExperimentCommand(*experiment);
 }
 
 }  // namespace fleetmap::cli

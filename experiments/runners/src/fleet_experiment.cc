@@ -25,11 +25,11 @@
 #include "fleetmap/ranking/path_ranking.h"
 #include "fleetmap/ranking/time_of_day.h"
 #include "fleetmap/repository/repository.h"
-#include "fleetmap/runners/task_queue.h"
 #include "fleetmap/store/graph_store.h"
 #include "fleetmap/world/world.h"
 #include "fleetmap/world/world_runs.h"
 #include "outing_runs.h"
+#include "task_queue.h"
 #include "work_progress.h"
 
 namespace fleetmap {

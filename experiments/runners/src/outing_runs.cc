@@ -4,7 +4,7 @@
 
 #include <algorithm>
 
-#include "fleetmap/runners/task_queue.h"
+#include "task_queue.h"
 
 namespace fleetmap {
 

@@ -17,11 +17,11 @@
 #include "fleetmap/ebn/experience_map.h"
 #include "fleetmap/ebn/localiser.h"
 #include "fleetmap/ranking/distance_ranking.h"
-#include "fleetmap/runners/task_queue.h"
 #include "fleetmap/stereo/stereo_sequence.h"
 #include "fleetmap/store/graph_store.h"
 #include "fleetmap/store/version_store.h"
 #include "report_text.h"
+#include "task_queue.h"
 
 namespace fleetmap {
 

@@ -1,4 +1,4 @@
-#include "fleetmap/runners/task_queue.h"
+#include "task_queue.h"
 
 #include <thread>
 #include <vector>
