@@ -14,6 +14,8 @@ void AddExperimentCommand(CLI::App& app);
 void AddRealExperimentCommand(CLI::App& experiment);
 // `fleetmap experiment real-merge` (real_merge_command.cc); registered by AddRealExperimentCommand.
 void AddRealMergeExperimentCommand(CLI::App& experiment);
+// `fleetmap experiment real-fleet` (real_fleet_command.cc); registered by AddRealExperimentCommand.
+void AddRealFleetExperimentCommand(CLI::App& experiment);
 // `fleetmap experiment conditions`: a real stereo pair re-rendered at other hours and weathers
 // (conditions_command.cc); registered by AddExperimentCommand beside `real`.
 void AddConditionsExperimentCommand(CLI::App& experiment);

@@ -112,6 +112,7 @@ struct FleetArgs {
   std::string seeds;  // "N" (N seeds from the world's) or "a,b,c"; empty: the world's seed
   double omit_fraction = MergeOptions{}.omit_localised_fraction;
   double stretch_m = MergeOptions{}.decision_length_m;
+  bool merge_whole_stretches = false;
 };
 
 std::uint64_t ParseSeed(const std::string& text, const std::string& what) {
@@ -179,6 +180,7 @@ void RunFleet(const FleetArgs& args) {
   options.coverage = args.coverage;
   options.merge.omit_localised_fraction = args.omit_fraction;
   options.merge.decision_length_m = args.stretch_m;
+  options.merge.omit_localised_ends = !args.merge_whole_stretches;
   const std::vector<std::uint64_t> seeds = FleetSeeds(args, options.world.seed);
   const std::filesystem::path out = args.out_dir;
 
@@ -364,6 +366,9 @@ void AddExperimentCommand(CLI::App& app) {
                    "MERGE decides inclusion per stretch of a segment this long (metres)")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
+  fleet->add_flag("--merge-whole-stretches", fleet_args->merge_whole_stretches,
+                  "MERGE adds a stretch that does not localise whole, with the frames at its ends "
+                  "that did (the behaviour before issue 37; for comparison)");
   fleet->add_flag("--no-frontier", fleet_args->no_frontier,
                   "Skip the frontier (each download policy with its knobs swept; issue 34): "
                   "about a third less work; its judged line then fails as not run");

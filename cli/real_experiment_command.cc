@@ -89,6 +89,7 @@ void AddRealExperimentCommand(CLI::App& experiment) {
       ->check(CLI::Range(50, 20000));
   real->callback([args] { RunReal(*args); });
   AddRealMergeExperimentCommand(experiment);
+  AddRealFleetExperimentCommand(experiment);
 }
 
 }  // namespace fleetmap::cli

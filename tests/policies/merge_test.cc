@@ -194,6 +194,21 @@ TEST_F(MergeTest, AWholeSegmentIsAddedLessItsLocalisedEndsAndLinkedWhereItLocali
   EXPECT_EQ(reloaded.metric_edge_count(), server.metric_edge_count());
 }
 
+// With omit_localised_ends off a stretch that does not localise is added whole, its localised
+// ends and all (the behaviour before issue 37, kept for comparison).
+TEST_F(MergeTest, WithoutOmittingLocalisedEndsAWholeSegmentIsAddedWhole) {
+  Server day = DayServer();
+  const GraphBatch submission = Build("robot", {NightThenDay(corridor())})->ReadMap();
+  Written written;
+  MergeOptions whole;
+  whole.decision_length_m = std::numeric_limits<double>::infinity();
+  whole.omit_localised_ends = false;
+  const MergeResult all = Merge(day.map, submission, written.Catalogue(), whole);
+  EXPECT_EQ(all.report.stretches_added, 1u);
+  EXPECT_EQ(all.report.nodes_added, submission.nodes.size());
+  EXPECT_EQ(all.report.localised_ends_omitted, 0u);
+}
+
 TEST_F(MergeTest, StretchesAreDecidedApartSoOnlyTheNewConditionIsAdded) {
   Server day = DayServer();
   ExperienceMap& server = day.map;

@@ -346,8 +346,10 @@ class Merger {
     }
     ++result_.report.stretches_added;
     std::size_t first = 0, end = whole_stretch.size();
-    while (whole_stretch[first].localised) ++first;  // fraction < 1: some frame did not
-    while (whole_stretch[end - 1].localised) --end;
+    if (options_.omit_localised_ends) {
+      while (whole_stretch[first].localised) ++first;  // fraction < 1: some frame did not
+      while (whole_stretch[end - 1].localised) --end;
+    }
     StandInFor(whole_stretch.first(first));
     StandInFor(whole_stretch.subspan(end));
     result_.report.localised_ends_omitted += whole_stretch.size() - (end - first);

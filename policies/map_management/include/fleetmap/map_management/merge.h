@@ -43,6 +43,9 @@ struct MergeOptions {
   double decision_length_m = 10.0;
   // A stretch is omitted when at least this share of its frames localise, in (0, 1].
   double omit_localised_fraction = 0.8;
+  // An added stretch leaves out its frames at either end that localised (they stand in by
+  // where they localised); false adds the whole stretch, as before issue 37.
+  bool omit_localised_ends = true;
   // The replaying localiser (localise_only is forced on).
   BuilderOptions localiser = {};
 };
