@@ -50,22 +50,6 @@ struct ConditionRow {
   int orb_keypoints = 0, orb_all = 0, landmarks = 0;
 };
 
-// The distance to the neighbouring pair over the time between them, where both have ground
-// truth.
-std::optional<double> GroundTruthSpeed(const StereoSequence& sequence, int pair) {
-  const int count = static_cast<int>(sequence.pairs.size());
-  const int other = pair + 1 < count ? pair + 1 : pair - 1;
-  if (other < 0 || !sequence.has_ground_truth()) return std::nullopt;
-  const auto& a = sequence.first_T_left[static_cast<std::size_t>(pair)];
-  const auto& b = sequence.first_T_left[static_cast<std::size_t>(other)];
-  if (!a || !b) return std::nullopt;
-  const double dt_s = std::abs(static_cast<double>(sequence.pairs[other].stamp_ns -
-                                                   sequence.pairs[pair].stamp_ns)) *
-                      1e-9;
-  if (dt_s <= 0) return std::nullopt;
-  return (b->translation() - a->translation()).norm() / dt_s;
-}
-
 std::string HourLabel(double hour) {
   char text[32];
   std::snprintf(text, sizeof text, "%g", hour);
@@ -134,7 +118,7 @@ StereoPairImages ReadRectifiedPair(const StereoSequence& sequence, const StereoR
 
 double ChooseSpeed(const ConditionsArgs& args, const StereoSequence& sequence) {
   if (args.speed_mps >= 0) return args.speed_mps;
-  if (const std::optional<double> speed = GroundTruthSpeed(sequence, args.pair)) return *speed;
+  if (const std::optional<double> speed = GroundTruthSpeedMps(sequence, args.pair)) return *speed;
   std::cerr << "conditions: no ground truth at pair " << args.pair
             << ", so no motion blur (give --speed)\n";
   return 0;

@@ -803,6 +803,18 @@ TEST_P(KittiExcerptTest, LoadsWithCalibrationAndGroundTruth) {
   cv::Scalar mean, stddev;
   cv::meanStdDev(left, mean, stddev);
   EXPECT_GT(stddev[0], 10.0);
+  // The car's speed from the ground truth: the path's length over its 5 s, pair by pair; the
+  // last pair from the one before it; none out of range.
+  const int last = static_cast<int>(s.pairs.size()) - 1;
+  double speed_path_m = 0;
+  for (int i = 0; i < last; ++i) {
+    const double dt_s = static_cast<double>(s.pairs[i + 1].stamp_ns - s.pairs[i].stamp_ns) * 1e-9;
+    speed_path_m += GroundTruthSpeedMps(s, i).value_or(-1000) * dt_s;
+  }
+  EXPECT_NEAR(speed_path_m, e.path_m, 0.01 * e.path_m);
+  EXPECT_NEAR(*GroundTruthSpeedMps(s, last), *GroundTruthSpeedMps(s, last - 1), 1e-12);
+  EXPECT_FALSE(GroundTruthSpeedMps(s, last + 1).has_value());
+  EXPECT_FALSE(GroundTruthSpeedMps(s, -1).has_value());
 }
 
 // seq1 drives about 60 m straight ahead; seq2 about 52 m with a 98 deg turn (data README).

@@ -2,6 +2,7 @@
 #include "fleetmap/stereo/stereo_sequence.h"
 
 #include <algorithm>
+#include <cmath>
 #include <system_error>
 
 #include "dataset_files.h"
@@ -140,6 +141,23 @@ StereoSequence LoadStereoSequence(const fs::path& dir, std::optional<StereoLayou
       return LoadKittiRawSequence(dir);
   }
   throw Error(ErrorCode::kInvalidArgument, "unknown stereo dataset layout");
+}
+
+std::optional<double> GroundTruthSpeedMps(const StereoSequence& sequence, int pair) {
+  const int count = static_cast<int>(sequence.pairs.size());
+  if (pair < 0 || pair >= count || sequence.first_T_left.size() != sequence.pairs.size()) {
+    return std::nullopt;
+  }
+  const int other = pair + 1 < count ? pair + 1 : pair - 1;
+  if (other < 0) return std::nullopt;
+  const auto& a = sequence.first_T_left[static_cast<std::size_t>(pair)];
+  const auto& b = sequence.first_T_left[static_cast<std::size_t>(other)];
+  if (!a || !b) return std::nullopt;
+  const double dt_s = std::abs(static_cast<double>(sequence.pairs[other].stamp_ns -
+                                                   sequence.pairs[pair].stamp_ns)) *
+                      1e-9;
+  if (!(dt_s > 0)) return std::nullopt;
+  return (b->translation() - a->translation()).norm() / dt_s;
 }
 
 }  // namespace fleetmap

@@ -15,15 +15,9 @@ namespace {
 // The vehicle's speed at each pair from the ground truth; 0 where it is not known.
 std::vector<double> GroundTruthSpeeds(const StereoSequence& sequence) {
   std::vector<double> speed(sequence.pairs.size(), 0.0);
-  for (std::size_t i = 1; i < sequence.first_T_left.size() && i < sequence.pairs.size(); ++i) {
-    const auto& before = sequence.first_T_left[i - 1];
-    const auto& now = sequence.first_T_left[i];
-    const double dt_s =
-        static_cast<double>(sequence.pairs[i].stamp_ns - sequence.pairs[i - 1].stamp_ns) * 1e-9;
-    if (!before || !now || !(dt_s > 0)) continue;
-    speed[i] = (now->translation() - before->translation()).norm() / dt_s;
+  for (std::size_t i = 0; i < speed.size(); ++i) {
+    speed[i] = GroundTruthSpeedMps(sequence, static_cast<int>(i)).value_or(0.0);
   }
-  if (speed.size() > 1) speed[0] = speed[1];
   return speed;
 }
 

@@ -109,4 +109,9 @@ struct StereoSequence {
 StereoSequence LoadStereoSequence(const std::filesystem::path& dir,
                                   std::optional<StereoLayout> layout = std::nullopt);
 
+// The vehicle's speed at `pair` from the ground truth: the distance to the next pair's pose (the
+// previous one's for the last pair) over their stamps' difference, in m/s; std::nullopt without
+// ground truth at either pair, or for a pair out of range.
+std::optional<double> GroundTruthSpeedMps(const StereoSequence& sequence, int pair);
+
 }  // namespace fleetmap
