@@ -275,23 +275,39 @@ void BM_KittiOpenCvOrbBothImages(benchmark::State& state) {
 }
 BENCHMARK(BM_KittiOpenCvOrbBothImages)->Unit(benchmark::kMillisecond)->UseRealTime();
 
+// The argument is the keypoints kept (StereoFrontEndOptions::orb_features): the default and the
+// 1500 of before issue 37, side by side in one run.
+StereoFrontEndOptions WithFeatures(const benchmark::State& state) {
+  StereoFrontEndOptions o;
+  o.orb_features = static_cast<int>(state.range(0));
+  return o;
+}
+
 void BM_KittiOpenCvOrbTwoThreads(benchmark::State& state) {
   if (!HaveKitti(state)) return;
   const KittiPair& k = Kitti();
-  const StereoFrontEndOptions o;
+  const StereoFrontEndOptions o = WithFeatures(state);
   for (auto _ : state) OrbBothImagesTwoThreads(o, k.left, k.right);
 }
-BENCHMARK(BM_KittiOpenCvOrbTwoThreads)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_KittiOpenCvOrbTwoThreads)
+    ->Arg(StereoFrontEndOptions{}.orb_features)
+    ->Arg(1500)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 void BM_KittiStereoFrontEnd(benchmark::State& state) {
   if (!HaveKitti(state)) return;
   const KittiPair& k = Kitti();
-  const StereoFrontEnd front_end(k.geometry, StereoFrontEndOptions{});
+  const StereoFrontEnd front_end(k.geometry, WithFeatures(state));
   StageTimes times;
   for (auto _ : state) times.Add(front_end.Process(0, k.left, k.right));
   times.Report(state);
 }
-BENCHMARK(BM_KittiStereoFrontEnd)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_KittiStereoFrontEnd)
+    ->Arg(StereoFrontEndOptions{}.orb_features)
+    ->Arg(1500)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 }  // namespace
 }  // namespace fleetmap
