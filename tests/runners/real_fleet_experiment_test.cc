@@ -76,6 +76,11 @@ TEST(RealFleetJudgement, NothingToJudgeFails) {
   std::vector<RealFleetForay> last = PassingForays();
   last.pop_back();
   EXPECT_FALSE(JudgeRealFleetDrive(last)[1].pass);
+  // A revisit that does not localise is not a new condition: the night's next robot is still
+  // judged, and a day revisit at 4 of 10 fails it only through the nodes it added.
+  std::vector<RealFleetForay> shaky = PassingForays();
+  shaky[1].localised_copy = shaky[1].localised_download = 4;
+  EXPECT_TRUE(JudgeRealFleetDrive(shaky)[1].pass) << JudgeRealFleetDrive(shaky)[1].text;
 }
 
 TEST(RealFleetExperiment, BadOptionsAreRefusedBeforeAnythingIsWritten) {

@@ -42,15 +42,17 @@ AcceptanceLine RevisitLine(const std::vector<RealFleetForay>& forays) {
 }
 
 // Line 2: a condition the map localises < 50 % of gets nodes, and the next robot at that hour
-// localises >= 95 %. The first foray meets an empty map, which shows nothing about conditions:
-// it is left out, and without any other such condition the line fails.
+// localises >= 95 %. A condition is met by the first foray at its hour (a revisit that does not
+// localise fails through the first line's nodes or this line's next robot). The very first
+// foray meets an empty map, which shows nothing about conditions: it is left out, and without
+// any other such condition the line fails.
 AcceptanceLine NewConditionLine(const std::vector<RealFleetForay>& forays) {
   std::ostringstream seen;
   int conditions = 0;
   bool pass = true;
   for (std::size_t k = 1; k < forays.size(); ++k) {
     const RealFleetForay& f = forays[k];
-    if (f.copy_nodes == 0 || !(2 * f.localised_copy < f.frames)) continue;
+    if (!f.first_at_hour || f.copy_nodes == 0 || !(2 * f.localised_copy < f.frames)) continue;
     ++conditions;
     const RealFleetForay* next =
         k + 1 < forays.size() && forays[k + 1].hour_h == f.hour_h ? &forays[k + 1] : nullptr;
