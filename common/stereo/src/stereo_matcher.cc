@@ -6,6 +6,7 @@
 #include <climits>
 #include <cmath>
 #include <cstring>
+#include <future>
 #include <string>
 
 #include "fleetmap/core/error.h"
@@ -133,6 +134,9 @@ bool Refine(const cv::Mat& left, const cv::Mat& right, const cv::KeyPoint& lk,
   return true;
 }
 
+// Below this many left keypoints a second thread costs more than it saves.
+constexpr int kParallelFrom = 256;
+
 }  // namespace
 
 Descriptor256 DescriptorRow(const cv::Mat& descriptors, int row) {
@@ -196,45 +200,67 @@ std::vector<StereoMatch> MatchStereoRows(const std::vector<cv::KeyPoint>& left_k
     return best.index;
   };
 
-  std::vector<StereoMatch> matches;
-  for (int i = 0; i < static_cast<int>(left_keypoints.size()); ++i) {
-    const cv::KeyPoint& lk = left_keypoints[static_cast<std::size_t>(i)];
-    Best best;
-    right_rows.ForRows(lk.pt.y, options.row_tolerance_px * OctaveScale(lk), [&](int j) {
-      const cv::KeyPoint& rk = right_keypoints[static_cast<std::size_t>(j)];
-      if (in_range(lk.pt.x - rk.pt.x) && same_scale(lk, rk)) {
-        best.Offer(j, HammingDistance(left[static_cast<std::size_t>(i)],
-                                      right[static_cast<std::size_t>(j)]));
+  // Left keypoints [begin, end) matched into `out`, counting what is refused in `n`.
+  const auto match_range = [&](int begin, int end, std::vector<StereoMatch>& out,
+                               StereoMatchCounts& n) {
+    for (int i = begin; i < end; ++i) {
+      const cv::KeyPoint& lk = left_keypoints[static_cast<std::size_t>(i)];
+      Best best;
+      right_rows.ForRows(lk.pt.y, options.row_tolerance_px * OctaveScale(lk), [&](int j) {
+        const cv::KeyPoint& rk = right_keypoints[static_cast<std::size_t>(j)];
+        if (in_range(lk.pt.x - rk.pt.x) && same_scale(lk, rk)) {
+          best.Offer(j, HammingDistance(left[static_cast<std::size_t>(i)],
+                                        right[static_cast<std::size_t>(j)]));
+        }
+      });
+      if (best.index < 0) {
+        ++n.no_candidate;
+        continue;
       }
-    });
-    if (best.index < 0) {
-      ++c.no_candidate;
-      continue;
+      if (best.distance > options.max_distance || (options.ratio < 1 && best.second != INT_MAX &&
+                                                   best.distance >= options.ratio * best.second)) {
+        ++n.rejected_distance;
+        continue;
+      }
+      if (options.left_right_check && best_left_for(best.index) != i) {
+        ++n.rejected_left_right;
+        continue;
+      }
+      const cv::KeyPoint& rk = right_keypoints[static_cast<std::size_t>(best.index)];
+      StereoMatch m;
+      m.left_index = i;
+      m.right_index = best.index;
+      m.distance = best.distance;
+      m.u_left_px = lk.pt.x;
+      m.v_px = lk.pt.y;
+      m.disparity_px = lk.pt.x - rk.pt.x;
+      if (refine &&
+          (!Refine(left_image, right_image, lk, rk, options, m) || !in_range(m.disparity_px))) {
+        ++n.rejected_refinement;
+        continue;
+      }
+      out.push_back(m);
     }
-    if (best.distance > options.max_distance || (options.ratio < 1 && best.second != INT_MAX &&
-                                                 best.distance >= options.ratio * best.second)) {
-      ++c.rejected_distance;
-      continue;
-    }
-    if (options.left_right_check && best_left_for(best.index) != i) {
-      ++c.rejected_left_right;
-      continue;
-    }
-    const cv::KeyPoint& rk = right_keypoints[static_cast<std::size_t>(best.index)];
-    StereoMatch m;
-    m.left_index = i;
-    m.right_index = best.index;
-    m.distance = best.distance;
-    m.u_left_px = lk.pt.x;
-    m.v_px = lk.pt.y;
-    m.disparity_px = lk.pt.x - rk.pt.x;
-    if (refine &&
-        (!Refine(left_image, right_image, lk, rk, options, m) || !in_range(m.disparity_px))) {
-      ++c.rejected_refinement;
-      continue;
-    }
-    matches.push_back(m);
+  };
+
+  // Each left keypoint is matched on its own, so the two halves run on the robot's two cores
+  // (seed 002 §VII) and are joined in order: the same matches as one pass, in the same order.
+  const int n_left = static_cast<int>(left_keypoints.size());
+  const int half = n_left >= kParallelFrom ? n_left / 2 : n_left;
+  std::vector<StereoMatch> matches, second_matches;
+  StereoMatchCounts second_counts;
+  std::future<void> second;
+  if (half < n_left) {
+    second = std::async(std::launch::async,
+                        [&] { match_range(half, n_left, second_matches, second_counts); });
   }
+  match_range(0, half, matches, c);
+  if (second.valid()) second.get();
+  matches.insert(matches.end(), second_matches.begin(), second_matches.end());
+  c.no_candidate += second_counts.no_candidate;
+  c.rejected_distance += second_counts.rejected_distance;
+  c.rejected_left_right += second_counts.rejected_left_right;
+  c.rejected_refinement += second_counts.rejected_refinement;
   c.matched = static_cast<int>(matches.size());
   return matches;
 }
