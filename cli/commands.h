@@ -5,6 +5,13 @@
 
 namespace fleetmap::cli {
 
+// What --data takes in the commands that read a stereo sequence (experiment real, real-merge,
+// real-fleet, conditions): any layout LoadStereoSequence detects.
+inline constexpr const char* kStereoFolderHelp =
+    "Stereo sequence folder, layout detected: EuRoC (cam0/, cam1/), KITTI odometry "
+    "(image_0|image_l, image_1|image_r, calib.txt[, poses.txt, times.txt]) or KITTI raw "
+    "(image_00/, image_01/, calib_cam_to_cam.txt)";
+
 void AddDemoCommand(CLI::App& app);
 // `fleetmap bench graph|index|scale` (bench_commands.cc; the workloads are experiments/bench).
 void AddBenchCommand(CLI::App& app);

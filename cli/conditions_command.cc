@@ -210,11 +210,7 @@ void AddConditionsExperimentCommand(CLI::App& experiment) {
       "the left image's mean brightness, its ORB keypoints as the front end keeps them (orb, "
       "capped) and all of them at its FAST threshold (orb_all), and the stereo landmarks the "
       "front end triangulates (default front-end options).");
-  cmd->add_option("--data", args->data_dir,
-                  "Stereo sequence folder: EuRoC (cam0/, cam1/), KITTI odometry (image_0|image_l, "
-                  "image_1|image_r, calib.txt[, poses.txt, times.txt]) or KITTI raw (image_00/, "
-                  "image_01/, calib_cam_to_cam.txt)")
-      ->capture_default_str();
+  cmd->add_option("--data", args->data_dir, kStereoFolderHelp)->capture_default_str();
   cmd->add_option("--layout", args->layout, "The folder's layout; auto detects it")
       ->capture_default_str()
       ->check(CLI::IsMember({"auto", "euroc", "kitti-odometry", "kitti-raw"}));

@@ -65,11 +65,7 @@ void AddRealExperimentCommand(CLI::App& experiment) {
       "and each localised frame's pose error. Writes real.csv (per frame), real.png (VO from "
       "above over the ground truth, inliers over time), summary.md and the map (real-map.db) to "
       "--out and prints the summary.");
-  real->add_option("--data", args->data_dir,
-                   "Stereo sequence folder: EuRoC (cam0/, cam1/), KITTI odometry (image_0|image_l, "
-                   "image_1|image_r, calib.txt[, poses.txt, times.txt]) or KITTI raw (image_00/, "
-                   "image_01/, calib_cam_to_cam.txt)")
-      ->capture_default_str();
+  real->add_option("--data", args->data_dir, kStereoFolderHelp)->capture_default_str();
   real->add_option("--layout", args->layout, "The folder's layout; auto detects it")
       ->capture_default_str()
       ->check(CLI::IsMember({"auto", "euroc", "kitti-odometry", "kitti-raw"}));

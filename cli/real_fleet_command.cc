@@ -103,8 +103,7 @@ void AddRealFleetExperimentCommand(CLI::App& experiment) {
   CLI::App* command = experiment.add_subcommand("real-fleet", kRealFleetDescription);
   command
       ->add_option("--data", args->data_dirs,
-                   "Stereo drives (one or more folders, layout detected): KITTI odometry, "
-                   "KITTI raw or EuRoC")
+                   std::string("One or more drives. ") + kStereoFolderHelp)
       ->required();
   command->add_option("--out", args->out_dir, "Directory for the report and work files")
       ->capture_default_str();

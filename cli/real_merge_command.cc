@@ -70,11 +70,7 @@ constexpr const char* kDescription =
 void AddRealMergeExperimentCommand(CLI::App& experiment) {
   auto args = std::make_shared<RealMergeArgs>();
   CLI::App* command = experiment.add_subcommand("real-merge", kDescription);
-  command
-      ->add_option("--data", args->data_dir,
-                   "Stereo sequence folder, layout detected: KITTI odometry (image_l|image_0, "
-                   "image_r|image_1, calib.txt, poses.txt), KITTI raw, or EuRoC (cam0/, cam1/)")
-      ->required();
+  command->add_option("--data", args->data_dir, kStereoFolderHelp)->required();
   command->add_option("--out", args->out_dir, "Directory for summary.md, real_merge.csv, work/")
       ->capture_default_str();
   // The split, as fractions of the pairs: 0 < start < end < 1.
