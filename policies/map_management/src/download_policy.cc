@@ -10,6 +10,8 @@
 
 #include "download_policy_budget.h"
 #include "fleetmap/core/error.h"
+#include "fleetmap/map_management/download_route.h"
+#include "fleetmap/map_management/map_layout.h"
 #include "fleetmap/map_management/subset_contraction.h"
 #include "fleetmap/ranking/path_memory.h"
 #include "fleetmap/ranking/path_weights.h"
@@ -161,32 +163,41 @@ std::vector<char> DrivenWithinWindow(const DenseMap& map, std::span<const Path> 
 
 // "tod" with "cover" also allows what a robot used within the window: a node on a path that
 // started within T_w of the mission's start on the clock (stretch_coverage.h: capture alone
-// misses every node EBN never had to capture again at that time). "paths" narrows it after.
+// misses every node EBN never had to capture again at that time), within a route's corridor
+// (`in_corridor`; empty: no route). "paths" narrows it after.
 void AllowUsedWithinWindow(const DenseMap& map, std::span<const Path> paths,
-                           const DownloadPolicy& policy, std::vector<char>& allowed) {
+                           const DownloadPolicy& policy, std::span<const char> in_corridor,
+                           std::vector<char>& allowed) {
   const std::vector<char> driven = DrivenWithinWindow(map, paths, policy, false);
   std::vector<char> used(map.nodes.size(), 0);
   for (PathMemory::PathIndex path = 0; path < map.memory.path_count(); ++path) {
     if (!driven[path]) continue;
     for (const DenseNode node : map.path_nodes[path]) used[node] = 1;
   }
-  for (std::size_t i = 0; i < allowed.size(); ++i) allowed[i] = allowed[i] || used[i];
+  for (std::size_t i = 0; i < allowed.size(); ++i) {
+    allowed[i] = allowed[i] || (used[i] && (in_corridor.empty() || in_corridor[i]));
+  }
 }
 
 // "paths" with "cover": Algorithm 3's per-epoch best p % unites nearly every path over a
 // window of several epochs (measured: 37-43 of 48), so it narrows nothing. Here the candidates
 // are the paths a robot drove within the window (every path without "tod"), ranked by their
 // weight over the mission's epochs (Σ_k PWM(P, k), Eq. 7), and the best p % of them are kept
-// (at least one; ties by lower index).
-std::vector<PathWeights::PathIndex> BestPathsUsedInWindow(const DenseMap& map,
-                                                          std::span<const Path> paths,
-                                                          const DownloadPolicy& policy,
-                                                          const PathWeights& weights,
-                                                          const std::vector<int>& walk) {
+// (at least one; ties by lower index). With a route, only the paths through its corridor
+// (`in_corridor`; empty: no route) are candidates.
+std::vector<PathWeights::PathIndex> BestPathsUsedInWindow(
+    const DenseMap& map, std::span<const Path> paths, const DownloadPolicy& policy,
+    std::span<const char> in_corridor, const PathWeights& weights, const std::vector<int>& walk) {
   const std::vector<char> driven = DrivenWithinWindow(map, paths, policy, !policy.time_of_day);
+  const auto along_route = [&](PathWeights::PathIndex path) {
+    if (in_corridor.empty()) return true;
+    const std::vector<DenseNode>& members = map.path_nodes[path];
+    return std::any_of(members.begin(), members.end(),
+                       [&](DenseNode node) { return in_corridor[node] != 0; });
+  };
   std::vector<std::pair<double, PathWeights::PathIndex>> ranked;
   for (PathWeights::PathIndex path = 0; path < map.memory.path_count(); ++path) {
-    if (!driven[path]) continue;
+    if (!driven[path] || !along_route(path)) continue;
     double weight = 0.0;
     for (const int k : walk) weight += weights.Weight(path, k);
     ranked.emplace_back(-weight, path);
@@ -203,10 +214,12 @@ std::vector<PathWeights::PathIndex> BestPathsUsedInWindow(const DenseMap& map,
 }
 
 // "cover": the earlier parts' picks in `allowed` become each stretch's best k experiences plus
-// the allowed ones that fill it up to the cap (stretch_coverage.h).
-void Cover(const DenseMap& map, std::span<const Edge> edges, std::span<const Path> paths,
-           const DownloadPolicy& policy, std::vector<char>& allowed, DownloadReport& report) {
-  const MapStretches stretches = MapStretches::Cut(map.nodes, edges, policy.coverage.stretch_m);
+// the allowed ones that fill it up to the cap (stretch_coverage.h), among the `eligible` nodes
+// (a route's corridor; empty: every node).
+void Cover(const DenseMap& map, const MapLayout& layout, std::span<const Path> paths,
+           const DownloadPolicy& policy, std::span<const char> eligible, std::vector<char>& allowed,
+           DownloadReport& report) {
+  const MapStretches stretches = MapStretches::Cut(layout, policy.coverage.stretch_m);
   std::unordered_map<Uuid, std::int64_t> path_start;
   for (const Path& path : paths) path_start.emplace(path.id, path.start_ns);
   std::vector<double> likelihood(map.nodes.size());
@@ -219,7 +232,7 @@ void Cover(const DenseMap& map, std::span<const Edge> edges, std::span<const Pat
     likelihood[i] = LocalisationLikelihood(map.nodes[i]->stamp_ns, uses, policy.mission_start_min,
                                            policy.window_min);
   }
-  const auto ranked = RankExperiences(map.nodes, stretches, likelihood);
+  const auto ranked = RankExperiences(map.nodes, stretches, likelihood, eligible);
   std::vector<char> kept = CoverStretches(ranked, map.nodes.size(), allowed, policy.coverage);
   report.stretches = stretches.stretch_count();
   for (std::size_t s = 0; s < stretches.stretch_count(); ++s) {
@@ -272,6 +285,7 @@ std::string DownloadPolicy::Name() const {
     if (!name.empty()) name += '+';
     name += part;
   };
+  if (route) add("route");
   if (time_of_day) add("tod");
   if (paths) add("paths");
   if (cover) add("cover");
@@ -282,7 +296,8 @@ std::string DownloadPolicy::Name() const {
 DownloadPolicy ParseDownloadPolicy(std::string_view name) {
   const std::string quoted = "\"" + std::string(name) + "\"";
   if (name.empty()) {
-    InvalidPolicy("empty name; expected copy, or tod, paths, cover and budget joined with '+'");
+    InvalidPolicy(
+        "empty name; expected copy, or route, tod, paths, cover and budget joined with '+'");
   }
   std::vector<std::string_view> parts;
   for (std::size_t begin = 0;;) {
@@ -295,11 +310,13 @@ DownloadPolicy ParseDownloadPolicy(std::string_view name) {
     begin = plus + 1;
   }
   DownloadPolicy policy;
-  bool copy = false, budget = false;
+  bool copy = false, budget = false, route = false;
   for (const std::string_view part : parts) {
     bool* flag = nullptr;
     if (part == "copy") {
       flag = &copy;
+    } else if (part == "route") {
+      flag = &route;
     } else if (part == "tod") {
       flag = &policy.time_of_day;
     } else if (part == "paths") {
@@ -312,7 +329,7 @@ DownloadPolicy ParseDownloadPolicy(std::string_view name) {
       InvalidPolicy("empty part in " + quoted);
     } else {
       InvalidPolicy("unknown part \"" + std::string(part) + "\" in " + quoted +
-                    "; expected copy, tod, paths, cover or budget");
+                    "; expected copy, route, tod, paths, cover or budget");
     }
     if (*flag) InvalidPolicy("\"" + std::string(part) + "\" repeated in " + quoted);
     *flag = true;
@@ -320,6 +337,9 @@ DownloadPolicy ParseDownloadPolicy(std::string_view name) {
   // "copy" is the whole map (Eq. 3); joined with another part it would mean only that part.
   if (copy && parts.size() > 1) InvalidPolicy("\"copy\" stands alone, not in " + quoted);
   if (budget) policy.budget_bytes = kParsedBudgetBytes;
+  // The route comes apart from the name (download_policy.h); until the caller sets it, the
+  // empty one fails validation, saying so.
+  if (route) policy.route.emplace();
   return policy;
 }
 
@@ -353,6 +373,13 @@ void ValidateDownloadPolicy(const DownloadPolicy& policy) {
   } catch (const Error& error) {
     InvalidPolicy(error.message());
   }
+  if (policy.route) {
+    try {
+      ValidateDownloadRoute(*policy.route);
+    } catch (const Error& error) {
+      InvalidPolicy(error.message());
+    }
+  }
 }
 
 DownloadSelection SelectDownload(std::span<const Node> nodes, std::span<const Edge> edges,
@@ -379,21 +406,45 @@ DownloadSelection SelectDownload(std::span<const Node> nodes, std::span<const Ed
     report.map_bytes += static_cast<std::int64_t>(node->landmarks_blob.size());
   }
 
-  // What the earlier parts allow: everything (Eq. 3), narrowed by time of day (Eq. 4) and
-  // by the best paths (Algorithm 3).
+  // The map laid out in metres, for the route's corridor and cover's stretches alike.
+  std::optional<MapLayout> layout;
+  if (policy.route || policy.cover) layout = LayOutMap(map.nodes, edges);
+  std::optional<RouteCorridor> corridor;
+  std::span<const char> in_corridor;  // a flag per node; empty: no route, every node
+  if (policy.route) {
+    corridor = RouteCorridor::Place(*layout, map.nodes, edges, paths, *policy.route);
+    in_corridor = corridor->members();
+    report.corridor_nodes = corridor->size();
+    report.route_length_m = corridor->length_m();
+  }
+
+  // What the earlier parts allow: everything (Eq. 3), or the route's corridor, narrowed by
+  // time of day (Eq. 4) and by the best paths (Algorithm 3).
   std::vector<char> allowed(node_count, 1);
+  if (corridor) allowed.assign(in_corridor.begin(), in_corridor.end());
   if (policy.time_of_day) {
     for (std::size_t i = 0; i < node_count; ++i) {
-      allowed[i] = WithinTimeOfDayWindow(map.nodes[i]->stamp_ns, policy.mission_start_min,
-                                         policy.window_min);
+      allowed[i] = allowed[i] && WithinTimeOfDayWindow(map.nodes[i]->stamp_ns,
+                                                       policy.mission_start_min, policy.window_min);
     }
-    if (policy.cover) AllowUsedWithinWindow(map, paths, policy, allowed);
+    if (policy.cover) AllowUsedWithinWindow(map, paths, policy, in_corridor, allowed);
   }
   std::vector<PathWeights::PathIndex> weighed_paths;  // the paths a budget considers
   std::vector<int> walk;                              // the epochs Algorithm 3 walks
   std::optional<PathWeights> weights;
   if (policy.paths || policy.budget_bytes) {
-    weights = PathWeights::Count(map.memory, nodes, policy.epoch_min);  // Algorithm 2
+    // With a route, Algorithm 2 counts the corridor's nodes only, so that paths are weighed, and
+    // P* chosen, by how they serve the route, not by what they did elsewhere in the map.
+    std::vector<Node> counted;
+    if (corridor) {
+      for (std::size_t i = 0; i < node_count; ++i) {
+        if (!in_corridor[i]) continue;
+        const Node& node = *map.nodes[i];
+        counted.push_back(Node{node.id, node.stamp_ns, node.robot, node.outing, {}});
+      }
+    }
+    weights = PathWeights::Count(map.memory, corridor ? std::span<const Node>(counted) : nodes,
+                                 policy.epoch_min);  // Algorithm 2
     const auto [k_start, k_end] = MissionEpochs(policy, *weights);
     walk = WalkedEpochs(*weights, k_start, k_end);
     if (!walk.empty()) {
@@ -401,8 +452,9 @@ DownloadSelection SelectDownload(std::span<const Node> nodes, std::span<const Ed
       report.epoch_end = walk.back();
     }
     if (policy.paths) {
-      weighed_paths = policy.cover ? BestPathsUsedInWindow(map, paths, policy, *weights, walk)
-                                   : weights->BestPaths(k_start, k_end, policy.best_percent);
+      weighed_paths = policy.cover
+                          ? BestPathsUsedInWindow(map, paths, policy, in_corridor, *weights, walk)
+                          : weights->BestPaths(k_start, k_end, policy.best_percent);
       report.paths_chosen = weighed_paths.size();
       std::vector<char> on_best(node_count, 0);
       for (const PathWeights::PathIndex path : weighed_paths) {
@@ -418,7 +470,7 @@ DownloadSelection SelectDownload(std::span<const Node> nodes, std::span<const Ed
     }
   }
 
-  if (policy.cover) Cover(map, edges, paths, policy, allowed, report);
+  if (policy.cover) Cover(map, *layout, paths, policy, in_corridor, allowed, report);
 
   std::vector<DenseNode> included;
   for (const Uuid& id : policy.include) {
@@ -470,7 +522,27 @@ DownloadSelection SelectDownload(std::span<const Node> nodes, std::span<const Ed
       if (allowed[i]) picked.push_back(map_ids[i]);
     }
     report.picked_nodes = picked.size();
-    integral = MakeIntegral(map_ids, edges, picked);
+    if (corridor) {
+      // A route limits the download to the map within its radius (issue 38 item 3): the picks
+      // are joined through the corridor (and the nodes to include) only, never through the map
+      // beyond it; a piece of an experience that meets the rest only outside stays a component
+      // of its own.
+      std::vector<char> reach(in_corridor.begin(), in_corridor.end());
+      for (const DenseNode node : included) reach[node] = 1;
+      std::vector<Uuid> reach_ids;
+      for (std::size_t i = 0; i < node_count; ++i) {
+        if (reach[i]) reach_ids.push_back(map_ids[i]);
+      }
+      std::vector<Edge> reach_edges;
+      for (const Edge& edge : edges) {
+        if (reach[map.index.at(edge.from)] && reach[map.index.at(edge.to)]) {
+          reach_edges.push_back(edge);
+        }
+      }
+      integral = MakeIntegral(reach_ids, reach_edges, picked);
+    } else {
+      integral = MakeIntegral(map_ids, edges, picked);
+    }
   }
   report.integrity = integral.report;
 
@@ -480,6 +552,7 @@ DownloadSelection SelectDownload(std::span<const Node> nodes, std::span<const Ed
     sent[node] = 1;
     report.bytes += static_cast<std::int64_t>(map.nodes[node]->landmarks_blob.size());
   }
+  if (corridor) report.route_covered_m = corridor->LengthNear(sent, kRouteCoverageReach_m);
   selection.paths = SentPaths(map, edges, sent, integral.nodes, policy, selection.derived_edges);
   selection.nodes = std::move(integral.nodes);
   selection.edges = std::move(integral.edges);
@@ -488,6 +561,21 @@ DownloadSelection SelectDownload(std::span<const Node> nodes, std::span<const Ed
   report.edges = selection.edges.size() + selection.derived_edges.size();
   report.paths = selection.paths.size();
   return selection;
+}
+
+namespace {
+constexpr std::size_t kMaxChannelNameLength = 32;
+}  // namespace
+
+void ValidateChannelName(std::string_view name) {
+  const bool well_formed =
+      !name.empty() && name.size() <= kMaxChannelNameLength &&
+      name.find_first_not_of("abcdefghijklmnopqrstuvwxyz0123456789._-") == std::string_view::npos;
+  if (!well_formed) {
+    throw Error(ErrorCode::kInvalidArgument, "channel name \"" + std::string(name) + "\": 1 to " +
+                                                 std::to_string(kMaxChannelNameLength) +
+                                                 " characters of a-z, 0-9, '.', '_', '-'");
+  }
 }
 
 }  // namespace fleetmap

@@ -2,6 +2,16 @@
 //
 // Policies compose, each narrowing the one before:
 //   copy    the whole map (Eq. 3);
+//   route   the map within radius_m of the route the robot will drive (download_route.h, issue
+//           38): its corridor is all the later parts may pick from, as if it were the map. tod,
+//           paths, cover and budget narrow within it: Algorithm 2 counts the corridor's nodes
+//           only (so P*, and a budget's path weights, are the paths' use along the route), and
+//           cover keeps each stretch's k experiences among the corridor's nodes. "route" alone is
+//           the whole corridor. The nodes to `include` are kept whatever it says. The download
+//           stays within the radius: integrity (below) joins the picks through the corridor and
+//           the included nodes only, so a piece of the corridor that meets the rest only outside
+//           it comes as a component of its own (a budget, which keeps its growing selection
+//           integral over the whole map, may still bridge outside);
 //   tod     nodes captured within T_w of the mission's start on the 24-hour clock (Eq. 4);
 //   paths   nodes on the best p % of the paths used in each epoch of the mission
 //           (Algorithms 2–3 over the path count / path weight matrices, Eq. 7);
@@ -23,7 +33,9 @@
 //           only the nodes "tod" allows.
 // Names join with '+': "copy", "tod", "paths", "tod+paths", "budget", "tod+budget",
 // "paths+budget", "tod+paths+budget", and any of them but copy with "cover" ("tod+cover",
-// "tod+paths+cover", ...).
+// "tod+paths+cover", ...) and with "route" ("route", "route+tod+cover", ...). The route itself
+// is no part of the name: "route" in a name says there is one, which the caller gives apart
+// (ParseDownloadRoute of a command line's --route); Name() says "route" whenever a route is set.
 //
 // The mission's epochs (Eq. 5), over which Algorithm 3 chooses P* and a budget weighs paths:
 // with "tod", the epochs of t_foray − T_w and t_foray + T_w on the 24-hour clock (every epoch
@@ -32,7 +44,8 @@
 // Algorithm 3's defaults and its across-midnight reading then apply (path_weights.h).
 //
 // Whatever a policy picks, the robot receives an integral map (MakeIntegral,
-// integral_selection.h): the picked nodes joined within each metric component by the nodes on
+// integral_selection.h; within a route's corridor, see "route"): the picked nodes joined within
+// each metric component by the nodes on
 // shortest metric paths between their fragments, and exactly the edges with both ends kept;
 // and, unless the robot speaks an older protocol, the map's path memory and metric
 // neighbourhood contracted over the nodes left out (subset_contraction.h), so that Γ(path)
@@ -55,12 +68,14 @@
 #include <vector>
 
 #include "fleetmap/core/graph.h"
+#include "fleetmap/map_management/download_route.h"
 #include "fleetmap/map_management/integral_selection.h"
 #include "fleetmap/map_management/stretch_coverage.h"
 
 namespace fleetmap {
 
 struct DownloadPolicy {
+  std::optional<DownloadRoute> route;        // "route"
   bool time_of_day = false;                  // "tod"
   bool paths = false;                        // "paths"
   bool cover = false;                        // "cover"
@@ -85,20 +100,23 @@ struct DownloadPolicy {
   bool contract = true;
   double contract_reach_m = 25.0;
 
-  // "copy", "tod", "tod+paths", "tod+cover", "tod+paths+budget", ...
+  // "copy", "tod", "tod+paths", "tod+cover", "tod+paths+budget", "route+tod+cover", ...
   std::string Name() const;
 };
 
 // The policy named by `name` (see the file comment) with default parameters; "budget" gets
-// 256 MiB (2^28 bytes) until the caller sets budget_bytes. Parts may come in any order
-// ("paths+tod" is "tod+paths"; Name() gives the order above). Throws Error(kInvalidArgument)
-// naming an unknown, empty or repeated part, an empty name, or "copy" joined with anything
-// (the whole map narrowed by another part is just that part).
+// 256 MiB (2^28 bytes) until the caller sets budget_bytes, and "route" an empty DownloadRoute
+// (neither outing nor anchor, which ValidateDownloadPolicy refuses) until the caller sets the
+// route. Parts may come in any order ("paths+tod" is "tod+paths"; Name() gives the order
+// "route", "tod", "paths", "cover", "budget"), so Name() parses back. Throws
+// Error(kInvalidArgument) naming an unknown, empty or repeated part, an empty name, or "copy"
+// joined with anything (the whole map narrowed by another part is just that part).
 DownloadPolicy ParseDownloadPolicy(std::string_view name);
 
 // Throws Error(kInvalidArgument) naming the first parameter out of range. Every parameter is
 // checked, whether or not the policy's parts use it (the defaults are all in range); T_w must
-// also be finite.
+// also be finite. A route is checked by ValidateDownloadRoute (so a "route" parsed from a name
+// and never given is refused here).
 void ValidateDownloadPolicy(const DownloadPolicy& policy);
 
 struct DownloadReport {
@@ -122,6 +140,12 @@ struct DownloadReport {
   // parts did not allow (the window held none good enough there).
   std::size_t stretches = 0;
   std::size_t stretches_reached_outside = 0;
+  // "route": the nodes in its corridor, the route's length in the layout, and the length of it
+  // with a downloaded node (picked or bridging) within kRouteCoverageReach_m = 5 m, judged every
+  // kRouteSampleStep_m = 0.25 m at most (download_route.h). All 0 without a route.
+  std::size_t corridor_nodes = 0;
+  double route_length_m = 0.0;
+  double route_covered_m = 0.0;
   // Components before and after, bridging nodes, always against the picked nodes (when a
   // budget sends its grown selection, the bridges counted are the growth's).
   IntegrityReport integrity;
@@ -140,11 +164,19 @@ struct DownloadSelection {
 // Chooses a download from the map `nodes`, `edges` (metric and path) and `paths`, e.g. the
 // map at one revision (VersionStore::NodesAt / EdgesAt / PathsAt). A node's bytes are the size
 // of its landmarks_blob, so nodes must carry their landmarks for a budget (without a budget
-// they may come bare). Deterministic. Throws Error(kInvalidArgument) for a bad policy, a
-// budget on bare nodes (naming the first in `nodes` without landmarks) or a node listed twice,
-// Error(kIntegrity) naming an edge with an end outside `nodes` or a path edge whose path is not
-// in `paths`.
+// they may come bare). Deterministic. Throws Error(kInvalidArgument) for a bad policy, a budget on
+// bare nodes (naming the first in `nodes` without landmarks) or a node listed twice,
+// Error(kNotFound) naming a node to include, a route's outing or a route's anchor that is not in
+// the map, Error(kIntegrity) naming an edge with an end outside `nodes` or a path edge whose path
+// is not in `paths`.
 DownloadSelection SelectDownload(std::span<const Node> nodes, std::span<const Edge> edges,
                                  std::span<const Path> paths, const DownloadPolicy& policy);
+
+// Release channels (issue 38 item 1; server/repository channel_registry.h): which revision a
+// download is of. "head" always names the head; any other name is one the depot sets.
+inline constexpr std::string_view kHeadChannel = "head";
+// Throws Error(kInvalidArgument) unless `name` is 1 to 32 characters of [a-z0-9._-] ("head"
+// included).
+void ValidateChannelName(std::string_view name);
 
 }  // namespace fleetmap

@@ -14,9 +14,9 @@
 // and every path through it. A stretch keeps its best k experiences whatever the window says.
 //
 // Stretches: each metric component is laid out by composing its edges' poses outward from its
-// lowest-UUID node along the shortest chains (in metres), and cut into cubes of `stretch_m`.
-// Drift round a long loop may split one place into two cubes; each then keeps its own k,
-// which costs nodes, never coverage.
+// lowest-UUID node along the shortest chains (in metres; map_layout.h), and cut into cubes of
+// `stretch_m`. Drift round a long loop may split one place into two cubes; each then keeps its
+// own k, which costs nodes, never coverage.
 #pragma once
 
 #include <cstddef>
@@ -26,6 +26,7 @@
 #include <vector>
 
 #include "fleetmap/core/graph.h"
+#include "fleetmap/map_management/map_layout.h"
 
 namespace fleetmap {
 
@@ -46,6 +47,9 @@ class MapStretches {
   // ignored. Throws Error(kIntegrity) naming a metric edge with an end outside `nodes`.
   static MapStretches Cut(std::span<const Node* const> nodes, std::span<const Edge> edges,
                           double stretch_m);
+  // The same from the map's layout, when the caller has it already.
+  // REQUIRES: `layout` is LayOutMap(nodes, edges) of these `nodes`, in this order.
+  static MapStretches Cut(const MapLayout& layout, double stretch_m);
 
   std::size_t stretch_count() const { return members_.size(); }
   // By position in the `nodes` given to Cut.
@@ -64,14 +68,18 @@ double LocalisationLikelihood(std::int64_t capture_ns, std::span<const std::int6
                               double mission_min, double window_min);
 
 // Per stretch, the experiences (nodes sharing robot and outing) ranked by their best node's
-// likelihood, best first, ties by (robot, outing). `likelihood` is by node position.
+// likelihood, best first, ties by (robot, outing). `likelihood` is by node position. With
+// `eligible` (a flag per node position; empty: every node), only the flagged nodes count: an
+// experience is its flagged nodes there, and one with none is left out (a route download keeps
+// the guarantee within its corridor, download_route.h).
 struct StretchExperience {
   double likelihood = 0.0;
   std::vector<std::size_t> nodes;  // ascending positions
 };
 std::vector<std::vector<StretchExperience>> RankExperiences(std::span<const Node* const> nodes,
                                                             const MapStretches& stretches,
-                                                            std::span<const double> likelihood);
+                                                            std::span<const double> likelihood,
+                                                            std::span<const char> eligible = {});
 
 // DOWNLOAD's selection with the guarantee, by node position: each stretch keeps its best k
 // experiences, then the ones `allowed` (the earlier parts' picks: window, best paths) that
