@@ -29,6 +29,7 @@
 #include "fleetmap/core/clock.h"
 #include "fleetmap/core/error.h"
 #include "fleetmap/map_management/download_policy.h"
+#include "fleetmap/map_management/download_route.h"
 #include "fleetmap/store/graph_store.h"
 #include "fleetmap/store/sqlite_process_setup.h"
 #include "fleetmap/wire/secret_file.h"
@@ -57,6 +58,9 @@ struct AgentArguments {
   std::int64_t budget_bytes = 0;
   double epoch_min = 0.0;
   std::vector<std::string> include_nodes;
+  std::string channel = "head";
+  std::string route;  // an outing's UUID, or a file: "anchor UUID" then lines "x y z"
+  double route_radius_m = 0.0;
   bool wait_merge = false;
   double merge_timeout_s = 300.0;
   double retry_for_s = 120.0;
@@ -131,6 +135,8 @@ AgentSyncOptions SyncOptionsOf(const AgentArguments& args, const std::atomic<boo
   download.epoch_min = args.epoch_min;
   for (const std::string& node : args.include_nodes)
     download.include_nodes.push_back(Uuid::Parse(node));
+  ValidateChannelName(args.channel);
+  download.channel = args.channel;
   // Refuse a policy the server would refuse, before dialling; the request carries the
   // canonical name so equal policies compare equal for an incremental download.
   DownloadPolicy policy = ParseDownloadPolicy(args.policy);
@@ -139,6 +145,15 @@ AgentSyncOptions SyncOptionsOf(const AgentArguments& args, const std::atomic<boo
   if (download.best_percent != 0.0) policy.best_percent = download.best_percent;
   if (download.epoch_min != 0.0) policy.epoch_min = download.epoch_min;
   if (download.budget_bytes != 0) policy.budget_bytes = download.budget_bytes;
+  if (!args.route.empty()) {
+    policy.route = RouteOfArgument(args.route, args.route_radius_m);
+    download.route_outing = policy.route->outing;
+    download.route_anchor = policy.route->anchor;
+    for (const Eigen::Vector3d& p : policy.route->anchor_p_m) {
+      download.route_xyz.insert(download.route_xyz.end(), {p.x(), p.y(), p.z()});
+    }
+    download.route_radius_m = args.route_radius_m;
+  }
   ValidateDownloadPolicy(policy);
   download.policy = policy.Name();
   if (!args.quiet) options.progress = Say;
@@ -158,6 +173,8 @@ json ResultJson(const SyncResult& r) {
           {"merge_state", r.merge_state},
           {"merged_revision", r.merged_revision},
           {"merge_error", r.merge_error},
+          {"route_length_m", r.route_length_m},
+          {"route_covered_m", r.route_covered_m},
           {"revision", r.revision},
           {"incremental", r.incremental},
           {"nodes", r.nodes},
@@ -382,6 +399,9 @@ int StatusCommand(const AgentArguments& args) {
                 {"robot", state.robot ? json(state.robot->ToString()) : json(nullptr)},
                 {"revision", state.revision},
                 {"policy", state.request ? json(state.request->policy) : json(nullptr)},
+                {"channel", state.request ? json(state.request->channel) : json(nullptr)},
+                {"installed_digest", std::to_string(state.installed_digest)},
+                {"last_error", state.last_error},
                 {"map_nodes", map_nodes},
                 {"map_edges", map_edges},
                 {"map_paths", map_paths},
@@ -415,10 +435,10 @@ int StatusCommand(const AgentArguments& args) {
     std::printf("map %s\n", map.dir().string().c_str());
     std::printf("robot %s\n", state.robot ? state.robot->ToString().c_str() : "(never synced)");
     if (state.revision > 0) {
-      std::printf("revision %lld (%s): %zu nodes, %zu edges, %zu paths installed\n",
+      std::printf("revision %lld (%s, channel %s): %zu nodes, %zu edges, %zu paths installed\n",
                   static_cast<long long>(state.revision), state.request->policy.c_str(),
-                  state.installed.nodes.size(), state.installed.edges.size(),
-                  state.installed.paths.size());
+                  state.request->channel.c_str(), state.installed.nodes.size(),
+                  state.installed.edges.size(), state.installed.paths.size());
     } else {
       std::printf("revision none installed\n");
     }
@@ -513,6 +533,17 @@ void AddSyncOptions(CLI::App& command, AgentArguments& args) {
   command.add_option("--percent", args.percent, "best paths p % (0: the default)");
   command.add_option("--budget-bytes", args.budget_bytes, "byte budget (0: the default)");
   command.add_option("--epoch-min", args.epoch_min, "epoch length (0: the default)");
+  command
+      .add_option("--channel", args.channel,
+                  "the release channel to follow: head (the newest revision), or one the depot "
+                  "sets with `fleetmap channel set NAME REVISION`")
+      ->capture_default_str();
+  command.add_option("--route", args.route,
+                     "download only the map near a route: an earlier outing's UUID, or a file "
+                     "whose first line is `anchor NODE-UUID` and each next line `x y z`, metres "
+                     "in that node's frame");
+  command.add_option("--route-radius", args.route_radius_m,
+                     "metres either side of --route (0: the server's default)");
   command.add_option("--include-node", args.include_nodes,
                      "a node every download keeps (where the robot is docked); repeatable");
   command.add_flag("--wait-merge", args.wait_merge, "wait for the pushed map to be merged");

@@ -40,14 +40,17 @@ void AddDreamCandidateCommands(CLI::App& app);
 void AddExportCommand(CLI::App& app);
 // `fleetmap render`: the map at a revision drawn from above as PNG or SVG (render_command.cc).
 void AddRenderCommand(CLI::App& app);
-// `fleetmap robot add|list`: the robots fleetmapd lets sync (robot_command.cc).
+// `fleetmap robot add|list`: the robots fleetmapd lets sync, and what each runs
+// (robot_command.cc).
 void AddRobotCommands(CLI::App& app);
+// `fleetmap channel set|list|log`: the release channels robots follow (channel_command.cc).
+void AddChannelCommands(CLI::App& app);
 // `fleetmap records split|cat|ingest|reindex`: record files of raw sensor data
 // (records_file_commands.cc) and their SQL index (records_index_commands.cc, registered by
 // AddRecordsCommands on its `records` subcommand).
 void AddRecordsCommands(CLI::App& app);
 void AddRecordsIndexCommands(CLI::App& records);
-// `fleetmap records import-bag`: a ROS 1 bag into record files and the index
+// `fleetmap records import-bag`: a ROS 1 bag or MCAP file into record files and the index
 // (records_import_bag_command.cc); registered by AddRecordsCommands.
 void AddRecordsImportBagCommand(CLI::App& records);
 // `fleetmap query datum|nearest|join|batch-join`: seed 000 Eqs. 1-2 (query_command.cc).

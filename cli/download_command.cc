@@ -11,6 +11,7 @@
 #include "fleetmap/core/clock.h"
 #include "fleetmap/core/error.h"
 #include "fleetmap/map_management/download_policy.h"
+#include "fleetmap/map_management/download_route.h"
 #include "new_store.h"
 #include "repository_arguments.h"
 
@@ -28,6 +29,8 @@ struct DownloadArgs {
   std::optional<std::int64_t> budget_bytes;
   CoverageOptions coverage;
   std::optional<RevisionNumber> revision;
+  std::string route;  // download_route.h RouteOfArgument
+  double route_radius_m = 0.0;
   std::string out;
   bool json = false;
 };
@@ -35,6 +38,7 @@ struct DownloadArgs {
 // The policy and its parameters, each checked against the option that set it.
 DownloadPolicy PolicyOf(const DownloadArgs& args) {
   DownloadPolicy policy = ParseDownloadPolicy(args.policy);
+  if (!args.route.empty()) policy.route = RouteOfArgument(args.route, args.route_radius_m);
   const bool copy = !policy.time_of_day && !policy.paths && !policy.cover && !policy.budget_bytes;
   if (!args.mission_start.empty()) {
     policy.mission_start_min = ParseTimeOfDay(args.mission_start, "--mission-start");
@@ -133,6 +137,11 @@ void PrintReport(const Download& download, const DownloadPolicy& policy, const D
     json["touched_components"] = integrity.touched_components;
     json["fragments_before"] = integrity.fragments_before;
     json["components_after"] = integrity.components_after;
+    if (policy.route) {
+      json["corridor_nodes"] = r.corridor_nodes;
+      json["route_length_m"] = r.route_length_m;
+      json["route_covered_m"] = r.route_covered_m;
+    }
     std::cout << json.dump(2) << "\n";
     return;
   }
@@ -178,6 +187,13 @@ void PrintReport(const Download& download, const DownloadPolicy& policy, const D
     }
   } else if (policy.budget_bytes && r.epoch_start && r.epoch_end) {
     std::printf("  epochs     %d..%d weigh the paths\n", *r.epoch_start, *r.epoch_end);
+  }
+  if (policy.route) {
+    std::printf(
+        "  route      %.0f m, corridor of %.0f m holds %zu nodes; %.1f %% of the route has "
+        "a node within 5 m in the download\n",
+        r.route_length_m, policy.route->radius_m, r.corridor_nodes,
+        r.route_length_m > 0 ? 100.0 * r.route_covered_m / r.route_length_m : 0.0);
   }
   std::printf("  components %zu of %zu in the map touched; the picks fell in %s, joined into %zu\n",
               integrity.touched_components, integrity.map_components,
@@ -248,6 +264,12 @@ void AddDownloadCommand(CLI::App& app) {
                    "cover: length of a stretch, metres")
       ->capture_default_str();
   download->add_option("--revision", args->revision, "Revision (default: the head)");
+  download->add_option("--route", args->route,
+                       "Only the map within --route-radius of a route: an earlier outing's UUID, "
+                       "or a file (or ';'-separated text) of `anchor NODE-UUID` then `x y z` "
+                       "lines, metres in that node's frame");
+  download->add_option("--route-radius", args->route_radius_m,
+                       "Metres either side of --route (0: 10 m)");
   download->add_option("--out", args->out, "The new store for the robot (must hold no map yet)")
       ->required();
   download->add_flag("--json", args->json, "Print the report as JSON");

@@ -22,6 +22,7 @@ int main(int argc, char** argv) {
   fleetmap::cli::AddExportCommand(app);
   fleetmap::cli::AddRenderCommand(app);
   fleetmap::cli::AddRobotCommands(app);
+  fleetmap::cli::AddChannelCommands(app);
   fleetmap::cli::AddRecordsCommands(app);
   fleetmap::cli::AddQueryCommand(app);
   fleetmap::cli::AddAnnotationCommands(app);

@@ -9,6 +9,7 @@
 #include "commands.h"
 #include "fleetmap/core/clock.h"
 #include "fleetmap/core/printable_text.h"
+#include "fleetmap/repository/channel_registry.h"
 #include "fleetmap/repository/robot_registry.h"
 #include "repository_arguments.h"
 
@@ -55,6 +56,8 @@ void RunRobotAdd(const RobotAddArgs& args) {
 void RunRobotList(const RobotListArgs& args) {
   const std::unique_ptr<Repository> repository = OpenRepository(args.store);
   const std::vector<RegisteredRobot> robots = RobotRegistry(repository->versions()).List();
+  const std::vector<Channel> channels = ChannelRegistry(*repository).List();
+  const RevisionNumber head = repository->Head();
   if (args.json) {
     nlohmann::ordered_json list = nlohmann::ordered_json::array();
     for (const RegisteredRobot& robot : robots) {
@@ -65,6 +68,22 @@ void RunRobotList(const RobotListArgs& args) {
       entry["last_sync"] = robot.last_sync_ns == 0
                                ? nlohmann::ordered_json(nullptr)
                                : nlohmann::ordered_json(FormatUtc(robot.last_sync_ns));
+      // What it runs (issue 38 item 2).
+      const RobotRelease release = ReleaseOf(robot, head, channels);
+      entry["channel"] = release.channel;
+      entry["installed_revision"] = release.installed;
+      entry["channel_revision"] = release.target ? nlohmann::ordered_json(*release.target)
+                                                 : nlohmann::ordered_json(nullptr);
+      entry["behind"] = release.behind ? nlohmann::ordered_json(*release.behind)
+                                       : nlohmann::ordered_json(nullptr);
+      entry["sent_revision"] = robot.sent ? robot.sent->revision : 0;
+      entry["map_differs"] = release.map_differs;
+      entry["installed_digest"] = robot.installed ? std::to_string(robot.installed->digest) : "";
+      entry["sent_digest"] = robot.sent ? std::to_string(robot.sent->digest) : "";
+      entry["last_error"] = robot.last_error;
+      entry["last_error_at"] = robot.last_error_ns == 0
+                                   ? nlohmann::ordered_json(nullptr)
+                                   : nlohmann::ordered_json(FormatUtc(robot.last_error_ns));
       list.push_back(std::move(entry));
     }
     std::cout << list.dump(2) << "\n";
@@ -81,11 +100,21 @@ void RunRobotList(const RobotListArgs& args) {
     // which anything that can write the store can change (issue 35 item 10).
     name_width = std::max(name_width, static_cast<int>(PrintableText(robot.name).size()));
   }
-  std::printf("%-*s  %-36s  %-20s  %s\n", name_width, "NAME", "ROBOT ID", "ADDED", "LAST SYNC");
+  std::printf("%-*s  %-36s  %-20s  %-12s  %9s  %6s  %-4s  %s\n", name_width, "NAME", "ROBOT ID",
+              "LAST SYNC", "CHANNEL", "INSTALLED", "BEHIND", "MAP", "LAST ERROR");
   for (const RegisteredRobot& robot : robots) {
     const std::string last = robot.last_sync_ns == 0 ? "never" : FormatUtc(robot.last_sync_ns);
-    std::printf("%-*s  %-36s  %-20s  %s\n", name_width, PrintableText(robot.name).c_str(),
-                robot.id.ToString().c_str(), FormatUtc(robot.added_ns).c_str(), last.c_str());
+    const RobotRelease release = ReleaseOf(robot, head, channels);
+    const std::string installed =
+        release.installed > 0 ? std::to_string(release.installed) : std::string("none");
+    const std::string behind = release.behind ? std::to_string(*release.behind) : std::string("-");
+    const std::string error = robot.last_error.empty()
+                                  ? std::string("-")
+                                  : FormatUtc(robot.last_error_ns) + " " + robot.last_error;
+    std::printf("%-*s  %-36s  %-20s  %-12s  %9s  %6s  %-4s  %s\n", name_width,
+                PrintableText(robot.name).c_str(), robot.id.ToString().c_str(), last.c_str(),
+                PrintableText(release.channel).c_str(), installed.c_str(), behind.c_str(),
+                release.map_differs ? "DIFF" : "ok", PrintableText(error).c_str());
   }
 }
 
@@ -107,7 +136,10 @@ void AddRobotCommands(CLI::App& app) {
   add->callback([add_args] { RunRobotAdd(*add_args); });
 
   auto list_args = std::make_shared<RobotListArgs>();
-  CLI::App* list = robot->add_subcommand("list", "List the registered robots");
+  CLI::App* list = robot->add_subcommand(
+      "list",
+      "List the registered robots and what each runs: channel, installed revision, revisions "
+      "behind its channel, whether its map is the one it was sent, last sync and last error");
   AddStoreOption(*list, list_args->store);
   list->add_flag("--json", list_args->json, "Print JSON");
   list->callback([list_args] { RunRobotList(*list_args); });

@@ -222,6 +222,7 @@ class SyncRun {
     result_.kept_unsynced = report.kept_unsynced;
     result_.kept_unmerged = report.kept_unmerged;
     result_.kept_failed = report.kept_failed;
+    ReportInstalled(report);
     Progress("installed revision " + std::to_string(report.revision) + ": " +
              agent_internal::ElementCounts(report.nodes, report.edges, report.paths) +
              (report.incremental ? " (incremental)" : " (full)") +
@@ -247,6 +248,26 @@ class SyncRun {
     if (options_.progress) options_.progress(line);
   }
 
+  // Tells the server what was installed (issue 38 item 2): a session of its own, Hello and Bye,
+  // whose hello says it. Best effort: a server gone meanwhile loses only the report, which the
+  // next sync's hello makes again.
+  void ReportInstalled(const InstallReport& report) {
+    // An incremental download that changed nothing left map.db as the hello read it back.
+    const bool unchanged = report.incremental && result_.downloaded_nodes == 0 &&
+                           result_.downloaded_edges == 0 && result_.downloaded_paths == 0 &&
+                           removed_ == 0;
+    installed_digest_ =
+        unchanged && installed_digest_ ? *installed_digest_ : report.selection_digest;
+    try {
+      SyncClient client(server(), options_.link);
+      Hello(client, /*report_error=*/false);
+      SayBye(client);
+    } catch (const std::exception& e) {
+      Progress(std::string("the install was not reported (the next sync's hello will): ") +
+               e.what());
+    }
+  }
+
   // What the server takes, as its last welcome said (or fleetmapd's defaults), within what
   // this agent's link sends.
   ServerLimits CurrentLimits() const {
@@ -259,6 +280,7 @@ class SyncRun {
   // and every encoding happens here, before the connect, and memory holds one batch of nodes.
   void Prepare() {
     if (plan_) return;
+    if (!installed_digest_) installed_digest_ = map_.ReadInstalledDigest();
     // A map directory of another robot is refused before anything is read.
     if (map_.state().robot) map_.BindRobot(options_.robot);
     const Clock::time_point start = Clock::now();
@@ -316,13 +338,22 @@ class SyncRun {
     client.Close();
   }
 
-  void Hello(SyncClient& client) {
+  // `report_error`: the hello says the last failed sync's error (not the install report's, made
+  // after this sync succeeded).
+  void Hello(SyncClient& client, bool report_error = true) {
     v1::SyncFrame frame;
     v1::Hello* hello = frame.mutable_hello();
     hello->set_protocol_version(kSyncProtocolVersion);
     hello->set_robot_id(options_.robot.ToBytesString());
     hello->set_token(options_.token);
     hello->set_agent("fleetmap-agent 0.1.0");
+    // What this robot runs (issue 38 item 2): the map as read back before the sync.
+    v1::InstalledMap* installed = hello->mutable_installed();
+    const SyncState& state = map_.state();
+    installed->set_channel(state.request ? state.request->channel : "head");
+    installed->set_revision(state.revision);
+    installed->set_digest(installed_digest_.value_or(0));
+    if (report_error) installed->set_last_error(state.last_error);
     client.Send(frame);
     const v1::SyncFrame welcome = client.Expect(v1::SyncFrame::kWelcome, "hello");
     map_.BindRobot(options_.robot);
@@ -532,6 +563,11 @@ class SyncRun {
     request->set_epoch_min(params.epoch_min);
     request->set_base_revision(base);
     for (const Uuid& node : params.include_nodes) request->add_include_nodes(node.ToBytesString());
+    request->set_channel(params.channel);
+    if (params.route_outing) request->set_route_outing(params.route_outing->ToBytesString());
+    if (params.route_anchor) request->set_route_anchor(params.route_anchor->ToBytesString());
+    for (const double value : params.route_xyz) request->add_route_xyz(value);
+    request->set_route_radius_m(params.route_radius_m);
     client.Send(frame);
 
     const std::string during = "download (" + params.policy + ")";
@@ -544,6 +580,15 @@ class SyncRun {
                       ", the server sent changes since " + std::to_string(header.base_revision()));
     }
     const std::string of_revision = during + " of revision " + std::to_string(header.revision());
+    result_.route_length_m = header.route_length_m();
+    result_.route_covered_m = header.route_covered_m();
+    if (header.route_length_m() > 0) {
+      char line[160];
+      std::snprintf(
+          line, sizeof line, "route: %.0f m, %.1f %% of it with a node within 5 m in the download",
+          header.route_length_m(), 100.0 * header.route_covered_m() / header.route_length_m());
+      Progress(line);
+    }
     Progress("downloading revision " + std::to_string(header.revision()) +
              (header.base_revision() != 0
                   ? " (changes since revision " + std::to_string(header.base_revision()) + ")"
@@ -637,12 +682,13 @@ class SyncRun {
                       std::to_string(end.chunk_count()) + ", " + std::to_string(end.total_bytes()) +
                       " bytes) and digest; nothing installed");
     }
-    SayBye(client);  // the download is whole
+    SayBye(client);  // the download is whole; the install needs no session
 
     result_.downloaded_nodes = nodes;
     result_.downloaded_edges = edges;
     result_.downloaded_paths = paths;
     result_.removed_nodes = download.removed.nodes.size();
+    removed_ = download.removed.size();
     result_.downloaded_bytes = bytes;
     return received;
   }
@@ -656,6 +702,9 @@ class SyncRun {
   int milestones_ = 0;
   // What is left to push, planned before the connect; kept across retries.
   std::optional<agent_internal::PushPlan> plan_;
+  // The installed selection's digest: as read back before the first connect, then as installed.
+  std::optional<std::uint64_t> installed_digest_;
+  std::size_t removed_ = 0;  // elements the last download removed
 };
 
 // Sleeps `delay`, waking every 50 ms to look at the stop flag.
@@ -669,7 +718,9 @@ void SleepUnlessStopped(milliseconds delay, const std::atomic<bool>* stop) {
 
 }  // namespace
 
-SyncResult RunSync(LocalMap& map, const AgentSyncOptions& options) {
+namespace {
+
+SyncResult RunSyncOnce(LocalMap& map, const AgentSyncOptions& options) {
   const Clock::time_point start = Clock::now();
   SyncResult result;
   SyncRun run(map, options, result);
@@ -721,6 +772,26 @@ SyncResult RunSync(LocalMap& map, const AgentSyncOptions& options) {
   }
   result.seconds = SecondsSince(start);
   return result;
+}
+
+}  // namespace
+
+SyncResult RunSync(LocalMap& map, const AgentSyncOptions& options) {
+  // The outcome is kept for the next hello (the depot's last error of this robot).
+  try {
+    SyncResult result = RunSyncOnce(map, options);
+    map.RecordSyncError("");
+    return result;
+  } catch (const SyncStopped&) {
+    throw;
+  } catch (const std::exception& e) {
+    try {
+      map.RecordSyncError(e.what());
+    } catch (const std::exception&) {
+      // The map directory cannot be written: the error thrown says more.
+    }
+    throw;
+  }
 }
 
 }  // namespace fleetmap

@@ -15,6 +15,7 @@
 #include "background_flusher.h"
 #include "element_counts.h"
 #include "fleetmap/core/error.h"
+#include "fleetmap/core/map_chunks.h"
 #include "fleetmap/core/staged_file.h"
 #include "fleetmap/store/graph_store.h"
 #include "sorted_by_id.h"
@@ -543,6 +544,12 @@ SyncState NextInstalledState(const SyncState& state, const MapDownload& download
   next_state.revision = download.revision;
   next_state.request = download.request;
   next_state.installed = IdsOf(selection.ToBatch());
+  // Of the selection as written: the robot's own version where it kept one (next).
+  SelectionDigest digest;
+  for (const auto& [id, node] : selection.nodes) digest.Add(next.nodes.at(id));
+  for (const auto& [id, edge] : selection.edges) digest.Add(next.edges.at(id));
+  for (const auto& [id, path] : selection.paths) digest.Add(next.paths.at(id));
+  next_state.installed_digest = digest.value();
   next_state.pushed = {};
   next_state.unmerged = std::move(still_unmerged);
   auto known_outside_selection = [&](const Uuid& id, int kind) {
@@ -582,6 +589,7 @@ InstallReport LocalMap::Install(const MapDownload& download) {
     report.nodes = state_.installed.nodes.size();
     report.edges = state_.installed.edges.size();
     report.paths = state_.installed.paths.size();
+    report.selection_digest = state_.installed_digest;
     if (state_.revision != download.revision) {
       state_.revision = download.revision;
       SaveState();
@@ -612,7 +620,25 @@ InstallReport LocalMap::Install(const MapDownload& download) {
   report.nodes = selection.nodes.size();
   report.edges = selection.edges.size();
   report.paths = selection.paths.size();
+  report.selection_digest = state_.installed_digest;
   return report;
+}
+
+std::uint64_t LocalMap::ReadInstalledDigest() const {
+  if (state_.revision == 0) return 0;
+  const GraphBatch map = ReadElements(map_uri(), [&](const Uuid& id, int kind) {
+    return OfKind(state_.installed, kind).contains(id);
+  });
+  SelectionDigest digest;
+  digest.Add(map);
+  return digest.value();
+}
+
+void LocalMap::RecordSyncError(const std::string& error) {
+  RequireWritable("record the last sync's error");
+  if (state_.last_error == error) return;
+  state_.last_error = error;
+  SaveState();
 }
 
 // ---- Streamed install ----
@@ -629,6 +655,7 @@ struct MapInstallation::State {
   std::set<Uuid> own_unmerged;
   std::unique_ptr<GraphStore> current;
   std::size_t own_kept = 0;  // download nodes the robot's own content stood in for
+  SelectionDigest digest;    // of the selection written so far
   // Writes map.db.new to disk as it fills (background_flusher.h); stopped before the final
   // fsync. Declared after `store`, so it stops before the store closes.
   std::optional<BackgroundFlusher> flusher;
@@ -723,9 +750,17 @@ void MapInstallation::Add(const GraphBatch& part) {
     }
     throw;
   }
-  for (const Path& path : part.paths) s.selection.paths.insert(path.id);
-  for (const Node& node : part.nodes) s.selection.nodes.insert(node.id);
-  for (const Edge& edge : part.edges) s.selection.edges.insert(edge.id);
+  // The digest of what was written, each element once.
+  const GraphBatch& written = mine ? *mine : part;
+  for (const Path& path : written.paths) {
+    if (s.selection.paths.insert(path.id).second) s.digest.Add(path);
+  }
+  for (const Node& node : written.nodes) {
+    if (s.selection.nodes.insert(node.id).second) s.digest.Add(node);
+  }
+  for (const Edge& edge : written.edges) {
+    if (s.selection.edges.insert(edge.id).second) s.digest.Add(edge);
+  }
 }
 
 InstallReport MapInstallation::Commit() {
@@ -851,6 +886,9 @@ InstallReport MapInstallation::Commit() {
   next_state.revision = download.revision;
   next_state.request = download.request;
   next_state.installed = std::move(s.selection);
+  next_state.installed_digest = s.digest.value();
+  next_state.last_error = state.last_error;
+  report.selection_digest = s.digest.value();
   next_state.unmerged = std::move(retirement.still_unmerged);
   auto known = [&](const Uuid& id, int kind) {
     return InAny(state.installed, state.pushed, id, kind);

@@ -58,13 +58,19 @@ ElementIds ElementsFromJson(const json& object) {
 json RequestToJson(const DownloadParams& request) {
   json include = json::array();
   for (const Uuid& id : request.include_nodes) include.push_back(id.ToString());
-  return {{"policy", request.policy},
-          {"mission_start_min", request.mission_start_min},
-          {"window_min", request.window_min},
-          {"best_percent", request.best_percent},
-          {"budget_bytes", request.budget_bytes},
-          {"epoch_min", request.epoch_min},
-          {"include_nodes", include}};
+  json object = {{"policy", request.policy},
+                 {"mission_start_min", request.mission_start_min},
+                 {"window_min", request.window_min},
+                 {"best_percent", request.best_percent},
+                 {"budget_bytes", request.budget_bytes},
+                 {"epoch_min", request.epoch_min},
+                 {"include_nodes", include},
+                 {"channel", request.channel},
+                 {"route_xyz", request.route_xyz},
+                 {"route_radius_m", request.route_radius_m}};
+  if (request.route_outing) object["route_outing"] = request.route_outing->ToString();
+  if (request.route_anchor) object["route_anchor"] = request.route_anchor->ToString();
+  return object;
 }
 
 DownloadParams RequestFromJson(const json& object) {
@@ -77,6 +83,17 @@ DownloadParams RequestFromJson(const json& object) {
   request.epoch_min = object.at("epoch_min").get<double>();
   for (const json& item : object.at("include_nodes")) {
     request.include_nodes.push_back(Uuid::Parse(item.get<std::string>()));
+  }
+  // Issue 38; files written before it have none of these (the head, no route).
+  request.channel = object.value("channel", std::string("head"));
+  if (object.contains("route_xyz"))
+    request.route_xyz = object["route_xyz"].get<std::vector<double>>();
+  request.route_radius_m = object.value("route_radius_m", 0.0);
+  if (object.contains("route_outing")) {
+    request.route_outing = Uuid::Parse(object["route_outing"].get<std::string>());
+  }
+  if (object.contains("route_anchor")) {
+    request.route_anchor = Uuid::Parse(object["route_anchor"].get<std::string>());
   }
   return request;
 }
@@ -141,6 +158,11 @@ std::string SyncStateToJson(const SyncState& state) {
   }
   key("held");
   out += held.dump() + ",\n";
+  // Issue 38; files written before it have neither key (read as none).
+  key("installed_digest");
+  out += json(std::to_string(state.installed_digest)).dump() + ",\n";
+  key("last_error");
+  out += json(state.last_error).dump() + ",\n";
   key("submission");
   if (state.submission) {
     out += "{\"id\": \"" + state.submission->id.ToString() + "\", \"content\": ";
@@ -179,6 +201,10 @@ SyncState SyncStateFromJson(const std::string& text, const std::string& source) 
           limits.at("max_submission_bytes").get<std::uint64_t>();
       state.server_limits.max_frame_bytes = limits.at("max_frame_bytes").get<std::uint32_t>();
     }
+    if (root.contains("installed_digest")) {
+      state.installed_digest = std::stoull(root["installed_digest"].get<std::string>());
+    }
+    state.last_error = root.value("last_error", std::string());
     if (root.contains("held")) {
       for (const json& node : root["held"]) {
         state.held.push_back(HeldNode{Uuid::Parse(node.at("id").get<std::string>()),
@@ -210,6 +236,8 @@ SyncState SyncStateFromJson(const std::string& text, const std::string& source) 
     throw Error(ErrorCode::kCorrupt, "sync state " + source + ": " + e.message());
   } catch (const json::exception& e) {
     throw Error(ErrorCode::kCorrupt, "sync state " + source + " does not parse: " + e.what());
+  } catch (const std::logic_error& e) {  // std::stoull of a digest that is not a number
+    throw Error(ErrorCode::kCorrupt, "sync state " + source + ": a malformed number: " + e.what());
   }
 }
 

@@ -242,6 +242,33 @@ TEST_F(AgentConfigTest, UnreadableEmptyOrDoubledTokensAreNamedBeforeDialling) {
   EXPECT_TRUE(Contains(both.err, "excludes")) << both.err;
 }
 
+// Issue 38: a channel name or a route the server would refuse is named before dialling.
+TEST_F(AgentConfigTest, ABadChannelOrRouteIsNamedBeforeDialling) {
+  const std::vector<std::string> sync = {"sync",
+                                         "--server",
+                                         "127.0.0.1:1",
+                                         "--robot",
+                                         robot_.id.ToString(),
+                                         "--map-dir",
+                                         robot_.map_dir.string(),
+                                         "--token-file",
+                                         token_file_.string()};
+  auto with = [&](std::vector<std::string> extra) {
+    std::vector<std::string> args = sync;
+    args.insert(args.end(), extra.begin(), extra.end());
+    return Run(args);
+  };
+  const ProgramRun channel = with({"--channel", "Stable Release"});
+  EXPECT_EQ(channel.exit_code, 2) << DescribeRun(channel);
+  EXPECT_TRUE(Contains(channel.err, "channel name \"Stable Release\"")) << channel.err;
+  const ProgramRun route = with({"--route", "anchor not-a-uuid; 0 0 0"});
+  EXPECT_EQ(route.exit_code, 2) << DescribeRun(route);
+  EXPECT_TRUE(Contains(route.err, "--route anchor not-a-uuid")) << route.err;
+  const ProgramRun radius = with({"--route", Uuid::Generate().ToString(), "--route-radius", "-3"});
+  EXPECT_EQ(radius.exit_code, 2) << DescribeRun(radius);
+  EXPECT_TRUE(Contains(radius.err, "radius")) << radius.err;
+}
+
 // Issue 35 item 12: a token file everyone could read (mode 0644) was accepted without a word.
 // As ssh refuses such a key, the agent refuses a token file its group or others can read,
 // saying how to fix it, before it dials; at 0600 the same file syncs.

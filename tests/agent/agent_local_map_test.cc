@@ -3,6 +3,7 @@
 // server does not have, and that a crash at any point of an install leaves map and state
 // describing each other.
 #include <gtest/gtest.h>
+#include <sqlite3.h>
 #include <sys/stat.h>
 
 #include <fstream>
@@ -336,6 +337,65 @@ TEST(AgentLocalMapTest, FailedSubmissionIsKeptUntilDiscarded) {
   EXPECT_TRUE(map.state().unmerged.empty());
   map.Install(FullDownload(SharedMaps().night, 5));
   EXPECT_EQ(IdsOf(ReadStore(map.map_uri())), IdsOf(SharedMaps().night));
+}
+
+// Issue 38 item 2: the digest of the installed selection as the install wrote it, the same
+// read back from map.db, and after a byte of map.db changed behind the agent's back, not the
+// same. The channel, the route and the last error live in the state across a reopen.
+TEST(AgentLocalMapTest, TheInstalledDigestIsTheSelectionsAndSeesADamagedMap) {
+  const ScratchDir dir("fleetmap-agent-map");
+  const GraphBatch& day = SharedMaps().day;
+  SelectionDigest expected;
+  expected.Add(day);
+  {
+    LocalMap map = LocalMap::Open(dir / "robot");
+    EXPECT_EQ(map.ReadInstalledDigest(), 0u) << "nothing installed";
+    MapDownload download = FullDownload(day, 3);
+    download.request.channel = "stable";
+    download.request.route_anchor = day.nodes[0].id;
+    download.request.route_xyz = {0, 0, 0, 0, 0, 40};
+    download.request.route_radius_m = 5;
+    const InstallReport report = map.Install(download);
+    EXPECT_EQ(report.selection_digest, expected.value());
+    EXPECT_EQ(map.state().installed_digest, expected.value());
+    EXPECT_EQ(map.ReadInstalledDigest(), expected.value());
+    map.RecordSyncError("link reset");
+    // Content the robot built itself is not part of the selection's digest.
+    GraphStore::Open(map.map_uri())->Put(SharedMaps().night);
+    EXPECT_EQ(map.ReadInstalledDigest(), expected.value());
+  }
+  LocalMap map = LocalMap::Open(dir / "robot");
+  EXPECT_EQ(map.state().installed_digest, expected.value());
+  EXPECT_EQ(map.state().last_error, "link reset");
+  ASSERT_TRUE(map.state().request);
+  EXPECT_EQ(map.state().request->channel, "stable");
+  EXPECT_EQ(map.state().request->route_anchor, day.nodes[0].id);
+  EXPECT_EQ(map.state().request->route_xyz, (std::vector<double>{0, 0, 0, 0, 0, 40}));
+  EXPECT_EQ(map.state().request->route_radius_m, 5.0);
+  Node damaged = day.nodes[1];
+  damaged.landmarks_blob.back() ^= 1;
+  {
+    sqlite3* db = nullptr;
+    ASSERT_EQ(sqlite3_open(map.map_path().c_str(), &db), SQLITE_OK);
+    sqlite3_stmt* update = nullptr;
+    ASSERT_EQ(sqlite3_prepare_v2(db, "UPDATE nodes SET landmarks = ?1 WHERE id = ?2", -1, &update,
+                                 nullptr),
+              SQLITE_OK);
+    const std::string id = damaged.id.ToBytesString();
+    sqlite3_bind_blob(update, 1, damaged.landmarks_blob.data(),
+                      static_cast<int>(damaged.landmarks_blob.size()), SQLITE_TRANSIENT);
+    sqlite3_bind_blob(update, 2, id.data(), static_cast<int>(id.size()), SQLITE_TRANSIENT);
+    EXPECT_EQ(sqlite3_step(update), SQLITE_DONE);
+    sqlite3_finalize(update);
+    sqlite3_close(db);
+  }
+  SelectionDigest with_damage = expected;
+  with_damage.Remove(day.nodes[1]);
+  with_damage.Add(damaged);
+  EXPECT_EQ(map.ReadInstalledDigest(), with_damage.value());
+  EXPECT_NE(map.ReadInstalledDigest(), expected.value());
+  map.RecordSyncError("");
+  EXPECT_EQ(map.state().last_error, "");
 }
 
 // A state file written before failed submissions were kept (merged_revision 0 meant failed)

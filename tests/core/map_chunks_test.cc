@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <string>
 
 #include "fleetmap/core/error.h"
@@ -96,6 +97,59 @@ TEST(MapChunks, ACorruptChunkIsNamed) {
     EXPECT_EQ(error.code(), ErrorCode::kCorrupt);
     EXPECT_NE(std::string(error.what()).find("chunk 2"), std::string::npos) << error.what();
   }
+}
+
+// SelectionDigest (issue 38 item 2): a set's digest, whatever the order; following a selection
+// through additions and removals; changed by any byte of a node's landmarks, an edge's ends or a
+// path's times; not by an edge's pose.
+TEST(SelectionDigestTest, IsOfTheSetAndSeesEveryChangeButAPose) {
+  const GraphBatch map = Chain(6, 40);
+  SelectionDigest whole;
+  whole.Add(map);
+  GraphBatch reversed = map;
+  std::reverse(reversed.nodes.begin(), reversed.nodes.end());
+  std::reverse(reversed.edges.begin(), reversed.edges.end());
+  SelectionDigest backwards;
+  backwards.Add(reversed);
+  EXPECT_EQ(whole.value(), backwards.value());
+
+  // Incremental: what a base held, plus what came, minus what went.
+  SelectionDigest incremental;
+  for (int i = 0; i < 4; ++i) incremental.Add(map.nodes[i]);
+  incremental.Add(map.paths[0]);
+  for (const Edge& edge : map.edges) incremental.Add(edge);
+  GraphBatch extra;
+  extra.nodes.push_back({NumberedUuid(77), 1, NumberedUuid(901), NumberedUuid(902), "x"});
+  incremental.Add(extra);
+  incremental.Add(map.nodes[4]);
+  incremental.Add(map.nodes[5]);
+  incremental.Remove(extra.nodes[0]);
+  EXPECT_EQ(incremental.value(), whole.value());
+  EXPECT_EQ(SelectionDigest::From(whole.value()).value(), whole.value());
+
+  const auto digest_of = [](const GraphBatch& other) {
+    SelectionDigest digest;
+    digest.Add(other);
+    return digest.value();
+  };
+  GraphBatch changed = map;
+  changed.nodes[3].landmarks_blob[17] ^= 1;
+  EXPECT_NE(digest_of(changed), whole.value());
+  changed = map;
+  changed.nodes[3].stamp_ns += 1;
+  EXPECT_NE(digest_of(changed), whole.value());
+  changed = map;
+  changed.edges[2].to = NumberedUuid(5);
+  EXPECT_NE(digest_of(changed), whole.value());
+  changed = map;
+  changed.paths[0].end_ns += 1;
+  EXPECT_NE(digest_of(changed), whole.value());
+  changed = map;
+  std::swap(changed.nodes[1].landmarks_blob, changed.nodes[2].landmarks_blob);
+  EXPECT_NE(digest_of(changed), whole.value()) << "landmarks belong to their node";
+  changed = map;
+  changed.edges[2].from_T_to = Se3(Eigen::Translation3d(1.0 + 1e-15, 0, 0));
+  EXPECT_EQ(digest_of(changed), whole.value()) << "a pose rebuilt by a store does not count";
 }
 
 }  // namespace

@@ -11,6 +11,8 @@
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <functional>
+#include <limits>
 #include <random>
 #include <set>
 #include <sstream>
@@ -1202,6 +1204,99 @@ TEST_F(FleetmapdSqliteTest, ATlsKeyOthersCanReadIsRefused) {
   Fleetmapd server = Start({"--tls-cert", cert.string(), "--tls-key", key.string()});
   ASSERT_FALSE(server.address.empty());
   ExpectStillServes(*Connect(server, /*tls=*/true));
+}
+
+// Issue 38: what a robot says about channels, routes and its installed map is checked before it
+// costs the store anything beyond a lookup. Each bad download request is refused by name and
+// closes the session; an unknown channel is NOT_FOUND; what a hello says was installed is
+// recorded with its text cut and made printable, and only after the token checks.
+TEST_F(FleetmapdSqliteTest, ChannelsRoutesAndInstalledReportsFromAHostileRobot) {
+  Fleetmapd server = Start();
+  ASSERT_FALSE(server.address.empty());
+  const auto refused = [&](const std::function<void(v1::DownloadRequest&)>& set,
+                           v1::ErrorFrame::Code expected, const std::string& text) {
+    RawSyncClient client(server.address);
+    const std::optional<v1::SyncFrame> welcome = client.Hello(robot_, token_);
+    ASSERT_TRUE(welcome && welcome->has_welcome()) << Describe(welcome);
+    v1::SyncFrame frame;
+    frame.mutable_download_request()->set_policy("copy");
+    set(*frame.mutable_download_request());
+    ASSERT_TRUE(client.Send(frame));
+    const std::optional<v1::SyncFrame> reply = client.Receive();
+    EXPECT_EQ(ErrorCodeOf(reply), expected) << Describe(reply);
+    if (reply && reply->has_error()) {
+      EXPECT_NE(reply->error().text().find(text), std::string::npos) << reply->error().text();
+    }
+  };
+  refused([](v1::DownloadRequest& r) { r.set_channel("stable"); }, v1::ErrorFrame::NOT_FOUND,
+          "no channel \"stable\"");
+  refused([](v1::DownloadRequest& r) { r.set_channel("../../etc"); }, v1::ErrorFrame::INVALID,
+          "channel name");
+  refused([](v1::DownloadRequest& r) { r.set_route_outing("12345"); }, v1::ErrorFrame::INVALID,
+          "16 bytes");
+  refused(
+      [&](v1::DownloadRequest& r) {
+        r.set_route_anchor(robot_.ToBytesString());
+        r.add_route_xyz(1.0);
+        r.add_route_xyz(2.0);
+      },
+      v1::ErrorFrame::INVALID, "x y z");
+  refused(
+      [&](v1::DownloadRequest& r) {
+        r.set_route_anchor(robot_.ToBytesString());
+        for (int i = 0; i < 3 * 10'001; ++i) r.add_route_xyz(0.0);
+      },
+      v1::ErrorFrame::INVALID, "positions, over");
+  refused(
+      [&](v1::DownloadRequest& r) {
+        r.set_route_anchor(robot_.ToBytesString());
+        r.add_route_xyz(std::numeric_limits<double>::quiet_NaN());
+        r.add_route_xyz(0.0);
+        r.add_route_xyz(0.0);
+      },
+      v1::ErrorFrame::INVALID, "route");
+
+  {
+    // What a hello says the robot installed: recorded, its text cut and made printable.
+    RawSyncClient client(server.address);
+    v1::SyncFrame hello;
+    hello.mutable_hello()->set_protocol_version(kSyncProtocolVersion);
+    hello.mutable_hello()->set_robot_id(robot_.ToBytesString());
+    hello.mutable_hello()->set_token(token_);
+    v1::InstalledMap* installed = hello.mutable_hello()->mutable_installed();
+    installed->set_channel(std::string(200, 'c') + "\x1b[2J");
+    installed->set_revision(-7);
+    installed->set_digest(42);
+    installed->set_last_error("disk\nfull");
+    ASSERT_TRUE(client.Send(hello));
+    const std::optional<v1::SyncFrame> welcome = client.Receive();
+    ASSERT_TRUE(welcome && welcome->has_welcome()) << Describe(welcome);
+    v1::SyncFrame bye;
+    bye.mutable_bye();
+    ASSERT_TRUE(client.Send(bye));
+  }
+  {
+    // The same from a stranger (a wrong token) is not recorded.
+    RawSyncClient client(server.address);
+    v1::SyncFrame hello;
+    hello.mutable_hello()->set_protocol_version(kSyncProtocolVersion);
+    hello.mutable_hello()->set_robot_id(robot_.ToBytesString());
+    hello.mutable_hello()->set_token(std::string(64, '0'));
+    hello.mutable_hello()->mutable_installed()->set_revision(99);
+    ASSERT_TRUE(client.Send(hello));
+    EXPECT_EQ(ErrorCodeOf(client.Receive()), v1::ErrorFrame::BAD_TOKEN);
+  }
+  std::optional<RegisteredRobot> robot;
+  for (int i = 0; i < 100; ++i) {
+    robot = RobotRegistry(GraphStore::Open(uri_)->versions()).Find(robot_);
+    if (robot && robot->installed) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  ASSERT_TRUE(robot && robot->installed);
+  EXPECT_EQ(robot->installed->channel, std::string(64, 'c'));
+  EXPECT_EQ(robot->installed->revision, 0);
+  EXPECT_EQ(robot->installed->digest, 42u);
+  EXPECT_EQ(robot->last_error, "agent: disk\\nfull");
 }
 
 // Issue 35 item 10: an agent string with a newline and escape codes became a forged line in

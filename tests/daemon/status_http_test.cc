@@ -34,6 +34,7 @@
 #include "fleetmap/interchange/graph_layout.h"
 #include "fleetmap/interchange/map_picture.h"
 #include "fleetmap/interchange/svg_canvas.h"
+#include "headless_chromium.h"
 #include "random_robot_map.h"
 #include "scratch_dir.h"
 
@@ -60,11 +61,38 @@ FleetStatus FixedStatus() {
   status.map_paths = 12;
   status.map_landmark_bytes = 5'400'000;
   status.robots = {
-      {"<r&d>", "0b7e2d6c-1f4a-4c2e-9d3b-5a6f7e8d9c01", kRobotSyncNs,
-       kRobotSyncNs - 86400 * kSecond, 4, 2},
-      {"scout \"two\"", "0b7e2d6c-1f4a-4c2e-9d3b-5a6f7e8d9c02", kRobotSyncNs - kSecond / 2,
-       kRobotSyncNs - 86400 * kSecond, 1, 9},
+      {.name = "<r&d>",
+       .uuid = "0b7e2d6c-1f4a-4c2e-9d3b-5a6f7e8d9c01",
+       .last_sync_ns = kRobotSyncNs,
+       .added_ns = kRobotSyncNs - 86400 * kSecond,
+       .pushes = 4,
+       .downloads = 2,
+       .channel = "head",
+       .installed_revision = 0,
+       .sent_revision = 0,
+       .channel_revision = 7,
+       .behind_known = false,
+       .behind = 0,
+       .map_differs = false,
+       .last_error = "",
+       .last_error_ns = 0},
+      {.name = "scout \"two\"",
+       .uuid = "0b7e2d6c-1f4a-4c2e-9d3b-5a6f7e8d9c02",
+       .last_sync_ns = kRobotSyncNs - kSecond / 2,
+       .added_ns = kRobotSyncNs - 86400 * kSecond,
+       .pushes = 1,
+       .downloads = 9,
+       .channel = "stable",
+       .installed_revision = 5,
+       .sent_revision = 5,
+       .channel_revision = 7,
+       .behind_known = true,
+       .behind = 2,
+       .map_differs = true,
+       .last_error = "agent: <disk full>",
+       .last_error_ns = kRobotSyncNs - kSecond},
   };
+  status.channels = {{"stable", 7}};
   status.queue_length = 2;
   status.merging = MergingSubmission{"5c0ffee0-0000-4000-8000-000000000042", "<r&d>", kRobotSyncNs};
   status.pushes = 5;
@@ -220,10 +248,24 @@ TEST_F(StatusHttpTest, MetricsAreThePrometheusTextFormat) {
            "robot_id=\"0b7e2d6c-1f4a-4c2e-9d3b-5a6f7e8d9c02\"} 1714567889.5",
            "fleetmap_robot_pushes_total{robot=\"<r&d>\","
            "robot_id=\"0b7e2d6c-1f4a-4c2e-9d3b-5a6f7e8d9c01\"} 4",
+           // What each runs (issue 38 item 2); "behind" only where it is known.
+           "fleetmap_robot_installed_revision{robot=\"scout \\\"two\\\"\","
+           "robot_id=\"0b7e2d6c-1f4a-4c2e-9d3b-5a6f7e8d9c02\",channel=\"stable\"} 5",
+           "fleetmap_robot_installed_revision{robot=\"<r&d>\","
+           "robot_id=\"0b7e2d6c-1f4a-4c2e-9d3b-5a6f7e8d9c01\",channel=\"head\"} 0",
+           "fleetmap_robot_behind_revisions{robot=\"scout \\\"two\\\"\","
+           "robot_id=\"0b7e2d6c-1f4a-4c2e-9d3b-5a6f7e8d9c02\",channel=\"stable\"} 2",
+           "fleetmap_robot_map_differs{robot=\"scout \\\"two\\\"\","
+           "robot_id=\"0b7e2d6c-1f4a-4c2e-9d3b-5a6f7e8d9c02\"} 1",
+           "fleetmap_robot_map_differs{robot=\"<r&d>\","
+           "robot_id=\"0b7e2d6c-1f4a-4c2e-9d3b-5a6f7e8d9c01\"} 0",
+           "fleetmap_channel_revision{channel=\"stable\"} 7",
        }) {
     EXPECT_TRUE(HasLine(lines, expected)) << "missing line: " << expected << "\nin:\n"
                                           << response.body();
   }
+  EXPECT_EQ(Count(response.body(), "fleetmap_robot_behind_revisions{"), 1u)
+      << "a robot without an installed revision has no behind sample";
   // Every sample belongs to a family announced by HELP and TYPE before it.
   std::string family;
   for (const std::string& line : lines) {
@@ -255,8 +297,15 @@ TEST_F(StatusHttpTest, PageShowsTheFactsWithRobotStringsEscaped) {
 
   const std::string table = RobotsTable(html);
   ASSERT_FALSE(table.empty()) << html;
-  EXPECT_EQ(Count(table, "<tr>"), 3u) << "one header row and one row per robot:\n" << table;
-  EXPECT_EQ(Count(table, "</th>"), 5u);
+  EXPECT_EQ(Count(table, "<tr"), 3u) << "one header row and one row per robot:\n" << table;
+  EXPECT_EQ(Count(table, "</th>"), 11u);
+  // What each runs (issue 38 item 2): the second robot is two behind its channel and its map
+  // is flagged; its error is escaped like everything a robot says.
+  EXPECT_NE(table.find("data-revision=\"5\">5</td>"), std::string::npos) << table;
+  EXPECT_NE(table.find("data-behind=\"2\""), std::string::npos) << table;
+  EXPECT_EQ(Count(table, "MAP DIFFERS"), 1u) << table;
+  EXPECT_NE(table.find("agent: &lt;disk full&gt;"), std::string::npos) << table;
+  EXPECT_NE(html.find("<table id=\"channels\">"), std::string::npos);
   EXPECT_NE(table.find("0b7e2d6c-1f4a-4c2e-9d3b-5a6f7e8d9c01"), std::string::npos);
   EXPECT_NE(table.find("2024-05-01T12:51:30Z"), std::string::npos);
   EXPECT_NE(table.find("5 min ago"), std::string::npos);
@@ -415,51 +464,6 @@ TEST(StatusHttpServerTest, BadAddressesAreRefused) {
 
 // ---- The page in a browser ----
 
-std::string ChromiumPath() {
-  const char* configured = std::getenv("FLEETMAP_CHROMIUM");
-  return configured != nullptr ? configured : "/usr/bin/chromium";
-}
-
-// Runs headless Chromium on `url` with `mode_flag` (--screenshot=..., --dump-dom) in a fresh
-// profile under `scratch`, bounded to 60 s; returns its standard output. Fails the test
-// (not skips: CI installs Chromium) when Chromium is missing or fails.
-std::string RunChromium(const ScratchDir& scratch, const std::string& mode_flag,
-                        const std::string& url) {
-  const std::string chromium = ChromiumPath();
-  if (!std::filesystem::exists(chromium)) {
-    ADD_FAILURE() << "Chromium not found at " << chromium
-                  << ": the status page browser tests need it (scripts/setup installs it: "
-                     "apt-get install chromium; or set FLEETMAP_CHROMIUM)";
-    return "";
-  }
-  const auto profile = scratch / "profile";
-  const auto log = scratch / "chromium.log";
-  const std::string command = "timeout -k 5 60 '" + chromium +
-                              "' --headless --no-sandbox --disable-gpu --disable-dev-shm-usage "
-                              "--no-first-run --hide-scrollbars --window-size=1200,800 "
-                              "--user-data-dir='" +
-                              profile.string() + "' " + mode_flag + " '" + url + "' 2>>'" +
-                              log.string() + "'";
-  FILE* pipe = popen(command.c_str(), "r");
-  if (pipe == nullptr) {
-    ADD_FAILURE() << "cannot run " << command;
-    return "";
-  }
-  std::string output;
-  char buffer[4096];
-  for (std::size_t n; (n = std::fread(buffer, 1, sizeof buffer, pipe)) > 0;)
-    output.append(buffer, n);
-  const int status = pclose(pipe);
-  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) {
-    std::ifstream log_in(log);
-    std::stringstream log_text;
-    log_text << log_in.rdbuf();
-    ADD_FAILURE() << "chromium failed (status " << status << "): " << command << "\n"
-                  << log_text.str().substr(0, 4000);
-  }
-  return output;
-}
-
 TEST_F(StatusHttpTest, ChromiumRendersAPageThatIsNotBlank) {
   ScratchDir scratch("fleetmap-status-page");
   const auto png = scratch / "status-page.png";
@@ -494,7 +498,7 @@ TEST_F(StatusHttpTest, ChromiumBuildsTheRobotsTable) {
   ASSERT_FALSE(table.empty()) << "no robots table in the DOM:\n" << dom.substr(0, 4000);
   const auto body = table.find("<tbody>");
   ASSERT_NE(body, std::string::npos) << table;
-  EXPECT_EQ(Count(table.substr(body), "<tr>"), 2u) << "one body row per robot:\n" << table;
+  EXPECT_EQ(Count(table.substr(body), "<tr"), 2u) << "one body row per robot:\n" << table;
   // The DOM serializer escapes <, > and & in text, as the page did; quotes in text stay plain.
   EXPECT_NE(table.find("&lt;r&amp;d&gt;"), std::string::npos) << table;
   EXPECT_NE(table.find("scout \"two\""), std::string::npos) << table;

@@ -2,11 +2,7 @@
 // operations" item 5): fleetmapd --dream-at the next minute dreams while five real agents keep
 // syncing through it, leaves a candidate without moving the head, reports it in /metrics, and
 // `fleetmap promote` makes it the next revision, which the agents then download.
-#include <arpa/inet.h>
 #include <gtest/gtest.h>
-#include <netinet/in.h>
-#include <sys/socket.h>
-#include <unistd.h>
 
 #include <atomic>
 #include <chrono>
@@ -20,6 +16,7 @@
 #include "fleetmap/repository/dream_candidates.h"
 #include "fleetmap/repository/repository.h"
 #include "fleetmap_cli_run.h"
+#include "http_get.h"
 #include "scratch_dir.h"
 #include "store_backends.h"
 
@@ -27,30 +24,6 @@ namespace fleetmap::testing {
 namespace {
 
 using std::chrono::steady_clock;
-
-// GET `target` from HOST:PORT (IPv4 loopback) over HTTP/1.0; the body, "" on any failure.
-std::string HttpGet(const std::string& address, const std::string& target) {
-  const std::size_t colon = address.rfind(':');
-  sockaddr_in to{};
-  to.sin_family = AF_INET;
-  to.sin_port = htons(static_cast<std::uint16_t>(std::stoi(address.substr(colon + 1))));
-  if (inet_pton(AF_INET, address.substr(0, colon).c_str(), &to.sin_addr) != 1) return "";
-  const int fd = socket(AF_INET, SOCK_STREAM, 0);
-  if (fd < 0) return "";
-  timeval timeout{5, 0};
-  setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &timeout, sizeof timeout);
-  std::string response;
-  if (connect(fd, reinterpret_cast<const sockaddr*>(&to), sizeof to) == 0) {
-    const std::string request = "GET " + target + " HTTP/1.0\r\nHost: test\r\n\r\n";
-    if (write(fd, request.data(), request.size()) == static_cast<ssize_t>(request.size())) {
-      char buffer[8192];
-      for (ssize_t n; (n = read(fd, buffer, sizeof buffer)) > 0;) response.append(buffer, n);
-    }
-  }
-  close(fd);
-  const std::size_t body = response.find("\r\n\r\n");
-  return body == std::string::npos ? "" : response.substr(body + 4);
-}
 
 // The UTC HH:MM of the first minute boundary at least `lead` from now.
 std::string MinuteAhead(std::chrono::seconds lead, std::chrono::system_clock::time_point* at) {

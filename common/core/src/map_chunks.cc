@@ -116,6 +116,72 @@ void MapContentDigest::Add(std::string_view chunk) {
   mix(tail);
 }
 
+namespace {
+
+// One element's fields, digested as MapContentDigest digests a chunk, then mixed (splitmix64's
+// finaliser) so that sums of nearby values do not cancel.
+class ElementDigest {
+ public:
+  explicit ElementDigest(int kind) {
+    digest_.Add(std::string_view(reinterpret_cast<const char*>(&kind), sizeof kind));
+  }
+  ElementDigest& Bytes(std::string_view bytes) {
+    digest_.Add(bytes);
+    return *this;
+  }
+  ElementDigest& Id(const Uuid& id) { return Bytes(id.ToBytesString()); }
+  ElementDigest& Number(std::int64_t value) {
+    return Bytes(std::string_view(reinterpret_cast<const char*>(&value), sizeof value));
+  }
+  std::uint64_t value() const {
+    std::uint64_t z = digest_.value() + 0x9e3779b97f4a7c15ULL;
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
+    return z ^ (z >> 31);
+  }
+
+ private:
+  MapContentDigest digest_;
+};
+
+}  // namespace
+
+std::uint64_t SelectionDigest::Of(const Node& node) {
+  return ElementDigest(1)
+      .Id(node.id)
+      .Number(node.stamp_ns)
+      .Id(node.robot)
+      .Id(node.outing)
+      .Bytes(node.landmarks_blob)
+      .value();
+}
+
+std::uint64_t SelectionDigest::Of(const Edge& edge) {
+  return ElementDigest(2)
+      .Id(edge.id)
+      .Id(edge.from)
+      .Id(edge.to)
+      .Number(static_cast<std::int64_t>(edge.kind))
+      .Id(edge.path)
+      .value();
+}
+
+std::uint64_t SelectionDigest::Of(const Path& path) {
+  return ElementDigest(3)
+      .Id(path.id)
+      .Id(path.robot)
+      .Id(path.outing)
+      .Number(path.start_ns)
+      .Number(path.end_ns)
+      .value();
+}
+
+void SelectionDigest::Add(const GraphBatch& map) {
+  for (const Node& node : map.nodes) Add(node);
+  for (const Edge& edge : map.edges) Add(edge);
+  for (const Path& path : map.paths) Add(path);
+}
+
 std::uint64_t DigestOfChunks(std::span<const std::string> chunks) {
   MapContentDigest digest;
   for (const std::string& chunk : chunks) digest.Add(chunk);

@@ -5,6 +5,7 @@
 #include <utility>
 
 #include "fleetmap/core/error.h"
+#include "fleetmap/repository/channel_registry.h"
 #include "fleetmap/wire/sync_frame.h"
 
 namespace fleetmap::daemon {
@@ -15,6 +16,8 @@ namespace {
 constexpr std::size_t kMaxNodesPerBatch = 16'384;
 // A node's encoding beyond its landmarks (pose, stamps, ids, camera), roughly.
 constexpr std::size_t kNodeOverheadBytes = 256;
+// Positions a route may have: a 10 km drive at a metre apart.
+constexpr int kMaxRoutePositions = 10'000;
 // Edges and paths are small (about 100 bytes encoded): this many make a batch of a few MB.
 constexpr std::size_t kSmallElementsPerBatch = 32'768;
 
@@ -114,6 +117,28 @@ std::vector<Element> NextSlice(const std::vector<Element>& all, std::size_t& nex
   return slice;
 }
 
+// SelectionDigest of what `base` holds and `now` does not: the removed nodes read with their
+// landmarks (hidden elements stay stored), edges (derived ones too) and paths as selected.
+std::uint64_t RemovedDigest(Repository& repository, const BareSelection& base,
+                            const BareSelection& now) {
+  SelectionDigest digest;
+  const std::unordered_set<Uuid> nodes_now = IdSet(now.nodes);
+  std::vector<Uuid> removed_nodes;
+  for (const Uuid& id : base.nodes) {
+    if (!nodes_now.contains(id)) removed_nodes.push_back(id);
+  }
+  for (const Node& node : repository.store().GetNodes(removed_nodes)) digest.Add(node);
+  const std::unordered_set<Uuid> edges_now = IdSet(now.edges);
+  for (const Edge& edge : base.edges) {
+    if (!edges_now.contains(edge.id)) digest.Add(edge);
+  }
+  const std::unordered_set<Uuid> paths_now = IdSet(now.paths);
+  for (const Path& path : base.paths) {
+    if (!paths_now.contains(path.id)) digest.Add(path);
+  }
+  return digest.value();
+}
+
 std::string FrameOf(const v1::SyncFrame& frame) {
   return EncodeSyncFrame(frame);
 }
@@ -132,8 +157,44 @@ DownloadPolicy PolicyOfRequest(const v1::DownloadRequest& request) {
   for (const std::string& node : request.include_nodes()) {
     policy.include.push_back(Uuid::FromBytes(node));
   }
+  // The route (issue 38 item 3), when the request gives one.
+  const bool has_route = !request.route_outing().empty() || !request.route_anchor().empty() ||
+                         request.route_xyz_size() > 0;
+  if (has_route) {
+    DownloadRoute& route = policy.route ? *policy.route : policy.route.emplace();
+    for (const std::string* id : {&request.route_outing(), &request.route_anchor()}) {
+      if (!id->empty() && id->size() != Uuid::kSize) {
+        throw Error(ErrorCode::kInvalidArgument, "route: a node or outing id of " +
+                                                     std::to_string(id->size()) +
+                                                     " bytes (ids are 16 bytes)");
+      }
+    }
+    if (!request.route_outing().empty()) route.outing = Uuid::FromBytes(request.route_outing());
+    if (!request.route_anchor().empty()) route.anchor = Uuid::FromBytes(request.route_anchor());
+    // An authenticated robot still gets a bounded amount of the server's work per request.
+    if (request.route_xyz_size() > 3 * kMaxRoutePositions) {
+      throw Error(ErrorCode::kInvalidArgument,
+                  "route: " + std::to_string(request.route_xyz_size() / 3) +
+                      " positions, over this server's " + std::to_string(kMaxRoutePositions));
+    }
+    if (request.route_xyz_size() % 3 != 0) {
+      throw Error(ErrorCode::kInvalidArgument,
+                  "route: " + std::to_string(request.route_xyz_size()) +
+                      " coordinates, not a whole number of x y z positions");
+    }
+    for (int i = 0; i + 2 < request.route_xyz_size(); i += 3) {
+      route.anchor_p_m.emplace_back(request.route_xyz(i), request.route_xyz(i + 1),
+                                    request.route_xyz(i + 2));
+    }
+    if (request.route_radius_m() > 0) route.radius_m = request.route_radius_m();
+  }
   ValidateDownloadPolicy(policy);
+  ValidateChannelName(ChannelOfRequest(request));
   return policy;
+}
+
+std::string ChannelOfRequest(const v1::DownloadRequest& request) {
+  return request.channel().empty() ? std::string(kHeadChannel) : request.channel();
 }
 
 std::shared_ptr<const DownloadPlan> PlanDownload(Repository& repository,
@@ -152,6 +213,9 @@ std::shared_ptr<const DownloadPlan> PlanDownload(Repository& repository,
 
   v1::DownloadHeader& header = plan->header;
   header.set_revision(head);
+  header.set_channel(ChannelOfRequest(request));
+  header.set_route_length_m(selection.report.route_length_m);
+  header.set_route_covered_m(selection.report.route_covered_m);
   header.set_nodes(selection.nodes.size());
   header.set_edges(selection.edges.size());
   header.set_paths(selection.paths.size());
@@ -165,6 +229,7 @@ std::shared_ptr<const DownloadPlan> PlanDownload(Repository& repository,
     AddRemoved(at_base.nodes, IdSet(selection.nodes), header.mutable_removed_nodes());
     AddRemoved(at_base.edges, IdSet(selection.edges), header.mutable_removed_edges());
     AddRemoved(at_base.paths, IdSet(selection.paths), header.mutable_removed_paths());
+    plan->removed_digest = RemovedDigest(repository, at_base, selection);
     plan->nodes = NotIn(selection.nodes, IdSet(at_base.nodes));
     plan->edges = NotIn(selection.edges, IdSet(at_base.edges));
     plan->paths = NotIn(selection.paths, IdSet(at_base.paths));
@@ -184,6 +249,7 @@ DownloadEncoder::DownloadEncoder(std::shared_ptr<const DownloadPlan> plan, std::
 }
 
 void DownloadEncoder::Encode(GraphBatch map, std::vector<std::string>& frames) {
+  sent_digest_.Add(map);  // before the chunks take the landmarks
   for (std::string& chunk : EncodeMapChunks(std::move(map))) {
     digest_.Add(chunk);
     bytes_ += chunk.size();
@@ -294,7 +360,9 @@ std::shared_ptr<const EncodedDownload> EncodeDownload(Repository& repository,
   encoded->header = encoder.plan().header;
   encoded->end = encoder.End();
   encoded->report = encoder.plan().report;
+  encoded->removed_digest = encoder.plan().removed_digest;
   encoded->report.bytes += encoder.landmark_bytes();
+  encoded->sent_digest = encoder.sent_digest();
   v1::DownloadEnd sent_end = encoded->end;
   if (protocol_version < 3) {
     encoded->header.set_chunk_count(encoded->end.chunk_count());

@@ -39,19 +39,27 @@ struct DownloadPlan {
   std::vector<Uuid> nodes;    // to send, by stamp then id (the order of VersionStore::NodesAt)
   std::vector<Edge> edges;    // to send, by id
   std::int64_t mean_node_bytes = 0;  // landmark bytes per node in the map, to size batches
+  // Incremental: SelectionDigest (map_chunks.h) of what the base's selection held and this one
+  // does not (the header's removed lists); 0 for a full download.
+  std::uint64_t removed_digest = 0;
 };
 
 // The policy a request names: ParseDownloadPolicy(policy), then its parameters where the
-// request sets them (> 0; the mission start always), the nodes to include; validated. Throws
-// Error(kInvalidArgument) naming what is wrong.
+// request sets them (> 0; the mission start always), the nodes to include, its route;
+// validated, and its channel's name checked. Throws Error(kInvalidArgument) naming what is
+// wrong.
 DownloadPolicy PolicyOfRequest(const v1::DownloadRequest& request);
 
-// The plan of the download `request` asks for at revision `head` (the repository's head, read
-// by the caller) for a robot of `protocol_version`: Repository::SelectForDownload's selection,
-// made on bare nodes, contracted from version 4 on. A budget has
-// to weigh every node by its landmarks (SelectDownload reads a node's bytes off its blob), so
-// with "budget" the map's landmarks are read for the selection and dropped before it returns:
-// only that policy's memory still grows with the map. Throws as PolicyOfRequest and the store.
+// The channel a request follows: its own, "head" when it names none.
+std::string ChannelOfRequest(const v1::DownloadRequest& request);
+
+// The plan of the download `request` asks for at revision `head` (the revision its channel
+// names, read by the caller: the repository's head for "head") for a robot of `protocol_version`:
+// Repository::SelectForDownload's selection, made on bare nodes, contracted from version 4 on. A
+// budget has to weigh every node by its landmarks (SelectDownload reads a node's bytes off its
+// blob), so with "budget" the map's landmarks are read for the selection and dropped before it
+// returns: only that policy's memory still grows with the map. Throws as PolicyOfRequest and the
+// store.
 std::shared_ptr<const DownloadPlan> PlanDownload(Repository& repository,
                                                  const v1::DownloadRequest& request,
                                                  RevisionNumber head,
@@ -77,6 +85,9 @@ class DownloadEncoder {
   v1::DownloadEnd End() const;
   // Landmark bytes of the nodes encoded so far.
   std::int64_t landmark_bytes() const { return landmark_bytes_; }
+  // SelectionDigest of the elements encoded so far (map_chunks.h): of the whole selection for a
+  // full download, of what it adds for an incremental one.
+  std::uint64_t sent_digest() const { return sent_digest_.value(); }
   const DownloadPlan& plan() const { return *plan_; }
   const std::shared_ptr<const DownloadPlan>& shared_plan() const { return plan_; }
 
@@ -93,6 +104,7 @@ class DownloadEncoder {
   std::uint32_t chunks_ = 0;
   std::uint64_t bytes_ = 0;
   MapContentDigest digest_;
+  SelectionDigest sent_digest_;
   std::int64_t landmark_bytes_ = 0;
 };
 
@@ -103,8 +115,10 @@ struct EncodedDownload {
   v1::DownloadHeader header;  // as sent (version 2: with chunk_count, total_bytes, digest)
   v1::DownloadEnd end;        // the totals (sent empty in version 2)
   DownloadReport report;
-  std::vector<std::string> frames;  // header, chunks, end
-  std::uint64_t frame_bytes = 0;    // sum of frames' sizes
+  std::vector<std::string> frames;   // header, chunks, end
+  std::uint64_t frame_bytes = 0;     // sum of frames' sizes
+  std::uint64_t sent_digest = 0;     // DownloadEncoder::sent_digest
+  std::uint64_t removed_digest = 0;  // DownloadPlan::removed_digest
 };
 
 // The whole download in `protocol_version`'s frames (2 or 3). Memory: all of it.

@@ -68,6 +68,45 @@ std::string FleetMetricsText(const FleetStatus& status) {
                {{"robot", robot.name}, {"robot_id", robot.uuid}});
   }
 
+  // What each robot runs (issue 38 item 2). The channel is a label of the installed revision,
+  // so a robot that changes channel shows as a new series.
+  out.Family("fleetmap_robot_installed_revision", kGauge,
+             "Revision the robot last reported installed (0: none).");
+  for (const RobotStatus& robot : status.robots) {
+    out.Sample("fleetmap_robot_installed_revision", robot.installed_revision,
+               {{"robot", robot.name}, {"robot_id", robot.uuid}, {"channel", robot.channel}});
+  }
+  out.Family("fleetmap_robot_sent_revision", kGauge,
+             "Revision of the last download sent to the robot (0: none).");
+  for (const RobotStatus& robot : status.robots) {
+    out.Sample("fleetmap_robot_sent_revision", robot.sent_revision,
+               {{"robot", robot.name}, {"robot_id", robot.uuid}});
+  }
+  out.Family("fleetmap_robot_behind_revisions", kGauge,
+             "Revisions between what the robot's channel names and what it installed (only "
+             "when both are known).");
+  for (const RobotStatus& robot : status.robots) {
+    if (!robot.behind_known) continue;
+    out.Sample("fleetmap_robot_behind_revisions", robot.behind,
+               {{"robot", robot.name}, {"robot_id", robot.uuid}, {"channel", robot.channel}});
+  }
+  out.Family("fleetmap_robot_map_differs", kGauge,
+             "1 when the robot's installed map is not the one it was sent (its digest), else 0.");
+  for (const RobotStatus& robot : status.robots) {
+    out.Sample("fleetmap_robot_map_differs", std::uint64_t{robot.map_differs ? 1u : 0u},
+               {{"robot", robot.name}, {"robot_id", robot.uuid}});
+  }
+  out.Family("fleetmap_robot_last_error_timestamp_seconds", kGauge,
+             "Unix time of the last error of one of the robot's syncs (0: none).");
+  for (const RobotStatus& robot : status.robots) {
+    out.Sample("fleetmap_robot_last_error_timestamp_seconds", UnixSeconds(robot.last_error_ns),
+               {{"robot", robot.name}, {"robot_id", robot.uuid}});
+  }
+  out.Family("fleetmap_channel_revision", kGauge, "Revision each release channel names.");
+  for (const auto& [channel, revision] : status.channels) {
+    out.Sample("fleetmap_channel_revision", revision, {{"channel", channel}});
+  }
+
   Gauge(out, "fleetmap_merge_queue_length", "Submissions waiting for MERGE (not the running one).",
         status.queue_length);
   Gauge(out, "fleetmap_merge_running", "1 while a MERGE runs, else 0.",

@@ -75,8 +75,10 @@ void ServerActivity::LastSyncNotRecorded() {
   ++totals_.last_sync_write_failures;
 }
 
-void ServerActivity::SetRobots(const std::vector<RegisteredRobot>& robots) {
+void ServerActivity::SetRobots(const std::vector<RegisteredRobot>& robots,
+                               std::vector<Channel> channels) {
   std::lock_guard lock(mutex_);
+  channels_ = std::move(channels);
   std::map<Uuid, RobotActivity> listed;
   for (const RegisteredRobot& robot : robots) {
     RobotActivity& activity = listed[robot.id];
@@ -91,7 +93,10 @@ void ServerActivity::SetRobots(const std::vector<RegisteredRobot>& robots) {
 void ServerActivity::RobotSynced(const RegisteredRobot& robot, std::int64_t now_ns) {
   std::lock_guard lock(mutex_);
   RobotActivity& activity = robots_[robot.id];
-  activity.robot = robot;
+  // The registration and the time; what it runs comes with the next read of the store.
+  activity.robot.id = robot.id;
+  activity.robot.name = robot.name;
+  activity.robot.added_ns = robot.added_ns;
   activity.robot.last_sync_ns = now_ns;
 }
 
@@ -114,6 +119,7 @@ void ServerActivity::SetHead(RevisionNumber head, const StoreStats& stats) {
 FleetStatus ServerActivity::Snapshot() const {
   std::lock_guard lock(mutex_);
   FleetStatus status = totals_;
+  for (const Channel& channel : channels_) status.channels[channel.name] = channel.revision;
   for (const auto& [id, activity] : robots_) {
     if (activity.robot.name.empty()) continue;  // counted before its registration was read
     RobotStatus robot;
@@ -123,6 +129,16 @@ FleetStatus ServerActivity::Snapshot() const {
     robot.added_ns = activity.robot.added_ns;
     robot.pushes = activity.pushes;
     robot.downloads = activity.downloads;
+    const RobotRelease release = ReleaseOf(activity.robot, totals_.head_revision, channels_);
+    robot.channel = release.channel;
+    robot.installed_revision = release.installed;
+    robot.sent_revision = activity.robot.sent ? activity.robot.sent->revision : 0;
+    robot.channel_revision = release.target.value_or(-1);
+    robot.behind_known = release.behind.has_value();
+    robot.behind = release.behind.value_or(0);
+    robot.map_differs = release.map_differs;
+    robot.last_error = activity.robot.last_error;
+    robot.last_error_ns = activity.robot.last_error_ns;
     status.robots.push_back(std::move(robot));
   }
   std::sort(status.robots.begin(), status.robots.end(),

@@ -14,6 +14,7 @@
 
 #include "fleetmap/core/uuid.h"
 #include "fleetmap/daemon/fleet_status.h"
+#include "fleetmap/repository/channel_registry.h"
 #include "fleetmap/repository/robot_registry.h"
 #include "fleetmap/store/graph_store.h"
 #include "fleetmap/store/version_store.h"
@@ -40,8 +41,8 @@ class ServerActivity {
   void LastSyncNotRecorded();
   void MergeRetried();  // a merge failed transiently; its submission stays queued
 
-  // The registered robots as last read from the store (replacing the list).
-  void SetRobots(const std::vector<RegisteredRobot>& robots);
+  // The registered robots and the channels as last read from the store (replacing both).
+  void SetRobots(const std::vector<RegisteredRobot>& robots, std::vector<Channel> channels);
   // A robot that just said Hello: (re)listed with its sync time.
   void RobotSynced(const RegisteredRobot& robot, std::int64_t now_ns);
   // The robot's name when known, else its UUID text.
@@ -61,6 +62,7 @@ class ServerActivity {
   mutable std::mutex mutex_;
   FleetStatus totals_;                    // guarded by mutex_
   std::map<Uuid, RobotActivity> robots_;  // guarded by mutex_
+  std::vector<Channel> channels_;         // guarded by mutex_
 };
 
 }  // namespace fleetmap::daemon

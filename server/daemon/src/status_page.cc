@@ -33,6 +33,8 @@ td.num, th.num { text-align: right; font-variant-numeric: tabular-nums; }
 td.uuid { font-family: ui-monospace, "DejaVu Sans Mono", monospace; font-size: 13px; }
 .ago { color: #5b6b7c; margin-left: 6px; }
 .never { color: #9a6b00; }
+.late { color: #9a6b00; font-weight: bold; }
+.differs { color: #fff; background: #b00020; font-weight: bold; }
 dl.totals { display: grid; grid-template-columns: max-content auto; gap: 4px 24px; margin: 0;
   background: #fff; border: 1px solid #dde3ea; border-radius: 8px; padding: 12px 16px; }
 dl.totals dt { color: #5b6b7c; }
@@ -94,22 +96,71 @@ void LastSyncCell(std::string& html, std::int64_t last_sync_ns, std::int64_t now
           TimeAgo(last_sync_ns, now_ns) + "</span></td>";
 }
 
+// A robot's release cells (issue 38 item 2): its channel, the revision it installed and how far
+// that is from what the channel names, the last download sent, and a flag when its map is not
+// the one it was sent. Each cell carries the value as data-* for scripts and tests.
+void ReleaseCells(std::string& html, const RobotStatus& robot) {
+  html += "<td class=\"channel\">" + EscapeHtml(robot.channel) + "</td>";
+  html += "<td class=\"num installed\" data-revision=\"" +
+          std::to_string(robot.installed_revision) + "\">" +
+          (robot.installed_revision > 0 ? std::to_string(robot.installed_revision) : "none") +
+          "</td>";
+  if (robot.behind_known) {
+    html += std::string("<td class=\"num behind") + (robot.behind != 0 ? " late" : "") +
+            "\" data-behind=\"" + std::to_string(robot.behind) + "\">" +
+            std::to_string(robot.behind) + "</td>";
+  } else {
+    html += "<td class=\"num behind\">-</td>";
+  }
+  html += "<td class=\"num sent\" data-revision=\"" + std::to_string(robot.sent_revision) + "\">" +
+          (robot.sent_revision > 0 ? std::to_string(robot.sent_revision) : "none") + "</td>";
+  html += robot.map_differs
+              ? "<td class=\"flag differs\" title=\"the installed map's digest is not the one "
+                "it was sent\">MAP DIFFERS</td>"
+              : "<td class=\"flag\">ok</td>";
+  if (robot.last_error.empty()) {
+    html += "<td class=\"error none\">-</td>";
+  } else {
+    html += "<td class=\"error\"><time datetime=\"" + UtcIsoTime(robot.last_error_ns) + "\">" +
+            UtcIsoTime(robot.last_error_ns) + "</time> " + EscapeHtml(robot.last_error) + "</td>";
+  }
+}
+
 void RobotsTable(std::string& html, const FleetStatus& status) {
   html += "<h2>Robots (" + std::to_string(status.robots.size()) + ")</h2>\n";
   html +=
       "<table id=\"robots\">\n<thead><tr><th>Name</th><th>UUID</th><th>Last sync (UTC)</th>"
-      "<th class=\"num\">Pushes</th><th class=\"num\">Downloads</th></tr></thead>\n<tbody>\n";
+      "<th class=\"num\">Pushes</th><th class=\"num\">Downloads</th><th>Channel</th>"
+      "<th class=\"num\">Installed</th><th class=\"num\">Behind</th><th class=\"num\">Sent</th>"
+      "<th>Map</th><th>Last error</th></tr></thead>\n<tbody>\n";
   for (const RobotStatus& robot : status.robots) {
-    html += "<tr><td>" + EscapeHtml(robot.name) + "</td><td class=\"uuid\">" +
-            EscapeHtml(robot.uuid) + "</td>";
+    html += "<tr data-robot=\"" + EscapeHtml(robot.uuid) + "\"><td>" + EscapeHtml(robot.name) +
+            "</td><td class=\"uuid\">" + EscapeHtml(robot.uuid) + "</td>";
     LastSyncCell(html, robot.last_sync_ns, status.now_ns);
     html += "<td class=\"num\">" + std::to_string(robot.pushes) + "</td><td class=\"num\">" +
-            std::to_string(robot.downloads) + "</td></tr>\n";
+            std::to_string(robot.downloads) + "</td>";
+    ReleaseCells(html, robot);
+    html += "</tr>\n";
   }
   html += "</tbody>\n</table>\n";
   if (status.robots.empty()) {
     html += "<p class=\"empty\">No robots registered.</p>\n";
   }
+  html += "<h2>Channels (" + std::to_string(status.channels.size()) + ")</h2>\n";
+  if (status.channels.empty()) {
+    html +=
+        "<p class=\"empty\">No channel is set: every robot follows the head "
+        "(<code>fleetmap channel set NAME REVISION</code> sets one).</p>\n";
+    return;
+  }
+  html +=
+      "<table id=\"channels\">\n<thead><tr><th>Channel</th><th class=\"num\">Revision</th>"
+      "</tr></thead>\n<tbody>\n";
+  for (const auto& [name, revision] : status.channels) {
+    html += "<tr><td>" + EscapeHtml(name) + "</td><td class=\"num\">" + std::to_string(revision) +
+            "</td></tr>\n";
+  }
+  html += "</tbody>\n</table>\n";
 }
 
 // The head's picture (GET /map.svg). Its address names the revision it shows, so a browser

@@ -19,6 +19,7 @@
 #include "dream_schedule.h"
 #include "fleetmap/core/clock.h"
 #include "fleetmap/core/error.h"
+#include "fleetmap/repository/channel_registry.h"
 #include "fleetmap/repository/robot_registry.h"
 #include "fleetmap/wire/secret_file.h"
 #include "head_picture.h"
@@ -258,7 +259,8 @@ class SyncServer::Impl {
     last_refresh_ns_ = WallClockNs();
     store_->Post([this](Repository& repository) {
       try {
-        activity_.SetRobots(RobotRegistry(repository.versions()).List());
+        activity_.SetRobots(RobotRegistry(repository.versions()).List(),
+                            ChannelRegistry(repository).List());
         const RevisionNumber head = repository.Head();
         const StoreStats stats = repository.versions().StatsAt(head);
         activity_.SetHead(head, stats);

@@ -21,6 +21,7 @@
 #include "fleetmap/core/error.h"
 #include "fleetmap/core/map_chunks.h"
 #include "fleetmap/core/printable_text.h"
+#include "fleetmap/repository/channel_registry.h"
 #include "fleetmap/repository/robot_registry.h"
 #include "fleetmap/wire/sync_frame.h"
 
@@ -29,6 +30,28 @@ namespace {
 
 namespace asio = boost::asio;
 using tcp = asio::ip::tcp;
+
+// The map a hello says the robot has, when it says one.
+std::optional<v1::InstalledMap> InstalledOf(const v1::Hello& hello) {
+  if (!hello.has_installed()) return std::nullopt;
+  return hello.installed();
+}
+
+// Records what a robot reports installed, and its agent's last error, after its hello was
+// accepted. The text is the robot's: kept printable and short.
+void RecordInstalledMap(RobotRegistry& registry, const Uuid& robot,
+                        const v1::InstalledMap& installed) {
+  RobotMapRecord map;
+  map.channel = PrintableText(installed.channel().substr(0, 64));
+  if (map.channel.empty()) map.channel = std::string(kHeadChannel);
+  map.revision = std::max<std::int64_t>(installed.revision(), 0);
+  map.digest = installed.digest();
+  map.at_ns = WallClockNs();
+  registry.RecordInstalled(robot, map);
+  if (!installed.last_error().empty()) {
+    registry.RecordError(robot, "agent: " + PrintableText(installed.last_error()), map.at_ns);
+  }
+}
 
 // After an ErrorFrame or a Bye, what the robot still sends is read and dropped for a moment
 // before the socket closes: closing with unread bytes would reset the connection and could
@@ -469,11 +492,24 @@ void SyncSession<Stream>::Fail(ErrorCodeV1 code, const std::string& text) {
   close_reason_ = name + ": " + text;
   spdlog::warn("session {} refused: {}: {}", Who(), name, PrintableText(text));
   context_.activity.ErrorSent(name);
+  if (welcomed_) RecordRobotError(name + ": " + text);
   v1::SyncFrame frame;
   frame.mutable_error()->set_code(code);
   frame.mutable_error()->set_text(text);
   do_write(std::make_shared<const std::string>(EncodeSyncFrame(frame)),
            [self = this->shared_from_this()] { self->do_close(); });
+}
+
+template <typename Stream>
+void SyncSession<Stream>::RecordRobotError(const std::string& error) {
+  // Best effort, after the fact: the robot's listing shows it; a store that cannot write it
+  // (the reason for the error, perhaps) only loses the line.
+  context_.store.Post([robot = robot_, error = PrintableText(error)](Repository& repository) {
+    try {
+      RobotRegistry(repository.versions()).RecordError(robot, error, WallClockNs());
+    } catch (const std::exception&) {
+    }
+  });
 }
 
 template <typename Stream>
@@ -637,7 +673,7 @@ void SyncSession<Stream>::OnHello(const v1::Hello& hello) {
     std::string sync_not_recorded;  // why the last sync was not written, when it was not
   };
   OnStore(
-      [robot, token = hello.token()](Repository& repository) {
+      [robot, token = hello.token(), installed = InstalledOf(hello)](Repository& repository) {
         RobotRegistry registry(repository.versions());
         Result result{registry.Authenticate(robot, token), 0, {}};
         if (result.auth.outcome == RobotAuthentication::kAccepted) {
@@ -646,6 +682,7 @@ void SyncSession<Stream>::OnHello(const v1::Hello& hello) {
           // robot from downloading; the time is kept in memory (ServerActivity) meanwhile.
           try {
             registry.RecordSync(robot, WallClockNs());
+            if (installed) RecordInstalledMap(registry, robot, *installed);
           } catch (const std::exception& error) {
             result.sync_not_recorded = error.what();
           }
@@ -944,9 +981,11 @@ void SyncSession<Stream>::OnDownloadRequest(const v1::DownloadRequest& request) 
     bool cached = false;
   };
   download_start_ = std::chrono::steady_clock::now();
+  download_channel_ = ChannelOfRequest(request);
   OnStore(
       [request, version = protocol_version_, &cache = context_.downloads](Repository& repository) {
-        const RevisionNumber head = repository.Head();
+        // The channel's revision (channel_registry.h); the head for "head".
+        const RevisionNumber head = ChannelRegistry(repository).Resolve(request.channel());
         Result result;
         result.key = DownloadCache::Key(head, request, version);
         DownloadCache::Entry kept = cache.Find(result.key);
@@ -977,7 +1016,8 @@ void SyncSession<Stream>::OnDownloadRequest(const v1::DownloadRequest& request) 
 template <typename Stream>
 void SyncSession<Stream>::LogDownload(const DownloadReport& report,
                                       const v1::DownloadHeader& header, std::uint32_t chunks,
-                                      std::uint64_t frame_bytes, const char* how) {
+                                      std::uint64_t frame_bytes, std::uint64_t sent_digest,
+                                      std::uint64_t removed_digest, const char* how) {
   const double seconds = SecondsSince(download_start_);
   spdlog::info(
       "download to {}: policy {}, revision {} (base {}), {} nodes, {} chunks, {} bytes in "
@@ -986,13 +1026,44 @@ void SyncSession<Stream>::LogDownload(const DownloadReport& report,
       frame_bytes, seconds, seconds > 0 ? static_cast<double>(frame_bytes) / 1e6 / seconds : 0.0,
       how);
   context_.activity.DownloadSent(robot_);
+  RecordSent(header, sent_digest, removed_digest);
+}
+
+template <typename Stream>
+void SyncSession<Stream>::RecordSent(const v1::DownloadHeader& header, std::uint64_t sent_digest,
+                                     std::uint64_t removed_digest) {
+  RobotMapRecord sent;
+  sent.channel = download_channel_;
+  sent.revision = header.revision();
+  sent.at_ns = WallClockNs();
+  // Best effort, without waiting (the robot is not kept for it): what the robot was sent, as a
+  // SelectionDigest of the selection it now makes. Incremental: the last sent selection's,
+  // when the robot's base is that one, plus what came minus what went; else unknown (0) until
+  // a full download.
+  context_.store.Post([robot = robot_, sent, sent_digest, removed_digest,
+                       base = header.base_revision()](Repository& repository) mutable {
+    try {
+      RobotRegistry registry(repository.versions());
+      if (base == 0) {
+        sent.digest = sent_digest;
+      } else if (const std::optional<RegisteredRobot> known = registry.Find(robot);
+                 known && known->sent && known->sent->revision == base &&
+                 known->sent->digest != 0) {
+        sent.digest = known->sent->digest + sent_digest - removed_digest;  // modulo 2^64
+      }
+      registry.RecordSent(robot, sent);
+    } catch (const std::exception& error) {
+      spdlog::warn("the download sent to robot {} was not recorded: {}", robot.ToString(),
+                   error.what());
+    }
+  });
 }
 
 template <typename Stream>
 void SyncSession<Stream>::do_write_download(std::size_t index) {
   if (index == download_->frames.size()) {
     LogDownload(download_->report, download_->header, download_->end.chunk_count(),
-                download_->frame_bytes,
+                download_->frame_bytes, download_->sent_digest, download_->removed_digest,
                 download_cached_                  ? ", from memory"
                 : download_->protocol_version < 3 ? ", encoded whole (protocol version 2)"
                                                   : "");
@@ -1157,6 +1228,7 @@ void SyncSession<Stream>::FinishStreaming() {
   report.bytes += s.encoder->landmark_bytes();
   const v1::DownloadEnd end = s.encoder->End();
   LogDownload(report, s.encoder->plan().header, end.chunk_count(), s.frame_bytes,
+              s.encoder->sent_digest(), s.encoder->plan().removed_digest,
               s.plan_cached ? ", selection from memory" : "");
   if (s.keep_all) {
     auto encoded = std::make_shared<EncodedDownload>();
@@ -1166,6 +1238,8 @@ void SyncSession<Stream>::FinishStreaming() {
     encoded->report = std::move(report);
     encoded->frames = std::move(s.kept);
     encoded->frame_bytes = s.frame_bytes;
+    encoded->sent_digest = s.encoder->sent_digest();
+    encoded->removed_digest = s.encoder->plan().removed_digest;
     context_.downloads.Put(s.cache_key, std::move(encoded));
   }
   const bool big = !s.keep_all;

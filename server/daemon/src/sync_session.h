@@ -108,7 +108,11 @@ class SyncSession : public SessionControl,
   void FinishStreaming();
   // The per-download log line and metric.
   void LogDownload(const DownloadReport& report, const v1::DownloadHeader& header,
-                   std::uint32_t chunks, std::uint64_t frame_bytes, const char* how);
+                   std::uint32_t chunks, std::uint64_t frame_bytes, std::uint64_t sent_digest,
+                   std::uint64_t removed_digest, const char* how);
+  // Records the download sent (RobotRegistry::RecordSent) on a store worker, without waiting.
+  void RecordSent(const v1::DownloadHeader& header, std::uint64_t sent_digest,
+                  std::uint64_t removed_digest);
   void do_close();
   void CloseSocket();
   void do_drain();
@@ -135,6 +139,9 @@ class SyncSession : public SessionControl,
   void OnMergeStatusRequest(const v1::MergeStatusRequest& request);
   void QueryMergeStatus(const Uuid& submission, bool may_wait, std::uint32_t wait_ms);
   void OnDownloadRequest(const v1::DownloadRequest& request);
+  // Records `error` as the robot's last (RobotRegistry::RecordError) on a store worker, without
+  // waiting: the session is closing anyway.
+  void RecordRobotError(const std::string& error);
 
   // Sends `frame` then reads the next one (or closes when shutting down).
   void Reply(const v1::SyncFrame& frame);
@@ -204,6 +211,7 @@ class SyncSession : public SessionControl,
   };
   std::optional<Streaming> streaming_;
   std::chrono::steady_clock::time_point download_start_;
+  std::string download_channel_;  // of the download in progress
   bool download_cached_ = false;
   std::array<char, 16 * 1024> drain_buffer_{};
   std::size_t drained_ = 0;

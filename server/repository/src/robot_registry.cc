@@ -15,6 +15,10 @@ namespace {
 
 constexpr std::string_view kRobotPrefix = "robot/";
 constexpr std::string_view kSyncPrefix = "robot-sync/";
+constexpr std::string_view kSentPrefix = "robot-sent/";
+constexpr std::string_view kInstalledPrefix = "robot-map/";
+constexpr std::string_view kErrorPrefix = "robot-error/";
+constexpr std::size_t kMaxErrorBytes = 500;
 constexpr std::size_t kTokenBytes = 32;
 constexpr std::size_t kSaltBytes = 16;
 constexpr std::size_t kMaxNameLength = 64;
@@ -57,6 +61,35 @@ std::string RobotKey(const Uuid& robot) {
 }
 std::string SyncKey(const Uuid& robot) {
   return std::string(kSyncPrefix) + robot.ToString();
+}
+
+std::string KeyOf(std::string_view prefix, const Uuid& robot) {
+  return std::string(prefix) + robot.ToString();
+}
+
+std::string RobotMapJson(const RobotMapRecord& map) {
+  // The digest as text: JSON numbers past 2^53 do not survive every reader.
+  return nlohmann::json{{"channel", map.channel},
+                        {"revision", map.revision},
+                        {"digest", std::to_string(map.digest)},
+                        {"at_ns", map.at_ns}}
+      .dump();
+}
+
+std::optional<RobotMapRecord> ParseRobotMap(const std::optional<std::string>& value) {
+  if (!value) return std::nullopt;
+  try {
+    const nlohmann::json json = nlohmann::json::parse(*value);
+    RobotMapRecord map;
+    map.channel = json.at("channel").get<std::string>();
+    map.revision = json.at("revision").get<std::int64_t>();
+    map.digest = std::stoull(json.at("digest").get<std::string>());
+    map.at_ns = json.at("at_ns").get<std::int64_t>();
+    return map;
+  } catch (const std::exception& error) {
+    // A damaged report is not worth failing a listing over: it reads as none.
+    return std::nullopt;
+  }
 }
 
 // Authenticate's stand-in for a robot that is not registered: shaped as a real record, with a
@@ -157,12 +190,7 @@ std::vector<RegisteredRobot> RobotRegistry::List() {
   for (const auto& [key, value] : versions_.ListSettings(kRobotPrefix)) {
     robots.push_back(ParseStored(key, value).robot);
   }
-  for (const auto& [key, value] : versions_.ListSettings(kSyncPrefix)) {
-    const std::string id = key.substr(kSyncPrefix.size());
-    for (RegisteredRobot& robot : robots) {
-      if (robot.id.ToString() == id) robot.last_sync_ns = std::stoll(value);
-    }
-  }
+  for (RegisteredRobot& robot : robots) AddActivity(robot);
   std::sort(robots.begin(), robots.end(),
             [](const RegisteredRobot& a, const RegisteredRobot& b) { return a.name < b.name; });
   return robots;
@@ -172,14 +200,41 @@ std::optional<RegisteredRobot> RobotRegistry::Find(const Uuid& robot) {
   const std::optional<std::string> value = versions_.FindSetting(RobotKey(robot));
   if (!value) return std::nullopt;
   RegisteredRobot found = ParseStored(RobotKey(robot), *value).robot;
-  if (const std::optional<std::string> sync = versions_.FindSetting(SyncKey(robot))) {
-    found.last_sync_ns = std::stoll(*sync);
-  }
+  AddActivity(found);
   return found;
 }
 
 void RobotRegistry::RecordSync(const Uuid& robot, std::int64_t now_ns) {
   versions_.PutSetting(SyncKey(robot), std::to_string(now_ns));
+}
+
+void RobotRegistry::AddActivity(RegisteredRobot& robot) {
+  if (const std::optional<std::string> sync = versions_.FindSetting(SyncKey(robot.id))) {
+    robot.last_sync_ns = std::stoll(*sync);
+  }
+  robot.sent = ParseRobotMap(versions_.FindSetting(KeyOf(kSentPrefix, robot.id)));
+  robot.installed = ParseRobotMap(versions_.FindSetting(KeyOf(kInstalledPrefix, robot.id)));
+  if (const std::optional<std::string> error =
+          versions_.FindSetting(KeyOf(kErrorPrefix, robot.id))) {
+    const std::size_t space = error->find(' ');
+    if (space != std::string::npos) {
+      robot.last_error_ns = std::stoll(error->substr(0, space));
+      robot.last_error = error->substr(space + 1);
+    }
+  }
+}
+
+void RobotRegistry::RecordSent(const Uuid& robot, const RobotMapRecord& sent) {
+  versions_.PutSetting(KeyOf(kSentPrefix, robot), RobotMapJson(sent));
+}
+
+void RobotRegistry::RecordInstalled(const Uuid& robot, const RobotMapRecord& installed) {
+  versions_.PutSetting(KeyOf(kInstalledPrefix, robot), RobotMapJson(installed));
+}
+
+void RobotRegistry::RecordError(const Uuid& robot, std::string_view error, std::int64_t now_ns) {
+  versions_.PutSetting(KeyOf(kErrorPrefix, robot),
+                       std::to_string(now_ns) + " " + std::string(error.substr(0, kMaxErrorBytes)));
 }
 
 }  // namespace fleetmap

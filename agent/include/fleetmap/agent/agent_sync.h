@@ -102,10 +102,14 @@ struct SyncResult {
   std::size_t downloaded_paths = 0;
   std::size_t removed_nodes = 0;       // incremental: dropped from the selection
   std::uint64_t downloaded_bytes = 0;  // chunk bytes
-  std::size_t kept_unsynced = 0;       // local elements kept through the install
-  std::size_t kept_unmerged = 0;       // pushed elements kept: their merge is not in the download
-  std::size_t kept_failed = 0;         // of those, elements of submissions the server refused (kept
-                                       // until `fleetmap-agent discard`)
+  // With a route (--route): its length and the length of it with a downloaded node within 5 m,
+  // as the server measured them in the map's layout.
+  double route_length_m = 0.0;
+  double route_covered_m = 0.0;
+  std::size_t kept_unsynced = 0;  // local elements kept through the install
+  std::size_t kept_unmerged = 0;  // pushed elements kept: their merge is not in the download
+  std::size_t kept_failed = 0;    // of those, elements of submissions the server refused (kept
+                                  // until `fleetmap-agent discard`)
   // The link, over every attempt.
   std::uint64_t bytes_sent = 0;
   std::uint64_t bytes_received = 0;

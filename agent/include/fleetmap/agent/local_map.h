@@ -51,6 +51,15 @@ struct DownloadParams {
   std::int64_t budget_bytes = 0;    // 0: the server's default
   double epoch_min = 0.0;           // 0: the server's default
   std::vector<Uuid> include_nodes;  // nodes every download keeps (where the robot is docked)
+  // The release channel followed (issue 38 item 1): "head" (the head), or a channel the depot
+  // sets with `fleetmap channel set`.
+  std::string channel = "head";
+  // A route (issue 38 item 3): the map within route_radius_m (0: the server's default) of an
+  // earlier outing, or of positions (x y z metres, flattened) in an anchor node's frame.
+  std::optional<Uuid> route_outing;
+  std::optional<Uuid> route_anchor;
+  std::vector<double> route_xyz;
+  double route_radius_m = 0.0;
 
   friend bool operator==(const DownloadParams&, const DownloadParams&) = default;
 };
@@ -125,6 +134,10 @@ struct SyncState {
   std::vector<UnmergedSubmission> unmerged;  // in push order
   ServerLimits server_limits;                // as the last welcome said
   std::vector<HeldNode> held;                // by the last sync's plan, under server_limits
+  // SelectionDigest (map_chunks.h) of the installed selection as the install wrote it; 0: none.
+  std::uint64_t installed_digest = 0;
+  // The last sync that failed, said to the depot at the next hello; "" once a sync succeeds.
+  std::string last_error;
 
   friend bool operator==(const SyncState&, const SyncState&) = default;
 };
@@ -157,6 +170,9 @@ struct InstallReport {
   // The robot's own unmerged nodes the download held under the same UUID with other content (a
   // collision the server refuses): the robot's were kept, the download's not installed.
   std::size_t kept_own_over_download = 0;
+  // SelectionDigest of the installed selection as written (the robot's own version where it
+  // kept one).
+  std::uint64_t selection_digest = 0;
 };
 
 class LocalMap;
@@ -219,6 +235,14 @@ class LocalMap {
   std::filesystem::path map_path() const { return dir_ / "map.db"; }
   std::string map_uri() const { return "sqlite:" + map_path().string(); }
   const SyncState& state() const { return state_; }
+
+  // SelectionDigest (map_chunks.h) of the installed selection as map.db holds it now, read
+  // back whole: what the robot reports at each hello, so a map damaged since its install shows.
+  // 0 when nothing is installed. Throws Error(kBackend) for I/O failures.
+  std::uint64_t ReadInstalledDigest() const;
+  // Records the outcome of the last sync for the next hello ("" after one that succeeded);
+  // written only when it changed.
+  void RecordSyncError(const std::string& error);
 
   // The nodes, edges and paths of map.db the server does not have, each kind ordered by UUID
   // (so the same content always encodes to the same chunks). Edges may reference known nodes.

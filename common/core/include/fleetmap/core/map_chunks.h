@@ -52,4 +52,36 @@ std::uint64_t DigestOfChunks(std::span<const std::string> chunks);
 // so a receiver checks each chunk before storing it.
 std::uint64_t DigestOfChunk(std::string_view chunk);
 
+// The digest of a selection of a map as a set (issue 38 item 2: which map a robot runs): the
+// sum, modulo 2^64, of a digest per element, so it does not depend on the order the elements
+// come in and follows a selection through incremental downloads (add what arrives, remove what
+// is dropped). A node's digest covers its id, stamp, robot, outing and landmark bytes (nearly
+// all of a map's bytes); an edge's its id, ends, kind and path, not its pose, whose doubles a
+// store may rebuild a last bit differently; a path's its id, robot, outing and times. Like
+// MapContentDigest it detects a different or damaged map, not a deliberate forgery.
+class SelectionDigest {
+ public:
+  void Add(const Node& node) { sum_ += Of(node); }
+  void Add(const Edge& edge) { sum_ += Of(edge); }
+  void Add(const Path& path) { sum_ += Of(path); }
+  void Add(const GraphBatch& map);
+  void Remove(const Node& node) { sum_ -= Of(node); }
+  void Remove(const Edge& edge) { sum_ -= Of(edge); }
+  void Remove(const Path& path) { sum_ -= Of(path); }
+  void Add(const SelectionDigest& other) { sum_ += other.sum_; }
+  std::uint64_t value() const { return sum_; }
+  static SelectionDigest From(std::uint64_t value) {
+    SelectionDigest digest;
+    digest.sum_ = value;
+    return digest;
+  }
+
+  static std::uint64_t Of(const Node& node);
+  static std::uint64_t Of(const Edge& edge);
+  static std::uint64_t Of(const Path& path);
+
+ private:
+  std::uint64_t sum_ = 0;
+};
+
 }  // namespace fleetmap

@@ -23,6 +23,17 @@ struct RobotStatus {
   std::int64_t added_ns = 0;    // registration time
   std::uint64_t pushes = 0;     // pushes accepted since the server started
   std::uint64_t downloads = 0;  // downloads streamed since the server started
+  // What it runs (issue 38 item 2; channel_registry.h RobotRelease), as the store said at the
+  // last refresh (every few seconds while the status is read).
+  std::string channel = "head";         // the channel it follows
+  std::int64_t installed_revision = 0;  // as it reported; 0: none
+  std::int64_t sent_revision = 0;       // the last download sent to it; 0: none
+  std::int64_t channel_revision = -1;   // its channel's revision now; -1: the channel is not set
+  bool behind_known = false;            // installed and channel revisions both known
+  std::int64_t behind = 0;              // channel_revision − installed_revision
+  bool map_differs = false;             // installed map's digest is not the one it was sent
+  std::string last_error;               // of a sync, the server's or its agent's
+  std::int64_t last_error_ns = 0;
 };
 
 // The submission the merge thread works on now.
@@ -96,6 +107,9 @@ struct FleetStatus {
 
   // Registered robots, by name.
   std::vector<RobotStatus> robots;
+  // Release channels (channel_registry.h) and the revision each names, by name ("head" not
+  // listed).
+  std::map<std::string, std::int64_t> channels;
 
   // The merge queue: submissions waiting (not counting the running one) and the running one.
   std::uint64_t queue_length = 0;

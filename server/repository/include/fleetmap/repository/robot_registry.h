@@ -9,6 +9,12 @@
 // its last sync is a setting of its own, "robot-sync/<uuid>", so recording it never rewrites
 // the credentials.
 //
+// What each robot runs (issue 38 item 2), kept the same way: "robot-sent/<uuid>", the last
+// download the server sent it (channel, revision, the digest of the selection it makes,
+// core/map_chunks.h SelectionDigest); "robot-map/<uuid>", what the robot last said it has
+// installed (its agent reports at each hello and after each install); "robot-error/<uuid>",
+// the last error of a sync of this robot, the server's or the one its agent reported.
+//
 // Threading: as the VersionStore it works on (one thread at a time); it holds no state of its
 // own, so several registries over several connections to one store agree.
 #pragma once
@@ -24,11 +30,33 @@
 
 namespace fleetmap {
 
+// A map as a robot has it, or as the server sent it.
+struct RobotMapRecord {
+  std::string channel;        // the channel it follows ("head" by default)
+  std::int64_t revision = 0;  // of the download
+  // SelectionDigest of the download's selection; 0: not known (the server could not follow an
+  // incremental download from a base it did not record).
+  std::uint64_t digest = 0;
+  std::int64_t at_ns = 0;  // UTC: when it was sent, or when the robot said so
+  friend bool operator==(const RobotMapRecord&, const RobotMapRecord&) = default;
+};
+
 struct RegisteredRobot {
   Uuid id;
   std::string name;
-  std::int64_t added_ns = 0;      // UTC
-  std::int64_t last_sync_ns = 0;  // UTC; 0: never synced
+  std::int64_t added_ns = 0;                // UTC
+  std::int64_t last_sync_ns = 0;            // UTC; 0: never synced
+  std::optional<RobotMapRecord> sent;       // the last download sent to it
+  std::optional<RobotMapRecord> installed;  // what it last reported installed
+  std::string last_error;                   // of a sync, the server's or its agent's; "" when none
+  std::int64_t last_error_ns = 0;
+
+  // The robot said it installed the revision it was last sent, but a map whose digest is not
+  // the one sent (both known): a damaged or diverged map, for a person to look at.
+  bool MapDiffers() const {
+    return sent && installed && sent->revision == installed->revision && sent->digest != 0 &&
+           installed->digest != 0 && sent->digest != installed->digest;
+  }
 };
 
 // Add's result: the robot and its token, which is not stored and cannot be shown again.
@@ -71,8 +99,15 @@ class RobotRegistry {
 
   // Records that `robot` synced at `now_ns` (kept across restarts).
   void RecordSync(const Uuid& robot, std::int64_t now_ns);
+  // Records the download sent to `robot`, and what the robot reports installed (replacing the
+  // last of each); and the last error of one of its syncs (text cut to 500 bytes).
+  void RecordSent(const Uuid& robot, const RobotMapRecord& sent);
+  void RecordInstalled(const Uuid& robot, const RobotMapRecord& installed);
+  void RecordError(const Uuid& robot, std::string_view error, std::int64_t now_ns);
 
  private:
+  // Fills in the robot's last sync, maps and error from their settings.
+  void AddActivity(RegisteredRobot& robot);
   VersionStore& versions_;
 };
 

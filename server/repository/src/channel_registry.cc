@@ -1,0 +1,235 @@
+#include "fleetmap/repository/channel_registry.h"
+
+#include <openssl/rand.h>
+
+#include <cstdio>
+#include <nlohmann/json.hpp>
+
+#include "fleetmap/core/error.h"
+#include "fleetmap/ebn/experience_map.h"
+#include "fleetmap/map_management/held_out_replay.h"
+
+namespace fleetmap {
+namespace {
+
+constexpr std::string_view kChannelPrefix = "channel/";
+constexpr std::string_view kChannelLogPrefix = "channel-log/";
+
+std::string ChannelKey(std::string_view name) {
+  return std::string(kChannelPrefix) + std::string(name);
+}
+std::string LogPrefix(std::string_view name) {
+  return std::string(kChannelLogPrefix) + std::string(name) + "/";
+}
+
+// "<at_ns, 19 digits>-<8 random hex digits>": moves list in the order they were made, and two
+// moves in one nanosecond do not overwrite each other.
+std::string LogKey(std::string_view name, std::int64_t at_ns) {
+  unsigned char random[4] = {};
+  if (RAND_bytes(random, sizeof random) != 1) {
+    throw Error(ErrorCode::kBackend, "channels: OpenSSL RAND_bytes found no randomness");
+  }
+  char suffix[48];
+  std::snprintf(suffix, sizeof suffix, "%019lld-%02x%02x%02x%02x", static_cast<long long>(at_ns),
+                random[0], random[1], random[2], random[3]);
+  return LogPrefix(name) + suffix;
+}
+
+nlohmann::json ScoreJson(const RevisionScore& score) {
+  return {{"revision", score.revision},
+          {"score", score.score},
+          {"frames", score.frames},
+          {"localised_frames", score.localised_frames}};
+}
+RevisionScore ScoreOf(const nlohmann::json& json) {
+  RevisionScore score;
+  score.revision = json.at("revision").get<RevisionNumber>();
+  score.score = json.at("score").get<double>();
+  score.frames = json.at("frames").get<std::size_t>();
+  score.localised_frames = json.at("localised_frames").get<std::size_t>();
+  return score;
+}
+
+Channel ParseChannel(std::string_view name, const std::string& value) {
+  try {
+    const nlohmann::json json = nlohmann::json::parse(value);
+    Channel channel;
+    channel.name = std::string(name);
+    channel.revision = json.at("revision").get<RevisionNumber>();
+    channel.moved_ns = json.at("moved_ns").get<std::int64_t>();
+    channel.moved_by = json.at("moved_by").get<std::string>();
+    return channel;
+  } catch (const nlohmann::json::exception& error) {
+    throw Error(ErrorCode::kCorrupt,
+                "channel " + std::string(name) + ": stored record: " + error.what());
+  }
+}
+
+ChannelMove ParseMove(std::string_view name, const std::string& value) {
+  try {
+    const nlohmann::json json = nlohmann::json::parse(value);
+    ChannelMove move;
+    move.channel = std::string(name);
+    move.from = json.at("from").get<RevisionNumber>();
+    move.to = json.at("to").get<RevisionNumber>();
+    move.who = json.at("who").get<std::string>();
+    move.at_ns = json.at("at_ns").get<std::int64_t>();
+    move.why = json.at("why").get<std::string>();
+    if (json.contains("held_out")) {
+      move.held_out = Uuid::Parse(json.at("held_out").get<std::string>());
+    }
+    if (json.contains("current")) move.current = ScoreOf(json.at("current"));
+    if (json.contains("proposed")) move.proposed = ScoreOf(json.at("proposed"));
+    return move;
+  } catch (const nlohmann::json::exception& error) {
+    throw Error(ErrorCode::kCorrupt,
+                "channel " + std::string(name) + ": stored move: " + error.what());
+  }
+}
+
+std::string ScoreText(const RevisionScore& score) {
+  char text[160];
+  std::snprintf(text, sizeof text, "revision %lld scores %.4f (%zu of %zu frames localised)",
+                static_cast<long long>(score.revision), score.score, score.localised_frames,
+                score.frames);
+  return text;
+}
+
+}  // namespace
+
+RevisionScore ChannelRegistry::Score(RevisionNumber revision, const ScoreCheck& check) {
+  const std::vector<HeldOutOuting> held_out =
+      HeldOutOutings(repository_.ReadSubmission(check.held_out));
+  const GraphBatch map = repository_.Checkout(revision);
+  std::shared_ptr<const AppearanceVocabulary> vocabulary = repository_.StoredVocabulary();
+  if (!vocabulary) {
+    throw Error(ErrorCode::kInvalidArgument,
+                "score check: the repository has no appearance vocabulary (nothing merged yet)");
+  }
+  const ExperienceMap experience_map = ExperienceMap::FromGraph(map.nodes, map.edges, vocabulary);
+  const HeldOutReplay replay =
+      ReplayHeldOut(experience_map, held_out, repository_.merge_options().localiser);
+  RevisionScore score;
+  score.revision = revision;
+  score.score = HeldOutScore(replay, check.gap_m);
+  score.frames = replay.frames;
+  score.localised_frames = replay.localised_frames;
+  return score;
+}
+
+ChannelMove ChannelRegistry::Set(std::string_view name, RevisionNumber to, const std::string& who,
+                                 const std::string& why, std::int64_t now_ns,
+                                 const std::optional<ScoreCheck>& check) {
+  ValidateChannelName(name);
+  if (name == kHeadChannel) {
+    throw Error(ErrorCode::kInvalidArgument,
+                "channel \"head\" always follows the head: it cannot be set");
+  }
+  if (who.empty()) throw Error(ErrorCode::kInvalidArgument, "channel move: no author");
+  const RevisionNumber head = repository_.Head();
+  if (to < 1 || to > head) {
+    throw Error(ErrorCode::kInvalidArgument,
+                "channel " + std::string(name) + ": revision " + std::to_string(to) +
+                    " is not in the history (1 ... " + std::to_string(head) + ")");
+  }
+  ChannelMove move;
+  move.channel = std::string(name);
+  move.to = to;
+  move.who = who;
+  move.at_ns = now_ns;
+  move.why = why;
+  const std::optional<Channel> current = Find(name);
+  move.from = current ? current->revision : 0;
+  if (move.from == to) return move;
+
+  if (check) {
+    if (!repository_.versions().FindSubmission(check->held_out)) {
+      throw Error(ErrorCode::kNotFound,
+                  "score check: no submission " + check->held_out.ToString() + " is stored");
+    }
+    move.held_out = check->held_out;
+    move.proposed = Score(to, *check);
+    if (current) {
+      move.current = Score(current->revision, *check);
+      if (move.proposed->score > move.current->score) {
+        throw Error(ErrorCode::kConflict,
+                    "channel " + std::string(name) + " stays at revision " +
+                        std::to_string(current->revision) + ": held-out submission " +
+                        check->held_out.ToString() + " localises worse at the new one (" +
+                        ScoreText(*move.proposed) + "; " + ScoreText(*move.current) +
+                        "; lower is better)");
+      }
+    }
+  }
+
+  nlohmann::json record = {{"from", move.from},
+                           {"to", move.to},
+                           {"who", move.who},
+                           {"at_ns", move.at_ns},
+                           {"why", move.why}};
+  if (move.held_out) record["held_out"] = move.held_out->ToString();
+  if (move.current) record["current"] = ScoreJson(*move.current);
+  if (move.proposed) record["proposed"] = ScoreJson(*move.proposed);
+  const nlohmann::json channel = {{"revision", to}, {"moved_ns", now_ns}, {"moved_by", who}};
+  auto transaction = repository_.store().Begin();
+  repository_.versions().PutSetting(LogKey(name, now_ns), record.dump());
+  repository_.versions().PutSetting(ChannelKey(name), channel.dump());
+  transaction.Commit();
+  return move;
+}
+
+std::vector<Channel> ChannelRegistry::List() {
+  std::vector<Channel> channels;
+  for (const auto& [key, value] : repository_.versions().ListSettings(kChannelPrefix)) {
+    channels.push_back(ParseChannel(std::string_view(key).substr(kChannelPrefix.size()), value));
+  }
+  return channels;  // ListSettings orders by key: by name
+}
+
+std::optional<Channel> ChannelRegistry::Find(std::string_view name) {
+  const std::optional<std::string> value = repository_.versions().FindSetting(ChannelKey(name));
+  if (!value) return std::nullopt;
+  return ParseChannel(name, *value);
+}
+
+std::vector<ChannelMove> ChannelRegistry::Log(std::string_view name) {
+  ValidateChannelName(name);
+  std::vector<ChannelMove> moves;
+  for (const auto& [key, value] : repository_.versions().ListSettings(LogPrefix(name))) {
+    moves.push_back(ParseMove(name, value));
+  }
+  return moves;
+}
+
+RobotRelease ReleaseOf(const RegisteredRobot& robot, RevisionNumber head,
+                       const std::vector<Channel>& channels) {
+  RobotRelease release;
+  release.channel = robot.installed ? robot.installed->channel
+                    : robot.sent    ? robot.sent->channel
+                                    : std::string(kHeadChannel);
+  if (robot.installed) release.installed = robot.installed->revision;
+  if (release.channel == kHeadChannel) {
+    release.target = head;
+  } else {
+    for (const Channel& channel : channels) {
+      if (channel.name == release.channel) release.target = channel.revision;
+    }
+  }
+  if (release.target && release.installed > 0) release.behind = *release.target - release.installed;
+  release.map_differs = robot.MapDiffers();
+  return release;
+}
+
+RevisionNumber ChannelRegistry::Resolve(std::string_view name) {
+  if (name.empty() || name == kHeadChannel) return repository_.Head();
+  ValidateChannelName(name);
+  const std::optional<Channel> channel = Find(name);
+  if (!channel) {
+    throw Error(ErrorCode::kNotFound, "no channel \"" + std::string(name) +
+                                          "\" is set here (fleetmap channel set " +
+                                          std::string(name) + " REVISION)");
+  }
+  return channel->revision;
+}
+
+}  // namespace fleetmap

@@ -1,0 +1,193 @@
+// Release channels and what each robot runs (issue 38 items 1-2; channel_registry.h,
+// robot_registry.h), on both stores: names and ranges refused by name, every move logged in
+// order, a score check that refuses a worse revision and changes nothing, robots' reports kept,
+// and the release figures (behind, map differs) each made to fail.
+#include "fleetmap/repository/channel_registry.h"
+
+#include <gtest/gtest.h>
+
+#include "corridor_robot_map.h"
+#include "expect_error.h"
+#include "fleetmap/core/error.h"
+#include "fleetmap/repository/repository.h"
+#include "fleetmap/repository/robot_registry.h"
+#include "store_backends.h"
+
+namespace fleetmap {
+namespace {
+
+using testing::BackendNames;
+using testing::StoreBackends;
+
+template <typename Backend>
+class ChannelRegistryTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    if (auto why = Backend::Unavailable()) GTEST_SKIP() << *why;
+    backend_.emplace();
+    RepositoryOptions options;
+    options.vocabulary = SharedCorridorVocabulary();
+    repository_ = Repository::Open(backend_->Uri(), options);
+  }
+
+  Uuid PushAndMerge(int condition, double start_m) {
+    const Uuid id = Uuid::Generate();
+    repository_->Push(id, Uuid::Generate(), "surveyor", CorridorRobotMap({{condition, start_m}}));
+    EXPECT_FALSE(repository_->Merge(id).already_merged);
+    return id;
+  }
+
+  std::optional<Backend> backend_;
+  std::unique_ptr<Repository> repository_;
+};
+TYPED_TEST_SUITE(ChannelRegistryTest, StoreBackends, BackendNames);
+
+TYPED_TEST(ChannelRegistryTest, MovesAreCheckedRecordedInOrderAndResolved) {
+  this->PushAndMerge(0, 0.0);
+  this->PushAndMerge(0, 30.0);
+  ChannelRegistry channels(*this->repository_);
+  EXPECT_EQ(channels.Resolve("head"), 2);
+  EXPECT_EQ(channels.Resolve(""), 2);
+  ExpectError(
+      ErrorCode::kNotFound, [&] { channels.Resolve("stable"); }, "fleetmap channel set");
+
+  ExpectError(
+      ErrorCode::kInvalidArgument, [&] { channels.Set("head", 1, "ops", "", 1); },
+      "always follows the head");
+  for (const char* bad : {"", "Stable", "a b", "x/y", "0123456789012345678901234567890123"}) {
+    SCOPED_TRACE(bad);
+    ExpectError(
+        ErrorCode::kInvalidArgument, [&] { channels.Set(bad, 1, "ops", "", 1); }, "channel name");
+  }
+  ExpectError(
+      ErrorCode::kInvalidArgument, [&] { channels.Set("stable", 0, "ops", "", 1); }, "1 ... 2");
+  ExpectError(
+      ErrorCode::kInvalidArgument, [&] { channels.Set("stable", 3, "ops", "", 1); },
+      "not in the history");
+  ExpectError(
+      ErrorCode::kInvalidArgument, [&] { channels.Set("stable", 1, "", "", 1); }, "no author");
+  EXPECT_TRUE(channels.List().empty());
+
+  const ChannelMove first = channels.Set("stable", 1, "ops", "first release", 100);
+  EXPECT_EQ(first.from, 0);
+  EXPECT_EQ(first.to, 1);
+  const ChannelMove second = channels.Set("stable", 2, "alice", "route checked", 200);
+  EXPECT_EQ(second.from, 1);
+  const ChannelMove same = channels.Set("stable", 2, "bob", "again", 300);
+  EXPECT_EQ(same.from, 2);
+  EXPECT_EQ(same.to, 2);
+  channels.Set("canary", 2, "ops", "", 150);
+
+  EXPECT_EQ(channels.Resolve("stable"), 2);
+  const std::vector<Channel> listed = channels.List();
+  ASSERT_EQ(listed.size(), 2u);
+  EXPECT_EQ(listed[0].name, "canary");
+  EXPECT_EQ(listed[1].name, "stable");
+  EXPECT_EQ(listed[1].moved_by, "alice");
+  EXPECT_EQ(listed[1].moved_ns, 200);
+  const std::vector<ChannelMove> log = channels.Log("stable");
+  ASSERT_EQ(log.size(), 2u) << "a move to the same revision is not recorded";
+  EXPECT_EQ(log[0].who, "ops");
+  EXPECT_EQ(log[0].why, "first release");
+  EXPECT_EQ(log[0].at_ns, 100);
+  EXPECT_EQ(log[1].from, 1);
+  EXPECT_EQ(log[1].to, 2);
+  EXPECT_EQ(log[1].who, "alice");
+  EXPECT_TRUE(channels.Log("never").empty());
+}
+
+TYPED_TEST(ChannelRegistryTest, AScoreCheckRefusesAWorseRevisionAndChangesNothing) {
+  this->PushAndMerge(0, 0.0);                         // 1: day
+  this->PushAndMerge(1, 0.0);                         // 2: night
+  const Uuid held_out = this->PushAndMerge(1, 10.0);  // 3: night again, the held-out data
+  ChannelRegistry channels(*this->repository_);
+  const ScoreCheck check{held_out, 10.0};
+  const RevisionScore day = channels.Score(1, check);
+  const RevisionScore night = channels.Score(2, check);
+  EXPECT_GT(day.score, night.score) << "the day map localises the night worse";
+  EXPECT_LT(day.localised_frames, night.localised_frames);
+  EXPECT_EQ(day.frames, night.frames);
+
+  // A new channel has nothing to compare with: the check scores and records.
+  const ChannelMove set = channels.Set("stable", 2, "ops", "", 10, check);
+  ASSERT_TRUE(set.proposed);
+  EXPECT_FALSE(set.current);
+  EXPECT_DOUBLE_EQ(set.proposed->score, night.score);
+
+  ExpectError(
+      ErrorCode::kConflict, [&] { channels.Set("stable", 1, "ops", "", 20, check); },
+      "stays at revision 2");
+  EXPECT_EQ(channels.Resolve("stable"), 2);
+  EXPECT_EQ(channels.Log("stable").size(), 1u);
+  ExpectError(
+      ErrorCode::kNotFound,
+      [&] { channels.Set("stable", 3, "ops", "", 30, ScoreCheck{Uuid::Generate()}); },
+      "no submission");
+  EXPECT_EQ(channels.Resolve("stable"), 2);
+
+  const ChannelMove forward = channels.Set("stable", 3, "ops", "", 40, check);
+  ASSERT_TRUE(forward.current && forward.proposed);
+  EXPECT_LE(forward.proposed->score, forward.current->score);
+  const std::vector<ChannelMove> log = channels.Log("stable");
+  ASSERT_EQ(log.size(), 2u);
+  ASSERT_TRUE(log[1].held_out && log[1].current && log[1].proposed);
+  EXPECT_EQ(*log[1].held_out, held_out);
+  EXPECT_EQ(log[1].current->revision, 2);
+  EXPECT_DOUBLE_EQ(log[1].current->score, forward.current->score);
+}
+
+TYPED_TEST(ChannelRegistryTest, RobotReportsAreKeptAndJudged) {
+  this->PushAndMerge(0, 0.0);
+  this->PushAndMerge(0, 30.0);
+  this->PushAndMerge(0, 60.0);
+  ChannelRegistry channels(*this->repository_);
+  channels.Set("stable", 1, "ops", "", 1);
+  RobotRegistry robots(this->repository_->versions());
+  const Uuid id = robots.Add("scout", 5).robot.id;
+
+  RegisteredRobot robot = *robots.Find(id);
+  EXPECT_FALSE(robot.sent || robot.installed);
+  RobotRelease release = ReleaseOf(robot, 3, channels.List());
+  EXPECT_EQ(release.channel, "head");
+  EXPECT_EQ(release.target, 3);
+  EXPECT_FALSE(release.behind) << "nothing installed";
+  EXPECT_FALSE(release.map_differs);
+
+  robots.RecordSent(id, {"stable", 1, 0xfeedULL, 10});
+  robots.RecordInstalled(id, {"stable", 1, 0xfeedULL, 11});
+  robots.RecordError(id, "agent: link reset", 12);
+  robot = *robots.Find(id);
+  ASSERT_TRUE(robot.sent && robot.installed);
+  EXPECT_EQ(*robot.sent, (RobotMapRecord{"stable", 1, 0xfeedULL, 10}));
+  EXPECT_EQ(robot.last_error, "agent: link reset");
+  EXPECT_EQ(robot.last_error_ns, 12);
+  release = ReleaseOf(robot, 3, channels.List());
+  EXPECT_EQ(release.channel, "stable");
+  EXPECT_EQ(release.target, 1);
+  EXPECT_EQ(release.behind, 0);
+  EXPECT_FALSE(release.map_differs);
+
+  // The channel moves on: two behind. A digest other than the one sent: flagged; an unknown one
+  // (0) or another revision: not judged.
+  channels.Set("stable", 3, "ops", "", 2);
+  release = ReleaseOf(*robots.Find(id), 3, channels.List());
+  EXPECT_EQ(release.behind, 2);
+  robots.RecordInstalled(id, {"stable", 1, 0xbeefULL, 13});
+  EXPECT_TRUE(ReleaseOf(*robots.Find(id), 3, channels.List()).map_differs);
+  EXPECT_TRUE(robots.List()[0].MapDiffers());
+  robots.RecordSent(id, {"stable", 1, 0, 14});
+  EXPECT_FALSE(robots.Find(id)->MapDiffers());
+  robots.RecordSent(id, {"stable", 3, 0xbeefULL + 1, 15});
+  EXPECT_FALSE(robots.Find(id)->MapDiffers());
+  // A channel that is no longer known has no target.
+  robots.RecordInstalled(id, {"retired", 3, 1, 16});
+  release = ReleaseOf(*robots.Find(id), 3, channels.List());
+  EXPECT_FALSE(release.target);
+  EXPECT_FALSE(release.behind);
+  // Long errors are cut.
+  robots.RecordError(id, std::string(2000, 'x'), 17);
+  EXPECT_EQ(robots.Find(id)->last_error.size(), 500u);
+}
+
+}  // namespace
+}  // namespace fleetmap
