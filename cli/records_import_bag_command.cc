@@ -1,6 +1,6 @@
-// `fleetmap records import-bag FILE.bag`: a ROS 1 bag's stereo images, camera calibration, IMU
-// and GNSS messages into record files under a root and the sensor index
-// (fleetmap/stereo/ros_bag_import.h). Prints what became of every topic of the bag.
+// `fleetmap records import-bag FILE`: a ROS 1 bag's or an MCAP file's (rosbag2) stereo images,
+// camera calibration, IMU and GNSS messages into record files under a root and the sensor index
+// (fleetmap/stereo/ros_bag_import.h). Prints what became of every topic of the file.
 #include <CLI/CLI.hpp>
 #include <cstdio>
 #include <iostream>
@@ -25,9 +25,9 @@ struct ImportBagArgs {
 };
 
 void PrintSummary(const RosBagImportResult& r, const std::string& uri) {
-  std::printf("%-40s %-24s %9s  %s\n", "topic", "type", "messages", "imported as");
+  std::printf("%-40s %-32s %9s  %s\n", "topic", "type", "messages", "imported as");
   for (const RosBagTopicUse& t : r.topics) {
-    std::printf("%-40s %-24s %9llu  %s\n", t.topic.c_str(), t.type.c_str(),
+    std::printf("%-40s %-32s %9llu  %s\n", t.topic.c_str(), t.type.c_str(),
                 static_cast<unsigned long long>(t.messages), t.use.c_str());
   }
   std::printf("%s written", Count(r.pairs, "stereo pair").c_str());
@@ -72,30 +72,41 @@ void AddRecordsImportBagCommand(CLI::App& records) {
   auto args = std::make_shared<ImportBagArgs>();
   CLI::App* cmd = records.add_subcommand(
       "import-bag",
-      "Import a ROS 1 bag's stereo images, calibration, IMU and GPS into record files");
+      "Import a ROS 1 bag's or an MCAP file's stereo images, calibration, IMU and GPS into "
+      "record files");
   cmd->footer(
-      "Reads a ROS bag (format 2.0; chunks uncompressed, bz2 or lz4) and writes, under --root in "
-      "the layout PLATFORM/SENSOR/YYYY-MM-DD/..., one record file per sensor, indexed in --store:\n"
-      "  stereo pairs: two sensor_msgs/Image topics (--left-topic, --right-topic; by default the "
-      "bag's two image topics when their names say left and right), frames paired by header "
-      "stamp within --pair-tolerance-ms, as fleetmap.v1.StereoImagePair records holding PNG "
-      "images (lossless; encodings mono8, mono16, rgb8, bgr8); unpaired frames are counted;\n"
+      "Reads a ROS 1 bag (format 2.0; chunks uncompressed, bz2 or lz4) or an MCAP file (rosbag2's "
+      "format since ROS 2 Iron; chunks uncompressed, lz4 or zstd; ROS 2 messages in CDR), told "
+      "apart by their first bytes, and writes, under --root in the layout "
+      "PLATFORM/SENSOR/YYYY-MM-DD/..., one record file per sensor, indexed in --store (the types "
+      "below are ROS 2's sensor_msgs/msg/... in an MCAP file):\n"
+      "  stereo pairs: two camera topics, each sensor_msgs/Image or sensor_msgs/CompressedImage "
+      "(--left-topic, --right-topic; by default the bag's two Image topics, else its Image and "
+      "CompressedImage topics if they are two, when their names say left and right), frames "
+      "paired by header stamp within --pair-tolerance-ms, as fleetmap.v1.StereoImagePair "
+      "records holding PNG images (lossless; encodings mono8, mono16, rgb8, bgr8; compressed "
+      "formats png, jpeg and image_transport's \"ENC; png compressed ENC\", \"ENC; jpeg "
+      "compressed ENC\", decoded by OpenCV); unpaired frames are counted;\n"
       "  calibration: the first sensor_msgs/CameraInfo of each camera (by default the "
-      "camera_info topic beside each image topic) as EuRoC sensor.yaml files beside the stereo "
+      "camera_info topic beside each image topic, or beside IMAGE of IMAGE/compressed) as "
+      "EuRoC sensor.yaml files beside the stereo "
       "log (K and D; the right camera's pose from R and the baseline in P);\n"
       "  IMU and GPS: the bag's sensor_msgs/Imu and sensor_msgs/NavSatFix topic (--imu-topic, "
       "--gps-topic when it has several) as fleetmap.v1.ImuSample and fleetmap.v1.GpsFix.\n"
       "Records carry the header stamp (the receive time when it is 0). Other topics are skipped; "
       "the summary lists every topic with its messages and what it became. A missing, torn or "
-      "corrupt bag, an unsupported compression or image encoding, or a topic that is missing or "
+      "corrupt bag, an unsupported compression, image encoding or compressed format, a "
+      "compressed image that does not decode, or a topic that is missing or "
       "of another type is named in the error; on any error nothing is written under the root "
       "and nothing is indexed. Importing a bag twice is refused (conflict).");
-  cmd->add_option("bag", args->bag, "The ROS bag (.bag)")->required();
+  cmd->add_option("bag", args->bag, "The ROS 1 bag (.bag) or MCAP file (.mcap)")->required();
   cmd->add_option("--root", args->root, "The repository root of record files")->required();
   cmd->add_option("--platform", args->options.platform, "The platform that recorded the bag")
       ->required();
-  cmd->add_option("--left-topic", args->options.left_topic, "The left camera's Image topic");
-  cmd->add_option("--right-topic", args->options.right_topic, "The right camera's Image topic");
+  cmd->add_option("--left-topic", args->options.left_topic,
+                  "The left camera's Image or CompressedImage topic");
+  cmd->add_option("--right-topic", args->options.right_topic,
+                  "The right camera's Image or CompressedImage topic");
   cmd->add_option("--left-info-topic", args->options.left_info_topic,
                   "The left camera's CameraInfo topic [default: camera_info beside its images]");
   cmd->add_option("--right-info-topic", args->options.right_info_topic,

@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <opencv2/imgcodecs.hpp>
 #include <string>
 #include <vector>
 
@@ -57,6 +58,25 @@ TEST(RosSensorMsgs, ImageWhoseDataIsShorterThanItsRowsIsRefused) {
   m.data.resize(m.data.size() - 1);
   ExpectError(
       ErrorCode::kCorrupt, [&] { DecodeRosImage(SerialiseWithRos(m)); }, "fewer than step");
+}
+
+TEST(RosSensorMsgs, CompressedImageComesBackFieldByField) {
+  testing::TestCompressedImage m;
+  m.stamp_ns = kBagStartNs + 42;
+  m.frame_id = "left_camera";
+  m.format = "mono8; png compressed mono8";
+  cv::Mat pixels(6, 8, CV_8UC1);
+  cv::randu(pixels, 0, 255);
+  std::vector<unsigned char> png;
+  ASSERT_TRUE(cv::imencode(".png", pixels, png));
+  m.data.assign(png.begin(), png.end());
+  const std::string bytes = SerialiseWithRos(m);
+  const RosCompressedImage image = DecodeRosCompressedImage(bytes);
+  EXPECT_EQ(image.header.stamp_ns, kBagStartNs + 42);
+  EXPECT_EQ(image.header.frame_id, "left_camera");
+  EXPECT_EQ(image.format, m.format);
+  EXPECT_EQ(image.data, m.data);
+  ExpectEveryCutRefused(bytes, "sensor_msgs/CompressedImage", DecodeRosCompressedImage);
 }
 
 TEST(RosSensorMsgs, CameraInfoComesBackFieldByField) {
@@ -117,6 +137,7 @@ TEST(RosSensorMsgs, NavSatFixComesBackFieldByField) {
 // The md5sums fleetmap checks connections against are the ones ROS's generated types carry.
 TEST(RosSensorMsgs, Md5sumsAreRosOwn) {
   EXPECT_EQ(kRosImageMd5, testing::RosMd5Sum("sensor_msgs/Image"));
+  EXPECT_EQ(kRosCompressedImageMd5, testing::RosMd5Sum("sensor_msgs/CompressedImage"));
   EXPECT_EQ(kRosCameraInfoMd5, testing::RosMd5Sum("sensor_msgs/CameraInfo"));
   EXPECT_EQ(kRosImuMd5, testing::RosMd5Sum("sensor_msgs/Imu"));
   EXPECT_EQ(kRosNavSatFixMd5, testing::RosMd5Sum("sensor_msgs/NavSatFix"));

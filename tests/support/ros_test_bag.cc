@@ -5,6 +5,7 @@
 #include <ros/serialization.h>
 #include <rosbag/bag.h>
 #include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/CompressedImage.h>
 #include <sensor_msgs/Image.h>
 #include <sensor_msgs/Imu.h>
 #include <sensor_msgs/NavSatFix.h>
@@ -37,6 +38,14 @@ sensor_msgs::Image ToRos(const TestImage& m) {
   out.encoding = m.encoding;
   out.is_bigendian = m.is_bigendian ? 1 : 0;
   out.step = m.step;
+  out.data.assign(m.data.begin(), m.data.end());
+  return out;
+}
+
+sensor_msgs::CompressedImage ToRos(const TestCompressedImage& m) {
+  sensor_msgs::CompressedImage out;
+  out.header = ToRos(RosHeader{0, m.stamp_ns, m.frame_id});
+  out.format = m.format;
   out.data.assign(m.data.begin(), m.data.end());
   return out;
 }
@@ -109,6 +118,9 @@ std::string Serialise(const M& m) {
 std::int64_t StampOf(const TestImage& m) {
   return m.stamp_ns;
 }
+std::int64_t StampOf(const TestCompressedImage& m) {
+  return m.stamp_ns;
+}
 template <typename M>
 std::int64_t StampOf(const M& m) {
   return m.header.stamp_ns;
@@ -135,6 +147,8 @@ void WriteRosBag(const std::filesystem::path& file, const StereoBagContent& c,
   };
   add(c.left_topic, c.left);
   add(c.right_topic, c.right);
+  add(c.left_compressed_topic, c.left_compressed);
+  add(c.right_compressed_topic, c.right_compressed);
   add(c.left_info_topic, c.left_info);
   add(c.right_info_topic, c.right_info);
   add(c.imu_topic, c.imu);
@@ -149,6 +163,9 @@ void WriteRosBag(const std::filesystem::path& file, const StereoBagContent& c,
 std::string SerialiseWithRos(const TestImage& m) {
   return Serialise(ToRos(m));
 }
+std::string SerialiseWithRos(const TestCompressedImage& m) {
+  return Serialise(ToRos(m));
+}
 std::string SerialiseWithRos(const RosCameraInfo& m) {
   return Serialise(ToRos(m));
 }
@@ -161,6 +178,9 @@ std::string SerialiseWithRos(const RosNavSatFix& m) {
 
 std::string RosMd5Sum(std::string_view type) {
   if (type == "sensor_msgs/Image") return ros::message_traits::md5sum<sensor_msgs::Image>();
+  if (type == "sensor_msgs/CompressedImage") {
+    return ros::message_traits::md5sum<sensor_msgs::CompressedImage>();
+  }
   if (type == "sensor_msgs/CameraInfo") {
     return ros::message_traits::md5sum<sensor_msgs::CameraInfo>();
   }

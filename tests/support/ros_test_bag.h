@@ -7,8 +7,8 @@
 // everything that touches them is in ros_test_bag.cc, built as C++17 (the library
 // fleetmap_ros_test_bag); this header, included by both, is plain C++17 without ROS. Messages
 // are described with fleetmap's own decoded structs (RosCameraInfo, RosImu, RosNavSatFix) and,
-// for images, TestImage (which owns its pixels); the writer copies them field by field into
-// sensor_msgs types.
+// for images, TestImage and TestCompressedImage (which own their bytes); the writer copies them
+// field by field into sensor_msgs types.
 //
 // StereoBagContent holds what a stereo robot records: left and right images paired by stamp
 // (the right one a little later, as two cameras triggered together stamp their frames), each
@@ -42,14 +42,27 @@ struct TestImage {
   std::string data;
 };
 
+// A sensor_msgs/CompressedImage that owns its bytes.
+struct TestCompressedImage {
+  std::int64_t stamp_ns = 0;
+  std::string frame_id = "camera";
+  std::string format;  // "png", "mono8; png compressed mono8", ...
+  std::string data;
+};
+
+// Images go on left_topic / right_topic, compressed images (image_transport's compressed
+// topics) on left_compressed_topic / right_compressed_topic.
 struct StereoBagContent {
   std::string left_topic = "/stereo/left/image_raw";
   std::string right_topic = "/stereo/right/image_raw";
+  std::string left_compressed_topic = "/stereo/left/image_raw/compressed";
+  std::string right_compressed_topic = "/stereo/right/image_raw/compressed";
   std::string left_info_topic = "/stereo/left/camera_info";
   std::string right_info_topic = "/stereo/right/camera_info";
   std::string imu_topic = "/imu/data";
   std::string gps_topic = "/gps/fix";
   std::vector<TestImage> left, right;
+  std::vector<TestCompressedImage> left_compressed, right_compressed;
   std::vector<RosCameraInfo> left_info, right_info;
   std::vector<RosImu> imu;
   std::vector<RosNavSatFix> gps;
@@ -65,6 +78,7 @@ void WriteRosBag(const std::filesystem::path& file, const StereoBagContent& c,
 
 // A message serialised by ROS (ros::serialization of the sensor_msgs type).
 std::string SerialiseWithRos(const TestImage& m);
+std::string SerialiseWithRos(const TestCompressedImage& m);
 std::string SerialiseWithRos(const RosCameraInfo& m);
 std::string SerialiseWithRos(const RosImu& m);
 std::string SerialiseWithRos(const RosNavSatFix& m);

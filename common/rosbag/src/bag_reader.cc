@@ -16,6 +16,7 @@
 #include "byte_cursor.h"
 #include "chunk_decompression.h"
 #include "fleetmap/core/error.h"
+#include "printable_bytes.h"
 
 namespace fleetmap {
 namespace {
@@ -34,21 +35,6 @@ constexpr std::uint32_t kMaxChunkBytes = std::uint32_t{1} << 30;
 
 bool IsOp(const BagFields& fields, BagOp op) {
   return fields.Op() == static_cast<std::uint8_t>(op);
-}
-
-// The first bytes of a file that is not a bag, printable: what the user sees instead.
-std::string Printable(std::string_view bytes) {
-  std::string out;
-  for (const char c : bytes.substr(0, 16)) {
-    if (c >= 0x20 && c < 0x7f && c != '"' && c != '\\') {
-      out += c;
-    } else {
-      char hex[8];
-      std::snprintf(hex, sizeof hex, "\\x%02x", static_cast<unsigned char>(c));
-      out += hex;
-    }
-  }
-  return out;
 }
 
 // A record read from the file (not from a chunk): its header bytes, parsed fields and data.
@@ -165,12 +151,13 @@ struct RosBagReader::Impl {
     if (!head.starts_with(kMagic)) {
       if (head.starts_with("#ROSBAG V") || head.starts_with("#ROSRECORD V")) {
         throw Error(ErrorCode::kInvalidArgument,
-                    name + ": a ROS bag of another format version (it begins \"" + Printable(head) +
+                    name + ": a ROS bag of another format version (it begins \"" +
+                        internal::PrintableBytes(head) +
                         "\"); only version 2.0 (\"#ROSBAG V2.0\") is read");
       }
       throw Error(
           ErrorCode::kInvalidArgument,
-          name + ": not a ROS bag: it begins \"" + Printable(head) +
+          name + ": not a ROS bag: it begins \"" + internal::PrintableBytes(head) +
               "\" where a ROS bag 2.0 begins \"#ROSBAG V2.0\"" +
               (size < kMagic.size() ? " (the file has " + std::to_string(size) + " bytes)" : ""));
     }

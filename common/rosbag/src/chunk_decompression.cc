@@ -1,8 +1,9 @@
-// Chunk decompression for ROS bags (chunk_decompression.h).
+// Chunk decompression for ROS bags and MCAP files (chunk_decompression.h).
 #include "chunk_decompression.h"
 
 #include <bzlib.h>
 #include <lz4frame.h>
+#include <zstd.h>
 
 #include <climits>
 #include <memory>
@@ -23,7 +24,7 @@ namespace {
 constexpr std::size_t kScratchBytes = std::size_t{1} << 16;
 
 // Appends `n` bytes of `scratch` to `out`, refusing output beyond the chunk's `size`.
-void AppendWithin(std::string& out, const char* scratch, std::size_t n, std::uint32_t size,
+void AppendWithin(std::string& out, const char* scratch, std::size_t n, std::uint64_t size,
                   std::string_view codec, const std::string& context) {
   if (n > size - out.size()) {
     Undecodable(context, std::string(codec) + " data decompress to more than the chunk's size " +
@@ -67,7 +68,7 @@ std::string Bz2(std::string_view compressed, std::uint32_t size, const std::stri
   return out;
 }
 
-std::string Lz4(std::string_view compressed, std::uint32_t size, const std::string& context) {
+std::string Lz4(std::string_view compressed, std::uint64_t size, const std::string& context) {
   LZ4F_dctx* raw = nullptr;
   if (LZ4F_isError(LZ4F_createDecompressionContext(&raw, LZ4F_VERSION))) {
     throw Error(ErrorCode::kBackend, context + ": cannot create an LZ4 decompression context");
@@ -102,6 +103,32 @@ std::string Lz4(std::string_view compressed, std::uint32_t size, const std::stri
   return out;
 }
 
+std::string Zstd(std::string_view compressed, std::uint64_t size, const std::string& context) {
+  const std::unique_ptr<ZSTD_DCtx, decltype(&ZSTD_freeDCtx)> dctx(ZSTD_createDCtx(),
+                                                                  &ZSTD_freeDCtx);
+  if (!dctx) throw Error(ErrorCode::kBackend, context + ": cannot create a zstd decompressor");
+  std::string out;
+  std::unique_ptr<char[]> scratch(new char[kScratchBytes]);
+  ZSTD_inBuffer in{compressed.data(), compressed.size(), 0};
+  std::size_t hint = 1;  // 0 once a frame is complete
+  for (;;) {
+    ZSTD_outBuffer piece{scratch.get(), kScratchBytes, 0};
+    hint = ZSTD_decompressStream(dctx.get(), &piece, &in);
+    if (ZSTD_isError(hint)) {
+      Undecodable(context, std::string("zstd data do not decompress: ") + ZSTD_getErrorName(hint));
+    }
+    AppendWithin(out, scratch.get(), piece.pos, size, "zstd", context);
+    // Done when the input is used up and the output buffer was not filled (nothing held back).
+    if (in.pos == in.size && piece.pos < piece.size) break;
+  }
+  if (hint != 0) Undecodable(context, "zstd frame cut short (the chunk ends inside it)");
+  if (out.size() != size) {
+    Undecodable(context, "zstd data decompress to " + std::to_string(out.size()) +
+                             " bytes, not the chunk's size " + std::to_string(size));
+  }
+  return out;
+}
+
 }  // namespace
 
 std::string DecompressChunk(std::string_view compression, std::string_view compressed,
@@ -118,6 +145,22 @@ std::string DecompressChunk(std::string_view compression, std::string_view compr
   throw Error(ErrorCode::kInvalidArgument,
               context + ": unsupported compression '" + std::string(compression) +
                   "' (supported: " + kSupportedChunkCompressions + ")");
+}
+
+std::string DecompressMcapChunk(std::string_view compression, std::string_view compressed,
+                                std::uint64_t size, const std::string& context) {
+  if (compression.empty()) {
+    if (compressed.size() != size) {
+      Undecodable(context, "uncompressed chunk of " + std::to_string(compressed.size()) +
+                               " bytes, but its uncompressed size says " + std::to_string(size));
+    }
+    return std::string(compressed);
+  }
+  if (compression == "lz4") return Lz4(compressed, size, context);
+  if (compression == "zstd") return Zstd(compressed, size, context);
+  throw Error(ErrorCode::kInvalidArgument, context + ": unsupported compression '" +
+                                               std::string(compression) +
+                                               "' (supported: " + kSupportedMcapCompressions + ")");
 }
 
 }  // namespace fleetmap::internal

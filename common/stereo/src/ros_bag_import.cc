@@ -1,4 +1,4 @@
-// A ROS 1 bag into record files and the sensor index (ros_bag_import.h).
+// A ROS 1 bag or an MCAP file into record files and the sensor index (ros_bag_import.h).
 #include "fleetmap/stereo/ros_bag_import.h"
 
 #include <algorithm>
@@ -13,7 +13,7 @@
 #include "camera_info_calibration.h"
 #include "fleetmap/core/error.h"
 #include "fleetmap/records/record_layout.h"
-#include "fleetmap/rosbag/bag_reader.h"
+#include "fleetmap/rosbag/recording_reader.h"
 #include "fleetmap/rosbag/sensor_msgs.h"
 #include "fleetmap/sensors.pb.h"
 #include "fleetmap/stereo/stereo_image_log.h"
@@ -29,18 +29,13 @@ namespace fs = std::filesystem;
 using internal::StagedRecordFile;
 using internal::StereoFrame;
 
-constexpr std::string_view kImageType = "sensor_msgs/Image";
-constexpr std::string_view kCameraInfoType = "sensor_msgs/CameraInfo";
-constexpr std::string_view kImuType = "sensor_msgs/Imu";
-constexpr std::string_view kNavSatFixType = "sensor_msgs/NavSatFix";
-
-std::string_view Md5Of(std::string_view type) {
-  if (type == kImageType) return kRosImageMd5;
-  if (type == kCameraInfoType) return kRosCameraInfoMd5;
-  if (type == kImuType) return kRosImuMd5;
-  if (type == kNavSatFixType) return kRosNavSatFixMd5;
-  return {};
-}
+// The file being imported: how messages name it ("ROS bag x.bag", "MCAP file x.mcap") and the
+// type names of its format ("sensor_msgs/Image", "sensor_msgs/msg/Image").
+struct ImportedFile {
+  const RecordingReader& reader;
+  std::string label;
+  std::string Type(SensorMsgType type) const { return std::string(reader.TypeName(type)); }
+};
 
 enum class Role { kSkip, kLeft, kRight, kLeftInfo, kRightInfo, kImu, kGps };
 
@@ -66,8 +61,9 @@ std::string RoleName(Role role) {
 
 // The bag's topics (a topic recorded from several publishers has several connections).
 struct Topic {
-  std::string type;
-  std::string md5sum;
+  std::string type;  // as recorded
+  SensorMsgType sensor_type = SensorMsgType::kOther;
+  std::string undecodable;  // why its messages cannot be decoded (recording_reader.h)
   std::uint64_t messages = 0;
   Role role = Role::kSkip;
 };
@@ -85,36 +81,57 @@ std::string List(const std::vector<std::string>& names) {
   return out.empty() ? "none" : out;
 }
 
-std::vector<std::string> TopicsOfType(const Topics& topics, std::string_view type) {
+std::vector<std::string> TopicsOfType(const Topics& topics, SensorMsgType type) {
   std::vector<std::string> out;
   for (const auto& [name, t] : topics) {
-    if (t.type == type) out.push_back(name);
+    if (t.sensor_type == type) out.push_back(name);
   }
   return out;
 }
 
-// Gives `topic` its role, checking it is in the bag with `type` and ROS's definition of it.
-void Assign(Topics& topics, const std::string& topic, std::string_view type, Role role,
-            const std::string& option, const std::string& bag) {
+// The bag's image topics, Image and CompressedImage, with the types' names ("its
+// sensor_msgs/Image topics: a, b; its sensor_msgs/CompressedImage topics: c").
+std::string ImageTopicList(const Topics& topics, const ImportedFile& source) {
+  std::string out = "its " + source.Type(SensorMsgType::kImage) +
+                    " topics: " + List(TopicsOfType(topics, SensorMsgType::kImage));
+  const std::vector<std::string> compressed = TopicsOfType(topics, SensorMsgType::kCompressedImage);
+  if (!compressed.empty()) {
+    out += "; its " + source.Type(SensorMsgType::kCompressedImage) + " topics: " + List(compressed);
+  }
+  return out;
+}
+
+// Gives `topic` its role, checking it is in the bag with one of `types` (a camera: Image or
+// CompressedImage; else one type) and a definition the import decodes.
+void Assign(Topics& topics, const std::string& topic, const std::vector<SensorMsgType>& types,
+            Role role, const std::string& option, const ImportedFile& source) {
+  std::string names;
+  for (const SensorMsgType type : types) {
+    names += (names.empty() ? "" : " or ") + source.Type(type);
+  }
   const auto it = topics.find(topic);
   if (it == topics.end()) {
-    throw Error(ErrorCode::kInvalidArgument, "ROS bag " + bag + " has no topic " + topic + " (" +
-                                                 option + "); its " + std::string(type) +
-                                                 " topics: " + List(TopicsOfType(topics, type)));
+    throw Error(
+        ErrorCode::kInvalidArgument,
+        source.label + " has no topic " + topic + " (" + option + "); " +
+            (types.size() > 1
+                 ? ImageTopicList(topics, source)
+                 : "its " + names + " topics: " + List(TopicsOfType(topics, types.front()))));
   }
-  if (it->second.type != type) {
-    throw Error(ErrorCode::kInvalidArgument, "ROS bag " + bag + ": topic " + topic + " (" + option +
-                                                 ") is " + it->second.type + ", not " +
-                                                 std::string(type));
+  if (std::find(types.begin(), types.end(), it->second.sensor_type) == types.end()) {
+    throw Error(ErrorCode::kInvalidArgument, source.label + ": topic " + topic + " (" + option +
+                                                 ") is " + it->second.type + ", not " + names);
   }
-  if (it->second.md5sum != Md5Of(type)) {
-    throw Error(ErrorCode::kInvalidArgument,
-                "ROS bag " + bag + ": topic " + topic + " is " + std::string(type) +
-                    " with md5sum " + it->second.md5sum + ", not ROS 1's definition (" +
-                    std::string(Md5Of(type)) + "); it cannot be decoded");
+  if (!it->second.undecodable.empty()) {
+    throw Error(ErrorCode::kInvalidArgument, source.label + ": topic " + topic + " is " +
+                                                 it->second.type + " " + it->second.undecodable +
+                                                 "; it cannot be decoded");
   }
   it->second.role = role;
 }
+
+const std::vector<SensorMsgType> kCameraTypes = {SensorMsgType::kImage,
+                                                 SensorMsgType::kCompressedImage};
 
 // Which of two image topic names is the left camera's: +1 the first, -1 the second, 0 unknown.
 int LeftOfTwo(const std::string& a, const std::string& b) {
@@ -133,16 +150,40 @@ int LeftOfTwo(const std::string& a, const std::string& b) {
   return 0;
 }
 
-// "/cam/left/image_raw" -> "/cam/left/camera_info".
-std::string InfoBeside(const std::string& image_topic) {
-  const std::size_t slash = image_topic.rfind('/');
-  return (slash == std::string::npos ? std::string() : image_topic.substr(0, slash)) +
+// "/cam/left/image_raw" -> "/cam/left/camera_info"; image_transport's compressed topic beside
+// its image topic too: "/cam/left/image_raw/compressed" -> "/cam/left/camera_info".
+std::string InfoBeside(const std::string& image_topic, SensorMsgType type) {
+  std::string_view topic = image_topic;
+  if (type == SensorMsgType::kCompressedImage && topic.ends_with("/compressed")) {
+    topic.remove_suffix(std::string_view("/compressed").size());
+  }
+  const std::size_t slash = topic.rfind('/');
+  return std::string(slash == std::string_view::npos ? std::string_view()
+                                                     : topic.substr(0, slash)) +
          "/camera_info";
 }
 
+// The two topics the stereo pair is found among when not both are named: the bag's two
+// sensor_msgs/Image topics; else (it has not two) its Image and CompressedImage topics together,
+// when they are two. With `given` a CompressedImage topic of a bag with two of them, those two.
+std::vector<std::string> CameraCandidates(const Topics& topics, const std::string& given) {
+  const std::vector<std::string> compressed = TopicsOfType(topics, SensorMsgType::kCompressedImage);
+  const auto it = topics.find(given);
+  if (it != topics.end() && it->second.sensor_type == SensorMsgType::kCompressedImage &&
+      compressed.size() == 2) {
+    return compressed;
+  }
+  std::vector<std::string> images = TopicsOfType(topics, SensorMsgType::kImage);
+  if (images.size() == 2) return images;
+  images.insert(images.end(), compressed.begin(), compressed.end());
+  std::sort(images.begin(), images.end());
+  return images;
+}
+
 // Decides every topic's role from the options, filling in the topics it detects.
-void AssignRoles(Topics& topics, RosBagImportOptions& o, const std::string& bag) {
-  const std::vector<std::string> images = TopicsOfType(topics, kImageType);
+void AssignRoles(Topics& topics, RosBagImportOptions& o, const ImportedFile& source) {
+  const std::vector<std::string> images =
+      CameraCandidates(topics, o.left_topic.empty() ? o.right_topic : o.left_topic);
   if (o.left_topic.empty() != o.right_topic.empty() && images.size() == 2) {
     std::string& missing = o.left_topic.empty() ? o.left_topic : o.right_topic;
     const std::string& given = o.left_topic.empty() ? o.right_topic : o.left_topic;
@@ -151,51 +192,53 @@ void AssignRoles(Topics& topics, RosBagImportOptions& o, const std::string& bag)
     const int left = LeftOfTwo(images[0], images[1]);
     if (left == 0) {
       throw Error(ErrorCode::kInvalidArgument,
-                  "ROS bag " + bag + " has two image topics, " + images[0] + " and " + images[1] +
+                  source.label + " has two image topics, " + images[0] + " and " + images[1] +
                       ", whose names do not say which is left: give --left-topic and "
                       "--right-topic");
     }
     o.left_topic = images[left == 1 ? 0 : 1];
     o.right_topic = images[left == 1 ? 1 : 0];
   } else if (o.left_topic.empty() != o.right_topic.empty()) {
-    throw Error(
-        ErrorCode::kInvalidArgument,
-        "ROS bag " + bag +
-            ": give both --left-topic and --right-topic (its image topics: " + List(images) + ")");
+    throw Error(ErrorCode::kInvalidArgument, source.label +
+                                                 ": give both --left-topic and --right-topic (" +
+                                                 ImageTopicList(topics, source) + ")");
   }
   if (!o.left_topic.empty()) {
     if (o.left_topic == o.right_topic) {
       throw Error(ErrorCode::kInvalidArgument,
                   "--left-topic and --right-topic are both " + o.left_topic);
     }
-    Assign(topics, o.left_topic, kImageType, Role::kLeft, "--left-topic", bag);
-    Assign(topics, o.right_topic, kImageType, Role::kRight, "--right-topic", bag);
+    Assign(topics, o.left_topic, kCameraTypes, Role::kLeft, "--left-topic", source);
+    Assign(topics, o.right_topic, kCameraTypes, Role::kRight, "--right-topic", source);
     // camera_info beside each image topic when the bag has it; a named one must be there.
     for (auto [info, image, role, option] :
          {std::tuple{&o.left_info_topic, &o.left_topic, Role::kLeftInfo, "--left-info-topic"},
           std::tuple{&o.right_info_topic, &o.right_topic, Role::kRightInfo,
                      "--right-info-topic"}}) {
-      if (info->empty() && topics.contains(InfoBeside(*image))) *info = InfoBeside(*image);
-      if (!info->empty()) Assign(topics, *info, kCameraInfoType, role, option, bag);
+      const std::string beside = InfoBeside(*image, topics.at(*image).sensor_type);
+      if (info->empty() && topics.contains(beside)) *info = beside;
+      if (!info->empty()) {
+        Assign(topics, *info, {SensorMsgType::kCameraInfo}, role, option, source);
+      }
     }
   }
   for (auto [topic, type, role, option] :
-       {std::tuple{&o.imu_topic, kImuType, Role::kImu, "--imu-topic"},
-        std::tuple{&o.gps_topic, kNavSatFixType, Role::kGps, "--gps-topic"}}) {
+       {std::tuple{&o.imu_topic, SensorMsgType::kImu, Role::kImu, "--imu-topic"},
+        std::tuple{&o.gps_topic, SensorMsgType::kNavSatFix, Role::kGps, "--gps-topic"}}) {
     const std::vector<std::string> candidates = TopicsOfType(topics, type);
     if (topic->empty() && candidates.size() > 1) {
-      throw Error(ErrorCode::kInvalidArgument, "ROS bag " + bag + " has " +
+      throw Error(ErrorCode::kInvalidArgument, source.label + " has " +
                                                    std::to_string(candidates.size()) + " " +
-                                                   std::string(type) + " topics (" +
+                                                   source.Type(type) + " topics (" +
                                                    List(candidates) + "): name one with " + option);
     }
     if (topic->empty() && candidates.size() == 1) *topic = candidates[0];
-    if (!topic->empty()) Assign(topics, *topic, type, role, option, bag);
+    if (!topic->empty()) Assign(topics, *topic, {type}, role, option, source);
   }
 }
 
 // A message's record stamp: its header's, else (0: the driver set none) the receive time.
-std::int64_t StampOf(const RosHeader& header, const RosBagMessage& m, std::int64_t& fallbacks) {
+std::int64_t StampOf(const RosHeader& header, const RecordingMessage& m, std::int64_t& fallbacks) {
   if (header.stamp_ns != 0) return header.stamp_ns;
   ++fallbacks;
   return m.receive_time_ns;
@@ -213,16 +256,20 @@ void CheckImportOptions(const RosBagImportOptions& options) {
 }
 
 // The bag's topics from its connections, which must agree on each topic's type.
-Topics ReadTopics(const RosBagReader& reader, const std::string& name) {
+Topics ReadTopics(const ImportedFile& source) {
   Topics topics;
-  for (const RosConnection& c : reader.connections()) {
-    Topic& t = topics[c.topic];
-    if (!t.type.empty() && (t.type != c.type || t.md5sum != c.md5sum)) {
-      throw Error(ErrorCode::kInvalidArgument, "ROS bag " + name + ": topic " + c.topic +
-                                                   " carries both " + t.type + " and " + c.type);
+  for (const RecordingConnection& c : source.reader.connections()) {
+    const std::string type = c.type.empty() ? "(no schema)" : c.type;
+    const auto [it, added] = topics.try_emplace(c.topic);
+    Topic& t = it->second;
+    if (!added && (t.type != type || t.undecodable != c.undecodable)) {
+      throw Error(ErrorCode::kInvalidArgument,
+                  source.label + ": topic " + c.topic + " carries both " + t.type + " and " + type +
+                      (t.type == type ? " of another definition" : ""));
     }
-    t.type = c.type;
-    t.md5sum = c.md5sum;
+    t.type = type;
+    t.sensor_type = c.sensor_type;
+    t.undecodable = c.undecodable;
     t.messages += c.messages;
   }
   return topics;
@@ -244,8 +291,8 @@ class StereoPairWriter {
         (image_size_ && *image_size_ != size)) {
       const auto [w, h] = image_size_.value_or(size);
       throw Error(ErrorCode::kInvalidArgument,
-                  "ROS bag " + bag_ + ": the stereo pair stamped " + std::to_string(left.stamp_ns) +
-                      " ns" + " has a " + std::to_string(left.width_px) + "x" +
+                  bag_ + ": the stereo pair stamped " + std::to_string(left.stamp_ns) + " ns" +
+                      " has a " + std::to_string(left.width_px) + "x" +
                       std::to_string(left.height_px) + " left and a " +
                       std::to_string(right.width_px) + "x" + std::to_string(right.height_px) +
                       " right image where the pairs before are " + std::to_string(w) + "x" +
@@ -277,18 +324,17 @@ class StereoPairWriter {
 
 // Refuses a bag that gave no stereo pair, IMU sample or GPS fix, saying why.
 void RequireSomethingImported(const RosBagImportResult& result, const Topics& topics,
-                              const RosBagImportOptions& o, const std::string& name) {
+                              const RosBagImportOptions& o, const ImportedFile& source) {
   if (result.pairs == 0 && result.imu_samples == 0 && result.gps_fixes == 0) {
-    throw Error(
-        ErrorCode::kInvalidArgument,
-        "ROS bag " + name + " holds nothing to import: no stereo pair" +
-            (o.left_topic.empty() ? " (no two image topics chosen; its image topics: " +
-                                        List(TopicsOfType(topics, kImageType)) + ")"
-                                  : " (" + std::to_string(result.unmatched_left) + " left and " +
-                                        std::to_string(result.unmatched_right) +
-                                        " right frames, none within the tolerance)") +
-            ", no " + std::string(kImuType) + " and no " + std::string(kNavSatFixType) +
-            " messages");
+    throw Error(ErrorCode::kInvalidArgument,
+                source.label + " holds nothing to import: no stereo pair" +
+                    (o.left_topic.empty()
+                         ? " (no two image topics chosen; " + ImageTopicList(topics, source) + ")"
+                         : " (" + std::to_string(result.unmatched_left) + " left and " +
+                               std::to_string(result.unmatched_right) +
+                               " right frames, none within the tolerance)") +
+                    ", no " + source.Type(SensorMsgType::kImu) + " and no " +
+                    source.Type(SensorMsgType::kNavSatFix) + " messages");
   }
 }
 
@@ -352,11 +398,11 @@ RosBagImportResult ImportRosBag(
     const RosBagImportOptions& options,
     const std::function<void(std::uint64_t done, std::uint64_t total)>& progress) {
   CheckImportOptions(options);
-  RosBagReader reader(bag);
-  const std::string name = bag.string();
-  Topics topics = ReadTopics(reader, name);
+  RecordingReader reader(bag);
+  const ImportedFile source{reader, std::string(reader.kind()) + " " + bag.string()};
+  Topics topics = ReadTopics(source);
   RosBagImportOptions o = options;
-  AssignRoles(topics, o, name);
+  AssignRoles(topics, o, source);
 
   RosBagImportResult result;
   internal::WrittenPaths written;
@@ -364,14 +410,14 @@ RosBagImportResult ImportRosBag(
   StagedRecordFile imu_log(root, o.platform, o.imu_sensor, written);
   StagedRecordFile gps_log(root, o.platform, o.gps_sensor, written);
 
-  StereoPairWriter stereo_writer(name, o.stereo_sensor, stereo_log);
+  StereoPairWriter stereo_writer(source.label, o.stereo_sensor, stereo_log);
   internal::StereoStampPairing pairing(o.pair_tolerance_ns,
                                        [&stereo_writer](StereoFrame& left, StereoFrame& right) {
                                          stereo_writer.Write(left, right);
                                        });
   std::optional<RosCameraInfo> left_info, right_info;
   std::string payload;
-  const RosBagMessage* message = nullptr;  // the one being imported
+  const RecordingMessage* message = nullptr;  // the one being imported
   // A decoded message as a record of `log`, converted by `to_record`.
   const auto append = [&](const auto& decoded, auto to_record, StagedRecordFile& log) {
     const std::int64_t stamp = StampOf(decoded.header, *message, result.stamped_by_receive_time);
@@ -382,7 +428,7 @@ RosBagImportResult ImportRosBag(
 
   std::map<std::string, std::uint64_t> seen;  // messages per topic, to name the one that fails
   reader.ReadMessages(
-      [&](const RosBagMessage& m) {
+      [&](const RecordingMessage& m) {
         const std::string& topic = m.connection->topic;
         const std::uint64_t index = seen[topic]++;
         const Role role = topics.at(topic).role;
@@ -392,9 +438,17 @@ RosBagImportResult ImportRosBag(
           switch (role) {
             case Role::kLeft:
             case Role::kRight: {
-              const RosImage image = DecodeRosImage(m.data);
-              StereoFrame frame{StampOf(image.header, m, result.stamped_by_receive_time),
-                                internal::RosImageToPng(image), image.width, image.height};
+              StereoFrame frame;
+              if (m.connection->sensor_type == SensorMsgType::kCompressedImage) {
+                const RosCompressedImage image = reader.DecodeCompressedImage(m.data);
+                internal::DecodedRosImage decoded = internal::RosCompressedImageToPng(image);
+                frame = StereoFrame{StampOf(image.header, m, result.stamped_by_receive_time),
+                                    std::move(decoded.png), decoded.width_px, decoded.height_px};
+              } else {
+                const RosImage image = reader.DecodeImage(m.data);
+                frame = StereoFrame{StampOf(image.header, m, result.stamped_by_receive_time),
+                                    internal::RosImageToPng(image), image.width, image.height};
+              }
               role == Role::kLeft ? pairing.AddLeft(std::move(frame))
                                   : pairing.AddRight(std::move(frame));
               break;
@@ -402,21 +456,21 @@ RosBagImportResult ImportRosBag(
             case Role::kLeftInfo:
             case Role::kRightInfo: {
               std::optional<RosCameraInfo>& info = role == Role::kLeftInfo ? left_info : right_info;
-              if (!info) info = DecodeRosCameraInfo(m.data);
+              if (!info) info = reader.DecodeCameraInfo(m.data);
               break;
             }
             case Role::kImu:
-              append(DecodeRosImu(m.data), internal::ImuSampleFromRos, imu_log);
+              append(reader.DecodeImu(m.data), internal::ImuSampleFromRos, imu_log);
               break;
             case Role::kGps:
-              append(DecodeRosNavSatFix(m.data), internal::GpsFixFromRos, gps_log);
+              append(reader.DecodeNavSatFix(m.data), internal::GpsFixFromRos, gps_log);
               break;
             case Role::kSkip:
               break;
           }
         } catch (const Error& e) {
           if (e.code() == ErrorCode::kConflict || e.code() == ErrorCode::kBackend) throw;
-          throw Error(e.code(), "ROS bag " + name + ": topic " + topic + ", message " +
+          throw Error(e.code(), source.label + ": topic " + topic + ", message " +
                                     std::to_string(index + 1) + " (chunk at byte " +
                                     std::to_string(m.chunk_offset) + "): " + e.message());
         }
@@ -431,7 +485,7 @@ RosBagImportResult ImportRosBag(
   for (const auto& [topic, t] : topics) {
     result.topics.push_back(RosBagTopicUse{topic, t.type, t.messages, RoleName(t.role)});
   }
-  RequireSomethingImported(result, topics, o, name);
+  RequireSomethingImported(result, topics, o, source);
   if (result.pairs > 0) {
     StoreCalibration(left_info, right_info, *stereo_writer.image_size(), o, stereo_log, written,
                      result);

@@ -1,10 +1,12 @@
-// sensor_msgs/Image to PNG (ros_image_png.h).
+// sensor_msgs/Image and CompressedImage to PNG (ros_image_png.h).
 #include "ros_image_png.h"
 
+#include <cctype>
 #include <cstring>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <string_view>
 #include <vector>
 
 #include "fleetmap/core/error.h"
@@ -26,7 +28,85 @@ PixelFormat FormatOf(const std::string& encoding) {
                   "' is not supported (supported: " + kSupportedRosImageEncodings + ")");
 }
 
+// The codec a CompressedImage's format names: "png", "jpeg", "jpg", or image_transport's
+// "ENCODING; png compressed TYPE" / "ENCODING; jpeg compressed TYPE" (its compressed plugin;
+// "ENCODING; compressedDepth png" is the compressedDepth plugin's own layout and not read).
+// Empty for any other format.
+std::string CodecOf(const std::string& format) {
+  std::string f;
+  for (const char c : format) f += static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  const auto trimmed = [](std::string_view s) {
+    while (!s.empty() && s.front() == ' ') s.remove_prefix(1);
+    while (!s.empty() && s.back() == ' ') s.remove_suffix(1);
+    return s;
+  };
+  std::string_view codec = trimmed(f);
+  if (const std::size_t semicolon = codec.find(';'); semicolon != std::string_view::npos) {
+    codec = trimmed(codec.substr(semicolon + 1));  // "png compressed mono8"
+    const std::size_t space = codec.find(' ');
+    if (space == std::string_view::npos || !codec.substr(space + 1).starts_with("compressed")) {
+      return {};
+    }
+    codec = codec.substr(0, space);
+  }
+  if (codec == "png") return "png";
+  if (codec == "jpeg" || codec == "jpg") return "jpeg";
+  return {};
+}
+
+// PNG and JPEG (JFIF, Exif, raw) files begin so.
+bool BeginsAs(std::string_view data, const std::string& codec) {
+  return codec == "png" ? data.starts_with("\x89PNG\r\n\x1a\n") : data.starts_with("\xff\xd8\xff");
+}
+
 }  // namespace
+
+DecodedRosImage RosCompressedImageToPng(const RosCompressedImage& image) {
+  const std::string codec = CodecOf(image.format);
+  if (codec.empty()) {
+    throw Error(ErrorCode::kInvalidArgument,
+                "sensor_msgs/CompressedImage format '" + image.format +
+                    "' is not supported (supported: " + kSupportedRosCompressedFormats + ")");
+  }
+  // Only the decoder the format names sees the bytes (imdecode would try every codec it has).
+  if (!BeginsAs(image.data, codec) || image.data.size() > std::size_t{INT32_MAX}) {
+    throw Error(ErrorCode::kCorrupt, "sensor_msgs/CompressedImage of format '" + image.format +
+                                         "': its " + std::to_string(image.data.size()) +
+                                         " bytes do not begin as a " + codec + " file does");
+  }
+  cv::Mat pixels;
+  try {
+    // imdecode reads the buffer only; the const_cast is for cv::Mat's constructor.
+    const cv::Mat buffer(1, static_cast<int>(image.data.size()), CV_8UC1,
+                         const_cast<char*>(image.data.data()));
+    pixels = cv::imdecode(buffer, cv::IMREAD_UNCHANGED);
+  } catch (const cv::Exception&) {
+    pixels.release();  // a decoder that threw on these bytes: as undecodable
+  }
+  if (pixels.empty()) {
+    throw Error(ErrorCode::kCorrupt, "sensor_msgs/CompressedImage of format '" + image.format +
+                                         "': its " + std::to_string(image.data.size()) +
+                                         " bytes do not decode as " + codec);
+  }
+  const int type = pixels.type();
+  if (type != CV_8UC1 && type != CV_16UC1 && type != CV_8UC3) {
+    throw Error(ErrorCode::kInvalidArgument,
+                "sensor_msgs/CompressedImage of format '" + image.format + "' decodes to " +
+                    std::to_string(pixels.channels()) + " channels of " +
+                    std::to_string(8 * pixels.elemSize1()) +
+                    " bits, which is not supported (supported: the pixels of " +
+                    kSupportedRosImageEncodings + ")");
+  }
+  std::vector<unsigned char> png;
+  if (!cv::imencode(".png", pixels, png)) {
+    throw Error(ErrorCode::kBackend, "cannot encode a decoded " + codec + " image of " +
+                                         std::to_string(pixels.cols) + "x" +
+                                         std::to_string(pixels.rows) + " as PNG");
+  }
+  return DecodedRosImage{std::string(png.begin(), png.end()),
+                         static_cast<std::uint32_t>(pixels.cols),
+                         static_cast<std::uint32_t>(pixels.rows)};
+}
 
 std::string RosImageToPng(const RosImage& image) {
   const PixelFormat format = FormatOf(image.encoding);

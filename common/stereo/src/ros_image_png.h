@@ -1,8 +1,10 @@
-// A sensor_msgs/Image (fleetmap/rosbag/sensor_msgs.h) as the PNG bytes a stereo log stores
-// (stereo_image_log.h stores images as PNG, encoding "png"): lossless, so every pixel value of
-// the bag comes back from the log. Private to the library.
+// A sensor_msgs/Image or CompressedImage (fleetmap/rosbag/sensor_msgs.h) as the PNG bytes a
+// stereo log stores (stereo_image_log.h stores images as PNG, encoding "png"): lossless, so every
+// pixel value of the bag (of the decoded CompressedImage) comes back from the log. Private to the
+// library.
 #pragma once
 
+#include <cstdint>
 #include <string>
 
 #include "fleetmap/rosbag/sensor_msgs.h"
@@ -17,5 +19,24 @@ inline constexpr const char* kSupportedRosImageEncodings = "mono8, mono16, rgb8,
 // padding at row ends is dropped. Throws Error(kInvalidArgument) for another encoding, naming it
 // and the supported ones; Error(kCorrupt) for an empty image or a step shorter than a row.
 std::string RosImageToPng(const RosImage& image);
+
+// The CompressedImage formats RosCompressedImageToPng reads, for messages.
+inline constexpr const char* kSupportedRosCompressedFormats =
+    "png, jpeg (jpg), and image_transport's \"ENCODING; png compressed TYPE\" and \"ENCODING; "
+    "jpeg compressed TYPE\"";
+
+struct DecodedRosImage {
+  std::string png;
+  std::uint32_t width_px = 0, height_px = 0;
+};
+
+// A CompressedImage decoded (OpenCV's PNG or JPEG decoder, chosen by `format`, pixels as stored:
+// no EXIF rotation) and stored as a PNG of the same pixels as RosImageToPng would store the
+// equivalent Image: grey 8 or 16 bit, or colour 8 bit. Throws Error(kInvalidArgument) for a
+// format not among kSupportedRosCompressedFormats (naming it) and for pixels of another kind
+// (16-bit colour, alpha); Error(kCorrupt) for data that does not begin as its format's files do
+// or that OpenCV cannot decode. OpenCV refuses images above its size limits
+// (OPENCV_IO_MAX_IMAGE_PIXELS, 2^30 by default) before allocating them.
+DecodedRosImage RosCompressedImageToPng(const RosCompressedImage& image);
 
 }  // namespace fleetmap::internal

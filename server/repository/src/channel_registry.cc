@@ -127,6 +127,10 @@ ChannelMove ChannelRegistry::Set(std::string_view name, RevisionNumber to, const
   }
   if (who.empty()) throw Error(ErrorCode::kInvalidArgument, "channel move: no author");
   const RevisionNumber head = repository_.Head();
+  if (head == 0) {
+    throw Error(ErrorCode::kInvalidArgument,
+                "channel " + std::string(name) + ": the repository has no revision yet");
+  }
   if (to < 1 || to > head) {
     throw Error(ErrorCode::kInvalidArgument,
                 "channel " + std::string(name) + ": revision " + std::to_string(to) +

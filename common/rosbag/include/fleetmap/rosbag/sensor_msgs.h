@@ -1,10 +1,14 @@
 // The ROS 1 messages `fleetmap records import-bag` reads, decoded from their serialisation in a
-// bag (bag_reader.h): sensor_msgs/Image, CameraInfo, Imu and NavSatFix, field by field as their
-// .msg files define them (ROS 1 serialisation: fixed-size fields little-endian in declaration
-// order, no padding; `string` and `T[]` behind a uint32 count; `T[N]` without one).
+// bag (bag_reader.h): sensor_msgs/Image, CompressedImage, CameraInfo, Imu and NavSatFix, field by
+// field as their .msg files define them (ROS 1 serialisation: fixed-size fields little-endian in
+// declaration order, no padding; `string` and `T[]` behind a uint32 count; `T[N]` without one).
+//
+// The structs are also what the ROS 2 decoders of the same types give (ros2_sensor_msgs.h, from
+// an MCAP file's CDR), so that `records import-bag` converts either into records the same way.
 //
 // Conventions: stamps are UTC nanoseconds (std_msgs/Header's sec * 1e9 + nsec); matrices are
-// row-major as in the messages; a decoded Image's `data` views the bytes passed in.
+// row-major as in the messages; a decoded Image's (CompressedImage's) `data` views the bytes
+// passed in.
 //
 // Each Decode* checks every length against the bytes there and that nothing is left over, and
 // throws Error(kCorrupt) naming the type and the field that did not fit ("sensor_msgs/Imu: too
@@ -23,13 +27,14 @@ namespace fleetmap {
 // The md5sums rosbag records for these types (of their full definitions): a connection of one
 // of these type names with another md5sum holds another definition and is not decoded.
 inline constexpr std::string_view kRosImageMd5 = "060021388200f6f0f447d0fcd9c64743";
+inline constexpr std::string_view kRosCompressedImageMd5 = "8f7a12909da2c9d3332d540a0977563f";
 inline constexpr std::string_view kRosCameraInfoMd5 = "c9a58c1b0b154e0e6da7578cb991d214";
 inline constexpr std::string_view kRosImuMd5 = "6a62c6daae103f4ff57a132d6f95cec2";
 inline constexpr std::string_view kRosNavSatFixMd5 = "2d3a8cd499b9b4a0249fb98fd05cfa48";
 
 // std_msgs/Header.
 struct RosHeader {
-  std::uint32_t seq = 0;
+  std::uint32_t seq = 0;  // ROS 1 only: ROS 2's Header has none (0)
   std::int64_t stamp_ns = 0;
   std::string frame_id;
 };
@@ -42,6 +47,13 @@ struct RosImage {
   bool is_bigendian = false;
   std::uint32_t step = 0;  // bytes per row
   std::string_view data;
+};
+
+// sensor_msgs/CompressedImage. The decoders do not look into `data` (the import decodes it).
+struct RosCompressedImage {
+  RosHeader header;
+  std::string format;     // "jpeg", "png", "rgb8; jpeg compressed bgr8", ...
+  std::string_view data;  // the compressed image, as `format` says
 };
 
 // sensor_msgs/CameraInfo (the plumb_bob model's D is k1, k2, t1, t2, k3).
@@ -81,6 +93,7 @@ struct RosNavSatFix {
 };
 
 RosImage DecodeRosImage(std::string_view bytes);
+RosCompressedImage DecodeRosCompressedImage(std::string_view bytes);
 RosCameraInfo DecodeRosCameraInfo(std::string_view bytes);
 RosImu DecodeRosImu(std::string_view bytes);
 RosNavSatFix DecodeRosNavSatFix(std::string_view bytes);

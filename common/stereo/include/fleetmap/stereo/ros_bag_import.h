@@ -1,12 +1,17 @@
-// ROS 1 bags as raw sensor data (seed 000 §5.1): `fleetmap records import-bag FILE.bag` reads a
-// bag (fleetmap/rosbag/bag_reader.h) and writes what fleetmap keeps of it into record files under
-// a root, in the platform/sensor/date layout (record_layout.h), indexed in the store's sensor
-// index (sensor_ingest.h), as `images ingest` does for stereo folders (stereo_image_log.h):
+// ROS recordings as raw sensor data (seed 000 §5.1): `fleetmap records import-bag FILE` reads a
+// ROS 1 bag or an MCAP file (rosbag2's format), told apart by their first bytes
+// (fleetmap/rosbag/recording_reader.h), and writes what fleetmap keeps of it into record files
+// under a root, in the platform/sensor/date layout (record_layout.h), indexed in the store's
+// sensor index (sensor_ingest.h), as `images ingest` does for stereo folders
+// (stereo_image_log.h). The same types are read from either format (ROS 2's sensor_msgs/msg/...
+// in an MCAP file) and converted the same way; below, "bag" means either:
 //
-//   stereo pairs   two sensor_msgs/Image topics, frames paired by header stamp within a
-//                  tolerance (unpaired frames counted), one fleetmap.v1.StereoImagePair per
-//                  pair holding both images as PNG (lossless; mono8, mono16, rgb8, bgr8),
-//                  cameras named SENSOR/cam0 (left) and SENSOR/cam1 (right);
+//   stereo pairs   two camera topics, each sensor_msgs/Image or sensor_msgs/CompressedImage,
+//                  frames paired by header stamp within a tolerance (unpaired frames
+//                  counted), one fleetmap.v1.StereoImagePair per pair holding both images as
+//                  PNG (lossless; mono8, mono16, rgb8, bgr8; a CompressedImage's PNG or JPEG
+//                  decoded by OpenCV, its pixels stored as decoded: grey 8 or 16 bit, or
+//                  colour), cameras named SENSOR/cam0 (left) and SENSOR/cam1 (right);
 //   calibration    the two topics' sensor_msgs/CameraInfo (the first of each) as EuRoC
 //                  sensor.yaml files beside the stereo log (StereoCalibrationPath), with the
 //                  right camera's pose from R and P (camera_info_calibration.h);
@@ -14,8 +19,9 @@
 //                  sensor_msgs/NavSatFix topic as fleetmap.v1.GpsFix records.
 //
 // Records are stamped with the message's header stamp (capture time); a message whose header
-// stamp is 0 gets the bag's receive time instead, and is counted. Every other topic is
-// skipped and listed.
+// stamp is 0 gets the bag's receive time (an MCAP message's log time) instead, and is counted.
+// Every other topic (a CompressedImage topic beside two Image cameras among them) is skipped and
+// listed.
 //
 // All or nothing: the bag is read once, start to end, each chunk checked before its messages
 // are used; record files are written as hidden partial files and renamed into place only when
@@ -38,12 +44,16 @@ namespace fleetmap {
 
 struct RosBagImportOptions {
   std::string platform;
-  // The stereo pair's image topics. Both empty: when the bag holds exactly two
-  // sensor_msgs/Image topics and their names tell left from right ("left"/"right", "cam0"/
-  // "cam1", "image_0"/"image_1"), those; with one given, the other image topic of two.
+  // The stereo pair's camera topics (sensor_msgs/Image or CompressedImage). Both empty: the
+  // bag's two Image topics, or, when it has not two, its Image and CompressedImage topics when
+  // they are two (image_transport's ".../image_raw/compressed" recorded instead of the raw
+  // ones), provided their names tell left from right ("left"/"right", "cam0"/"cam1",
+  // "image_0"/"image_1"); with one given, the other of those two (of the bag's two
+  // CompressedImage topics when the given one is one of them).
   std::string left_topic, right_topic;
   // Empty: the "camera_info" topic beside each image topic ("/cam/left/image_raw" ->
-  // "/cam/left/camera_info"), when the bag holds it.
+  // "/cam/left/camera_info"; "/cam/left/image_raw/compressed" -> "/cam/left/camera_info"), when
+  // the bag holds it.
   std::string left_info_topic, right_info_topic;
   // Empty: the bag's only sensor_msgs/Imu (NavSatFix) topic, if it holds one.
   std::string imu_topic, gps_topic;
@@ -76,11 +86,13 @@ struct RosBagImportResult {
 };
 
 // Imports `bag` as the file comment says. REQUIRES: no Transaction open on `store`. `progress`
-// gets (bag bytes read, bag bytes) per chunk. Throws the bag reader's errors (kNotFound,
-// kInvalidArgument, kCorrupt, naming the bag and the offset), Error(kInvalidArgument) naming a
+// gets (bag bytes read, bag bytes) per chunk. Throws the readers' errors (kNotFound,
+// kInvalidArgument, kCorrupt, naming the file and the offset), Error(kInvalidArgument) naming a
 // topic that is missing or of another type, ambiguous topics (with the candidates), an
-// unsupported image encoding (with the supported ones) or a bag with nothing to import, and
-// Error(kCorrupt) naming the topic and message for a message that does not decode.
+// unsupported image encoding or CompressedImage format (with the supported ones), images of two
+// sizes in one stereo log, or a bag with nothing to import, and Error(kCorrupt) naming the topic,
+// message and chunk offset for a message that does not decode (a CompressedImage whose bytes
+// are not a PNG or JPEG OpenCV decodes among them).
 RosBagImportResult ImportRosBag(
     const std::filesystem::path& bag, GraphStore& store, const std::filesystem::path& root,
     const RosBagImportOptions& options,
