@@ -277,6 +277,82 @@ std::vector<Uuid> SentPaths(const DenseMap& map, std::span<const Edge> edges,
   return ids;
 }
 
+// The map's nodes `policy.include` names, by dense index. Throws Error(kNotFound) naming one
+// the map lacks.
+std::vector<DenseNode> IncludedNodes(const DenseMap& map, const DownloadPolicy& policy) {
+  std::vector<DenseNode> included;
+  for (const Uuid& id : policy.include) {
+    const auto it = map.index.find(id);
+    if (it == map.index.end()) {
+      throw Error(ErrorCode::kNotFound,
+                  "download: node " + id.ToString() + " to include is not in the map");
+    }
+    included.push_back(it->second);
+  }
+  return included;
+}
+
+// "budget": the allowed nodes filled path by path in order of path weight (Eq. 7 over the
+// walked epochs), the included nodes first, then the allowed nodes on no path
+// (download_policy_budget.h).
+internal::BudgetDownload FillDownloadBudget(const DenseMap& map, std::span<const Edge> edges,
+                                            const DownloadPolicy& policy,
+                                            std::span<const DenseNode> included,
+                                            std::span<const char> allowed,
+                                            std::span<const PathWeights::PathIndex> weighed_paths,
+                                            const PathWeights& weights, std::span<const int> walk) {
+  internal::BudgetRequest request;
+  request.nodes = map.nodes;
+  request.edges = edges;
+  request.metric_edges = map.metric_edges;
+  request.mission_start_min = policy.mission_start_min;
+  request.budget_bytes = *policy.budget_bytes;
+  if (!included.empty()) {
+    // Before any path: nothing outweighs where the robot starts.
+    internal::BudgetPath& start = request.paths.emplace_back();
+    start.weight = std::numeric_limits<double>::infinity();
+    start.nodes.assign(included.begin(), included.end());
+    std::sort(start.nodes.begin(), start.nodes.end());
+    start.nodes.erase(std::unique(start.nodes.begin(), start.nodes.end()), start.nodes.end());
+  }
+  for (const PathWeights::PathIndex path : weighed_paths) {
+    internal::BudgetPath& candidate = request.paths.emplace_back();
+    candidate.id = map.memory.path_id(path);
+    for (const int k : walk) candidate.weight += weights.Weight(path, k);  // Eq. 7
+    for (const DenseNode node : map.path_nodes[path]) {
+      if (allowed[node]) candidate.nodes.push_back(node);
+    }
+  }
+  for (DenseNode i = 0; i < map.nodes.size(); ++i) {
+    if (allowed[i] && !map.memory.Find(map.nodes[i]->id)) request.bare_nodes.push_back(i);
+  }
+  return internal::FillBudget(request);
+}
+
+// A route limits the download to the map within its radius (issue 38 item 3): the picks are
+// joined through the corridor (`in_corridor`, and the nodes to include) only, never through the
+// map beyond it; a piece of an experience that meets the rest only outside stays a component of
+// its own.
+IntegralSelection JoinWithinCorridor(const DenseMap& map, std::span<const Edge> edges,
+                                     std::span<const Uuid> map_ids,
+                                     std::span<const char> in_corridor,
+                                     std::span<const DenseNode> included,
+                                     std::span<const Uuid> picked) {
+  std::vector<char> reach(in_corridor.begin(), in_corridor.end());
+  for (const DenseNode node : included) reach[node] = 1;
+  std::vector<Uuid> reach_ids;
+  for (std::size_t i = 0; i < map_ids.size(); ++i) {
+    if (reach[i]) reach_ids.push_back(map_ids[i]);
+  }
+  std::vector<Edge> reach_edges;
+  for (const Edge& edge : edges) {
+    if (reach[map.index.at(edge.from)] && reach[map.index.at(edge.to)]) {
+      reach_edges.push_back(edge);
+    }
+  }
+  return MakeIntegral(reach_ids, reach_edges, picked);
+}
+
 }  // namespace
 
 std::string DownloadPolicy::Name() const {
@@ -472,47 +548,15 @@ DownloadSelection SelectDownload(std::span<const Node> nodes, std::span<const Ed
 
   if (policy.cover) Cover(map, *layout, paths, policy, in_corridor, allowed, report);
 
-  std::vector<DenseNode> included;
-  for (const Uuid& id : policy.include) {
-    const auto it = map.index.find(id);
-    if (it == map.index.end()) {
-      throw Error(ErrorCode::kNotFound,
-                  "download: node " + id.ToString() + " to include is not in the map");
-    }
-    included.push_back(it->second);
-  }
+  const std::vector<DenseNode> included = IncludedNodes(map, policy);
 
   std::vector<Uuid> map_ids;
   map_ids.reserve(node_count);
   for (const Node* node : map.nodes) map_ids.push_back(node->id);
   IntegralSelection integral;
   if (policy.budget_bytes) {
-    internal::BudgetRequest request;
-    request.nodes = map.nodes;
-    request.edges = edges;
-    request.metric_edges = map.metric_edges;
-    request.mission_start_min = policy.mission_start_min;
-    request.budget_bytes = *policy.budget_bytes;
-    if (!included.empty()) {
-      // Before any path: nothing outweighs where the robot starts.
-      internal::BudgetPath& start = request.paths.emplace_back();
-      start.weight = std::numeric_limits<double>::infinity();
-      start.nodes = included;
-      std::sort(start.nodes.begin(), start.nodes.end());
-      start.nodes.erase(std::unique(start.nodes.begin(), start.nodes.end()), start.nodes.end());
-    }
-    for (const PathWeights::PathIndex path : weighed_paths) {
-      internal::BudgetPath& candidate = request.paths.emplace_back();
-      candidate.id = map.memory.path_id(path);
-      for (const int k : walk) candidate.weight += weights->Weight(path, k);  // Eq. 7
-      for (const DenseNode node : map.path_nodes[path]) {
-        if (allowed[node]) candidate.nodes.push_back(node);
-      }
-    }
-    for (DenseNode i = 0; i < node_count; ++i) {
-      if (allowed[i] && !map.memory.Find(map.nodes[i]->id)) request.bare_nodes.push_back(i);
-    }
-    internal::BudgetDownload fill = internal::FillBudget(request);
+    internal::BudgetDownload fill =
+        FillDownloadBudget(map, edges, policy, included, allowed, weighed_paths, *weights, walk);
     report.picked_nodes = fill.picked;
     integral = std::move(fill.integral);
   } else {
@@ -523,23 +567,7 @@ DownloadSelection SelectDownload(std::span<const Node> nodes, std::span<const Ed
     }
     report.picked_nodes = picked.size();
     if (corridor) {
-      // A route limits the download to the map within its radius (issue 38 item 3): the picks
-      // are joined through the corridor (and the nodes to include) only, never through the map
-      // beyond it; a piece of an experience that meets the rest only outside stays a component
-      // of its own.
-      std::vector<char> reach(in_corridor.begin(), in_corridor.end());
-      for (const DenseNode node : included) reach[node] = 1;
-      std::vector<Uuid> reach_ids;
-      for (std::size_t i = 0; i < node_count; ++i) {
-        if (reach[i]) reach_ids.push_back(map_ids[i]);
-      }
-      std::vector<Edge> reach_edges;
-      for (const Edge& edge : edges) {
-        if (reach[map.index.at(edge.from)] && reach[map.index.at(edge.to)]) {
-          reach_edges.push_back(edge);
-        }
-      }
-      integral = MakeIntegral(reach_ids, reach_edges, picked);
+      integral = JoinWithinCorridor(map, edges, map_ids, in_corridor, included, picked);
     } else {
       integral = MakeIntegral(map_ids, edges, picked);
     }
