@@ -28,6 +28,7 @@
 #include "fleetmap/stereo/stereo_calibration.h"
 #include "fleetmap/stereo/stereo_image_log.h"
 #include "fleetmap_cli_run.h"
+#include "imported_files.h"
 #include "mcap_test_files.h"
 #include "scratch_dir.h"
 #include "store_backends.h"
@@ -39,24 +40,6 @@ namespace fs = std::filesystem;
 using nlohmann::json;
 using testing::JsonStampNs;
 using testing::WrittenMcapFiles;
-
-std::vector<Record> McapImportedRecords(const fs::path& file) {
-  RecordReader reader(file);
-  std::vector<Record> records;
-  while (std::optional<Record> r = reader.Next()) records.push_back(std::move(*r));
-  EXPECT_TRUE(reader.problems().empty()) << file;
-  return records;
-}
-
-// Every file under `dir` with its bytes: what must not change when an import fails.
-std::map<std::string, std::string> McapImportSnapshot(const fs::path& dir) {
-  std::map<std::string, std::string> files;
-  if (!fs::exists(dir)) return files;
-  for (const auto& e : fs::recursive_directory_iterator(dir)) {
-    files[e.path().string()] = e.is_regular_file() ? testing::ReadWholeFile(e.path()) : "<dir>";
-  }
-  return files;
-}
 
 // A stereo log's PNG as the packed mono8 pixels it holds.
 std::string PngPixels(const std::string& png) {
@@ -155,7 +138,7 @@ TEST_F(McapImportTest, RecordFilesAndIndexHoldExactlyWhatTheFileHeld) {
     // Stereo pairs: the left frames' stamps, every pixel of both (the padding dropped).
     const std::vector<json> left = OnTopic(name, "/stereo/left/image_raw");
     const std::vector<json> right = OnTopic(name, "/stereo/right/image_raw");
-    const std::vector<Record> pairs = McapImportedRecords(r.record_files[0]);
+    const std::vector<Record> pairs = testing::RecordsOf(r.record_files[0]);
     ASSERT_EQ(pairs.size(), 6u);
     for (std::size_t i = 0; i < pairs.size(); ++i) {
       v1::StereoImagePair pair;
@@ -172,7 +155,7 @@ TEST_F(McapImportTest, RecordFilesAndIndexHoldExactlyWhatTheFileHeld) {
 
     // IMU samples and GPS fixes, value for value.
     const std::vector<json> imu_written = OnTopic(name, "/imu/data");
-    const std::vector<Record> imu = McapImportedRecords(r.record_files[1]);
+    const std::vector<Record> imu = testing::RecordsOf(r.record_files[1]);
     ASSERT_EQ(imu.size(), imu_written.size());
     for (std::size_t i = 0; i < imu.size(); ++i) {
       v1::ImuSample s;
@@ -199,7 +182,7 @@ TEST_F(McapImportTest, RecordFilesAndIndexHoldExactlyWhatTheFileHeld) {
                 Doubles(m.at("linear_acceleration_covariance")));
     }
     const std::vector<json> gps_written = OnTopic(name, "/gps/fix");
-    const std::vector<Record> gps = McapImportedRecords(r.record_files[2]);
+    const std::vector<Record> gps = testing::RecordsOf(r.record_files[2]);
     ASSERT_EQ(gps.size(), gps_written.size());
     const v1::GpsFix::Status statuses[] = {v1::GpsFix::STATUS_NO_FIX, v1::GpsFix::STATUS_FIX,
                                            v1::GpsFix::STATUS_SBAS_FIX, v1::GpsFix::STATUS_GBAS_FIX,
@@ -281,7 +264,7 @@ TEST_F(McapImportTest, ACompressedImageCameraImportsEveryPixel) {
   const std::vector<json> right = OnTopic(name, "/stereo/right/image_raw/compressed");
   ASSERT_EQ(right.size(), 6u);
   EXPECT_EQ(right[1].at("format"), "mono8; png compressed mono8");
-  const std::vector<Record> pairs = McapImportedRecords(r.record_files.at(0));
+  const std::vector<Record> pairs = testing::RecordsOf(r.record_files.at(0));
   ASSERT_EQ(pairs.size(), 6u);
   for (std::size_t i = 0; i < pairs.size(); ++i) {
     v1::StereoImagePair pair;
@@ -307,7 +290,7 @@ TEST_F(McapImportTest, ACompressedImageCameraImportsEveryPixel) {
 TEST_F(McapImportTest, EveryCutAndFlippedByteFailsAndChangesNothing) {
   const auto start = std::chrono::steady_clock::now();
   ImportRosBag(WrittenMcapFiles().Path("small-none.mcap"), *store_, root_, Options("before"));
-  const auto files = McapImportSnapshot(root_);
+  const auto files = testing::FilesUnder(root_);
   ASSERT_FALSE(files.empty());
   store_.reset();
   const std::string state = backend_.StoredState();
@@ -350,7 +333,7 @@ TEST_F(McapImportTest, EveryCutAndFlippedByteFailsAndChangesNothing) {
     expect_fails("byte " + std::to_string(i) + " flipped");
     put(i, bytes[i]);
   }
-  EXPECT_EQ(McapImportSnapshot(root_), files);
+  EXPECT_EQ(testing::FilesUnder(root_), files);
   EXPECT_FALSE(store_->sensors().FindPlatform("hostile"));
   store_.reset();
   EXPECT_EQ(backend_.StoredState(), state);

@@ -29,6 +29,7 @@
 #include "fleetmap/stereo/stereo_calibration.h"
 #include "fleetmap/stereo/stereo_image_log.h"
 #include "fleetmap_cli_run.h"
+#include "imported_files.h"
 #include "ros_test_bag.h"
 #include "scratch_dir.h"
 #include "store_backends.h"
@@ -54,24 +55,6 @@ std::vector<cv::Mat> EurocFrames(int camera) {
     frames.push_back(full(cv::Rect(full.cols / 2 - 48, full.rows / 2 - 32, 96, 64)).clone());
   }
   return frames;
-}
-
-// Every file under `dir` with its bytes: what must not change when an import fails.
-std::map<std::string, std::string> Snapshot(const fs::path& dir) {
-  std::map<std::string, std::string> files;
-  if (!fs::exists(dir)) return files;
-  for (const auto& e : fs::recursive_directory_iterator(dir)) {
-    files[e.path().string()] = e.is_regular_file() ? testing::ReadWholeFile(e.path()) : "<dir>";
-  }
-  return files;
-}
-
-std::vector<Record> ReadRecords(const fs::path& file) {
-  RecordReader reader(file);
-  std::vector<Record> records;
-  while (std::optional<Record> r = reader.Next()) records.push_back(std::move(*r));
-  EXPECT_TRUE(reader.problems().empty()) << file;
-  return records;
 }
 
 // The PNG's pixels as the bag's bytes: rows packed, in the message's channel order.
@@ -156,13 +139,13 @@ class RosBagImportTest : public ::testing::Test {
   void ExpectFailsCleanly(const fs::path& bag, ErrorCode code, const std::string& mention,
                           RosBagImportOptions o = {}) {
     if (o.platform.empty()) o.platform = "husky";
-    const auto files = Snapshot(root_);
+    const auto files = testing::FilesUnder(root_);
     store_.reset();  // StoredState reads the store from outside; nothing may be held open
     const std::string state = backend_.StoredState();
     store_ = GraphStore::Open(backend_.Uri());
     ExpectError(
         code, [&] { Import(bag, o); }, mention);
-    EXPECT_EQ(Snapshot(root_), files);
+    EXPECT_EQ(testing::FilesUnder(root_), files);
     store_.reset();
     EXPECT_EQ(backend_.StoredState(), state);
     store_ = GraphStore::Open(backend_.Uri());
@@ -222,7 +205,7 @@ TYPED_TEST(RosBagImportTest, RecordFilesAndIndexHoldExactlyWhatTheBagHeld) {
     EXPECT_EQ(r.index.inserted, 65);
 
     // Stereo pairs: stamps of the left frames, every pixel of both (padding dropped).
-    const std::vector<Record> pairs = ReadRecords(r.record_files[0]);
+    const std::vector<Record> pairs = testing::RecordsOf(r.record_files[0]);
     ASSERT_EQ(pairs.size(), 10u);
     for (std::size_t i = 0; i < pairs.size(); ++i) {
       v1::StereoImagePair pair;
@@ -238,7 +221,7 @@ TYPED_TEST(RosBagImportTest, RecordFilesAndIndexHoldExactlyWhatTheBagHeld) {
       EXPECT_EQ(PixelBytes(pair.right_image(), "mono8"), Packed(c.right[i], 1)) << i;
     }
     // IMU samples and GPS fixes, value for value.
-    const std::vector<Record> imu = ReadRecords(r.record_files[1]);
+    const std::vector<Record> imu = testing::RecordsOf(r.record_files[1]);
     ASSERT_EQ(imu.size(), 50u);
     for (std::size_t i = 0; i < imu.size(); ++i) {
       v1::ImuSample s;
@@ -259,7 +242,7 @@ TYPED_TEST(RosBagImportTest, RecordFilesAndIndexHoldExactlyWhatTheBagHeld) {
       EXPECT_EQ(s.angular_velocity_covariance_radps2_size(), 0) << "-1: not given";
       EXPECT_EQ(s.linear_acceleration_covariance_mps2_2_size(), 9);
     }
-    const std::vector<Record> gps = ReadRecords(r.record_files[2]);
+    const std::vector<Record> gps = testing::RecordsOf(r.record_files[2]);
     ASSERT_EQ(gps.size(), 5u);
     const v1::GpsFix::Status statuses[] = {v1::GpsFix::STATUS_NO_FIX, v1::GpsFix::STATUS_FIX,
                                            v1::GpsFix::STATUS_SBAS_FIX, v1::GpsFix::STATUS_GBAS_FIX,
@@ -328,7 +311,8 @@ TYPED_TEST(RosBagImportTest, FramesWithoutAPartnerAreCounted) {
   EXPECT_EQ(r.unmatched_left, 2);
   EXPECT_EQ(r.unmatched_right, 2);
   std::vector<std::int64_t> stamps;
-  for (const Record& rec : ReadRecords(r.record_files[0])) stamps.push_back(rec.header.stamp_ns);
+  for (const Record& rec : testing::RecordsOf(r.record_files[0]))
+    stamps.push_back(rec.header.stamp_ns);
   EXPECT_EQ(stamps, (std::vector<std::int64_t>{kBagStartNs, kBagStartNs + 100'000'000,
                                                kBagStartNs + 300'000'000}));
 
@@ -359,7 +343,7 @@ TYPED_TEST(RosBagImportTest, EveryEncodingRoundTrips) {
     o.stereo_sensor = o.platform + "-stereo";
     const RosBagImportResult r = this->Import(bag, o);
     ASSERT_EQ(r.pairs, 2);
-    const std::vector<Record> records = ReadRecords(r.record_files.at(0));
+    const std::vector<Record> records = testing::RecordsOf(r.record_files.at(0));
     for (std::size_t i = 0; i < 2; ++i) {
       v1::StereoImagePair pair;
       ASSERT_TRUE(pair.ParseFromString(records[i].payload));
@@ -449,7 +433,7 @@ TYPED_TEST(RosBagImportTest, CompressedImagesImportPixelForPixel) {
   ASSERT_TRUE(r.baseline_m);
   EXPECT_NEAR(*r.baseline_m, c.baseline_m, 1e-12);
   const std::vector<cv::Mat> left = EurocFrames(0), right = EurocFrames(1);
-  const std::vector<Record> pairs = ReadRecords(r.record_files.at(0));
+  const std::vector<Record> pairs = testing::RecordsOf(r.record_files.at(0));
   ASSERT_EQ(pairs.size(), 10u);
   for (std::size_t i = 0; i < pairs.size(); ++i) {
     v1::StereoImagePair pair;
@@ -482,7 +466,7 @@ TYPED_TEST(RosBagImportTest, CompressedImagesImportPixelForPixel) {
   const RosBagImportResult j = this->Import(jpeg_bag, o);
   EXPECT_EQ(j.pairs, 4);
   EXPECT_TRUE(j.baseline_m);
-  const std::vector<Record> jpeg_pairs = ReadRecords(j.record_files.at(0));
+  const std::vector<Record> jpeg_pairs = testing::RecordsOf(j.record_files.at(0));
   ASSERT_EQ(jpeg_pairs.size(), 4u);
   for (std::size_t i = 0; i < jpeg_pairs.size(); ++i) {
     v1::StereoImagePair pair;
@@ -570,7 +554,7 @@ TEST(RosBagImportFlips, EveryFlippedByteOfACompressedImageFailsAndChangesNothing
   RosBagImportOptions o;
   o.platform = "before";
   ImportRosBag(bag, *store, root, o);  // something stored before
-  const auto files = Snapshot(root);
+  const auto files = testing::FilesUnder(root);
   store.reset();
   const std::string state = backend.StoredState();
   store = GraphStore::Open(backend.Uri());
@@ -593,7 +577,7 @@ TEST(RosBagImportFlips, EveryFlippedByteOfACompressedImageFailsAndChangesNothing
           << e.what();
     }
   }
-  EXPECT_EQ(Snapshot(root), files);
+  EXPECT_EQ(testing::FilesUnder(root), files);
   store.reset();
   EXPECT_EQ(backend.StoredState(), state);
   std::cout << "[ timing ] " << png.size() << " flips of a compressed image imported: "
