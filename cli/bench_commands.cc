@@ -1,4 +1,4 @@
-// `fleetmap bench graph|index|scale`: the options of each benchmark and its --help; the
+// `fleetmap bench graph|index|scale|limits`: the options of each benchmark and its --help; the
 // workloads, the raw baselines and the reports are experiments/bench (fleetmap/bench/).
 #include <cstddef>
 #include <cstdint>
@@ -9,6 +9,7 @@
 #include "commands.h"
 #include "fleetmap/bench/graph_bench.h"
 #include "fleetmap/bench/index_bench.h"
+#include "fleetmap/bench/limits_bench.h"
 #include "fleetmap/bench/scale_bench.h"
 
 namespace fleetmap::cli {
@@ -101,6 +102,60 @@ void AddIndexBench(CLI::App* bench) {
   index->callback([o] { bench::RunIndexBench(*o); });
 }
 
+void AddLimitsBench(CLI::App* bench) {
+  auto o = std::make_shared<bench::LimitsBenchOptions>();
+  CLI::App* limits = bench->add_subcommand(
+      "limits", "Every performance measure beside its raw limit in the same run (issue 39)");
+  limits->footer(
+      "Measures, each with its raw limit taken in the same minutes: MERGE CPU (the fleet "
+      "experiment's Fig. 7 builds, groups in parallel and in total) against single-agent EBN CPU, "
+      "mean over --merge-seeds world seeds; the SQLite sensor index's insert and nearest "
+      "(synchronous and buffered, --index-rows rows) against plain sqlite3 on the same schema; "
+      "fleetmap-agent's pull against RawSqliteInstall, the cold download's rate and fleetmapd's "
+      "memory growth (sync_download_benchmark, about a minute of set-up); the stereo front end "
+      "against ORB alone on KITTI and EuRoC pairs (stereo_front_end_benchmark); descriptor "
+      "matching against a plain popcount loop (fleetmap_microbenchmarks). The last three are the "
+      "build tree's benchmark executables, run as child processes. Figures are medians over "
+      "--repetitions, ratios are taken per repetition. Prints the table (the README's "
+      "performance section), writes OUT/limits.csv and OUT/limits.md, and exits 1 when a line "
+      "misses its bound. Run it on an otherwise idle machine: a line notes a 1-min load above 1.");
+  limits
+      ->add_option("--only", o->measures,
+                   "Measures to run (merge, index, pull, front-end, matching)")
+      ->delimiter(',')
+      ->check(CLI::IsMember({"merge", "index", "pull", "front-end", "matching"}))
+      ->capture_default_str();
+  limits->add_option("--repetitions", o->repetitions, "Repetitions of each measure")
+      ->check(CLI::Range(1, 100))
+      ->capture_default_str();
+  limits->add_option("--out", o->out_dir, "Directory for limits.csv, limits.md and the logs")
+      ->capture_default_str();
+  limits->add_option("--benchmarks", o->benchmarks_dir,
+                     "Directory of the benchmark executables (default: tests/benchmarks of the "
+                     "build tree this fleetmap is in)");
+  limits->add_option("--index-rows", o->index_rows, "Sensor index rows loaded per repetition")
+      ->check(CLI::Range(std::int64_t{10'000}, std::int64_t{100'000'000}))
+      ->capture_default_str();
+  limits->add_option("--index-samples", o->index_samples, "Nearest lookups timed per repetition")
+      ->check(CLI::Range(100, 10'000'000))
+      ->capture_default_str();
+  limits->add_option("--world", o->world_file,
+                     "World file for MERGE (default: the built-in world)");
+  limits
+      ->add_option("--merge-seeds", o->merge_seeds, "World seeds MERGE's ratios are averaged over")
+      ->check(CLI::Range(1, 100))
+      ->capture_default_str();
+  limits->add_option("--merge-scale", o->merge_scale, "small (20 outings) or default")
+      ->check(CLI::IsMember({"small", "default"}))
+      ->capture_default_str();
+  limits->add_option("--threads", o->threads, "Worker threads of the fleet experiment")
+      ->check(CLI::Range(1, 256))
+      ->capture_default_str();
+  limits->callback([o] {
+    if (bench::RunLimitsBench(*o) != 0) throw CLI::RuntimeError(1);
+  });
+}
+
 void AddScaleBench(CLI::App* bench) {
   auto o = std::make_shared<bench::ScaleBenchOptions>();
   CLI::App* scale = bench->add_subcommand(
@@ -166,6 +221,7 @@ void AddBenchCommand(CLI::App& app) {
   AddGraphBench(bench);
   AddIndexBench(bench);
   AddScaleBench(bench);
+  AddLimitsBench(bench);
 }
 
 }  // namespace fleetmap::cli

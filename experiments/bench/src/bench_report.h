@@ -31,6 +31,10 @@ struct BenchRow {
 // VALUE printed with a printf FORMAT of one double conversion ("%.1f"), for the tables.
 std::string Format(const char* format, double value);
 
+// The median of values (the upper middle one for an even count); NaN when values is empty or
+// holds a NaN, so a side that was not measured never passes a bound.
+double Median(std::vector<double> values);
+
 void PrintTable(std::ostream& out, const std::vector<BenchRow>& rows);
 
 // Throws Error(kBackend) when the file cannot be written.

@@ -210,11 +210,6 @@ double RunSide(const char* side, BenchStore& store, const std::string& op, const
   }
 }
 
-double Median(std::vector<double> values) {
-  std::sort(values.begin(), values.end());
-  return values[values.size() / 2];
-}
-
 // Median times of ours and raw. The two alternate run by run, so drift of the machine (other
 // load, page cache, writeback) falls on both alike.
 std::pair<double, double> MeasurePair(BenchStore& ours, BenchStore& raw, const std::string& op,

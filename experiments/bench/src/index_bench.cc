@@ -29,6 +29,7 @@
 #include "fleetmap/core/uuid.h"
 #include "fleetmap/store/graph_store.h"
 #include "fleetmap/store/sensor_index.h"
+#include "index_workload.h"
 #include "raw_baseline.h"
 
 namespace fleetmap::bench {
@@ -36,15 +37,6 @@ namespace {
 
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
-
-constexpr std::int64_t kSecond = 1'000'000'000;
-constexpr std::int64_t kHour = 3600 * kSecond;
-constexpr std::int64_t kStart = 1'420'070'400 * kSecond;  // 2015-01-01T00:00:00Z
-constexpr std::size_t kBatchRows = 50'000;
-// The platform's sensors and their rates (Hz): IMU, cameras, lidars, GPS, ...; 246 Hz in all.
-constexpr int kSensors = 10;
-constexpr int kRateHz[kSensors] = {100, 50, 25, 20, 20, 10, 10, 5, 5, 1};
-constexpr int kCamera = 3;  // the batch join's base: a 20 Hz camera
 
 struct Figures {
   std::string backend;
@@ -66,56 +58,6 @@ double MedianUs(std::vector<double>& us) {
   return us[us.size() / 2];
 }
 
-// Rows in time order over all sensors, generated in batches (never all in memory).
-class RowSource {
- public:
-  RowSource(PlatformId platform, const std::vector<SensorId>& sensors, std::int64_t total)
-      : platform_(platform),
-        sensors_(sensors),
-        total_(total),
-        next_ns_(kSensors, kStart),
-        offset_(kSensors, 0) {}
-
-  // The next up to n rows; empty when all were made.
-  std::vector<Datum> Next(std::size_t n) {
-    std::vector<Datum> rows;
-    rows.reserve(n);
-    while (rows.size() < n && made_ < total_) {
-      int s = 0;
-      for (int i = 1; i < kSensors; ++i) {
-        if (next_ns_[i] < next_ns_[s]) s = i;
-      }
-      const std::int64_t t = next_ns_[s];
-      const std::int64_t hour = (t - kStart) / kHour;
-      Datum d;
-      d.platform = platform_;
-      d.sensor = sensors_[s];
-      d.stamp_ns = t;
-      d.file = "bench/s" + std::to_string(s) + "/hour-" + std::to_string(hour) + ".rec";
-      d.length = 4096;
-      d.offset = offset_[s];
-      offset_[s] += d.length;
-      d.type = "fleetmap.v1.BenchRecord";
-      rows.push_back(std::move(d));
-      next_ns_[s] += kSecond / kRateHz[s];
-      if ((next_ns_[s] - kStart) / kHour != hour) offset_[s] = 0;  // a new file each hour
-      last_ns_ = t;
-      ++made_;
-    }
-    return rows;
-  }
-  std::int64_t last_ns() const { return last_ns_; }
-
- private:
-  PlatformId platform_;
-  std::vector<SensorId> sensors_;
-  std::int64_t total_;
-  std::vector<std::int64_t> next_ns_;
-  std::vector<std::uint64_t> offset_;
-  std::int64_t made_ = 0;
-  std::int64_t last_ns_ = kStart;
-};
-
 Figures RunOne(const std::string& backend, const std::string& uri, const IndexBenchOptions& o) {
   Figures f;
   f.backend = backend;
@@ -127,12 +69,9 @@ Figures RunOne(const std::string& backend, const std::string& uri, const IndexBe
     throw Error(ErrorCode::kConflict,
                 "bench index needs an empty index; " + store->uri() + " already holds data");
   }
-  const PlatformId platform = index.AddPlatform("bench-platform");
-  std::vector<SensorId> sensors;
-  for (int s = 0; s < kSensors; ++s) {
-    sensors.push_back(index.AddSensor("bench-sensor-" + std::to_string(s), "bench"));
-    index.Mount(sensors.back(), platform, kStart, std::nullopt);
-  }
+  const BenchPlatform bench_platform = AddBenchPlatform(index);
+  const PlatformId platform = bench_platform.platform;
+  const std::vector<SensorId>& sensors = bench_platform.sensors;
 
   // Insert.
   RowSource source(platform, sensors, o.records);

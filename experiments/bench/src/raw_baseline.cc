@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "fleetmap/core/error.h"
+#include "raw_sqlite_connection.h"
 
 namespace fleetmap::bench {
 
@@ -78,46 +79,20 @@ std::string Redacted(const std::string& uri) {
 
 // --- SQLite ------------------------------------------------------------------------------
 
-struct StatementFinalizer {
-  void operator()(sqlite3_stmt* s) const { sqlite3_finalize(s); }
-};
-using SqliteStatement = std::unique_ptr<sqlite3_stmt, StatementFinalizer>;
-
 class RawSqliteChain final : public ChainWorkload {
  public:
-  RawSqliteChain(const std::string& path, Durability durability) : path_(path) {
-    // The flags GraphStore's SQLite backend uses.
-    const int flags = SQLITE_OPEN_READWRITE | SQLITE_OPEN_NOMUTEX;
-    const int rc = sqlite3_open_v2(path.c_str(), &db_, flags, nullptr);
-    if (rc != SQLITE_OK) {
-      const std::string message = db_ ? sqlite3_errmsg(db_) : sqlite3_errstr(rc);
-      sqlite3_close(db_);
-      throw Error(ErrorCode::kBackend, "raw sqlite baseline: cannot open " + path + ": " + message);
-    }
-    try {
-      Exec("PRAGMA journal_mode=WAL");
-      Exec(durability == Durability::kSynchronous ? "PRAGMA synchronous=FULL"
-                                                  : "PRAGMA synchronous=OFF");
-      Exec("PRAGMA foreign_keys=ON");
-      Exec("PRAGMA cache_size=-32768");
-      insert_node_ = Prepare(
-          "INSERT INTO nodes (id, stamp_ns, robot, outing, landmarks) VALUES (?1, ?2, ?3, ?4, ?5)");
-      insert_edge_ = Prepare(
-          "INSERT INTO edges (id, from_id, to_id, kind, tx, ty, tz, qw, qx, qy, qz, path_id)"
-          " VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12)");
-      find_node_ =
-          Prepare("SELECT id, stamp_ns, robot, outing, landmarks FROM nodes WHERE id = ?1");
-      edges_from_ = Prepare(
-          "SELECT id, from_id, to_id, kind, tx, ty, tz, qw, qx, qy, qz, path_id FROM edges"
-          " WHERE from_id = ?1 ORDER BY id");
-      read_chain_ = Prepare(kSqliteReadChain);
-    } catch (...) {
-      Close();
-      throw;
-    }
+  RawSqliteChain(const std::string& path, Durability durability) : conn_(path, durability) {
+    insert_node_ = Prepare(
+        "INSERT INTO nodes (id, stamp_ns, robot, outing, landmarks) VALUES (?1, ?2, ?3, ?4, ?5)");
+    insert_edge_ = Prepare(
+        "INSERT INTO edges (id, from_id, to_id, kind, tx, ty, tz, qw, qx, qy, qz, path_id)"
+        " VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12)");
+    find_node_ = Prepare("SELECT id, stamp_ns, robot, outing, landmarks FROM nodes WHERE id = ?1");
+    edges_from_ = Prepare(
+        "SELECT id, from_id, to_id, kind, tx, ty, tz, qw, qx, qy, qz, path_id FROM edges"
+        " WHERE from_id = ?1 ORDER BY id");
+    read_chain_ = Prepare(kSqliteReadChain);
   }
-
-  ~RawSqliteChain() override { Close(); }
 
   void CreateIndividual(const GraphBatch& chain) override {
     if (chain.nodes.empty()) return;
@@ -129,15 +104,10 @@ class RawSqliteChain final : public ChainWorkload {
   }
 
   void CreateBatch(const GraphBatch& chain) override {
-    Exec("BEGIN IMMEDIATE");
-    try {
+    conn_.InTransaction([&] {
       for (const Node& n : chain.nodes) InsertNode(n);
       for (const Edge& e : chain.edges) InsertEdge(e);
-      Exec("COMMIT");
-    } catch (...) {
-      if (!sqlite3_get_autocommit(db_)) sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
-      throw;
-    }
+    });
   }
 
   std::size_t ReadIndividual(const Uuid& start) override {
@@ -181,46 +151,9 @@ class RawSqliteChain final : public ChainWorkload {
   }
 
  private:
-  void Close() {
-    insert_node_.reset();
-    insert_edge_.reset();
-    find_node_.reset();
-    edges_from_.reset();
-    read_chain_.reset();
-    sqlite3_close(db_);
-    db_ = nullptr;
-  }
-
-  [[noreturn]] void Fail(const std::string& what) {
-    throw Error(ErrorCode::kBackend,
-                "raw sqlite baseline " + path_ + ": " + what + ": " + sqlite3_errmsg(db_));
-  }
-
-  void Exec(const char* sql) {
-    if (sqlite3_exec(db_, sql, nullptr, nullptr, nullptr) != SQLITE_OK) Fail(sql);
-  }
-
-  SqliteStatement Prepare(const char* sql) {
-    sqlite3_stmt* s = nullptr;
-    if (sqlite3_prepare_v3(db_, sql, -1, SQLITE_PREPARE_PERSISTENT, &s, nullptr) != SQLITE_OK) {
-      Fail(std::string("prepare ") + sql);
-    }
-    return SqliteStatement(s);
-  }
-
-  // SQLITE_ROW or SQLITE_DONE; anything else throws (after rewinding the statement).
-  int Step(sqlite3_stmt* s) {
-    const int rc = sqlite3_step(s);
-    if (rc == SQLITE_ROW || rc == SQLITE_DONE) return rc;
-    const std::string sql = sqlite3_sql(s);
-    sqlite3_reset(s);
-    Fail(sql);
-  }
-
-  void Run(sqlite3_stmt* s) {
-    Step(s);
-    sqlite3_reset(s);
-  }
+  SqliteStatement Prepare(const char* sql) { return conn_.Prepare(sql); }
+  int Step(sqlite3_stmt* s) { return conn_.Step(s); }
+  void Run(sqlite3_stmt* s) { conn_.Run(s); }
 
   // Bound without a copy: the UUID must outlive the next step.
   static void BindUuid(sqlite3_stmt* s, int index, const Uuid& id) {
@@ -295,8 +228,7 @@ class RawSqliteChain final : public ChainWorkload {
     return e;
   }
 
-  std::string path_;
-  sqlite3* db_ = nullptr;
+  RawSqliteConnection conn_;  // declared first: closed after the statements are finalized
   SqliteStatement insert_node_, insert_edge_, find_node_, edges_from_, read_chain_;
 };
 

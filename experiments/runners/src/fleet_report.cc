@@ -216,6 +216,16 @@ MeanNodes MeanRatio(const FleetExperimentResult& result, const std::string& poli
 
 }  // namespace
 
+FleetCpuSeconds SumFleetCpu(const FleetExperimentResult& result) {
+  FleetCpuSeconds sum;
+  for (const auto& [fold, t] : TimesByFold(result)) {
+    sum.single += t.single_cpu;
+    sum.merging += t.strategy_cpu;
+    sum.total += t.groups_cpu + t.merges_cpu;
+  }
+  return sum;
+}
+
 std::vector<FrontierSummary> SummariseFrontier(const FleetExperimentResult& result) {
   Count copy_p10, copy_lost;
   for (const HeldOutRun& run : result.runs) {

@@ -42,6 +42,14 @@ struct FleetVerdict {
 // A policy or map with no runs (or no downloads, or no builds) fails its lines as "not run".
 FleetVerdict JudgeFleet(const FleetExperimentResult& result);
 
+// CPU seconds over every fold: single-agent EBN; the merging strategy with its groups driven in
+// parallel (the slowest group, then every merge in turn; Fig. 7's "merged" time); and all the
+// groups and merges together. What JudgeFleet's CPU lines are the ratios of.
+struct FleetCpuSeconds {
+  double single = 0, merging = 0, total = 0;
+};
+FleetCpuSeconds SumFleetCpu(const FleetExperimentResult& result);
+
 // Issue 34 item 4: one point of the frontier an operator picks a download policy from, over
 // every fold: its share of copy's nodes (mean over downloads) and of copy's landmark bytes, and
 // its P(X > 10 m) and not-localised fraction against copy's on the same held-out frames
