@@ -139,6 +139,9 @@ void AddLimitsBench(CLI::App* bench) {
   limits->add_option("--index-samples", o->index_samples, "Nearest lookups timed per repetition")
       ->check(CLI::Range(100, 10'000'000))
       ->capture_default_str();
+  limits->add_option("--pg", o->pg_uri,
+                     "PostgreSQL server for the bulk-ingest line's scratch databases (default: "
+                     "$FLEETMAP_TEST_PG_URI; without either that line is not run)");
   limits->add_option("--world", o->world_file,
                      "World file for MERGE (default: the built-in world)");
   limits

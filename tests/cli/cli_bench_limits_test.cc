@@ -1,8 +1,8 @@
 // `fleetmap bench limits` (issue 39 item 5): the judgement of a line (ratios per repetition,
 // medians, bounds either way, a missing side never passing), Google Benchmark's JSON read per
-// repetition, and the command end to end: the sensor index against plain sqlite3 and the
-// matcher's child benchmark, their CSV consistent with the exit status, and a benchmark
-// executable that is not there failing its lines with a reason.
+// repetition, and the command end to end: the sensor index against plain sqlite3, PostgreSQL's
+// ingest against plain COPY and the matcher's child benchmark, their CSV consistent with the
+// exit status, and a benchmark executable that is not there failing its lines with a reason.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -16,6 +16,7 @@
 #include "fleetmap/core/error.h"
 #include "fleetmap_cli_run.h"
 #include "scratch_dir.h"
+#include "store_backends.h"
 
 namespace fleetmap::testing {
 namespace {
@@ -175,6 +176,8 @@ std::map<std::string, std::map<std::string, std::string>> LimitsCsv(
 }
 
 TEST(CliBenchLimitsTest, IndexAndMatcherBesideTheirRawLimits) {
+  // The PostgreSQL ingest line runs on $FLEETMAP_TEST_PG_URI's server.
+  if (std::optional<std::string> why = PostgresBackend::Unavailable()) GTEST_FAIL() << *why;
   ScratchDir dir("fleetmap-bench-limits");
   const std::filesystem::path out = dir / "out";
   const std::filesystem::path benchmarks =
@@ -185,7 +188,7 @@ TEST(CliBenchLimitsTest, IndexAndMatcherBesideTheirRawLimits) {
        "--index-samples", "500", "--benchmarks", benchmarks.string(), "--out", out.string()},
       std::chrono::seconds(240));
   const auto rows = LimitsCsv(out / "limits.csv");
-  ASSERT_EQ(rows.size(), 5u) << run.out << run.err;
+  ASSERT_EQ(rows.size(), 6u) << run.out << run.err;
   int missed = 0;
   for (const auto& [measure, row] : rows) {
     const double ours = std::stod(row.at("ours"));
@@ -199,6 +202,7 @@ TEST(CliBenchLimitsTest, IndexAndMatcherBesideTheirRawLimits) {
   EXPECT_EQ(run.exit_code, missed == 0 ? 0 : 1) << run.out << run.err;
   EXPECT_EQ(rows.count("index insert, SQLite synchronous, 20000 rows"), 1u);
   EXPECT_EQ(rows.count("index nearest (platform, sensor, t), SQLite buffered"), 1u);
+  EXPECT_EQ(rows.count("index insert, PostgreSQL synchronous (COPY), 20000 rows"), 1u);
   EXPECT_NE(run.out.find("| descriptor matching 500x500"), std::string::npos) << run.out;
   // The scratch index files are gone.
   EXPECT_FALSE(std::filesystem::exists(out / "scratch"));

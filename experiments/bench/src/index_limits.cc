@@ -12,6 +12,7 @@
 #include "fleetmap/core/uuid.h"
 #include "fleetmap/store/sensor_index.h"
 #include "index_workload.h"
+#include "raw_baseline.h"
 #include "raw_sensor_index.h"
 
 namespace fleetmap::bench {
@@ -124,6 +125,54 @@ IndexAgainstRaw MeasureSqliteIndexAgainstRaw(const std::string& dir, std::int64_
   }
   f.ours_nearest_us = Median(ours_us);
   f.raw_nearest_us = Median(raw_us);
+  return f;
+}
+
+IngestAgainstRaw MeasurePostgresIngestAgainstRaw(const std::string& admin_uri, std::int64_t rows,
+                                                 Durability durability, bool ours_first) {
+  const std::string run = Uuid::GenerateRandom().ToString().substr(0, 8);
+  const std::string ours_db = "fleetmap_limits_ours_" + run;
+  const std::string raw_db = "fleetmap_limits_raw_" + run;
+  CreatePostgresDatabase(admin_uri, ours_db);
+  IngestAgainstRaw f;
+  try {
+    CreatePostgresDatabase(admin_uri, raw_db);
+    try {
+      StoreOptions options;
+      options.durability = durability;
+      std::unique_ptr<GraphStore> ours =
+          GraphStore::Open(UriWithDatabase(admin_uri, ours_db), options);
+      const BenchPlatform p = AddBenchPlatform(ours->sensors());
+      {
+        auto raw_schema = GraphStore::Open(UriWithDatabase(admin_uri, raw_db), options);
+        AddBenchPlatform(raw_schema->sensors());
+      }
+      std::unique_ptr<RawPostgresIngest> raw =
+          OpenRawPostgresIngest(UriWithDatabase(admin_uri, raw_db), durability);
+      auto load_ours = [&] {
+        f.ours_insert_per_s =
+            Load(p, rows, [&](const std::vector<Datum>& b) { ours->sensors().InsertData(b); });
+      };
+      auto load_raw = [&] {
+        f.raw_insert_per_s = Load(p, rows, [&](const std::vector<Datum>& b) { raw->Insert(b); });
+      };
+      if (ours_first) {
+        load_ours();
+        load_raw();
+      } else {
+        load_raw();
+        load_ours();
+      }
+    } catch (...) {
+      DropPostgresDatabase(admin_uri, raw_db);
+      throw;
+    }
+    DropPostgresDatabase(admin_uri, raw_db);
+  } catch (...) {
+    DropPostgresDatabase(admin_uri, ours_db);
+    throw;
+  }
+  DropPostgresDatabase(admin_uri, ours_db);
   return f;
 }
 

@@ -24,4 +24,16 @@ struct IndexAgainstRaw {
 IndexAgainstRaw MeasureSqliteIndexAgainstRaw(const std::string& dir, std::int64_t rows,
                                              Durability durability, int samples, bool ours_first);
 
+struct IngestAgainstRaw {
+  double ours_insert_per_s = 0;
+  double raw_insert_per_s = 0;
+};
+
+// PostgreSQL's bulk ingest: the same rows into two scratch databases made on the server at
+// admin_uri (dropped afterwards), ours through SensorIndex (COPY into a staging table, then one
+// INSERT ... SELECT ... ON CONFLICT DO NOTHING returning the ids) and the raw one by COPY
+// straight into data (raw_baseline.h).
+IngestAgainstRaw MeasurePostgresIngestAgainstRaw(const std::string& admin_uri, std::int64_t rows,
+                                                 Durability durability, bool ours_first);
+
 }  // namespace fleetmap::bench

@@ -7,6 +7,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -15,7 +16,6 @@
 
 #include "bench_report.h"
 #include "fleetmap/bench/benchmark_json.h"
-#include "fleetmap/bench/limit_line.h"
 #include "fleetmap/bench/limit_line.h"
 #include "fleetmap/core/error.h"
 #include "fleetmap/runners/fleet_experiment.h"
@@ -56,6 +56,32 @@ LimitLine Line(std::string measure, std::string unit, std::string limit_name,
 
 // --- sensor index (in this process) -------------------------------------------------------
 
+// Reported beside the SQLite lines, without a bound: the issue asks for COPY, not a ratio.
+LimitLine PostgresIngestLine(const LimitsBenchOptions& o) {
+  LimitLine line = Line("index insert, PostgreSQL synchronous (COPY), " +
+                            Format("%.0f", static_cast<double>(o.index_rows)) + " rows",
+                        "rows/s", "plain COPY into data", LimitLine::Bound::kNone, 0);
+  std::string uri = o.pg_uri;
+  if (uri.empty()) {
+    if (const char* env = std::getenv("FLEETMAP_TEST_PG_URI")) uri = env;
+  }
+  if (uri.empty()) {
+    line.note = "not run: no PostgreSQL (--pg or FLEETMAP_TEST_PG_URI)";
+    return line;
+  }
+  double load = 0;
+  for (int r = 0; r < o.repetitions; ++r) {
+    std::cerr << "[limits] PostgreSQL ingest, repetition " << r + 1 << "/" << o.repetitions << "\n";
+    const IngestAgainstRaw f =
+        MeasurePostgresIngestAgainstRaw(uri, o.index_rows, Durability::kSynchronous, r % 2 == 0);
+    line.ours.push_back(f.ours_insert_per_s);
+    line.limit.push_back(f.raw_insert_per_s);
+    load = std::max(load, LoadAverage());
+  }
+  NoteLoad(line, load);
+  return line;
+}
+
 std::vector<LimitLine> IndexLines(const LimitsBenchOptions& o) {
   std::vector<LimitLine> lines;
   const std::string rows = Format("%.0f", static_cast<double>(o.index_rows));
@@ -82,6 +108,7 @@ std::vector<LimitLine> IndexLines(const LimitsBenchOptions& o) {
     lines.push_back(std::move(insert));
     lines.push_back(std::move(nearest));
   }
+  lines.push_back(PostgresIngestLine(o));
   return lines;
 }
 

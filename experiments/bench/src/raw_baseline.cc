@@ -438,7 +438,64 @@ void RequirePlainIdentifier(const std::string& name) {
   }
 }
 
+// The sensor index's bulk ingest written plainly: a file's row inserted when first met (its id
+// kept in memory for the whole load), the rows COPYed straight into data, one transaction per
+// call. No staging table, no conflict handling, no ids read back: what SensorIndex does beyond
+// this is what its ingest costs over COPY.
+class RawPostgresIngestImpl final : public RawPostgresIngest {
+ public:
+  RawPostgresIngestImpl(const std::string& uri, Durability durability)
+      : context_("raw postgresql ingest " + Redacted(uri)),
+        conn_(TranslatePqxx(context_, [&] { return std::make_unique<pqxx::connection>(uri); })) {
+    TranslatePqxx(context_, [&] {
+      pqxx::nontransaction session(*conn_);
+      session.exec(durability == Durability::kSynchronous ? "SET synchronous_commit = on"
+                                                          : "SET synchronous_commit = off");
+    });
+  }
+
+  void Insert(std::span<const Datum> rows) override {
+    TranslatePqxx(context_, [&] {
+      pqxx::work txn(*conn_);
+      std::vector<std::int64_t> file_ids;
+      file_ids.reserve(rows.size());
+      for (const Datum& d : rows) file_ids.push_back(FileId(txn, d.file));
+      pqxx::stream_to data(txn, "data",
+                           std::vector<std::string>{"platform", "sensor", "stamp_ns", "file_id",
+                                                    "\"offset\"", "length", "type"});
+      for (std::size_t i = 0; i < rows.size(); ++i) {
+        const Datum& d = rows[i];
+        data << std::make_tuple(d.platform, d.sensor, d.stamp_ns, file_ids[i],
+                                static_cast<std::int64_t>(d.offset),
+                                static_cast<std::int64_t>(d.length), d.type);
+      }
+      data.complete();
+      txn.commit();
+    });
+  }
+
+ private:
+  std::int64_t FileId(pqxx::work& txn, const std::string& file) {
+    auto it = file_ids_.find(file);
+    if (it != file_ids_.end()) return it->second;
+    const std::int64_t id =
+        txn.exec_params1("INSERT INTO files (file) VALUES ($1) RETURNING file_id", file)[0]
+            .as<std::int64_t>();
+    file_ids_.emplace(file, id);
+    return id;
+  }
+
+  std::string context_;
+  std::unique_ptr<pqxx::connection> conn_;
+  std::unordered_map<std::string, std::int64_t> file_ids_;
+};
+
 }  // namespace
+
+std::unique_ptr<RawPostgresIngest> OpenRawPostgresIngest(const std::string& uri,
+                                                         Durability durability) {
+  return std::make_unique<RawPostgresIngestImpl>(uri, durability);
+}
 
 std::unique_ptr<ChainWorkload> OpenRawSqliteChain(const std::string& path, Durability durability) {
   return std::make_unique<RawSqliteChain>(path, durability);

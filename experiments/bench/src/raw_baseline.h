@@ -1,16 +1,19 @@
 // Raw baselines for `fleetmap bench graph`: the chain workload (chain_workload.h) written
 // directly against sqlite3 prepared statements and libpqxx, the code one would write without
-// GraphStore. They run on tables created by GraphStore's own migrations and open their
-// connections with the same settings, so what differs is our API layer only.
+// GraphStore; and for `bench limits`, the sensor index's bulk ingest by plain COPY. They run on
+// tables created by GraphStore's own migrations and open their connections with the same settings,
+// so what differs is our API layer only.
 //
 // Scratch-database helpers for the PostgreSQL runs live here too, so libpqxx stays in one file.
 #pragma once
 
 #include <memory>
+#include <span>
 #include <string>
 
 #include "chain_workload.h"
 #include "fleetmap/store/graph_store.h"
+#include "fleetmap/store/sensor_index.h"
 
 namespace fleetmap::bench {
 
@@ -22,6 +25,16 @@ std::unique_ptr<ChainWorkload> OpenRawSqliteChain(const std::string& path, Durab
 // Connects to a PostgreSQL database by URI; buffered durability sets synchronous_commit = off
 // on the session. REQUIRES: the database already holds the schema. Batch writes use COPY.
 std::unique_ptr<ChainWorkload> OpenRawPostgresChain(const std::string& uri, Durability durability);
+
+// Sensor index rows COPYed straight into the data table, one transaction per Insert (files
+// get their rows as first met). REQUIRES: the schema, platform and sensors exist.
+class RawPostgresIngest {
+ public:
+  virtual ~RawPostgresIngest() = default;
+  virtual void Insert(std::span<const Datum> rows) = 0;
+};
+std::unique_ptr<RawPostgresIngest> OpenRawPostgresIngest(const std::string& uri,
+                                                         Durability durability);
 
 // Empties every graph table of the database at uri (the schema stays).
 void TruncatePostgresGraphTables(const std::string& uri);

@@ -4,7 +4,8 @@
 //   MERGE CPU        the fleet experiment's merging strategy (groups in parallel) and all its
 //                    groups and merges, against single-agent EBN's CPU (mean over world seeds);
 //   sensor index     insert and nearest on SQLite, synchronous and buffered, against plain
-//                    sqlite3 on the same schema (raw_sensor_index.h);
+//                    sqlite3 on the same schema (raw_sensor_index.h); PostgreSQL's bulk
+//                    ingest against plain COPY into the data table (reported, not bounded);
 //   agent pull       fleetmap-agent's pull from a real fleetmapd against RawSqliteInstall, the
 //                    cold download's rate and fleetmapd's memory growth (sync_download_benchmark);
 //   front end        the stereo front end against ORB alone on both images, KITTI and EuRoC
@@ -28,6 +29,9 @@ struct LimitsBenchOptions {
   // Sensor index.
   std::int64_t index_rows = 1'000'000;
   int index_samples = 20'000;
+  // PostgreSQL server for the bulk-ingest line (scratch databases made and dropped); empty:
+  // $FLEETMAP_TEST_PG_URI, and without either the line says it was not run.
+  std::string pg_uri;
   // MERGE.
   std::string world_file;               // empty: the built-in default world
   int merge_seeds = 3;                  // the world's seed and the ones after it
