@@ -291,6 +291,25 @@ TEST_F(StereoRowMatchTest, LeftRightCheckKeepsOnlyTheMutualBest) {
   EXPECT_EQ(m.size(), 2u) << "without the check both claim the one right keypoint";
 }
 
+TEST_F(StereoRowMatchTest, EqualDistancesGoToTheFirstRowThenTheLowestIndex) {
+  // Three right keypoints one bit from the left one: two on row 101 (index 0 to the right of
+  // index 1) and one on row 99. The tie goes to row 99, as a scan of the rows in turn would
+  // meet it first; without it, to index 0 (the lower index, though further left on its row).
+  const std::vector<cv::KeyPoint> left{cv::KeyPoint(200, 100, 31)};
+  const cv::Mat dl = Descriptors({{0x00}});
+  const cv::Mat dr = Descriptors({{0x01}, {0x02}, {0x04}});
+  const std::vector<cv::KeyPoint> three{cv::KeyPoint(180, 101, 31), cv::KeyPoint(150, 101, 31),
+                                        cv::KeyPoint(170, 99, 31)};
+  std::vector<StereoMatch> m =
+      MatchStereoRows(left, dl, three, dr, cv::Mat(), cv::Mat(), NoRefinement());
+  ASSERT_EQ(m.size(), 1u);
+  EXPECT_EQ(m[0].right_index, 2);
+  const std::vector<cv::KeyPoint> two(three.begin(), three.begin() + 2);
+  m = MatchStereoRows(left, dl, two, dr.rowRange(0, 2), cv::Mat(), cv::Mat(), NoRefinement());
+  ASSERT_EQ(m.size(), 1u);
+  EXPECT_EQ(m[0].right_index, 0);
+}
+
 TEST_F(StereoRowMatchTest, BadArgumentsAreRefused) {
   const std::vector<cv::KeyPoint> one{cv::KeyPoint(10, 10, 31)};
   const cv::Mat d = Descriptors({{1}});
@@ -486,6 +505,51 @@ TEST(StereoFrontEndTest, RealPairsTriangulateAtTheRoomsScale) {
     EXPECT_EQ(std::count(l.levels.begin(), l.levels.end(), 0) > 0, true) << "pair " << i;
     EXPECT_FLOAT_EQ(l.stereo->level_scale, StereoFrontEndOptions{}.orb_scale_factor);
   }
+}
+
+// The front end describes only the left keypoints bucketing keeps; its landmarks are those of
+// describing every keypoint in both images first, bucketing the left with its descriptors, and
+// matching (the same points, descriptors and levels, in the same order).
+TEST(StereoFrontEndTest, RealPairGivesTheLandmarksOfDescribingEverything) {
+  FLEETMAP_REQUIRE_EUROC_SEQUENCE();
+  const EurocSequence sequence = LoadEurocSequence(testing::EurocSequenceDir());
+  const StereoRectifier rectifier(sequence.left, sequence.right);
+  const StereoFrontEndOptions o;
+  const StereoFrontEnd front_end(rectifier.geometry(), o);
+  const StereoPairFiles& pair = sequence.pairs[20];
+  cv::Mat left, right;
+  rectifier.Rectify(ReadMonoImage(pair.left_image, 752, 480),
+                    ReadMonoImage(pair.right_image, 752, 480), left, right);
+  const StereoFrontEndResult r = front_end.Process(0, left, right);
+
+  std::vector<cv::KeyPoint> all_left, right_keypoints, kept_left;
+  cv::Mat all_left_descriptors, right_descriptors;
+  CreateOrbDetector(o)->detectAndCompute(left, cv::noArray(), all_left, all_left_descriptors);
+  CreateOrbDetector(o)->detectAndCompute(right, cv::noArray(), right_keypoints, right_descriptors);
+  const std::vector<int> kept =
+      BucketKeypoints(all_left, left.cols, left.rows, o.grid_columns, o.grid_rows, o.orb_features);
+  cv::Mat kept_descriptors;
+  for (const int i : kept) {
+    kept_left.push_back(all_left[static_cast<std::size_t>(i)]);
+    kept_descriptors.push_back(all_left_descriptors.row(i));
+  }
+  const std::vector<StereoMatch> matches = MatchStereoRows(
+      kept_left, kept_descriptors, right_keypoints, right_descriptors, left, right, o.matching);
+  EXPECT_EQ(r.left_keypoints, static_cast<int>(kept_left.size()));
+  EXPECT_EQ(r.right_keypoints, static_cast<int>(right_keypoints.size()));
+  EXPECT_EQ(r.matching.matched, static_cast<int>(matches.size()));
+  const double min_disparity_px = o.disparity_sigma_px / o.max_relative_depth_sigma;
+  std::size_t n = 0;
+  for (const StereoMatch& m : matches) {
+    if (m.disparity_px < min_disparity_px) continue;
+    ASSERT_LT(n, r.frame.landmarks.size());
+    EXPECT_EQ(r.frame.landmarks.descriptors[n], DescriptorRow(kept_descriptors, m.left_index))
+        << "landmark " << n;
+    EXPECT_EQ(r.left_pixels[n], Eigen::Vector2d(m.u_left_px, m.v_px)) << "landmark " << n;
+    ++n;
+  }
+  EXPECT_EQ(n, r.frame.landmarks.size());
+  EXPECT_GT(n, 200u);
 }
 
 // A real frame localises against itself, and fails, without an exception, against frames made

@@ -3,14 +3,20 @@
 #include "fleetmap/stereo/stereo_matcher.h"
 
 #include <algorithm>
+#include <bit>
 #include <climits>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <future>
+#include <iterator>
 #include <string>
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 #include "fleetmap/core/error.h"
-#include "fleetmap/ebn/hamming.h"
 
 namespace fleetmap {
 namespace {
@@ -35,38 +41,88 @@ void CheckDescriptors(const std::vector<cv::KeyPoint>& keypoints, const cv::Mat&
   }
 }
 
-// Right keypoints by whole image row, so a left keypoint reads only the rows it may match.
+// What the candidate tests read of a keypoint, kept in the index so they need not fetch it.
+struct RowEntry {
+  float x;
+  int octave;
+  int index;
+};
+
+// Keypoints by whole image row, each row's sorted by x (rows stored one after another), so a
+// keypoint of the other image reads only the rows it may match and, by binary search, only the
+// stretch of each row its disparity range allows: a KITTI row is 1241 px, the range 150.
 class RowIndex {
  public:
-  RowIndex(const std::vector<cv::KeyPoint>& keypoints, int rows) : by_row_(rows) {
+  RowIndex(const std::vector<cv::KeyPoint>& keypoints, int rows)
+      : first_(static_cast<std::size_t>(rows) + 1, 0) {
+    const auto row_of = [](const cv::KeyPoint& k) { return static_cast<int>(std::lround(k.pt.y)); };
+    for (const cv::KeyPoint& k : keypoints) {
+      const int row = row_of(k);
+      if (row >= 0 && row < rows) ++first_[static_cast<std::size_t>(row) + 1];
+    }
+    for (int row = 0; row < rows; ++row) {
+      first_[static_cast<std::size_t>(row) + 1] += first_[static_cast<std::size_t>(row)];
+    }
+    entries_.resize(first_.back());
+    std::vector<std::size_t> next(first_.begin(), first_.end() - 1);
     for (int i = 0; i < static_cast<int>(keypoints.size()); ++i) {
-      const int row = static_cast<int>(std::lround(keypoints[i].pt.y));
-      if (row >= 0 && row < rows) by_row_[static_cast<std::size_t>(row)].push_back(i);
+      const cv::KeyPoint& k = keypoints[static_cast<std::size_t>(i)];
+      const int row = row_of(k);
+      if (row >= 0 && row < rows) {
+        entries_[next[static_cast<std::size_t>(row)]++] = {k.pt.x, k.octave, i};
+      }
+    }
+    for (int row = 0; row < rows; ++row) {
+      std::sort(
+          entries_.begin() + static_cast<std::ptrdiff_t>(first_[static_cast<std::size_t>(row)]),
+          entries_.begin() + static_cast<std::ptrdiff_t>(first_[static_cast<std::size_t>(row) + 1]),
+          [](const RowEntry& a, const RowEntry& b) { return a.x < b.x; });
     }
   }
+
+  // Visits (entry, order) of the keypoints on the rows within `tolerance` of y whose x lies in
+  // [x_lo, x_hi]; `order` ranks them as a scan of the rows in turn, each in index order, would
+  // meet them, so ties can be broken as that scan did.
   template <typename Visit>
-  void ForRows(double y, double tolerance, const Visit& visit) const {
+  void ForRows(double y, double tolerance, double x_lo, double x_hi, const Visit& visit) const {
+    const int rows = static_cast<int>(first_.size()) - 1;
     const int lo = std::max(0, static_cast<int>(std::floor(y - tolerance)));
-    const int hi =
-        std::min(static_cast<int>(by_row_.size()) - 1, static_cast<int>(std::ceil(y + tolerance)));
+    const int hi = std::min(rows - 1, static_cast<int>(std::ceil(y + tolerance)));
     for (int row = lo; row <= hi; ++row) {
-      for (int i : by_row_[static_cast<std::size_t>(row)]) visit(i);
+      const auto end =
+          entries_.begin() + static_cast<std::ptrdiff_t>(first_[static_cast<std::size_t>(row) + 1]);
+      auto it = std::lower_bound(
+          entries_.begin() + static_cast<std::ptrdiff_t>(first_[static_cast<std::size_t>(row)]),
+          end, x_lo, [](const RowEntry& e, double x) { return e.x < x; });
+      for (; it != end && it->x <= x_hi; ++it) {
+        visit(*it, (static_cast<std::int64_t>(row) << 32) | it->index);
+      }
     }
   }
 
  private:
-  std::vector<std::vector<int>> by_row_;
+  std::vector<std::size_t> first_;  // row r's entries are [first_[r], first_[r + 1])
+  std::vector<RowEntry> entries_;
 };
 
+// The two nearest candidates; among equal distances the one a scan in `order` meets first.
 struct Best {
   int index = -1;
+  std::int64_t order = 0;
   int distance = INT_MAX;
   int second = INT_MAX;
-  void Offer(int i, int d) {
+  void Offer(int i, std::int64_t visit_order, int d) {
     if (d < distance) {
       second = distance;
       distance = d;
       index = i;
+      order = visit_order;
+    } else if (d == distance) {
+      second = d;
+      if (visit_order < order) {
+        index = i;
+        order = visit_order;
+      }
     } else if (d < second) {
       second = d;
     }
@@ -78,25 +134,56 @@ double OctaveScale(const cv::KeyPoint& k) {
   return std::max(1.0, static_cast<double>(k.size) / 31.0);
 }
 
-int PatchSum(const cv::Mat& image, int u, int v, int r) {
-  int sum = 0;
-  for (int y = v - r; y <= v + r; ++y) {
-    const std::uint8_t* row = image.ptr<std::uint8_t>(y);
-    for (int x = u - r; x <= u + r; ++x) sum += row[x];
-  }
-  return sum;
-}
-
 // Sum of absolute differences after removing the patches' mean difference (`offset`, in whole
-// grey levels): robust to the two cameras' different exposure. Integers, so it vectorises.
+// grey levels): robust to the two cameras' different exposure. Integers, so the SIMD path and the
+// plain loop give the same cost.
 int PatchCost(const cv::Mat& left, int ul, const cv::Mat& right, int ur, int v, int r, int offset) {
+  const int width = 2 * r + 1;
+#if defined(__SSE2__)
+  // Sixteen pixels of a row at once in 16-bit lanes, those past the patch masked off: a
+  // difference is within +-510 and a lane adds two per row, at most 15 rows (width <= 16), so
+  // no lane overflows. The 16-byte loads must stay within the rows.
+  if (width <= 16 && ul - r + 16 <= left.cols && ur - r + 16 <= right.cols) {
+    const __m128i zero = _mm_setzero_si128();
+    const __m128i lanes_to = _mm_set1_epi16(static_cast<std::int16_t>(width));
+    const __m128i mask_lo = _mm_cmplt_epi16(_mm_setr_epi16(0, 1, 2, 3, 4, 5, 6, 7), lanes_to);
+    const __m128i mask_hi = _mm_cmplt_epi16(_mm_setr_epi16(8, 9, 10, 11, 12, 13, 14, 15), lanes_to);
+    const __m128i off = _mm_set1_epi16(static_cast<std::int16_t>(offset));
+    __m128i sum = zero;
+    const auto add = [&](__m128i l, __m128i rr, __m128i mask) {
+      const __m128i d = _mm_sub_epi16(_mm_sub_epi16(l, rr), off);
+      sum = _mm_add_epi16(sum, _mm_and_si128(_mm_max_epi16(d, _mm_sub_epi16(zero, d)), mask));
+    };
+    for (int y = v - r; y <= v + r; ++y) {
+      const __m128i l =
+          _mm_loadu_si128(reinterpret_cast<const __m128i*>(left.ptr<std::uint8_t>(y) + ul - r));
+      const __m128i rr =
+          _mm_loadu_si128(reinterpret_cast<const __m128i*>(right.ptr<std::uint8_t>(y) + ur - r));
+      add(_mm_unpacklo_epi8(l, zero), _mm_unpacklo_epi8(rr, zero), mask_lo);
+      add(_mm_unpackhi_epi8(l, zero), _mm_unpackhi_epi8(rr, zero), mask_hi);
+    }
+    alignas(16) std::int32_t parts[4];
+    _mm_store_si128(reinterpret_cast<__m128i*>(parts), _mm_madd_epi16(sum, _mm_set1_epi16(1)));
+    return parts[0] + parts[1] + parts[2] + parts[3];
+  }
+#endif
   int cost = 0;
   for (int y = v - r; y <= v + r; ++y) {
     const std::uint8_t* lrow = left.ptr<std::uint8_t>(y) + ul - r;
     const std::uint8_t* rrow = right.ptr<std::uint8_t>(y) + ur - r;
-    for (int x = 0; x <= 2 * r; ++x) cost += std::abs(lrow[x] - rrow[x] - offset);
+    for (int x = 0; x < width; ++x) cost += std::abs(lrow[x] - rrow[x] - offset);
   }
   return cost;
+}
+
+// Sums of the image's columns x0, x0 + 1, ... over rows [v - r, v + r], into `sums`: a patch's
+// sum is then 2 r + 1 of these, and the patches slid along a row share them.
+void ColumnSums(const cv::Mat& image, int x0, int v, int r, std::vector<int>& sums) {
+  std::fill(sums.begin(), sums.end(), 0);
+  for (int y = v - r; y <= v + r; ++y) {
+    const std::uint8_t* row = image.ptr<std::uint8_t>(y) + x0;
+    for (std::size_t x = 0; x < sums.size(); ++x) sums[x] += row[x];
+  }
 }
 
 // Refines a match's disparity; false when the cost has no minimum strictly inside the window.
@@ -112,11 +199,24 @@ bool Refine(const cv::Mat& left, const cv::Mat& right, const cv::KeyPoint& lk,
   }
   std::vector<double> cost(static_cast<std::size_t>(2 * s + 1));
   const int area = (2 * r + 1) * (2 * r + 1);
-  const int left_sum = PatchSum(left, ul, v, r);
+  const int width = 2 * r + 1;
+  std::vector<int> columns(static_cast<std::size_t>(width));
+  ColumnSums(left, ul - r, v, r, columns);
+  int left_sum = 0;
+  for (const int c : columns) left_sum += c;
+  // The right image's columns under every offset's patch: [ur - s - r, ur + s + r].
+  columns.resize(static_cast<std::size_t>(2 * s + width));
+  ColumnSums(right, ur - s - r, v, r, columns);
+  int right_sum = 0;
+  for (int x = 0; x < width; ++x) right_sum += columns[static_cast<std::size_t>(x)];
   int best = 0;
   for (int k = -s; k <= s; ++k) {
-    const int offset = static_cast<int>(
-        std::lround(static_cast<double>(left_sum - PatchSum(right, ur + k, v, r)) / area));
+    if (k > -s) {
+      right_sum += columns[static_cast<std::size_t>(k + s + width - 1)] -
+                   columns[static_cast<std::size_t>(k + s - 1)];
+    }
+    const int offset =
+        static_cast<int>(std::lround(static_cast<double>(left_sum - right_sum) / area));
     cost[static_cast<std::size_t>(k + s)] = PatchCost(left, ul, right, ur + k, v, r, offset);
     if (cost[static_cast<std::size_t>(k + s)] < cost[static_cast<std::size_t>(best + s)]) best = k;
   }
@@ -132,6 +232,90 @@ bool Refine(const cv::Mat& left, const cv::Mat& right, const cv::KeyPoint& lk,
   m.v_px = v;
   m.disparity_px = ul - (ur + best + delta);
   return true;
+}
+
+int RowsSpanned(const std::vector<cv::KeyPoint>& left, const std::vector<cv::KeyPoint>& right,
+                int image_rows) {
+  int rows = image_rows;
+  for (const cv::KeyPoint& k : left) rows = std::max(rows, static_cast<int>(k.pt.y) + 2);
+  for (const cv::KeyPoint& k : right) rows = std::max(rows, static_cast<int>(k.pt.y) + 2);
+  return rows;
+}
+
+// Which pairs may match at all (stereo_matcher.h): on the row within the tolerance of the
+// keypoint's scale, at a disparity in range, at nearly one pyramid level; both ways, for the
+// left-right check.
+class CandidateRule {
+ public:
+  // `rows`: at least the image's rows and every keypoint's row + 2 (RowsSpanned).
+  CandidateRule(const std::vector<cv::KeyPoint>& left, const std::vector<cv::KeyPoint>& right,
+                int rows, const StereoMatchOptions& options)
+      : left_(left),
+        right_(right),
+        options_(options),
+        left_rows_(left, rows),
+        right_rows_(right, rows) {}
+
+  bool InRange(double disparity) const {
+    return disparity >= options_.min_disparity_px && disparity <= options_.max_disparity_px;
+  }
+
+  // Visits (j, order) of every right keypoint that may match left keypoint i.
+  template <typename Visit>
+  void RightOf(int i, const Visit& visit) const {
+    const cv::KeyPoint& lk = left_[static_cast<std::size_t>(i)];
+    // One pixel of margin around the disparity range for the float arithmetic; Allowed decides.
+    right_rows_.ForRows(lk.pt.y, options_.row_tolerance_px * OctaveScale(lk),
+                        lk.pt.x - options_.max_disparity_px - 1,
+                        lk.pt.x - options_.min_disparity_px + 1,
+                        [&](const RowEntry& r, std::int64_t order) {
+                          if (Allowed(lk.pt.x, lk.octave, r.x, r.octave)) visit(r.index, order);
+                        });
+  }
+
+  // Visits (i, order) of every left keypoint that right keypoint j may match, under the same
+  // limits with the right keypoint's own scale (the left-right check).
+  template <typename Visit>
+  void LeftOf(int j, const Visit& visit) const {
+    const cv::KeyPoint& rk = right_[static_cast<std::size_t>(j)];
+    left_rows_.ForRows(rk.pt.y, options_.row_tolerance_px * OctaveScale(rk),
+                       rk.pt.x + options_.min_disparity_px - 1,
+                       rk.pt.x + options_.max_disparity_px + 1,
+                       [&](const RowEntry& l, std::int64_t order) {
+                         if (Allowed(l.x, l.octave, rk.pt.x, rk.octave)) visit(l.index, order);
+                       });
+  }
+
+ private:
+  // Both cameras see a point at one distance, so at about one pyramid level.
+  bool Allowed(float u_left, int octave_left, float u_right, int octave_right) const {
+    return InRange(u_left - u_right) &&
+           std::abs(octave_left - octave_right) <= options_.max_octave_difference;
+  }
+
+  const std::vector<cv::KeyPoint>& left_;
+  const std::vector<cv::KeyPoint>& right_;
+  const StereoMatchOptions& options_;
+  RowIndex left_rows_, right_rows_;
+};
+
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+#define FLEETMAP_STEREO_POPCNT_CLONES __attribute__((target_clones("popcnt", "default")))
+#else
+#define FLEETMAP_STEREO_POPCNT_CLONES
+#endif
+
+// HammingDistance (hamming.h) with the POPCNT instruction where the CPU has it: built for
+// baseline x86-64, std::popcount is a libgcc call per word, and these distances are a good part
+// of the matching.
+FLEETMAP_STEREO_POPCNT_CLONES int DescriptorDistance(const Descriptor256& a,
+                                                     const Descriptor256& b) {
+  std::uint64_t wa[4];
+  std::uint64_t wb[4];
+  std::memcpy(wa, a.data(), sizeof wa);
+  std::memcpy(wb, b.data(), sizeof wb);
+  return std::popcount(wa[0] ^ wb[0]) + std::popcount(wa[1] ^ wb[1]) +
+         std::popcount(wa[2] ^ wb[2]) + std::popcount(wa[3] ^ wb[3]);
 }
 
 // Below this many left keypoints a second thread costs more than it saves.
@@ -173,45 +357,31 @@ std::vector<StereoMatch> MatchStereoRows(const std::vector<cv::KeyPoint>& left_k
   for (std::size_t j = 0; j < right.size(); ++j) {
     right[j] = DescriptorRow(right_descriptors, static_cast<int>(j));
   }
-  int rows = left_image.empty() ? 0 : left_image.rows;
-  for (const cv::KeyPoint& k : left_keypoints) rows = std::max(rows, static_cast<int>(k.pt.y) + 2);
-  for (const cv::KeyPoint& k : right_keypoints) rows = std::max(rows, static_cast<int>(k.pt.y) + 2);
-  const RowIndex right_rows(right_keypoints, rows);
-  const RowIndex left_rows(left_keypoints, rows);
-
-  const auto in_range = [&](double disparity) {
-    return disparity >= options.min_disparity_px && disparity <= options.max_disparity_px;
-  };
-  // Both cameras see a point at one distance, so at about one pyramid level.
-  const auto same_scale = [&](const cv::KeyPoint& a, const cv::KeyPoint& b) {
-    return std::abs(a.octave - b.octave) <= options.max_octave_difference;
-  };
-  // The right keypoint's own best left keypoint, under the same row, disparity and scale limits.
+  const CandidateRule rule(
+      left_keypoints, right_keypoints,
+      RowsSpanned(left_keypoints, right_keypoints, left_image.empty() ? 0 : left_image.rows),
+      options);
+  // The right keypoint's own best left keypoint.
   const auto best_left_for = [&](int j) {
-    const cv::KeyPoint& rk = right_keypoints[static_cast<std::size_t>(j)];
     Best best;
-    left_rows.ForRows(rk.pt.y, options.row_tolerance_px * OctaveScale(rk), [&](int i) {
-      const cv::KeyPoint& lk = left_keypoints[static_cast<std::size_t>(i)];
-      if (in_range(lk.pt.x - rk.pt.x) && same_scale(lk, rk)) {
-        best.Offer(i, HammingDistance(left[static_cast<std::size_t>(i)],
-                                      right[static_cast<std::size_t>(j)]));
-      }
+    rule.LeftOf(j, [&](int i, std::int64_t order) {
+      best.Offer(i, order,
+                 DescriptorDistance(left[static_cast<std::size_t>(i)],
+                                    right[static_cast<std::size_t>(j)]));
     });
     return best.index;
   };
 
-  // Left keypoints [begin, end) matched into `out`, counting what is refused in `n`.
-  const auto match_range = [&](int begin, int end, std::vector<StereoMatch>& out,
+  // Left keypoints first, first + step, ... matched into `out`, counting what is refused in `n`.
+  const auto match_every = [&](int first, int step, std::vector<StereoMatch>& out,
                                StereoMatchCounts& n) {
-    for (int i = begin; i < end; ++i) {
+    for (int i = first; i < static_cast<int>(left_keypoints.size()); i += step) {
       const cv::KeyPoint& lk = left_keypoints[static_cast<std::size_t>(i)];
       Best best;
-      right_rows.ForRows(lk.pt.y, options.row_tolerance_px * OctaveScale(lk), [&](int j) {
-        const cv::KeyPoint& rk = right_keypoints[static_cast<std::size_t>(j)];
-        if (in_range(lk.pt.x - rk.pt.x) && same_scale(lk, rk)) {
-          best.Offer(j, HammingDistance(left[static_cast<std::size_t>(i)],
-                                        right[static_cast<std::size_t>(j)]));
-        }
+      rule.RightOf(i, [&](int j, std::int64_t order) {
+        best.Offer(j, order,
+                   DescriptorDistance(left[static_cast<std::size_t>(i)],
+                                      right[static_cast<std::size_t>(j)]));
       });
       if (best.index < 0) {
         ++n.no_candidate;
@@ -235,7 +405,7 @@ std::vector<StereoMatch> MatchStereoRows(const std::vector<cv::KeyPoint>& left_k
       m.v_px = lk.pt.y;
       m.disparity_px = lk.pt.x - rk.pt.x;
       if (refine &&
-          (!Refine(left_image, right_image, lk, rk, options, m) || !in_range(m.disparity_px))) {
+          (!Refine(left_image, right_image, lk, rk, options, m) || !rule.InRange(m.disparity_px))) {
         ++n.rejected_refinement;
         continue;
       }
@@ -243,20 +413,25 @@ std::vector<StereoMatch> MatchStereoRows(const std::vector<cv::KeyPoint>& left_k
     }
   };
 
-  // Each left keypoint is matched on its own, so the two halves run on the robot's two cores
-  // (seed 002 §VII) and are joined in order: the same matches as one pass, in the same order.
+  // Each left keypoint is matched on its own, so the two threads of the robot's two cores (seed
+  // 002 §VII) take every other one and their matches are merged by left index: the same matches
+  // as one pass, in the same order. Taking halves instead would leave one thread the coarse
+  // pyramid levels, whose wider row tolerance makes them dearer (ORB lists keypoints by level).
   const int n_left = static_cast<int>(left_keypoints.size());
-  const int half = n_left >= kParallelFrom ? n_left / 2 : n_left;
-  std::vector<StereoMatch> matches, second_matches;
+  const int step = n_left >= kParallelFrom ? 2 : 1;
+  std::vector<StereoMatch> even, odd;
   StereoMatchCounts second_counts;
   std::future<void> second;
-  if (half < n_left) {
-    second = std::async(std::launch::async,
-                        [&] { match_range(half, n_left, second_matches, second_counts); });
+  if (step == 2) {
+    second = std::async(std::launch::async, [&] { match_every(1, 2, odd, second_counts); });
   }
-  match_range(0, half, matches, c);
+  match_every(0, step, even, c);
   if (second.valid()) second.get();
-  matches.insert(matches.end(), second_matches.begin(), second_matches.end());
+  std::vector<StereoMatch> matches;
+  matches.reserve(even.size() + odd.size());
+  std::merge(
+      even.begin(), even.end(), odd.begin(), odd.end(), std::back_inserter(matches),
+      [](const StereoMatch& a, const StereoMatch& b) { return a.left_index < b.left_index; });
   c.no_candidate += second_counts.no_candidate;
   c.rejected_distance += second_counts.rejected_distance;
   c.rejected_left_right += second_counts.rejected_left_right;

@@ -37,7 +37,8 @@ struct StereoFrontEndOptions {
   // ORB's global top-N clusters where the image is busiest (foliage, a parked car) and the pose
   // rests on one corner of the view. ORB detects detect_oversampling times orb_features
   // candidates in both images for this (the right image keeps them all, so each kept left
-  // keypoint can find its partner). 1 x 1 cells and oversampling 1 give plain ORB.
+  // keypoint can find its partner); the left image's descriptors are computed only for the
+  // keypoints kept. 1 x 1 cells and oversampling 1 give plain ORB.
   int grid_columns = 8;
   int grid_rows = 4;
   double detect_oversampling = 2.0;  // >= 1
@@ -52,7 +53,7 @@ struct StereoFrontEndOptions {
 };
 
 struct StereoFrontEndTimings {
-  double orb_ms = 0;       // both images (in parallel)
+  double orb_ms = 0;       // both images (in parallel), with the left image's bucketing
   double matching_ms = 0;  // row matching, left-right check, refinement
   double triangulation_ms = 0;
   double total_ms() const { return orb_ms + matching_ms + triangulation_ms; }
@@ -70,8 +71,9 @@ struct StereoFrontEndResult {
 };
 
 // OpenCV's ORB with the options' settings as the front end runs it, detecting
-// detect_oversampling x orb_features keypoints (two of them, one per image); benchmarks time it
-// alone beside the front end.
+// detect_oversampling x orb_features keypoints (two of them, one per image; on the left image the
+// front end calls its detect and then its compute on the keypoints it keeps); benchmarks time its
+// detectAndCompute alone beside the front end.
 cv::Ptr<cv::ORB> CreateOrbDetector(const StereoFrontEndOptions& options);
 
 // A rectified pixel (u, v) with disparity d, triangulated in the rectified left frame.
