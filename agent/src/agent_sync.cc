@@ -9,7 +9,6 @@
 #include <mutex>
 #include <optional>
 #include <random>
-#include <span>
 #include <thread>
 #include <utility>
 #include <vector>
@@ -38,10 +37,11 @@ void Append(GraphBatch& to, GraphBatch&& part) {
 }
 
 // Writes a full download into its installation on a thread of its own while the next chunks
-// arrive, so the link and SQLite work at once. Chunks are decoded on the receiving thread,
-// which otherwise waits on the link, and SQLite's inserts are all the writer does: it is the
-// slower of the two (fleetmap's sync_download_benchmark, AgentPull). At most kQueuedChunks
-// chunks (1 MiB each) wait in between: memory stays a few MB.
+// arrive, so the link and SQLite work at once. Chunks are decoded and digested
+// (MapInstallation::Prepare) on the receiving thread, which otherwise waits on the link, and
+// SQLite's inserts are nearly all the writer does: it is the slower of the two (fleetmap's
+// sync_download_benchmark, AgentPull). At most kQueuedChunks chunks (1 MiB each) wait in
+// between: memory stays a few MB.
 class InstallWriter {
  public:
   static constexpr std::size_t kQueuedChunks = 8;
@@ -62,10 +62,10 @@ class InstallWriter {
   // Decodes chunk `seq` (a serialised MapChunk) and queues it, waiting while the queue is full.
   // Throws Error(kCorrupt) for a chunk that does not decode, and what the writer failed with
   // (it stops at its first error).
-  void Add(std::uint32_t seq, const std::string& data) {
-    GraphBatch part;
+  void Add(std::uint32_t seq, std::string_view data) {
+    MapInstallation::PreparedChunk part;
     try {
-      part = DecodeMapChunks(std::span<const std::string>(&data, 1));
+      part = MapInstallation::Prepare(DecodeMapChunk(data));
     } catch (const Error& e) {
       throw Error(ErrorCode::kCorrupt,
                   context_ + ": chunk " + std::to_string(seq) + ": " + e.message());
@@ -87,7 +87,7 @@ class InstallWriter {
  private:
   void Run() {
     for (;;) {
-      GraphBatch part;
+      MapInstallation::PreparedChunk part;
       {
         std::unique_lock lock(mutex_);
         changed_.wait(lock, [&] { return stopping_ || !queue_.empty(); });
@@ -115,11 +115,11 @@ class InstallWriter {
   std::string context_;
   std::mutex mutex_;
   std::condition_variable changed_;
-  std::deque<GraphBatch> queue_;  // decoded chunks; guarded by mutex_
-  bool busy_ = false;             // guarded by mutex_
-  bool stopping_ = false;         // guarded by mutex_
-  std::exception_ptr error_;      // guarded by mutex_
-  std::thread thread_;            // last: starts once the rest is constructed
+  std::deque<MapInstallation::PreparedChunk> queue_;  // guarded by mutex_
+  bool busy_ = false;                                 // guarded by mutex_
+  bool stopping_ = false;                             // guarded by mutex_
+  std::exception_ptr error_;                          // guarded by mutex_
+  std::thread thread_;                                // last: starts once the rest is constructed
 };
 
 milliseconds Remaining(Clock::time_point deadline) {
@@ -542,6 +542,30 @@ class SyncRun {
     }
   }
 
+  // The next frame of a download: a chunk, read in place from the frame's bytes (issue 39
+  // item 3: its bytes are not copied out of the frame before they are parsed), valid until the
+  // next receive on `client`; or nullopt for the end, put in `end`. A frame the in-place read
+  // does not take is decoded whole into `decoded` (which then holds the chunk's bytes); one
+  // that is neither is refused (Error(kCorrupt)).
+  std::optional<DownloadChunkView> NextChunk(SyncClient& client, const std::string& during,
+                                             v1::SyncFrame& decoded, v1::DownloadEnd& end) {
+    const std::string_view body = client.ReceiveBody(during, options_.download_timeout);
+    if (std::optional<DownloadChunkView> chunk = ViewDownloadChunk(body)) return chunk;
+    decoded = client.DecodeBody(body, during);
+    if (decoded.has_download_end()) {
+      end = decoded.download_end();
+      return std::nullopt;
+    }
+    if (!decoded.has_download_chunk()) {
+      client.Close();
+      throw Error(ErrorCode::kCorrupt, during + " with " + server() +
+                                           ": expected download_chunk or download_end, the "
+                                           "server sent " +
+                                           std::string(SyncFrameName(decoded)));
+    }
+    return DownloadChunkView{decoded.download_chunk().seq(), decoded.download_chunk().data()};
+  }
+
   // A download as received: a full one written into its installation, changes in memory.
   struct Received {
     MapDownload download;  // full: what it is, no content
@@ -630,33 +654,23 @@ class SyncRun {
     std::size_t paths = 0;
     v1::DownloadEnd end;
     for (;;) {
-      v1::SyncFrame next = client.Receive(during, options_.download_timeout);
-      if (next.has_download_end()) {
-        end = next.download_end();
-        break;
-      }
-      if (!next.has_download_chunk()) {
-        client.Close();
-        throw Error(ErrorCode::kCorrupt, during + " with " + server() +
-                                             ": expected download_chunk or download_end, the "
-                                             "server sent " +
-                                             std::string(SyncFrameName(next)));
-      }
-      const v1::DownloadChunk& chunk = next.download_chunk();
-      if (chunk.seq() != seq) {
-        throw Error(ErrorCode::kCorrupt, during + ": chunk " + std::to_string(chunk.seq()) +
+      v1::SyncFrame decoded;
+      const std::optional<DownloadChunkView> chunk = NextChunk(client, during, decoded, end);
+      if (!chunk) break;
+      if (chunk->seq != seq) {
+        throw Error(ErrorCode::kCorrupt, during + ": chunk " + std::to_string(chunk->seq) +
                                              " arrived where chunk " + std::to_string(seq) +
                                              " was due");
       }
-      digest.Add(chunk.data());
-      bytes += chunk.data().size();
+      digest.Add(chunk->data);
+      bytes += chunk->data.size();
       ++seq;
       if (writer) {
-        writer->Add(seq - 1, chunk.data());
+        writer->Add(seq - 1, chunk->data);
       } else {
         GraphBatch part;
         try {
-          part = DecodeMapChunks(std::span<const std::string>(&chunk.data(), 1));
+          part = DecodeMapChunk(chunk->data);
         } catch (const Error& e) {
           throw Error(ErrorCode::kCorrupt,
                       of_revision + ": chunk " + std::to_string(seq - 1) + ": " + e.message());

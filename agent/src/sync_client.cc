@@ -262,12 +262,12 @@ void SyncClient::Send(const v1::SyncFrame& frame) {
   bytes_sent_ += bytes.size();
 }
 
-v1::SyncFrame SyncClient::Receive(std::string_view during, std::chrono::milliseconds timeout) {
+std::string_view SyncClient::ReceiveBody(std::string_view during,
+                                         std::chrono::milliseconds timeout) {
   if (timeout.count() <= 0) timeout = options_.io_timeout;
   Link& link = *link_;
   const std::string context = std::string(during) + " with " + server_;
   char prefix[kSyncFrameLengthBytes];
-  std::string body;
   const Clock::time_point deadline = Clock::now() + timeout;
   link.WithStream([&](auto& stream) {
     try {
@@ -297,26 +297,39 @@ v1::SyncFrame SyncClient::Receive(std::string_view during, std::chrono::millisec
       Close();
       throw Error(ErrorCode::kCorrupt, context + ": " + e.message());
     }
-    body.resize(length);
+    // Grown, never shrunk: resizing a string clears what it adds, a pass over every frame.
+    if (receive_buffer_.size() < length) receive_buffer_.resize(length);
+    receive_size_ = length;
     const auto left =
         std::max(std::chrono::milliseconds(1),
                  std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now()));
-    link.Run([&](auto handler) { asio::async_read(stream, asio::buffer(body), handler); }, left,
-             context + ": reading a frame of " + std::to_string(length) + " bytes", options_.stop);
+    link.Run(
+        [&](auto handler) {
+          asio::async_read(stream, asio::buffer(receive_buffer_.data(), length), handler);
+        },
+        left, context + ": reading a frame of " + std::to_string(length) + " bytes", options_.stop);
   });
-  bytes_received_ += sizeof prefix + body.size();
+  bytes_received_ += sizeof prefix + receive_size_;
+  return std::string_view(receive_buffer_.data(), receive_size_);
+}
+
+v1::SyncFrame SyncClient::DecodeBody(std::string_view body, std::string_view during) {
   v1::SyncFrame frame;
   try {
     frame = DecodeSyncFrameBody(body);
   } catch (const Error& e) {
     Close();
-    throw Error(ErrorCode::kCorrupt, context + ": " + e.message());
+    throw Error(ErrorCode::kCorrupt, std::string(during) + " with " + server_ + ": " + e.message());
   }
   if (frame.body_case() == v1::SyncFrame::kError) {
     Close();  // the server closes after an ErrorFrame
-    throw SyncServerError(frame.error(), context);
+    throw SyncServerError(frame.error(), std::string(during) + " with " + server_);
   }
   return frame;
+}
+
+v1::SyncFrame SyncClient::Receive(std::string_view during, std::chrono::milliseconds timeout) {
+  return DecodeBody(ReceiveBody(during, timeout), during);
 }
 
 bool SyncClient::FirstReplyWithoutTls() const {

@@ -103,6 +103,95 @@ TEST(SyncFrame, RandomBytesNeverCrashTheDecoderAndNeverYieldABodylessFrame) {
   }
 }
 
+// A DownloadChunk frame as protobuf writes it, with `data` as its data.
+std::string ProtobufChunkFrame(std::uint32_t seq, const std::string& data) {
+  v1::SyncFrame frame;
+  frame.mutable_download_chunk()->set_seq(seq);
+  frame.mutable_download_chunk()->set_data(data);
+  return EncodeSyncFrame(frame);
+}
+
+TEST(SyncFrame, ADownloadChunkEncodedInOnePassIsTheBytesProtobufWrites) {
+  // seq 0 and empty data are left out, as protobuf leaves out defaults; lengths over 127 and
+  // 16383 take 2 and 3 bytes of varint.
+  for (const std::uint32_t seq : {0u, 1u, 127u, 128u, 300u, 0xffffffffu}) {
+    for (const std::size_t bytes : {std::size_t{0}, std::size_t{100}, std::size_t{200},
+                                    std::size_t{20'000}, std::size_t{1} << 20}) {
+      v1::PushChunk data;  // any message: its serialisation is the chunk's data
+      if (bytes > 0) data.set_data(std::string(bytes, 'x'));
+      const DownloadChunkFrame frame = EncodeDownloadChunkFrame(seq, data);
+      EXPECT_EQ(frame.bytes, ProtobufChunkFrame(seq, data.SerializeAsString()))
+          << "seq " << seq << ", " << bytes << " bytes";
+      EXPECT_EQ(frame.data(), data.SerializeAsString());
+    }
+  }
+  v1::PushChunk big;
+  big.set_data(std::string(2000, 'x'));
+  ExpectError(
+      ErrorCode::kInvalidArgument, [&] { EncodeDownloadChunkFrame(1, big, 1000); },
+      "passes the cap");
+}
+
+TEST(SyncFrame, ADownloadChunkIsReadInPlaceAsProtobufReadsIt) {
+  for (const std::uint32_t seq : {0u, 5u, 300u, 0xffffffffu}) {
+    for (const std::size_t bytes : {std::size_t{0}, std::size_t{1}, std::size_t{5'000}}) {
+      const std::string data(bytes, 'd');
+      const std::string frame = ProtobufChunkFrame(seq, data);
+      const std::string_view body = std::string_view(frame).substr(kSyncFrameLengthBytes);
+      const std::optional<DownloadChunkView> view = ViewDownloadChunk(body);
+      ASSERT_TRUE(view) << "seq " << seq << ", " << bytes << " bytes";
+      EXPECT_EQ(view->seq, seq);
+      EXPECT_EQ(view->data, data);
+      if (bytes > 0) {
+        EXPECT_EQ(view->data.data(), body.data() + body.size() - bytes);  // in place: no copy
+      }
+    }
+  }
+  // Other frames, and chunks laid out otherwise, are left to protobuf's parse.
+  v1::SyncFrame end;
+  end.mutable_download_end()->set_chunk_count(3);
+  EXPECT_FALSE(ViewDownloadChunk(EncodeSyncFrame(end).substr(kSyncFrameLengthBytes)));
+  EXPECT_FALSE(ViewDownloadChunk(""));
+  EXPECT_FALSE(
+      ViewDownloadChunk("\x72\x04\x12\x02"
+                        "ab\x08\x01"));  // seq after data, outside the chunk's length
+  EXPECT_FALSE(
+      ViewDownloadChunk("\x72\x06\x12\x02"
+                        "ab\x08\x01"));                         // seq after data
+  EXPECT_FALSE(ViewDownloadChunk("\x72\x04\x08\x01\x08\x02"));  // seq twice
+}
+
+// Whatever the bytes, a chunk read in place is the chunk protobuf reads: the same seq and data,
+// and never a view of bytes protobuf refuses.
+TEST(SyncFrame, AChunkReadInPlaceNeverDisagreesWithProtobuf) {
+  std::mt19937 random(20261128);
+  const std::string valid = ProtobufChunkFrame(300, std::string(40, 'd')).substr(4);
+  int viewed = 0;
+  for (int trial = 0; trial < 20'000; ++trial) {
+    std::string body = valid;
+    for (int flips = 1 + static_cast<int>(random() % 3); flips > 0; --flips) {
+      switch (random() % 3) {
+        case 0:
+          if (!body.empty()) body[random() % body.size()] = static_cast<char>(random());
+          break;
+        case 1:
+          body.resize(random() % (body.size() + 1));
+          break;
+        default:
+          body.insert(random() % (body.size() + 1), 1, static_cast<char>(random()));
+      }
+    }
+    const std::optional<DownloadChunkView> view = ViewDownloadChunk(body);
+    if (!view) continue;
+    ++viewed;
+    const v1::SyncFrame frame = DecodeSyncFrameBody(body);  // must not throw
+    ASSERT_TRUE(frame.has_download_chunk());
+    EXPECT_EQ(frame.download_chunk().seq(), view->seq);
+    EXPECT_EQ(frame.download_chunk().data(), view->data);
+  }
+  EXPECT_GT(viewed, 100);  // the mutations that keep the layout were tried
+}
+
 TEST(SyncFrame, NamesEveryBody) {
   EXPECT_EQ(SyncFrameName(Chunk(0, 0)), "push_chunk");
   EXPECT_EQ(SyncFrameName(v1::SyncFrame()), "empty");

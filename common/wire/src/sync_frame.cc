@@ -1,10 +1,51 @@
 #include "fleetmap/wire/sync_frame.h"
 
+#include <google/protobuf/message_lite.h>
+
 #include <cstring>
+#include <limits>
 
 #include "fleetmap/core/error.h"
 
 namespace fleetmap {
+namespace {
+
+// Protobuf's wire format (protobuf.dev/programming-guides/encoding): a tag is the field number
+// shifted by 3 over the wire type; 0 varint, 2 length-delimited.
+constexpr char kDownloadChunkTag = (v1::SyncFrame::kDownloadChunkFieldNumber << 3) | 2;
+constexpr char kSeqTag = (v1::DownloadChunk::kSeqFieldNumber << 3) | 0;
+constexpr char kDataTag = (v1::DownloadChunk::kDataFieldNumber << 3) | 2;
+// A uint32, or a length under the 64 MiB cap, takes at most 5 bytes as a varint.
+constexpr std::size_t kMaxVarint32Bytes = 5;
+
+std::size_t VarintSize(std::uint64_t value) {
+  std::size_t size = 1;
+  for (; value >= 0x80; value >>= 7) ++size;
+  return size;
+}
+
+char* PutVarint(std::uint64_t value, char* out) {
+  for (; value >= 0x80; value >>= 7) *out++ = static_cast<char>((value & 0x7f) | 0x80);
+  *out++ = static_cast<char>(value);
+  return out;
+}
+
+// The varint at `pos` in `bytes` (at most 5 bytes, value under 2^32), moving `pos` past it;
+// nullopt when there is none of that kind.
+std::optional<std::uint32_t> TakeVarint32(std::string_view bytes, std::size_t& pos) {
+  std::uint64_t value = 0;
+  for (std::size_t i = 0; i < kMaxVarint32Bytes && pos < bytes.size(); ++i) {
+    const auto byte = static_cast<unsigned char>(bytes[pos++]);
+    value |= static_cast<std::uint64_t>(byte & 0x7f) << (7 * i);
+    if ((byte & 0x80) == 0) {
+      if (value > std::numeric_limits<std::uint32_t>::max()) return std::nullopt;
+      return static_cast<std::uint32_t>(value);
+    }
+  }
+  return std::nullopt;
+}
+
+}  // namespace
 
 std::string_view SyncFrameName(const v1::SyncFrame& frame) {
   using Body = v1::SyncFrame::BodyCase;
@@ -68,6 +109,68 @@ std::string EncodeSyncFrame(const v1::SyncFrame& frame, std::uint32_t max_bytes)
     throw Error(ErrorCode::kInvalidArgument, "sync frame: protobuf could not serialise it");
   }
   return out;
+}
+
+DownloadChunkFrame EncodeDownloadChunkFrame(std::uint32_t seq,
+                                            const google::protobuf::MessageLite& data,
+                                            std::uint32_t max_bytes) {
+  const std::size_t data_size = data.ByteSizeLong();
+  // Protobuf leaves out a field at its default (seq 0, empty data); the bytes match its own.
+  const std::size_t chunk_size = (seq != 0 ? 1 + VarintSize(seq) : 0) +
+                                 (data_size != 0 ? 1 + VarintSize(data_size) + data_size : 0);
+  const std::size_t size = 1 + VarintSize(chunk_size) + chunk_size;
+  if (size > max_bytes) {
+    throw Error(ErrorCode::kInvalidArgument,
+                "sync frame download_chunk of " + std::to_string(size) +
+                    " bytes passes the cap of " + std::to_string(max_bytes) + " bytes");
+  }
+  DownloadChunkFrame frame;
+  frame.data_size = data_size;
+  frame.bytes.resize(kSyncFrameLengthBytes + size);
+  char* out = frame.bytes.data();
+  const auto length = static_cast<std::uint32_t>(size);
+  *out++ = static_cast<char>(length >> 24);
+  *out++ = static_cast<char>(length >> 16);
+  *out++ = static_cast<char>(length >> 8);
+  *out++ = static_cast<char>(length);
+  *out++ = kDownloadChunkTag;
+  out = PutVarint(chunk_size, out);
+  if (seq != 0) {
+    *out++ = kSeqTag;
+    out = PutVarint(seq, out);
+  }
+  if (data_size != 0) {
+    *out++ = kDataTag;
+    out = PutVarint(data_size, out);
+    // ByteSizeLong above cached the sizes this writes with.
+    auto* begin = reinterpret_cast<std::uint8_t*>(out);
+    if (data.SerializeWithCachedSizesToArray(begin) != begin + data_size) {
+      throw Error(ErrorCode::kInvalidArgument,
+                  "sync frame: protobuf serialised a download chunk to another size");
+    }
+  }
+  return frame;
+}
+
+std::optional<DownloadChunkView> ViewDownloadChunk(std::string_view body) {
+  std::size_t pos = 0;
+  if (body.empty() || body[pos++] != kDownloadChunkTag) return std::nullopt;
+  const std::optional<std::uint32_t> chunk_size = TakeVarint32(body, pos);
+  if (!chunk_size || body.size() - pos != *chunk_size) return std::nullopt;
+  DownloadChunkView view;
+  if (pos < body.size() && body[pos] == kSeqTag) {
+    const std::optional<std::uint32_t> seq = TakeVarint32(body, ++pos);
+    if (!seq) return std::nullopt;
+    view.seq = *seq;
+  }
+  if (pos < body.size() && body[pos] == kDataTag) {
+    const std::optional<std::uint32_t> data_size = TakeVarint32(body, ++pos);
+    if (!data_size || body.size() - pos != *data_size) return std::nullopt;
+    view.data = body.substr(pos);
+    pos = body.size();
+  }
+  if (pos != body.size()) return std::nullopt;  // any other field: protobuf's parse decides
+  return view;
 }
 
 std::uint32_t DecodeSyncFrameLength(std::string_view prefix, std::uint32_t max_bytes) {

@@ -5,6 +5,8 @@
 #include <utility>
 
 #include "fleetmap/core/error.h"
+#include "fleetmap/core/proto_convert.h"
+#include "fleetmap/map.pb.h"
 #include "fleetmap/repository/channel_registry.h"
 #include "fleetmap/wire/sync_frame.h"
 
@@ -246,18 +248,45 @@ DownloadEncoder::DownloadEncoder(std::shared_ptr<const DownloadPlan> plan, std::
   const std::size_t mean =
       static_cast<std::size_t>(std::max<std::int64_t>(plan_->mean_node_bytes, 1));
   nodes_per_batch_ = std::clamp<std::size_t>(batch_bytes_ / mean, 1, kMaxNodesPerBatch);
+  digest_known_ = plan_->whole_sent_digest_known.load(std::memory_order_acquire);
+}
+
+std::uint64_t DownloadEncoder::sent_digest() const {
+  return digest_known_ ? plan_->whole_sent_digest.load(std::memory_order_relaxed)
+                       : sent_digest_.value();
 }
 
 void DownloadEncoder::Encode(GraphBatch map, std::vector<std::string>& frames) {
-  sent_digest_.Add(map);  // before the chunks take the landmarks
-  for (std::string& chunk : EncodeMapChunks(std::move(map))) {
-    digest_.Add(chunk);
-    bytes_ += chunk.size();
-    v1::SyncFrame frame;
-    frame.mutable_download_chunk()->set_seq(chunks_++);
-    frame.mutable_download_chunk()->set_data(std::move(chunk));
-    frames.push_back(FrameOf(frame));
-  }
+  if (!digest_known_) sent_digest_.Add(map);  // before the chunks take the landmarks
+  // EncodeMapChunks's chunks (the same elements, order and cuts), but each serialised straight
+  // into its frame: a chunk's bytes are written once, not into a string and then into a frame
+  // (issue 39 item 3: a pull shares its two cores with the server).
+  v1::MapChunk chunk;
+  std::size_t chunk_bytes = 0;
+  bool flushed = false;
+  const auto flush = [&] {
+    DownloadChunkFrame frame = EncodeDownloadChunkFrame(chunks_++, chunk);
+    digest_.Add(frame.data());
+    bytes_ += frame.data_size;
+    frames.push_back(std::move(frame.bytes));
+    chunk.Clear();
+    chunk_bytes = 0;
+    flushed = true;
+  };
+  const auto write = [&](auto& elements, auto add) {
+    for (auto& element : elements) {
+      auto message = ToProto(std::move(element));  // a node's landmarks move, not copied
+      const std::size_t size = message.ByteSizeLong();
+      if (chunk_bytes > 0 && chunk_bytes + size > kDefaultMapChunkBytes) flush();
+      *add(chunk) = std::move(message);
+      chunk_bytes += size + 8;  // field tag and length prefix, roughly (as EncodeMapChunks)
+    }
+  };
+  write(map.paths, [](v1::MapChunk& c) { return c.add_paths(); });
+  write(map.nodes, [](v1::MapChunk& c) { return c.add_nodes(); });
+  write(map.edges, [](v1::MapChunk& c) { return c.add_edges(); });
+  write(map.annotations, [](v1::MapChunk& c) { return c.add_annotations(); });
+  if (chunk_bytes > 0 || !flushed) flush();  // an empty map is one empty chunk
 }
 
 std::vector<std::string> DownloadEncoder::NextBatch(Repository& repository) {
@@ -321,7 +350,13 @@ std::vector<std::string> DownloadEncoder::NextBatch(Repository& repository) {
         break;
     }
   }
-  if (frames.empty()) done_ = true;
+  if (frames.empty() && !done_) {
+    done_ = true;
+    if (!digest_known_) {  // the whole plan was digested: the next encoders need not
+      plan_->whole_sent_digest.store(sent_digest_.value(), std::memory_order_relaxed);
+      plan_->whole_sent_digest_known.store(true, std::memory_order_release);
+    }
+  }
   return frames;
 }
 

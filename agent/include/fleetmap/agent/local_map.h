@@ -188,17 +188,30 @@ class GraphStore;
 // sync.json stay exactly as they were.
 //
 // Threading: one thread; the LocalMap that began it must outlive it and take no other call
-// meanwhile.
+// meanwhile. Prepare alone may run on any thread.
 class MapInstallation {
  public:
   ~MapInstallation();
   MapInstallation(const MapInstallation&) = delete;
   MapInstallation& operator=(const MapInstallation&) = delete;
 
+  // A chunk's elements with the SelectionDigest (map_chunks.h) of each, in their order: what
+  // Add computes, a pass over every landmark byte, done beforehand where a pipeline has time for
+  // it (the agent's receiving thread; the writing thread is a pull's critical path).
+  struct PreparedChunk {
+    GraphBatch part;
+    std::vector<std::uint64_t> path_digests;
+    std::vector<std::uint64_t> node_digests;
+    std::vector<std::uint64_t> edge_digests;
+  };
+  static PreparedChunk Prepare(GraphBatch part);
+
   // Writes one chunk's elements. Throws Error(kCorrupt) for content the map cannot take (an
   // edge whose end has not come, an id sent twice with different content), Error(kBackend)
   // for I/O failures; the installation is then only good for destroying.
   void Add(const GraphBatch& part);
+  // The same for a prepared chunk. REQUIRES: `chunk` came from Prepare, unchanged.
+  void Add(const PreparedChunk& chunk);
   // Elements added so far (distinct ids).
   std::size_t nodes() const;
   std::size_t edges() const;
@@ -210,6 +223,8 @@ class MapInstallation {
   friend class LocalMap;
   struct State;
   explicit MapInstallation(std::unique_ptr<State> state);
+  // Add's work: `digests` holds the SelectionDigest of each element of `part` (its part unused).
+  void Write(const GraphBatch& part, const PreparedChunk& digests);
   std::unique_ptr<State> state_;
 };
 

@@ -92,6 +92,14 @@ class SyncClient {
   // The next frame, waiting up to `timeout` for all of it (0: the options' io_timeout).
   // An ErrorFrame is thrown as SyncServerError, with `during` as its context.
   v1::SyncFrame Receive(std::string_view during, std::chrono::milliseconds timeout = {});
+  // Receive() in two steps, for a caller that reads some frames in place (a download's chunks,
+  // ViewDownloadChunk): the next frame's body as it came (its length checked against the cap,
+  // nothing else), a view into the client's buffer valid until the next call on this client;
+  // then DecodeBody, which checks and parses it as Receive does. The buffer is reused, so a
+  // frame costs no allocation and no clearing; it keeps the largest frame so far (at most the
+  // cap) until the client is destroyed. Throws as Receive (ReceiveBody: not SyncServerError).
+  std::string_view ReceiveBody(std::string_view during, std::chrono::milliseconds timeout = {});
+  v1::SyncFrame DecodeBody(std::string_view body, std::string_view during);
   // Receive() that requires a body of kind `expected`; another kind throws Error(kCorrupt)
   // naming both (the server broke the exchange).
   v1::SyncFrame Expect(v1::SyncFrame::BodyCase expected, std::string_view during,
@@ -117,6 +125,8 @@ class SyncClient {
   std::string server_;
   SyncLinkOptions options_;
   std::unique_ptr<Link> link_;
+  std::string receive_buffer_;  // the last frame's body is its first receive_size_ bytes
+  std::size_t receive_size_ = 0;
   std::uint64_t bytes_sent_ = 0;
   std::uint64_t bytes_received_ = 0;
 };

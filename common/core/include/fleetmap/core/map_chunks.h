@@ -33,6 +33,9 @@ std::vector<std::string> EncodeMapChunks(GraphBatch&& map,
 // The map the chunks carry, in order. Throws Error(kCorrupt) naming the first chunk that does
 // not parse or holds a malformed element.
 GraphBatch DecodeMapChunks(std::span<const std::string> chunks);
+// One chunk's elements parsed from its bytes where they lie (a received frame, say), without
+// a copy into a string first. Throws Error(kCorrupt) as DecodeMapChunks, without the index.
+GraphBatch DecodeMapChunk(std::string_view chunk);
 
 // A 64-bit digest of a chunk sequence (an FNV-1a style multiply over each chunk's length and
 // its bytes, 8 at a time): it detects a different content under one submission UUID, not a

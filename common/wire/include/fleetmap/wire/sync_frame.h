@@ -46,6 +46,31 @@ std::uint32_t DecodeSyncFrameLength(std::string_view prefix,
 // parse as a SyncFrame or carry no body (e.g. a field number this build does not know).
 v1::SyncFrame DecodeSyncFrameBody(std::string_view body);
 
+// A DownloadChunk frame whose data is `data` serialised, made in one pass: the chunk is
+// serialised straight into the frame's buffer (the bytes are those of EncodeSyncFrame of a
+// SyncFrame holding DownloadChunk{seq, data.SerializeAsString()}), so a 1 MiB map chunk is
+// written once instead of into a string, then into the frame. Throws as EncodeSyncFrame.
+struct DownloadChunkFrame {
+  std::string bytes;          // the frame with its length prefix
+  std::size_t data_size = 0;  // the serialised data: the last data_size bytes of `bytes`
+  std::string_view data() const { return std::string_view(bytes).substr(bytes.size() - data_size); }
+};
+DownloadChunkFrame EncodeDownloadChunkFrame(std::uint32_t seq,
+                                            const google::protobuf::MessageLite& data,
+                                            std::uint32_t max_bytes = kMaxSyncFrameBytes);
+
+// A DownloadChunk read in place: its seq and a view of its data inside the frame's body.
+struct DownloadChunkView {
+  std::uint32_t seq = 0;
+  std::string_view data;
+};
+// The DownloadChunk in `body` (the bytes after the prefix) without a copy of its data, when the
+// body is one in the layout every encoder writes (download_chunk alone; inside it seq, then data,
+// each at most once, either absent when 0 or empty). nullopt for anything else, which is not
+// necessarily wrong: the caller decodes it with DecodeSyncFrameBody, whose verdict counts. When
+// this returns a view, DecodeSyncFrameBody of the same body gives that seq and data.
+std::optional<DownloadChunkView> ViewDownloadChunk(std::string_view body);
+
 // Frames out of a byte stream that arrives in pieces of any size: what a session does with a
 // socket, without the socket (tests and the fuzzer drive it with arbitrary bytes).
 class SyncFrameDecoder {
