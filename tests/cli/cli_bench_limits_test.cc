@@ -215,11 +215,15 @@ TEST(CliBenchLimitsTest, AMissingBenchmarkFailsItsLinesWithTheReason) {
       RunFleetmapCli(dir.path(), {"bench", "limits", "--only", "front-end", "--benchmarks",
                                   (dir / "nowhere").string(), "--out", out.string()});
   EXPECT_EQ(run.exit_code, 1) << run.out << run.err;
-  EXPECT_NE(run.out.find("0 of 2 lines within their bounds"), std::string::npos) << run.out;
+  // The two judged lines fail; the two reported beside them have no bound to miss.
+  EXPECT_NE(run.out.find("2 of 4 lines within their bounds"), std::string::npos) << run.out;
   EXPECT_NE(run.out.find("stereo_front_end_benchmark not found"), std::string::npos) << run.out;
   const auto rows = LimitsCsv(out / "limits.csv");
-  ASSERT_EQ(rows.size(), 2u);
-  for (const auto& [measure, row] : rows) EXPECT_EQ(row.at("met"), "no") << measure;
+  ASSERT_EQ(rows.size(), 4u);
+  for (const auto& [measure, row] : rows) {
+    EXPECT_EQ(row.at("met"), row.at("bound") == "-" ? "yes" : "no") << measure;
+    EXPECT_EQ(row.at("ours"), "nan") << measure;
+  }
 
   const CliRun bad = RunFleetmapCli(dir.path(), {"bench", "limits", "--only", "disk"});
   EXPECT_NE(bad.exit_code, 0);

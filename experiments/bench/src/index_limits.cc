@@ -5,6 +5,8 @@
 #include <chrono>
 #include <filesystem>
 #include <random>
+#include <tuple>
+#include <utility>
 #include <vector>
 
 #include "bench_report.h"
@@ -59,6 +61,17 @@ double Load(const BenchPlatform& p, std::int64_t rows, Insert&& insert) {
   return static_cast<double>(loaded) / SecondsIn(spent);
 }
 
+// Loads the rows through ours and the raw side, in the order asked; rows/s of each.
+template <typename Ours, typename Raw>
+std::pair<double, double> LoadBoth(const BenchPlatform& p, std::int64_t rows, bool ours_first,
+                                   Ours&& ours, Raw&& raw) {
+  double ours_per_s = 0, raw_per_s = 0;
+  if (ours_first) ours_per_s = Load(p, rows, ours);
+  raw_per_s = Load(p, rows, raw);
+  if (!ours_first) ours_per_s = Load(p, rows, ours);
+  return {ours_per_s, raw_per_s};
+}
+
 }  // namespace
 
 IndexAgainstRaw MeasureSqliteIndexAgainstRaw(const std::string& dir, std::int64_t rows,
@@ -85,20 +98,9 @@ IndexAgainstRaw MeasureSqliteIndexAgainstRaw(const std::string& dir, std::int64_
       OpenRawSqliteSensorIndex(raw_file.path().string(), durability);
 
   IndexAgainstRaw f;
-  auto load_ours = [&] {
-    f.ours_insert_per_s =
-        Load(p, rows, [&](const std::vector<Datum>& b) { ours->sensors().InsertData(b); });
-  };
-  auto load_raw = [&] {
-    f.raw_insert_per_s = Load(p, rows, [&](const std::vector<Datum>& b) { raw->Insert(b); });
-  };
-  if (ours_first) {
-    load_ours();
-    load_raw();
-  } else {
-    load_raw();
-    load_ours();
-  }
+  std::tie(f.ours_insert_per_s, f.raw_insert_per_s) = LoadBoth(
+      p, rows, ours_first, [&](const std::vector<Datum>& b) { ours->sensors().InsertData(b); },
+      [&](const std::vector<Datum>& b) { raw->Insert(b); });
 
   RowSource extent(p.platform, p.sensors, rows);
   while (!extent.Next(kBatchRows).empty()) {
@@ -149,20 +151,9 @@ IngestAgainstRaw MeasurePostgresIngestAgainstRaw(const std::string& admin_uri, s
       }
       std::unique_ptr<RawPostgresIngest> raw =
           OpenRawPostgresIngest(UriWithDatabase(admin_uri, raw_db), durability);
-      auto load_ours = [&] {
-        f.ours_insert_per_s =
-            Load(p, rows, [&](const std::vector<Datum>& b) { ours->sensors().InsertData(b); });
-      };
-      auto load_raw = [&] {
-        f.raw_insert_per_s = Load(p, rows, [&](const std::vector<Datum>& b) { raw->Insert(b); });
-      };
-      if (ours_first) {
-        load_ours();
-        load_raw();
-      } else {
-        load_raw();
-        load_ours();
-      }
+      std::tie(f.ours_insert_per_s, f.raw_insert_per_s) = LoadBoth(
+          p, rows, ours_first, [&](const std::vector<Datum>& b) { ours->sensors().InsertData(b); },
+          [&](const std::vector<Datum>& b) { raw->Insert(b); });
     } catch (...) {
       DropPostgresDatabase(admin_uri, raw_db);
       throw;
