@@ -108,7 +108,11 @@ constexpr const char* kBenchmarkJson = R"({
      "run_type": "aggregate", "aggregate_name": "median", "real_time": 1.0, "time_unit": "ms",
      "landmark_MBps": 1.0},
     {"name": "BM_Matcher/real_time", "run_name": "BM_Matcher/real_time", "run_type": "iteration",
-     "repetition_index": 0, "real_time": 250.0, "time_unit": "us"},
+     "repetition_index": 0, "real_time": 250.0, "time_unit": "us", "cv_of_nothing": NaN,
+     "label": "a \"NaN\" in a string stays"},
+    {"name": "BM_Matcher/real_time_cv", "run_name": "BM_Matcher/real_time",
+     "run_type": "aggregate", "aggregate_name": "cv", "real_time": -nan, "time_unit": "us",
+     "x": Infinity, "y": -inf},
     {"name": "BM_Broken", "run_name": "BM_Broken", "run_type": "iteration",
      "repetition_index": 0, "real_time": 0, "time_unit": "ns", "error_occurred": true,
      "error_message": "no data"}
@@ -122,6 +126,8 @@ TEST(BenchmarkJsonTest, ReadsIterationRunsPerRepetition) {
   EXPECT_EQ(bench::PerRepetition(runs, "AgentPull", "real_ms"),
             (std::vector<double>{4100.0, 4000.0}));
   EXPECT_EQ(bench::PerRepetition(runs, "BM_Matcher", "real_ms"), (std::vector<double>{0.25}));
+  // A NaN counter (Google Benchmark writes it bare) reads as missing, not as a figure.
+  EXPECT_TRUE(std::isnan(bench::PerRepetition(runs, "BM_Matcher", "cv_of_nothing")[0]));
   EXPECT_TRUE(bench::PerRepetition(runs, "Missing", "real_ms").empty());
   const std::vector<double> broken = bench::PerRepetition(runs, "BM_Broken", "real_ms");
   ASSERT_EQ(broken.size(), 1u);

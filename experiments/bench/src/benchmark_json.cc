@@ -7,6 +7,7 @@
 #include <cstdlib>
 #include <limits>
 #include <nlohmann/json.hpp>
+#include <string_view>
 
 #include "fleetmap/core/error.h"
 
@@ -34,6 +35,39 @@ std::string BaseName(std::string name) {
   return name;
 }
 
+// Google Benchmark writes a counter it could not compute (a coefficient of variation over
+// zero, say) as a bare NaN or inf, which is not JSON: such tokens outside strings become null.
+std::string WithoutNonFiniteTokens(const std::string& text) {
+  std::string out;
+  out.reserve(text.size());
+  bool in_string = false;
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    const char c = text[i];
+    if (in_string) {
+      out += c;
+      if (c == '\\' && i + 1 < text.size()) {
+        out += text[++i];
+      } else if (c == '"') {
+        in_string = false;
+      }
+      continue;
+    }
+    if (c == '"') in_string = true;
+    bool replaced = false;
+    for (const std::string_view token :
+         {"-Infinity", "Infinity", "-NaN", "NaN", "-nan", "nan", "-inf", "inf"}) {
+      if (std::string_view(text).substr(i, token.size()) == token) {
+        out += "null";
+        i += token.size() - 1;
+        replaced = true;
+        break;
+      }
+    }
+    if (!replaced) out += c;
+  }
+  return out;
+}
+
 std::string Quoted(const std::string& s) {
   std::string q = "'";
   for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
@@ -43,7 +77,8 @@ std::string Quoted(const std::string& s) {
 }  // namespace
 
 std::vector<BenchmarkRun> ParseBenchmarkJson(const std::string& json_text) {
-  const nlohmann::json doc = nlohmann::json::parse(json_text, nullptr, false);
+  const nlohmann::json doc =
+      nlohmann::json::parse(WithoutNonFiniteTokens(json_text), nullptr, false);
   if (doc.is_discarded() || !doc.is_object() || !doc.contains("benchmarks") ||
       !doc["benchmarks"].is_array()) {
     throw Error(ErrorCode::kInvalidArgument, "not Google Benchmark JSON (no benchmarks array)");

@@ -242,9 +242,9 @@ std::vector<LimitLine> PullLines(const LimitsBenchOptions& o) {
 // Judged against ORB detecting what the front end detects (2 x the kept count in both
 // images); reported beside ORB detecting only the kept count, the stricter reading.
 std::vector<LimitLine> FrontEndLines(const LimitsBenchOptions& o) {
-  const ChildRun child =
-      RunChild(o, "stereo_front_end_benchmark",
-               "^BM_(Kitti)?(StereoFrontEnd|OpenCvOrbTwoThreads|OpenCvOrbKeptTwoThreads)(/2000)?$");
+  const ChildRun child = RunChild(o, "stereo_front_end_benchmark",
+                                  "^BM_(Kitti)?(StereoFrontEnd|OpenCvOrbTwoThreads|"
+                                  "OpenCvOrbKeptTwoThreads)(/2000)?/real_time$");
   const std::string same = "ORB alone on both images, its detections, 2 threads";
   const std::string kept = "ORB alone on both images, the kept count only, 2 threads";
   LimitLine kitti =
