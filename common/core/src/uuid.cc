@@ -6,7 +6,6 @@
 #include <algorithm>
 #include <chrono>
 #include <cstring>
-#include <cstdlib>  // TMPDET
 #include <mutex>
 #include <random>
 
@@ -37,10 +36,8 @@ Uuid Uuid::Generate() {
   std::uint64_t ms;
   std::uint32_t sequence;
   {
-    static const bool tmp_det = std::getenv("FLEETMAP_TMP_DET_UUID") != nullptr;  // TMPDET
     const std::uint64_t now_ms =
-        tmp_det ? 1700000000000ULL
-                : static_cast<std::uint64_t>(std::chrono::duration_cast<std::chrono::milliseconds>(
+        static_cast<std::uint64_t>(std::chrono::duration_cast<std::chrono::milliseconds>(
                                        std::chrono::system_clock::now().time_since_epoch())
                                        .count());
     std::lock_guard<std::mutex> lock(mutex);
@@ -63,7 +60,6 @@ Uuid Uuid::Generate() {
   if (seeded_for != getpid()) {
     Bytes seed;
     uuid_generate_random(seed.data());
-    if (std::getenv("FLEETMAP_TMP_DET_UUID") != nullptr) seed = Bytes{};  // TMPDET
     std::seed_seq seeds(seed.begin(), seed.end());
     random_bits.seed(seeds);
     seeded_for = getpid();
