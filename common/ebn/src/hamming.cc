@@ -10,6 +10,13 @@
 
 namespace fleetmap {
 
+// Built for baseline x86-64, std::popcount is a call into libgcc (__popcountdi2) per word:
+// issue 39's profile of MERGE found it under the vocabulary training and tree descent that the
+// repository runs for every merge. A clone with the POPCNT instruction, chosen when the program
+// loads on CPUs that have it, counts the same bits.
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__POPCNT__)
+__attribute__((target_clones("popcnt", "default")))
+#endif
 int HammingDistance(const Descriptor256& a, const Descriptor256& b) {
   // memcpy into words: the descriptor is a byte array with no alignment promise.
   std::uint64_t wa[4];

@@ -3,7 +3,6 @@
 #include "fleetmap/stereo/stereo_matcher.h"
 
 #include <algorithm>
-#include <bit>
 #include <climits>
 #include <cmath>
 #include <cstdint>
@@ -17,6 +16,7 @@
 #endif
 
 #include "fleetmap/core/error.h"
+#include "fleetmap/ebn/hamming.h"
 
 namespace fleetmap {
 namespace {
@@ -299,25 +299,6 @@ class CandidateRule {
   RowIndex left_rows_, right_rows_;
 };
 
-#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
-#define FLEETMAP_STEREO_POPCNT_CLONES __attribute__((target_clones("popcnt", "default")))
-#else
-#define FLEETMAP_STEREO_POPCNT_CLONES
-#endif
-
-// HammingDistance (hamming.h) with the POPCNT instruction where the CPU has it: built for
-// baseline x86-64, std::popcount is a libgcc call per word, and these distances are a good part
-// of the matching.
-FLEETMAP_STEREO_POPCNT_CLONES int DescriptorDistance(const Descriptor256& a,
-                                                     const Descriptor256& b) {
-  std::uint64_t wa[4];
-  std::uint64_t wb[4];
-  std::memcpy(wa, a.data(), sizeof wa);
-  std::memcpy(wb, b.data(), sizeof wb);
-  return std::popcount(wa[0] ^ wb[0]) + std::popcount(wa[1] ^ wb[1]) +
-         std::popcount(wa[2] ^ wb[2]) + std::popcount(wa[3] ^ wb[3]);
-}
-
 // Below this many left keypoints a second thread costs more than it saves.
 constexpr int kParallelFrom = 256;
 
@@ -365,9 +346,9 @@ std::vector<StereoMatch> MatchStereoRows(const std::vector<cv::KeyPoint>& left_k
   const auto best_left_for = [&](int j) {
     Best best;
     rule.LeftOf(j, [&](int i, std::int64_t order) {
-      best.Offer(i, order,
-                 DescriptorDistance(left[static_cast<std::size_t>(i)],
-                                    right[static_cast<std::size_t>(j)]));
+      best.Offer(
+          i, order,
+          HammingDistance(left[static_cast<std::size_t>(i)], right[static_cast<std::size_t>(j)]));
     });
     return best.index;
   };
@@ -379,9 +360,9 @@ std::vector<StereoMatch> MatchStereoRows(const std::vector<cv::KeyPoint>& left_k
       const cv::KeyPoint& lk = left_keypoints[static_cast<std::size_t>(i)];
       Best best;
       rule.RightOf(i, [&](int j, std::int64_t order) {
-        best.Offer(j, order,
-                   DescriptorDistance(left[static_cast<std::size_t>(i)],
-                                      right[static_cast<std::size_t>(j)]));
+        best.Offer(
+            j, order,
+            HammingDistance(left[static_cast<std::size_t>(i)], right[static_cast<std::size_t>(j)]));
       });
       if (best.index < 0) {
         ++n.no_candidate;
