@@ -76,47 +76,42 @@ std::vector<std::string> EncodeMapChunks(GraphBatch&& map, std::size_t chunk_byt
   return EncodeChunks(std::move(map), chunk_bytes);
 }
 
-GraphBatch DecodeMapChunk(std::string_view data) {
+namespace {
+
+// Appends the elements of one serialised MapChunk to `map`; errors name the chunk as `name`.
+void AppendMapChunk(std::string_view data, const std::string& name, GraphBatch& map) {
   v1::MapChunk chunk;
   if (!chunk.ParseFromArray(data.data(), static_cast<int>(data.size()))) {
-    throw Error(ErrorCode::kCorrupt, "map chunk does not parse");
+    throw Error(ErrorCode::kCorrupt, name + " does not parse");
   }
-  GraphBatch map;
   try {
-    map.paths.reserve(static_cast<std::size_t>(chunk.paths_size()));
-    map.nodes.reserve(static_cast<std::size_t>(chunk.nodes_size()));
-    map.edges.reserve(static_cast<std::size_t>(chunk.edges_size()));
+    if (map.nodes.empty()) {  // a first chunk; later ones keep the vectors' geometric growth
+      map.paths.reserve(static_cast<std::size_t>(chunk.paths_size()));
+      map.nodes.reserve(static_cast<std::size_t>(chunk.nodes_size()));
+      map.edges.reserve(static_cast<std::size_t>(chunk.edges_size()));
+    }
     for (const v1::Path& p : chunk.paths()) map.paths.push_back(FromProto(p));
     // The chunk is ours: its nodes' landmarks are moved out, not copied.
     for (v1::Node& n : *chunk.mutable_nodes()) map.nodes.push_back(FromProto(std::move(n)));
     for (const v1::Edge& e : chunk.edges()) map.edges.push_back(FromProto(e));
     for (const v1::Annotation& a : chunk.annotations()) map.annotations.push_back(FromProto(a));
   } catch (const Error& error) {
-    throw Error(ErrorCode::kCorrupt, "map chunk: " + error.message());
+    throw Error(ErrorCode::kCorrupt, name + ": " + error.message());
   }
+}
+
+}  // namespace
+
+GraphBatch DecodeMapChunk(std::string_view data) {
+  GraphBatch map;
+  AppendMapChunk(data, "map chunk", map);
   return map;
 }
 
 GraphBatch DecodeMapChunks(std::span<const std::string> chunks) {
   GraphBatch map;
   for (std::size_t i = 0; i < chunks.size(); ++i) {
-    GraphBatch part;
-    try {
-      part = DecodeMapChunk(chunks[i]);
-    } catch (const Error& error) {
-      // "map chunk: ..." -> "map chunk 3: ...", as before.
-      const std::string message = error.message();
-      const std::string rest = message.rfind("map chunk", 0) == 0 ? message.substr(9) : message;
-      throw Error(ErrorCode::kCorrupt, "map chunk " + std::to_string(i) + rest);
-    }
-    if (map.nodes.empty() && map.edges.empty() && map.paths.empty() && map.annotations.empty()) {
-      map = std::move(part);
-      continue;
-    }
-    for (Path& p : part.paths) map.paths.push_back(std::move(p));
-    for (Node& n : part.nodes) map.nodes.push_back(std::move(n));
-    for (Edge& e : part.edges) map.edges.push_back(std::move(e));
-    for (Annotation& a : part.annotations) map.annotations.push_back(std::move(a));
+    AppendMapChunk(chunks[i], "map chunk " + std::to_string(i), map);
   }
   return map;
 }
