@@ -9,6 +9,7 @@
 #include "fleetmap/core/error.h"
 #include "fleetmap/core/graph.h"
 #include "fleetmap/core/proto_convert.h"
+#include "graph_elements.h"
 
 namespace fleetmap {
 namespace {
@@ -246,6 +247,85 @@ TEST(ProtoConvert, MalformedMessagesAreCorrupt) {
   both.set_target(Uuid::Generate().ToBytesString());
   both.set_parent(Uuid::Generate().ToBytesString());
   EXPECT_THROW(FromProto(both), Error);
+}
+
+Edge MetricEdgeWithCovariance() {
+  Edge edge{Uuid::Generate(), Uuid::Generate(), Uuid::Generate(),   EdgeKind::kMetric,
+            Se3::Identity(),  Uuid(),           SomeCovariance(2.5)};
+  edge.from_T_to.translation() = Eigen::Vector3d(0.5, -2, 1);
+  return edge;
+}
+
+TEST(ProtoConvert, EdgeCovarianceRoundTripsExactly) {
+  const Edge edge = MetricEdgeWithCovariance();
+  v1::Edge message;
+  ASSERT_TRUE(message.ParseFromString(ToProto(edge).SerializeAsString()));
+  const Edge decoded = FromProto(message);
+  ASSERT_TRUE(decoded.covariance.has_value());
+  EXPECT_TRUE(*decoded.covariance == *edge.covariance) << *decoded.covariance;
+  EXPECT_TRUE(SameEdgeContent(decoded, edge));
+  // The upper triangle, row by row (map.proto).
+  ASSERT_EQ(message.covariance().upper_size(), 21);
+  EXPECT_EQ(message.covariance().upper(1), (*edge.covariance)(0, 1));
+  EXPECT_EQ(message.covariance().upper(6), (*edge.covariance)(1, 1));
+  EXPECT_EQ(message.covariance().upper(20), (*edge.covariance)(5, 5));
+}
+
+// An edge without a covariance is the message it always was, byte for byte, and a message
+// from before the field decodes to an edge without one.
+TEST(ProtoConvert, EdgeWithoutCovarianceKeepsItsBytes) {
+  const Uuid id = Uuid::FromBytes(std::string(16, '\x01'));
+  const Uuid from = Uuid::FromBytes(std::string(16, '\x02'));
+  const Uuid to = Uuid::FromBytes(std::string(16, '\x03'));
+  Edge edge{id, from, to, EdgeKind::kMetric, Se3::Identity(), Uuid(), std::nullopt};
+  // uuid, from, to (16 bytes each), kind 1, from_T_to {qw = 1.0}.
+  const std::string before = std::string("\x0a\x10") + std::string(16, '\x01') + "\x12\x10" +
+                             std::string(16, '\x02') + "\x1a\x10" + std::string(16, '\x03') +
+                             std::string("\x20\x01\x2a\x09\x21\0\0\0\0\0\0\xf0\x3f", 13);
+  EXPECT_EQ(ToProto(edge).SerializeAsString(), before);
+  v1::Edge old;
+  ASSERT_TRUE(old.ParseFromString(before));
+  const Edge decoded = FromProto(old);
+  EXPECT_FALSE(decoded.covariance.has_value());
+  EXPECT_TRUE(SameEdgeContent(decoded, edge));
+  // With a covariance, the same bytes and field 7 after them.
+  edge.covariance = SomeCovariance();
+  const std::string with = ToProto(edge).SerializeAsString();
+  EXPECT_EQ(with.substr(0, before.size()), before);
+  EXPECT_EQ(with.substr(before.size(), 6), std::string("\x3a\xab\x01\x0a\xa8\x01"));
+  EXPECT_EQ(with.size(), before.size() + 6 + 21 * 8);
+}
+
+TEST(ProtoConvert, MalformedCovarianceIsCorrupt) {
+  const v1::Edge good = ToProto(MetricEdgeWithCovariance());
+  const auto expect_corrupt = [](const v1::Edge& message, const std::string& mention) {
+    ExpectError(
+        ErrorCode::kCorrupt, [&] { FromProto(message); }, mention);
+  };
+  v1::Edge short_one = good;
+  short_one.mutable_covariance()->mutable_upper()->RemoveLast();
+  expect_corrupt(short_one, "holds 20 values");
+  v1::Edge long_one = good;
+  long_one.mutable_covariance()->add_upper(1.0);
+  expect_corrupt(long_one, "holds 22 values");
+  v1::Edge empty = good;
+  empty.mutable_covariance()->clear_upper();  // present but empty is not absent
+  expect_corrupt(empty, "holds 0 values");
+  v1::Edge nan = good;
+  nan.mutable_covariance()->set_upper(4, std::numeric_limits<double>::quiet_NaN());
+  expect_corrupt(nan, "not a finite, positive semi-definite");
+  v1::Edge infinite = good;
+  infinite.mutable_covariance()->set_upper(0, std::numeric_limits<double>::infinity());
+  expect_corrupt(infinite, "not a finite, positive semi-definite");
+  // The upper triangle makes the matrix symmetric whatever it holds; negative definite is
+  // what is left to refuse.
+  Edge negative = MetricEdgeWithCovariance();
+  *negative.covariance = -*negative.covariance;
+  expect_corrupt(ToProto(negative), "not a finite, positive semi-definite");
+  v1::Edge on_path = good;
+  on_path.set_kind(v1::EDGE_KIND_PATH);
+  on_path.set_path(Uuid::Generate().ToBytesString());
+  expect_corrupt(on_path, "path edge");
 }
 
 TEST(Validate, RulesOfTheModel) {

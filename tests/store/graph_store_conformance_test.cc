@@ -8,8 +8,12 @@
 
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <bit>
 #include <chrono>
+#include <cstdint>
 #include <fstream>
+#include <map>
+#include <string>
 #include <thread>
 #include <type_traits>
 
@@ -44,6 +48,63 @@ GraphBatch Chain(int n, double step_m = 1.0, const Uuid& robot = Uuid::Generate(
     batch.edges.push_back(MetricEdge(batch.nodes[i].id, batch.nodes[i + 1].id, step_m));
   }
   return batch;
+}
+
+// A store's bytes of a covariance, written out here on their own rather than through the
+// stores' code: 21 little-endian IEEE doubles, the upper triangle row by row, as upper-case hex.
+std::string CovarianceHex(const PoseCovariance& covariance) {
+  static constexpr char kHex[] = "0123456789ABCDEF";
+  std::string hex;
+  for (int row = 0; row < 6; ++row) {
+    for (int column = row; column < 6; ++column) {
+      const auto bits = std::bit_cast<std::uint64_t>(covariance(row, column));
+      for (int byte = 0; byte < 8; ++byte) {
+        hex += kHex[(bits >> (8 * byte + 4)) & 0xf];
+        hex += kHex[(bits >> (8 * byte)) & 0xf];
+      }
+    }
+  }
+  return hex;
+}
+
+// SQL literals of a UUID and of a blob given in hex, in the dialect of `Backend`.
+template <typename Backend>
+std::string IdLiteral(const Uuid& id) {
+  std::string text = id.ToString();
+  if constexpr (std::is_same_v<Backend, SqliteBackend>) {
+    text.erase(std::remove(text.begin(), text.end(), '-'), text.end());
+    return "x'" + text + "'";
+  } else {
+    return "'" + text + "'";
+  }
+}
+template <typename Backend>
+std::string BlobLiteral(const std::string& hex) {
+  if constexpr (std::is_same_v<Backend, SqliteBackend>) {
+    return "x'" + hex + "'";
+  } else {
+    return "'\\x" + hex + "'::bytea";
+  }
+}
+
+// The stored covariance of edge `id` in hex (upper case), empty for NULL.
+template <typename Backend>
+std::string StoredCovarianceHex(const Backend& backend, const Uuid& id) {
+  const char* hex = std::is_same_v<Backend, SqliteBackend> ? "hex(covariance)"
+                                                           : "upper(encode(covariance, 'hex'))";
+  return backend.QueryText(std::string("SELECT ") + hex +
+                           " FROM edges WHERE id = " + IdLiteral<Backend>(id));
+}
+
+// `got` carries exactly `want`'s covariance, or none when `want` has none.
+void ExpectSameCovariance(const Edge& got, const Edge& want) {
+  ASSERT_EQ(got.covariance.has_value(), want.covariance.has_value()) << got.id.ToString();
+  if (want.covariance) {
+    EXPECT_TRUE(*got.covariance == *want.covariance)
+        << "edge " << got.id.ToString() << " read back\n"
+        << *got.covariance << "\nnot\n"
+        << *want.covariance;
+  }
 }
 
 template <typename Backend>
@@ -345,6 +406,160 @@ TYPED_TEST(GraphStoreConformance, EdgesFromToAndTouching) {
   EXPECT_EQ(touching.size(), 4u);  // 0-1, 1-2, 2-3, 0-2: each once
   const std::vector<Edge> from0 = this->store_->EdgesFrom(g.nodes[0].id);
   EXPECT_LT(from0[0].id, from0[1].id);
+}
+
+// --- Edge covariances ---------------------------------------------------------------------
+
+TYPED_TEST(GraphStoreConformance, EdgeCovarianceRoundTripsExactlyOnEveryReadPath) {
+  // 41 metric edges and a path edge: on SQLite a batch writes 32 in one statement and the rest
+  // one by one, so both carry the column. Every other metric edge has a covariance.
+  GraphBatch g = Chain(42);
+  for (std::size_t i = 0; i < g.edges.size(); i += 2) {
+    g.edges[i].covariance = SomeCovariance(1.0 + static_cast<double>(i));
+  }
+  const Path path{Uuid::Generate(), Uuid::Generate(), Uuid::Generate(), 0, 1};
+  g.paths.push_back(path);
+  g.edges.push_back(PathEdge(g.nodes[0].id, g.nodes[41].id, path.id));
+  this->store_->Put(g);
+  // One more, put on its own; it closes the chain into a loop.
+  Edge single = MetricEdge(g.nodes[41].id, g.nodes[0].id);
+  single.covariance = SomeCovariance(-3.5);
+  this->store_->PutEdge(single);
+
+  std::map<Uuid, Edge> want;
+  for (const Edge& edge : g.edges) want.emplace(edge.id, edge);
+  want.emplace(single.id, single);
+  const auto expect_as_put = [&](const std::vector<Edge>& edges, const std::string& how) {
+    SCOPED_TRACE(how);
+    EXPECT_FALSE(edges.empty());
+    for (const Edge& edge : edges) {
+      ASSERT_TRUE(want.contains(edge.id)) << edge.id.ToString();
+      EXPECT_TRUE(SameEdgeContent(edge, want.at(edge.id)));
+      ExpectSameCovariance(edge, want.at(edge.id));
+    }
+  };
+  std::vector<Edge> got;
+  for (const auto& [id, edge] : want) got.push_back(this->store_->GetEdge(id));
+  expect_as_put(got, "GetEdge");
+  expect_as_put(this->store_->EdgesFrom(g.nodes[0].id), "EdgesFrom");
+  expect_as_put(this->store_->EdgesTo(g.nodes[0].id), "EdgesTo");
+  expect_as_put(this->store_->EdgesTouching(Ids(g.nodes)), "EdgesTouching");
+  expect_as_put(this->store_->EdgesOfPath(path.id), "EdgesOfPath");
+  const Subgraph chain = this->store_->ReadChain(g.nodes[0].id);
+  EXPECT_EQ(chain.edges.size(), 42u);
+  expect_as_put(chain.edges, "ReadChain");
+  expect_as_put(this->store_->Neighbourhood({.centre = g.nodes[20].id, .max_hops = 3}).edges,
+                "Neighbourhood");
+  const GraphBatch map = this->store_->ReadMap();
+  EXPECT_EQ(map.edges.size(), want.size());
+  expect_as_put(map.edges, "ReadMap");
+
+  // Putting back what was read is a no-op, one by one and as a batch.
+  for (const Edge& edge : map.edges) this->store_->PutEdge(edge);
+  this->store_->Put(map);
+  EXPECT_EQ(this->store_->Stats().edges, static_cast<std::int64_t>(want.size()));
+  expect_as_put(this->Reopen()->ReadMap().edges, "ReadMap after reopening");
+}
+
+TYPED_TEST(GraphStoreConformance, EdgeCovarianceIsPartOfTheEdgesContent) {
+  GraphBatch g = Chain(40);  // a batch of it goes through SQLite's many-row statement
+  g.edges[3].covariance = SomeCovariance(2.0);
+  this->store_->Put(g);
+  Edge scaled = g.edges[3];
+  *scaled.covariance *= 2.0;
+  Edge dropped = g.edges[3];
+  dropped.covariance.reset();
+  Edge added = g.edges[4];
+  added.covariance = SomeCovariance(5.0);
+  for (const Edge& changed : {scaled, dropped, added}) {
+    ExpectError(
+        ErrorCode::kConflict, [&] { this->store_->PutEdge(changed); }, changed.id.ToString());
+    GraphBatch again = g;
+    for (Edge& edge : again.edges) {
+      if (edge.id == changed.id) edge = changed;
+    }
+    ExpectError(
+        ErrorCode::kConflict, [&] { this->store_->Put(again); }, changed.id.ToString());
+  }
+  // Within SameEdgeContent's tolerance it is the same edge: a no-op that keeps what is stored.
+  Edge close = g.edges[3];
+  (*close.covariance)(2, 2) *= 1 + 1e-9;
+  this->store_->PutEdge(close);
+  GraphBatch again = g;
+  again.edges[3] = close;
+  this->store_->Put(again);
+  EXPECT_EQ(this->store_->Stats().edges, 39);
+  ExpectSameCovariance(this->store_->GetEdge(g.edges[3].id), g.edges[3]);
+  ExpectSameCovariance(this->store_->GetEdge(g.edges[4].id), g.edges[4]);
+}
+
+// The column holds the documented bytes; the schema refuses a blob of another length or one on a
+// path edge; and what gets past it anyway (another tool, a damaged file) reads back as corrupt,
+// naming the edge, never as some other matrix.
+TYPED_TEST(GraphStoreConformance, StoredCovarianceIsCheckedWhenRead) {
+  GraphBatch g = Chain(3);
+  g.edges[0].covariance = SomeCovariance();
+  const Path path{Uuid::Generate(), Uuid::Generate(), Uuid::Generate(), 0, 1};
+  g.paths.push_back(path);
+  g.edges.push_back(PathEdge(g.nodes[0].id, g.nodes[2].id, path.id));
+  this->store_->Put(g);
+  const Edge& with = g.edges[0];
+  const Edge& without = g.edges[1];
+  const Edge& path_edge = g.edges[2];
+  const TypeParam& backend = *this->backend_;
+  EXPECT_EQ(StoredCovarianceHex(backend, with.id), CovarianceHex(*with.covariance));
+  EXPECT_EQ(StoredCovarianceHex(backend, without.id), "");
+
+  const std::string valid = CovarianceHex(SomeCovariance(7.0));
+  const std::string short_blob = valid.substr(0, 2 * 160);
+  const auto set = [&](const Uuid& id, const std::string& hex) {
+    return "UPDATE edges SET covariance = " + BlobLiteral<TypeParam>(hex) +
+           " WHERE id = " + IdLiteral<TypeParam>(id);
+  };
+  EXPECT_ANY_THROW(backend.ExecRaw(set(without.id, short_blob)));
+  EXPECT_ANY_THROW(backend.ExecRaw(set(path_edge.id, valid)));
+
+  // Negative definite: the right length, but no covariance.
+  backend.ExecRaw(set(without.id, CovarianceHex(-SomeCovariance(3.0))));
+  ExpectError(
+      ErrorCode::kCorrupt, [&] { this->store_->GetEdge(without.id); }, without.id.ToString());
+  ExpectError(
+      ErrorCode::kCorrupt, [&] { this->store_->EdgesTo(without.to); }, without.id.ToString());
+  backend.ExecRaw("UPDATE edges SET covariance = NULL WHERE id = " +
+                  IdLiteral<TypeParam>(without.id));
+
+  if constexpr (std::is_same_v<TypeParam, SqliteBackend>) {
+    backend.ExecRaw("PRAGMA ignore_check_constraints = ON; " + set(with.id, short_blob));
+  } else {
+    backend.ExecRaw("ALTER TABLE edges DROP CONSTRAINT edges_covariance_check; " +
+                    set(with.id, short_blob));
+  }
+  ExpectError(
+      ErrorCode::kCorrupt, [&] { this->store_->GetEdge(with.id); }, with.id.ToString());
+  ExpectError(
+      ErrorCode::kCorrupt, [&] { this->store_->ReadChain(with.from); }, "160 bytes");
+}
+
+// A store from before covariances (schema 7) reads its edges as before, without one, and takes
+// edges with one once migrated.
+TYPED_TEST(GraphStoreConformance, SchemaSevenStoreMigratesWithItsEdges) {
+  const GraphBatch chain = Chain(4);
+  this->store_->Put(chain);
+  this->store_.reset();
+  this->backend_->ExecRaw(
+      "ALTER TABLE edges DROP COLUMN covariance; UPDATE fleetmap_schema SET version = 7");
+  this->store_ = GraphStore::Open(this->backend_->Uri());
+  EXPECT_EQ(this->store_->schema_version(), GraphStore::LatestSchemaVersion());
+  for (const Edge& edge : chain.edges) {
+    const Edge stored = this->store_->GetEdge(edge.id);
+    EXPECT_TRUE(SameEdgeContent(stored, edge));
+    EXPECT_FALSE(stored.covariance.has_value());
+  }
+  EXPECT_EQ(this->store_->ReadChain(chain.nodes[0].id).edges.size(), 3u);
+  Edge with = MetricEdge(chain.nodes[3].id, chain.nodes[0].id);
+  with.covariance = SomeCovariance(0.5);
+  this->store_->Put(GraphBatch{{}, {}, {with}, {}});
+  ExpectSameCovariance(this->store_->GetEdge(with.id), with);
 }
 
 // --- Paths --------------------------------------------------------------------------------

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <chrono>
 #include <functional>
+#include <map>
 #include <set>
 #include <thread>
 #include <tuple>
@@ -186,13 +187,14 @@ TYPED_TEST(VersionStoreConformance, SchemaOneStoreMigratesWithItsMapAtRevisionZe
   const GraphBatch old = StampedChain(3, 0);
   this->store_->Put(old);
   this->store_.reset();
-  // Back to schema 1: undo 0006 (claims: columns of submissions, dropped with it), 0005
-  // (submission nodes, stand-ins), 0004 (annotations on data: the
-  // payload tables, and the annotation table as schema 1 had it, empty here), 0003 (sensor index)
-  // and 0002 (versions).
+  // Back to schema 1: undo 0008 (edge covariances, a column of edges), 0006 (claims: columns of
+  // submissions, dropped with it), 0005 (submission nodes, stand-ins), 0004 (annotations on
+  // data: the payload tables, and the annotation table as schema 1 had it, empty here), 0003
+  // (sensor index) and 0002 (versions).
   const bool sqlite = std::is_same_v<TypeParam, SqliteBackend>;
   this->backend_->ExecRaw(
-      std::string("DROP TABLE stand_ins; DROP TABLE submission_nodes;"
+      std::string("ALTER TABLE edges DROP COLUMN covariance;"
+                  " DROP TABLE stand_ins; DROP TABLE submission_nodes;"
                   " DROP TABLE annotation_datum_link; DROP TABLE annotation_bbox2d;"
                   " DROP TABLE annotations;") +
       (sqlite ? "CREATE TABLE annotations (seq INTEGER PRIMARY KEY, id BLOB NOT NULL UNIQUE,"
@@ -827,6 +829,32 @@ TYPED_TEST(VersionStoreConformance, MapAtEachRevision) {
   }
 }
 
+// A checkout gives each edge's covariance bit for bit, and none to an edge that had none.
+TYPED_TEST(VersionStoreConformance, CheckoutKeepsEdgeCovariances) {
+  GraphBatch old = StampedChain(3, 0);
+  old.edges[0].covariance = SomeCovariance(0.25);
+  this->store_->Put(old);
+  GraphBatch added = StampedChain(4, 10);
+  added.edges[1].covariance = SomeCovariance(4.5);
+  const RevisionNumber r1 = this->Commit(added).number;
+  std::map<Uuid, Edge> want;
+  for (const GraphBatch* batch : {&old, &added}) {
+    for (const Edge& edge : batch->edges) want.emplace(edge.id, edge);
+  }
+  for (const RevisionNumber r : {RevisionNumber{0}, r1}) {
+    const std::vector<Edge> edges = this->versions().EdgesAt(r);
+    EXPECT_EQ(edges.size(), r == 0 ? 2u : 5u);
+    for (const Edge& edge : edges) {
+      ASSERT_TRUE(want.contains(edge.id));
+      const Edge& put = want.at(edge.id);
+      ASSERT_EQ(edge.covariance.has_value(), put.covariance.has_value()) << edge.id.ToString();
+      if (put.covariance) {
+        EXPECT_TRUE(*edge.covariance == *put.covariance) << edge.id.ToString();
+      }
+    }
+  }
+}
+
 // --- Reverts ------------------------------------------------------------------------------
 
 TYPED_TEST(VersionStoreConformance, RevertHidesAdditionsAndEveryEdgeLeftDangling) {
@@ -1068,8 +1096,8 @@ TYPED_TEST(VersionStoreConformance, PromotionRefusesWhatItCannotRecord) {
   EXPECT_EQ(this->versions().VersionOf(h.n2.id), (ElementVersion{1, std::nullopt}));
 }
 
-// A schema-6 store (before promotions) keeps its history, stand-ins and reverts through the
-// migration, and can then record a promotion.
+// A schema-6 store (before promotions and edge covariances) keeps its history, stand-ins and
+// reverts through the migrations, and can then record a promotion.
 TYPED_TEST(VersionStoreConformance, SchemaSixStoreMigratesWithItsHistoryIntact) {
   const History h = this->MakeHistory();
   const NodeStandIn stand_in{Uuid::Generate(), h.n1.id, Se3::Identity(), 1};
@@ -1081,7 +1109,8 @@ TYPED_TEST(VersionStoreConformance, SchemaSixStoreMigratesWithItsHistoryIntact) 
   this->Revert(2);
   const std::vector<Revision> revisions = this->versions().ListRevisions();
   this->store_.reset();
-  this->backend_->ExecRaw("UPDATE fleetmap_schema SET version = 6");
+  this->backend_->ExecRaw(
+      "ALTER TABLE edges DROP COLUMN covariance; UPDATE fleetmap_schema SET version = 6");
   this->store_ = GraphStore::Open(this->backend_->Uri());
   EXPECT_EQ(this->store_->schema_version(), GraphStore::LatestSchemaVersion());
   EXPECT_EQ(this->versions().ListRevisions(), revisions);

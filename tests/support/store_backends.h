@@ -51,6 +51,30 @@ class SqliteBackend {
     if (rc != SQLITE_OK) throw std::runtime_error("raw sqlite: " + message);
   }
 
+  // The first column of the first row `sql` returns, as text; empty for no row or NULL.
+  std::string QueryText(const std::string& sql) const {
+    sqlite3* db = nullptr;
+    sqlite3_open((dir_ / "store.sqlite").string().c_str(), &db);
+    sqlite3_stmt* statement = nullptr;
+    std::string text;
+    int rc = sqlite3_prepare_v2(db, sql.c_str(), -1, &statement, nullptr);
+    if (rc == SQLITE_OK) {
+      rc = sqlite3_step(statement);
+      if (rc == SQLITE_ROW) {
+        const unsigned char* value = sqlite3_column_text(statement, 0);
+        if (value) text = reinterpret_cast<const char*>(value);
+        rc = SQLITE_OK;
+      } else if (rc == SQLITE_DONE) {
+        rc = SQLITE_OK;
+      }
+    }
+    const std::string message = sqlite3_errmsg(db);
+    sqlite3_finalize(statement);
+    sqlite3_close(db);
+    if (rc != SQLITE_OK) throw std::runtime_error("raw sqlite: " + message);
+    return text;
+  }
+
   // Everything the store consists of, to compare before and after a call that must not change
   // it: the name and bytes of every file in its directory (the database, and a -wal or -shm
   // file if there is one).
@@ -119,6 +143,14 @@ class PostgresBackend {
     pqxx::connection c(Uri());
     pqxx::nontransaction txn(c);
     txn.exec(sql);
+  }
+
+  // The first column of the first row `sql` returns, as text; empty for no row or NULL.
+  std::string QueryText(const std::string& sql) const {
+    pqxx::connection c(Uri());
+    pqxx::nontransaction txn(c);
+    const pqxx::result r = txn.exec(sql);
+    return r.empty() || r[0][0].is_null() ? std::string() : r[0][0].as<std::string>();
   }
 
   // Every table of the database (all schemas but the system ones): its name, its columns with

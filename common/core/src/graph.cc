@@ -12,6 +12,11 @@ namespace fleetmap {
 bool SameEdgeContent(const Edge& a, const Edge& b) {
   // 1e-9 m / rad: far below any physical meaning, far above the rounding of a pose rebuilt
   // from its stored quaternion.
+  if (a.covariance.has_value() != b.covariance.has_value()) return false;
+  if (a.covariance && (*a.covariance - *b.covariance).cwiseAbs().maxCoeff() >
+                          1e-6 * std::max(1e-30, a.covariance->cwiseAbs().maxCoeff())) {
+    return false;
+  }
   return a.id == b.id && a.from == b.from && a.to == b.to && a.kind == b.kind && a.path == b.path &&
          Se3ApproxEqual(a.from_T_to, b.from_T_to, 1e-9, 1e-9);
 }
@@ -51,6 +56,18 @@ void Validate(const Edge& edge) {
   }
   if (!edge.from_T_to.matrix().allFinite()) {
     throw Error(ErrorCode::kInvalidArgument, "edge " + edge.id.ToString() + " pose is not finite");
+  }
+  if (edge.covariance) {
+    if (edge.kind != EdgeKind::kMetric) {
+      throw Error(ErrorCode::kInvalidArgument,
+                  "path edge " + edge.id.ToString() + " must not carry a pose covariance");
+    }
+    if (!IsValidPoseCovariance(*edge.covariance)) {
+      throw Error(ErrorCode::kInvalidArgument,
+                  "edge " + edge.id.ToString() +
+                      " has a pose covariance that is not finite, symmetric and positive "
+                      "semi-definite");
+    }
   }
 }
 

@@ -22,6 +22,38 @@ std::string UuidBytes(const Uuid& id) {
   return id.IsNil() ? std::string() : id.ToBytesString();
 }
 
+// The upper triangle of a 6 x 6 matrix, row by row (map.proto PoseCovariance).
+constexpr int kCovarianceUpperSize = 21;
+
+v1::PoseCovariance CovarianceToProto(const PoseCovariance& covariance) {
+  v1::PoseCovariance proto;
+  proto.mutable_upper()->Reserve(kCovarianceUpperSize);
+  for (int row = 0; row < 6; ++row) {
+    for (int column = row; column < 6; ++column) proto.add_upper(covariance(row, column));
+  }
+  return proto;
+}
+
+PoseCovariance CovarianceFromProto(const v1::PoseCovariance& proto, const std::string& edge) {
+  if (proto.upper_size() != kCovarianceUpperSize) {
+    throw Error(ErrorCode::kCorrupt, "Edge " + edge + " covariance holds " +
+                                         std::to_string(proto.upper_size()) +
+                                         " values, the upper triangle of a 6 x 6 matrix is 21");
+  }
+  PoseCovariance covariance;
+  int i = 0;
+  for (int row = 0; row < 6; ++row) {
+    for (int column = row; column < 6; ++column) {
+      covariance(row, column) = covariance(column, row) = proto.upper(i++);
+    }
+  }
+  if (!IsValidPoseCovariance(covariance)) {
+    throw Error(ErrorCode::kCorrupt,
+                "Edge " + edge + " covariance is not a finite, positive semi-definite matrix");
+  }
+  return covariance;
+}
+
 }  // namespace
 
 v1::Se3 ToProto(const Se3& a_T_b) {
@@ -101,6 +133,8 @@ v1::Edge ToProto(const Edge& edge) {
   proto.set_kind(edge.kind == EdgeKind::kPath ? v1::EDGE_KIND_PATH : v1::EDGE_KIND_METRIC);
   *proto.mutable_from_t_to() = ToProto(edge.from_T_to);
   proto.set_path(UuidBytes(edge.path));
+  // Unset when absent, so an edge without one encodes to the bytes it always did.
+  if (edge.covariance) *proto.mutable_covariance() = CovarianceToProto(*edge.covariance);
   return proto;
 }
 
@@ -122,6 +156,13 @@ Edge FromProto(const v1::Edge& proto) {
   }
   edge.from_T_to = proto.has_from_t_to() ? FromProto(proto.from_t_to()) : Se3::Identity();
   edge.path = UuidField(proto.path(), "Edge.path");
+  if (proto.has_covariance()) {
+    if (edge.kind != EdgeKind::kMetric) {
+      throw Error(ErrorCode::kCorrupt,
+                  "Edge " + edge.id.ToString() + " is a path edge and carries a covariance");
+    }
+    edge.covariance = CovarianceFromProto(proto.covariance(), edge.id.ToString());
+  }
   return edge;
 }
 

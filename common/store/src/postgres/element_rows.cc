@@ -2,6 +2,7 @@
 
 #include <cstdlib>
 
+#include "edge_covariance_blob.h"
 #include "fleetmap/core/error.h"
 
 namespace fleetmap::internal {
@@ -69,6 +70,13 @@ Edge ReadEdge(const pqxx::row& r, pqxx::row::size_type first) {
         "edge " + e.id.ToString() + " has a stored pose that is not SE(3): " + error.message());
   }
   e.path = UuidField(r[first + 11]);
+  if (!r[first + 12].is_null()) {
+    if (e.kind != EdgeKind::kMetric) {
+      throw Error(ErrorCode::kCorrupt,
+                  "edge " + e.id.ToString() + " is stored as a path edge with a covariance");
+    }
+    e.covariance = DecodeCovarianceBlob(BytesField(r[first + 12]), e.id);
+  }
   return e;
 }
 

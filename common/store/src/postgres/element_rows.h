@@ -9,13 +9,12 @@
 #include <string>
 #include <string_view>
 
+#include "edge_columns.h"
 #include "fleetmap/core/graph.h"
 
 namespace fleetmap::internal {
 
 inline constexpr const char* kNodeColumns = "id, stamp_ns, robot, outing, landmarks";
-inline constexpr const char* kEdgeColumns =
-    "id, from_id, to_id, kind, tx, ty, tz, qw, qx, qy, qz, path_id";
 inline constexpr const char* kPathColumns = "id, robot, outing, start_ns, end_ns";
 inline constexpr const char* kAnnotationColumns =
     "id, node_id, edge_id, parent_id, type, payload, data_id";
@@ -34,7 +33,9 @@ double DoubleField(const pqxx::field& f);
 
 // Rows in the column order of kNodeColumns (landmarks_blob left empty unless
 // with_landmarks), kEdgeColumns starting at column `first`, kPathColumns and
-// kAnnotationColumns. An edge pose that is not SE(3) throws Error(kCorrupt).
+// kAnnotationColumns. An edge pose that is not SE(3), or an edge covariance that is not 168
+// bytes (edge_covariance_blob.h), not a valid PoseCovariance or on a path edge, throws
+// Error(kCorrupt) naming the edge.
 Node ReadNode(const pqxx::row& r, bool with_landmarks);
 Edge ReadEdge(const pqxx::row& r, pqxx::row::size_type first);
 Path ReadPath(const pqxx::row& r);

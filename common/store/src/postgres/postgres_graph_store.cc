@@ -22,6 +22,7 @@
 #include <vector>
 
 #include "backends.h"
+#include "edge_covariance_blob.h"
 #include "fleetmap/core/error.h"
 #include "fleetmap/store/annotation_store.h"
 #include "fleetmap/store/sensor_index.h"
@@ -45,7 +46,8 @@ std::string NullableUuidText(const Uuid& id) {
   return id.IsNil() ? std::string() : id.ToString();
 }
 
-// bytea in COPY text format: "\x" + hex. (stream_to escapes the backslash for COPY.)
+// bytea in COPY text format: "\x" + hex. (stream_to escapes the backslash for COPY.) The same
+// text is bytea's input form for a parameter.
 std::string ByteaHex(std::string_view bytes) {
   static constexpr char kHex[] = "0123456789abcdef";
   std::string out;
@@ -56,6 +58,12 @@ std::string ByteaHex(std::string_view bytes) {
     out += kHex[c & 0xf];
   }
   return out;
+}
+
+// An edge's covariance column as text (ByteaHex of edge_covariance_blob.h's bytes), empty for
+// none.
+std::string CovarianceText(const Edge& edge) {
+  return edge.covariance ? ByteaHex(EncodeCovarianceBlob(*edge.covariance)) : std::string();
 }
 
 class PostgresGraphStore final : public GraphStore {
@@ -154,7 +162,7 @@ class PostgresGraphStore final : public GraphStore {
                 .exec_prepared("insert_edge", edge.id.ToString(), edge.from.ToString(),
                                edge.to.ToString(), static_cast<int>(edge.kind), Text(t.x()),
                                Text(t.y()), Text(t.z()), Text(q.w()), Text(q.x()), Text(q.y()),
-                               Text(q.z()), NullableUuidText(edge.path))
+                               Text(q.z()), NullableUuidText(edge.path), CovarianceText(edge))
                 .affected_rows();
           });
     } catch (const Error& e) {
@@ -427,9 +435,9 @@ class PostgresGraphStore final : public GraphStore {
               "INSERT INTO nodes (id, stamp_ns, robot, outing, landmarks)"
               " VALUES ($1, $2, $3, $4, $5) ON CONFLICT (id) DO NOTHING");
     c.prepare("insert_edge",
-              "INSERT INTO edges (id, from_id, to_id, kind, tx, ty, tz, qw, qx, qy, qz, path_id)"
-              " VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, NULLIF($12, '')::uuid)"
-              " ON CONFLICT (id) DO NOTHING");
+              Cat({"INSERT INTO edges (", kEdgeColumns,
+                   ") VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, NULLIF($12, '')::uuid,"
+                   " NULLIF($13, '')::bytea) ON CONFLICT (id) DO NOTHING"}));
     c.prepare("insert_path",
               "INSERT INTO paths (id, robot, outing, start_ns, end_ns)"
               " VALUES ($1, $2, $3, $4, $5) ON CONFLICT (id) DO NOTHING");
@@ -453,10 +461,9 @@ class PostgresGraphStore final : public GraphStore {
               Cat({"SELECT ", kEdgeColumns,
                    " FROM edges WHERE from_id = ANY($1::uuid[]) OR to_id = ANY($1::uuid[])"
                    " ORDER BY id"}));
-    c.prepare("edges_of_path",
-              "SELECT e.id, e.from_id, e.to_id, e.kind, e.tx, e.ty, e.tz, e.qw, e.qx, e.qy, e.qz,"
-              " e.path_id FROM edges e JOIN nodes n ON n.id = e.to_id WHERE e.path_id = $1"
-              " ORDER BY n.stamp_ns, e.id");
+    c.prepare("edges_of_path", Cat({"SELECT ", kEdgeColumnsOfE,
+                                    " FROM edges e JOIN nodes n ON n.id = e.to_id"
+                                    " WHERE e.path_id = $1 ORDER BY n.stamp_ns, e.id"}));
     c.prepare("annotations_on_node", Cat({"SELECT ", kAnnotationColumns,
                                           " FROM annotations WHERE node_id = $1 ORDER BY id"}));
     c.prepare("annotations_on_edge", Cat({"SELECT ", kAnnotationColumns,
@@ -465,12 +472,12 @@ class PostgresGraphStore final : public GraphStore {
                                             " FROM annotations WHERE parent_id = $1 ORDER BY id"}));
     // UNION (not UNION ALL) drops rows seen before, so a cycle ends the recursion.
     c.prepare("read_chain",
-              "WITH RECURSIVE chain (id) AS (SELECT $1::uuid UNION SELECT e.to_id FROM edges e"
-              " JOIN chain c ON e.from_id = c.id WHERE e.kind = 1)"
-              " SELECT n.id, n.stamp_ns, n.robot, n.outing, n.landmarks,"
-              " e.id, e.from_id, e.to_id, e.kind, e.tx, e.ty, e.tz, e.qw, e.qx, e.qy, e.qz,"
-              " e.path_id FROM chain JOIN nodes n ON n.id = chain.id"
-              " LEFT JOIN edges e ON e.from_id = chain.id AND e.kind = 1 ORDER BY n.id");
+              Cat({"WITH RECURSIVE chain (id) AS (SELECT $1::uuid UNION SELECT e.to_id FROM edges e"
+                   " JOIN chain c ON e.from_id = c.id WHERE e.kind = 1)"
+                   " SELECT n.id, n.stamp_ns, n.robot, n.outing, n.landmarks, ",
+                   kEdgeColumnsOfE,
+                   " FROM chain JOIN nodes n ON n.id = chain.id"
+                   " LEFT JOIN edges e ON e.from_id = chain.id AND e.kind = 1 ORDER BY n.id"}));
     // Session-local staging tables for batches (see the file comment).
     pqxx::nontransaction t(c);
     for (const char* table : {"nodes", "edges", "paths", "annotations"}) {
@@ -533,17 +540,20 @@ class PostgresGraphStore final : public GraphStore {
     }
     if (!batch.edges.empty()) {
       {
-        pqxx::stream_to s(t, "stage_edges",
-                          std::vector<std::string>{"id", "from_id", "to_id", "kind", "tx", "ty",
-                                                   "tz", "qw", "qx", "qy", "qz", "path_id"});
+        pqxx::stream_to s(
+            t, "stage_edges",
+            std::vector<std::string>{"id", "from_id", "to_id", "kind", "tx", "ty", "tz", "qw", "qx",
+                                     "qy", "qz", "path_id", "covariance"});
         for (const Edge& e : batch.edges) {
           const Eigen::Quaterniond q = RotationQuaternion(e.from_T_to);
           const Eigen::Vector3d& p = e.from_T_to.translation();
           const std::string path = e.path.ToString();
+          const std::string covariance = CovarianceText(e);
           s << std::make_tuple(e.id.ToString(), e.from.ToString(), e.to.ToString(),
                                static_cast<int>(e.kind), Text(p.x()), Text(p.y()), Text(p.z()),
                                Text(q.w()), Text(q.x()), Text(q.y()), Text(q.z()),
-                               e.path.IsNil() ? nullptr : path.c_str());
+                               e.path.IsNil() ? nullptr : path.c_str(),
+                               e.covariance ? covariance.c_str() : nullptr);
         }
         s.complete();
       }
@@ -568,10 +578,11 @@ class PostgresGraphStore final : public GraphStore {
              " (s.from_id, s.to_id, s.kind, s.path_id) OR abs(e.tx - s.tx) > 1e-9 OR"
              " abs(e.ty - s.ty) > 1e-9 OR abs(e.tz - s.tz) > 1e-9 OR abs(e.qw - s.qw) > 1e-9 OR"
              " abs(e.qx - s.qx) > 1e-9 OR abs(e.qy - s.qy) > 1e-9 OR abs(e.qz - s.qz) > 1e-9"
-             " LIMIT 1",
+             " OR (e.covariance IS NULL) <> (s.covariance IS NULL) LIMIT 1",
              [](const pqxx::row& r) {
                return Cat({"edge ", r[0].c_str(), " is already stored with different content"});
              });
+      RefuseDifferentCovariances(t);
     }
     if (!batch.annotations.empty()) {
       {
@@ -626,6 +637,25 @@ class PostgresGraphStore final : public GraphStore {
           [](const pqxx::row& r) {
             return Cat({"annotation ", r[0].c_str(), " is already stored with different content"});
           });
+    }
+  }
+
+  // Stored and staged covariances whose bytes differ are judged as SameEdgeContent judges them
+  // (equal within a relative 1e-6), which SQL cannot do for a matrix. Only an edge put again
+  // with other numbers gets here.
+  static void RefuseDifferentCovariances(pqxx::transaction_base& t) {
+    const pqxx::result rows = t.exec(
+        "SELECT s.id, e.covariance, s.covariance FROM stage_edges s JOIN edges e ON e.id = s.id"
+        " WHERE e.covariance <> s.covariance");
+    for (const pqxx::row& r : rows) {
+      const Uuid id = UuidField(r[0]);
+      Edge stored, staged;  // alike but for their covariances
+      stored.covariance = DecodeCovarianceBlob(BytesField(r[1]), id);
+      staged.covariance = DecodeCovarianceBlob(BytesField(r[2]), id);
+      if (!SameEdgeContent(stored, staged)) {
+        throw Error(ErrorCode::kConflict,
+                    "edge " + id.ToString() + " is already stored with different content");
+      }
     }
   }
 

@@ -643,9 +643,8 @@ class PostgresVersionStore final : public VersionStore {
     c.prepare("version_nodes_at_bare",
               Cat({"SELECT n.id, n.stamp_ns, n.robot, n.outing, NULL", visible_nodes}));
     c.prepare("version_edges_at",
-              Cat({"SELECT e.id, e.from_id, e.to_id, e.kind, e.tx, e.ty, e.tz, e.qw, e.qx, e.qy,"
-                   " e.qz, e.path_id FROM edges e LEFT JOIN element_versions v ON v.id = e.id"
-                   " WHERE ",
+              Cat({"SELECT ", kEdgeColumnsOfE,
+                   " FROM edges e LEFT JOIN element_versions v ON v.id = e.id WHERE ",
                    kVisibleAtParam1, " ORDER BY e.id"}));
     c.prepare("version_paths_at",
               Cat({"SELECT p.id, p.robot, p.outing, p.start_ns, p.end_ns FROM paths p"

@@ -1,5 +1,6 @@
 #include "sqlite/element_rows.h"
 
+#include "edge_covariance_blob.h"
 #include "fleetmap/core/error.h"
 
 namespace fleetmap::internal {
@@ -31,6 +32,13 @@ Edge ReadEdge(const Statement& s, int first) {
         "edge " + e.id.ToString() + " has a stored pose that is not SE(3): " + error.message());
   }
   e.path = s.UuidAt(first + 11);
+  if (!s.IsNull(first + 12)) {
+    if (e.kind != EdgeKind::kMetric) {
+      throw Error(ErrorCode::kCorrupt,
+                  "edge " + e.id.ToString() + " is stored as a path edge with a covariance");
+    }
+    e.covariance = DecodeCovarianceBlob(s.Blob(first + 12), e.id);
+  }
   return e;
 }
 

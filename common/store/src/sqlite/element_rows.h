@@ -2,6 +2,7 @@
 // and the VersionStore, which select the same columns in the same order.
 #pragma once
 
+#include "edge_columns.h"
 #include "fleetmap/core/graph.h"
 #include "sqlite/statement.h"
 
@@ -10,8 +11,9 @@ namespace fleetmap::internal {
 // Columns id, stamp_ns, robot, outing, landmarks (landmarks_blob left empty unless
 // with_landmarks).
 Node ReadNode(const Statement& s, bool with_landmarks);
-// Columns id, from_id, to_id, kind, tx, ty, tz, qw, qx, qy, qz, path_id from column `first`.
-// A pose that is not SE(3) throws Error(kCorrupt).
+// Columns kEdgeColumns from column `first`. A pose that is not SE(3), or a covariance that is
+// not 168 bytes (edge_covariance_blob.h), not a valid PoseCovariance or on a path edge, throws
+// Error(kCorrupt) naming the edge.
 Edge ReadEdge(const Statement& s, int first);
 // Columns id, robot, outing, start_ns, end_ns.
 Path ReadPath(const Statement& s);

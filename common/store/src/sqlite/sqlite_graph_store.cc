@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "backends.h"
+#include "edge_covariance_blob.h"
 #include "fleetmap/core/error.h"
 #include "fleetmap/store/annotation_store.h"
 #include "fleetmap/store/sensor_index.h"
@@ -35,17 +36,13 @@ namespace fleetmap::internal {
 namespace {
 
 constexpr const char* kNodeColumns = "id, stamp_ns, robot, outing, landmarks";
-constexpr const char* kEdgeColumns =
-    "id, from_id, to_id, kind, tx, ty, tz, qw, qx, qy, qz, path_id";
 constexpr const char* kAnnotationColumns =
     "id, node_id, edge_id, parent_id, type, payload, data_id";
 
 constexpr int kChunkRows = 32;
 constexpr const char* kNodeInsertColumns = "id, stamp_ns, robot, outing, landmarks";
 constexpr const char* kNodeRow = "(?, ?, ?, ?, ?)";
-constexpr const char* kEdgeInsertColumns =
-    "id, from_id, to_id, kind, tx, ty, tz, qw, qx, qy, qz, path_id";
-constexpr const char* kEdgeRow = "(?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)";
+constexpr const char* kEdgeRow = "(?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)";
 
 // "INSERT INTO table (columns) VALUES row, row, ... ON CONFLICT (id) DO NOTHING".
 std::string InsertRowsSql(const char* table, const char* columns, const char* row,
@@ -434,7 +431,7 @@ class SqliteGraphStore final : public GraphStore {
   struct Statements {
     explicit Statements(sqlite3* db)
         : insert_node(db, InsertRowsSql("nodes", kNodeInsertColumns, kNodeRow, 1).c_str()),
-          insert_edge(db, InsertRowsSql("edges", kEdgeInsertColumns, kEdgeRow, 1).c_str()),
+          insert_edge(db, InsertRowsSql("edges", kEdgeColumns, kEdgeRow, 1).c_str()),
           insert_path(db,
                       "INSERT INTO paths (id, robot, outing, start_ns, end_ns)"
                       " VALUES (?1, ?2, ?3, ?4, ?5) ON CONFLICT (id) DO NOTHING"),
@@ -455,10 +452,10 @@ class SqliteGraphStore final : public GraphStore {
           edges_to(
               db,
               Sql({"SELECT ", kEdgeColumns, " FROM edges WHERE to_id = ?1 ORDER BY id"}).c_str()),
-          edges_of_path(db,
-                        "SELECT e.id, e.from_id, e.to_id, e.kind, e.tx, e.ty, e.tz, e.qw, e.qx,"
-                        " e.qy, e.qz, e.path_id FROM edges e JOIN nodes n ON n.id = e.to_id"
-                        " WHERE e.path_id = ?1 ORDER BY n.stamp_ns, e.id"),
+          edges_of_path(db, Sql({"SELECT ", kEdgeColumnsOfE,
+                                 " FROM edges e JOIN nodes n ON n.id = e.to_id"
+                                 " WHERE e.path_id = ?1 ORDER BY n.stamp_ns, e.id"})
+                                .c_str()),
           annotations_on_node(db, Sql({"SELECT ", kAnnotationColumns,
                                        " FROM annotations WHERE node_id = ?1 ORDER BY id"})
                                       .c_str()),
@@ -469,14 +466,14 @@ class SqliteGraphStore final : public GraphStore {
                                          " FROM annotations WHERE parent_id = ?1 ORDER BY id"})
                                         .c_str()),
           insert_nodes_chunk(db, InsertRowsSql("nodes", kNodeInsertColumns, kNodeRow).c_str()),
-          insert_edges_chunk(db, InsertRowsSql("edges", kEdgeInsertColumns, kEdgeRow).c_str()),
-          read_chain(db,
-                     "WITH RECURSIVE chain (id) AS (SELECT ?1 UNION SELECT e.to_id FROM edges e"
-                     " JOIN chain c ON e.from_id = c.id WHERE e.kind = 1)"
-                     " SELECT n.id, n.stamp_ns, n.robot, n.outing, n.landmarks,"
-                     " e.id, e.from_id, e.to_id, e.kind, e.tx, e.ty, e.tz, e.qw, e.qx, e.qy,"
-                     " e.qz, e.path_id FROM chain JOIN nodes n ON n.id = chain.id"
-                     " LEFT JOIN edges e ON e.from_id = chain.id AND e.kind = 1") {}
+          insert_edges_chunk(db, InsertRowsSql("edges", kEdgeColumns, kEdgeRow).c_str()),
+          read_chain(db, Sql({"WITH RECURSIVE chain (id) AS (SELECT ?1 UNION SELECT e.to_id"
+                              " FROM edges e JOIN chain c ON e.from_id = c.id WHERE e.kind = 1)"
+                              " SELECT n.id, n.stamp_ns, n.robot, n.outing, n.landmarks, ",
+                              kEdgeColumnsOfE,
+                              " FROM chain JOIN nodes n ON n.id = chain.id"
+                              " LEFT JOIN edges e ON e.from_id = chain.id AND e.kind = 1"})
+                             .c_str()) {}
 
     Statement insert_node, insert_edge, insert_path, insert_annotation;
     Statement find_node, node_stored, find_edge, find_path, find_annotation;
@@ -510,12 +507,17 @@ class SqliteGraphStore final : public GraphStore {
     s.Bind(first + 10, q.y());
     s.Bind(first + 11, q.z());
     s.BindNullableUuid(first + 12, edge.path);
+    if (edge.covariance) {
+      s.BindBlobCopy(first + 13, EncodeCovarianceBlob(*edge.covariance));
+    } else {
+      s.BindNull(first + 13);
+    }
   }
 
   static void BindRow(Statement& s, int first, const Node& node) { BindNodeRow(s, first, node); }
   static void BindRow(Statement& s, int first, const Edge& edge) { BindEdgeRow(s, first, edge); }
   static constexpr int kParams(const Node*) { return 5; }
-  static constexpr int kParams(const Edge*) { return 12; }
+  static constexpr int kParams(const Edge*) { return 13; }
 
   // ON CONFLICT DO NOTHING skipped a row: identical content is a no-op, anything else is a
   // conflict.

@@ -571,9 +571,8 @@ class SqliteVersionStore final : public VersionStore {
                        .c_str()),
           nodes_at_bare(
               db, Sql({"SELECT n.id, n.stamp_ns, n.robot, n.outing, NULL", kVisibleNodes}).c_str()),
-          edges_at(db, Sql({"SELECT e.id, e.from_id, e.to_id, e.kind, e.tx, e.ty, e.tz, e.qw,"
-                            " e.qx, e.qy, e.qz, e.path_id FROM edges e"
-                            " LEFT JOIN element_versions v ON v.id = e.id WHERE ",
+          edges_at(db, Sql({"SELECT ", kEdgeColumnsOfE,
+                            " FROM edges e LEFT JOIN element_versions v ON v.id = e.id WHERE ",
                             kVisibleAtParam1, " ORDER BY e.id"})
                            .c_str()),
           paths_at(db, Sql({"SELECT p.id, p.robot, p.outing, p.start_ns, p.end_ns FROM paths p"

@@ -35,7 +35,8 @@ class Statement {
   Statement& operator=(const Statement&) = delete;
 
   // Binders take 1-based parameter indexes, as sqlite3_bind_*. Nothing is copied
-  // (SQLITE_STATIC): a bound value must outlive the next Step(), so never bind a temporary.
+  // (SQLITE_STATIC) unless said: a bound value must outlive the next Step(), so never bind a
+  // temporary.
   void Bind(int index, const Uuid& id) {
     Check(sqlite3_bind_blob(stmt_, index, id.data(), Uuid::kSize, SQLITE_STATIC));
   }
@@ -52,6 +53,11 @@ class Statement {
   void BindBlob(int index, std::string_view bytes) {
     Check(sqlite3_bind_blob64(stmt_, index, bytes.data(), bytes.size(), SQLITE_STATIC));
   }
+  // A copy is bound (SQLITE_TRANSIENT), so `bytes` may be a temporary.
+  void BindBlobCopy(int index, std::string_view bytes) {
+    Check(sqlite3_bind_blob64(stmt_, index, bytes.data(), bytes.size(), SQLITE_TRANSIENT));
+  }
+  void BindNull(int index) { Check(sqlite3_bind_null(stmt_, index)); }
   void BindText(int index, std::string_view text) {
     Check(sqlite3_bind_text64(stmt_, index, text.data(), text.size(), SQLITE_STATIC, SQLITE_UTF8));
   }

@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "fleetmap/core/pose_covariance.h"
 #include "fleetmap/core/se3.h"
 #include "fleetmap/core/uuid.h"
 
@@ -80,10 +81,14 @@ struct Edge {
   EdgeKind kind = EdgeKind::kMetric;
   Se3 from_T_to = Se3::Identity();  // meaningful for metric edges
   Uuid path;                        // set for path edges, nil otherwise
+  // How far from_T_to can be trusted (pose_covariance.h), where whoever made the edge knew:
+  // MERGE's links carry their registration's or their composition's. Metric edges only.
+  std::optional<PoseCovariance> covariance = std::nullopt;
 };
 
-// Same identity and endpoints, and poses equal within tolerance (a pose that went through a
-// database and back is rebuilt from a quaternion, so exact equality is too strict).
+// Same identity and endpoints, poses equal within tolerance (a pose that went through a
+// database and back is rebuilt from a quaternion, so exact equality is too strict), and both
+// covariances absent or equal within a relative 1e-6 (they are stored as floats).
 bool SameEdgeContent(const Edge& a, const Edge& b);
 
 // One outing's sequence of localisations (path memory, seed 002 §IV).

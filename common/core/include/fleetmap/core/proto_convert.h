@@ -1,6 +1,8 @@
 // Conversions between the C++ model (graph.h) and the fleetmap.v1 protobuf messages.
 // FromProto functions throw Error(kCorrupt) for malformed messages (UUID fields that are not
-// 16 bytes, unknown enum values, an annotation with both or neither of target and parent).
+// 16 bytes, unknown enum values, an annotation with both or neither of target and parent, an
+// edge covariance on a path edge, of other than 21 values or that is not a valid
+// PoseCovariance).
 #pragma once
 
 #include "fleetmap/core/graph.h"

@@ -11,6 +11,9 @@
 // - An edge whose endpoint node (or whose path) is not stored, and an annotation whose
 //   target or parent is not stored, are refused with Error(kIntegrity).
 // - Get* of an unknown UUID throws Error(kNotFound); Find* returns nullopt.
+// - Reads give back what was put, an edge's covariance bit for bit. A stored edge whose pose is
+//   not SE(3) or whose covariance is not a valid one (a database changed behind the store's
+//   back) reads as Error(kCorrupt) naming the edge.
 // - Every write outside a Transaction is atomic by itself; Put(GraphBatch) is atomic as a
 //   whole (all of it or none of it, also when the process is killed mid-batch).
 // - Any other failure of the database becomes Error(kBackend) with the statement's context.
