@@ -202,6 +202,25 @@ TEST_P(PathRankingMatchesDefinition, OnARandomMap) {
 
 INSTANTIATE_TEST_SUITE_P(PathCounts, PathRankingMatchesDefinition, ::testing::Values(40, 200, 400));
 
+TEST(PathRanking, WhileEveryAttemptInTheWindowFailedCandidatesRankByDistance) {
+  PathRanking ranking(Figure5Memory(), {.window_iterations = 10});
+  const LocalisationAttempt failures[] = {{NumberedUuid(8), false}, {NumberedUuid(1), false}};
+  ranking.ObserveIteration(failures);
+  // Eq. 8 alone would put n9 (P1, 2 x 2/9) before n77 on no path (1/4); with nothing in W that
+  // succeeded the posterior only says which candidates the failures rule out, so the nearer
+  // comes first.
+  EXPECT_GT(ranking.LogPosterior(NumberedUuid(4), NumberedUuid(9)),
+            ranking.LogPosterior(NumberedUuid(4), NumberedUuid(77)));
+  std::vector<Candidate> candidates{{NumberedUuid(9), 3.0}, {NumberedUuid(77), 1.0}};
+  ranking.Rank(NumberedUuid(4), candidates);
+  EXPECT_EQ(candidates[0].node, NumberedUuid(77));
+  // One success in the window and the posterior ranks again.
+  const LocalisationAttempt success{NumberedUuid(4), true};
+  ranking.ObserveIteration({&success, 1});
+  ranking.Rank(NumberedUuid(4), candidates);
+  EXPECT_EQ(candidates[0].node, NumberedUuid(9));
+}
+
 TEST(PathRanking, RejectsNegativeWindow) {
   EXPECT_THROW(PathRanking(PathMemory{}, {.window_iterations = -1}), Error);
 }

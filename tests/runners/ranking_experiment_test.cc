@@ -7,6 +7,7 @@
 
 #include <filesystem>
 #include <sstream>
+#include <string>
 
 #include "fleetmap/core/error.h"
 #include "fleetmap/core/uuid.h"
@@ -82,6 +83,46 @@ TEST_F(RankingExperimentTest, EveryFoldBuildsAndEveryRunLocalisesTheHeldOutFrame
   const RankingVerdict verdict = JudgeRanking(result, options);
   EXPECT_GE(verdict.path_at_reference, 0.0);
   EXPECT_LE(verdict.path_at_reference, 1.0);
+}
+
+// A run of `frames` held-out frames, `beyond` of them more than 10 m from a localisation.
+LocalisationRun JudgedRun(const std::string& policy, int cores, int window, int map_step,
+                          int beyond) {
+  LocalisationRun run;
+  run.policy = policy;
+  run.cores = cores;
+  run.window = window;
+  run.map_step = map_step;
+  run.frames = 1000;
+  run.gaps_m.assign(1000, 1.0F);
+  for (int i = 0; i < beyond; ++i) run.gaps_m[static_cast<std::size_t>(i)] = 12.0F;
+  return run;
+}
+
+TEST(RankingVerdictTest, PathMustBeStrictlyBetterThanDistanceWithTwiceTheCores) {
+  RankingExperimentOptions options;
+  options.reference_cores = 2;
+  options.map_size_steps = 1;
+  const auto judge = [&](int path, int distance_same, int distance_double) {
+    RankingExperimentResult result;
+    result.runs = {JudgedRun("path", 2, options.default_window, 1, path),
+                   JudgedRun("distance", 2, 0, 1, distance_same),
+                   JudgedRun("distance", 4, 0, 1, distance_double),
+                   // Not the full map: must not count.
+                   JudgedRun("distance", 4, 0, 0, 0)};
+    return JudgeRanking(result, options);
+  };
+  const RankingVerdict better = judge(40, 60, 41);
+  EXPECT_TRUE(better.path_beats_distance);
+  EXPECT_TRUE(better.path_beats_double);
+  const RankingVerdict tie = judge(40, 60, 40);
+  EXPECT_TRUE(tie.path_beats_distance);
+  EXPECT_FALSE(tie.path_beats_double) << "a tie with twice the cores is not better";
+  const RankingVerdict worse = judge(40, 40, 30);
+  EXPECT_FALSE(worse.path_beats_distance);
+  EXPECT_FALSE(worse.path_beats_double);
+  options.reference_cores = 3;  // Γ(distance) at 6 cores was not run
+  EXPECT_FALSE(judge(0, 60, 60).path_beats_double);
 }
 
 TEST_F(RankingExperimentTest, SameWorldSameNumbers) {

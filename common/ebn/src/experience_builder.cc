@@ -19,6 +19,14 @@ ExperienceBuilder::ExperienceBuilder(GraphWriter* store, ExperienceMap& map, Ran
   if (!(options.search_radius_m >= options.candidate_radius_m)) {
     fail("search_radius_m must be >= candidate_radius_m");
   }
+  if (!(options.max_candidate_radius_m >= options.candidate_radius_m)) {
+    fail("max_candidate_radius_m must be >= candidate_radius_m");
+  }
+  if (!(options.reach_sigmas >= 0.0)) fail("reach_sigmas must be >= 0");
+  if (!(options.odometry_noise.translation_fraction >= 0.0 &&
+        options.odometry_noise.rotation_rad_per_m >= 0.0)) {
+    fail("odometry_noise must be >= 0");
+  }
   if (!(options.relocalise_after_m >= 0.0)) fail("relocalise_after_m must be >= 0");
   if (options.relocalisation_candidates < 1) fail("relocalisation_candidates must be >= 1");
   if (!(options.anchor_max_m >= 0.0)) fail("anchor_max_m must be >= 0");
@@ -33,6 +41,7 @@ void ExperienceBuilder::StartOuting(const OutingStart& start) {
   first_stamp_ns_ = last_stamp_ns_ = 0;
   reference_.reset();
   k_T_q_ = Se3::Identity();
+  k_covariance_ = anchor_covariance_ = PoseCovariance::Zero();
   reference_is_new_ = false;
   anchor_.reset();
   path_tail_ = Uuid();
@@ -55,17 +64,18 @@ std::vector<Candidate> ExperienceBuilder::Candidates() const {
   std::vector<Candidate> candidates;
   if (!reference_) return candidates;
   std::unordered_map<ExperienceMap::NodeIndex, double> distance_of;
-  const auto gather = [&](ExperienceMap::NodeIndex origin, const Se3& origin_T_q) {
+  const auto gather = [&](ExperienceMap::NodeIndex origin, const Se3& origin_T_q,
+                          const PoseCovariance& covariance) {
     for (const ExperienceMap::Nearby& near :
-         map_.Neighbourhood(origin, origin_T_q.translation(), options_.candidate_radius_m,
+         map_.Neighbourhood(origin, origin_T_q.translation(), ReachOf(origin_T_q, covariance),
                             options_.search_radius_m)) {
       const auto [it, inserted] = distance_of.try_emplace(near.node, near.distance_m);
       if (!inserted) it->second = std::min(it->second, near.distance_m);
     }
   };
-  gather(*reference_, k_T_q_);
+  gather(*reference_, k_T_q_, k_covariance_);
   if (anchor_ && *anchor_ != *reference_ && anchor_travel_m_ <= options_.anchor_max_m) {
-    gather(*anchor_, anchor_T_q_);
+    gather(*anchor_, anchor_T_q_, anchor_covariance_);
   }
   candidates.reserve(distance_of.size());
   for (const auto& [node, distance] : distance_of) {
@@ -77,6 +87,16 @@ std::vector<Candidate> ExperienceBuilder::Candidates() const {
     return a.distance_m != b.distance_m ? a.distance_m < b.distance_m : a.node < b.node;
   });
   return candidates;
+}
+
+ExperienceMap::Reach ExperienceBuilder::ReachOf(const Se3& origin_T_q,
+                                                const PoseCovariance& covariance) const {
+  ExperienceMap::Reach reach;
+  reach.radius_m = options_.candidate_radius_m;
+  reach.max_radius_m = options_.max_candidate_radius_m;
+  reach.sigmas = options_.reach_sigmas;
+  if (TracksUncertainty()) reach.position_sigma_m = PositionSigma(origin_T_q, covariance);
+  return reach;
 }
 
 std::optional<ExperienceBuilder::Attempt> ExperienceBuilder::LocaliseRanked(
@@ -164,6 +184,7 @@ void ExperienceBuilder::MoveTo(const Attempt& attempt) {
   RecordPathStep(to);
   reference_ = anchor_ = attempt.node;
   k_T_q_ = anchor_T_q_ = attempt.result.node_T_frame;
+  k_covariance_ = anchor_covariance_ = attempt.result.covariance;
   anchor_travel_m_ = 0.0;
   reference_is_new_ = false;
 }
@@ -191,11 +212,12 @@ void ExperienceBuilder::CreateExperience(const Frame& frame) {
   RecordPathStep(node.id);
   reference_ = *map_.Find(node.id);
   k_T_q_ = Se3::Identity();
+  k_covariance_ = PoseCovariance::Zero();
   reference_is_new_ = true;
 }
 
-void ExperienceBuilder::Recentre(std::optional<ExperienceMap::NodeIndex>& origin,
-                                 Se3& origin_T_q) const {
+void ExperienceBuilder::Recentre(std::optional<ExperienceMap::NodeIndex>& origin, Se3& origin_T_q,
+                                 PoseCovariance& covariance) const {
   // Between localisations the estimate is carried by odometry; re-expressing it relative to
   // the nearest node keeps the neighbourhood search centred on the robot (seed 002 §III-B: the
   // position is the nearest node plus a transform), however far it drives unlocalised.
@@ -210,6 +232,11 @@ void ExperienceBuilder::Recentre(std::optional<ExperienceMap::NodeIndex>& origin
       nearest->distance_m >= origin_T_q.translation().norm()) {
     return;
   }
+  // The estimate's uncertainty moves into the new origin's frame with it, and the map's own
+  // uncertainty of where that node lies joins it: n_T_q = (origin_T_n)^-1 origin_T_q.
+  PoseCovariance moved = covariance;
+  if (nearest->covariance) moved += *nearest->covariance;
+  covariance = ComposeCovariance(nearest->origin_T_node.inverse(), PoseCovariance::Zero(), moved);
   origin_T_q = nearest->origin_T_node.inverse() * origin_T_q;
   origin = nearest->node;
 }
@@ -219,7 +246,13 @@ FrameReport ExperienceBuilder::Process(const Frame& frame) {
   if (first_stamp_ns_ == 0) first_stamp_ns_ = frame.stamp_ns;
   last_stamp_ns_ = frame.stamp_ns;
 
-  // Dead reckoning since the last frame.
+  // Dead reckoning since the last frame, and the uncertainty it adds.
+  if (TracksUncertainty()) {
+    const PoseCovariance step =
+        OdometryCovariance(frame.prev_T_this.translation().norm(), options_.odometry_noise);
+    k_covariance_ = ComposeCovariance(k_T_q_, k_covariance_, step);
+    anchor_covariance_ = ComposeCovariance(anchor_T_q_, anchor_covariance_, step);
+  }
   k_T_q_ = k_T_q_ * frame.prev_T_this;
   anchor_T_q_ = anchor_T_q_ * frame.prev_T_this;
   anchor_travel_m_ += frame.prev_T_this.translation().norm();
@@ -232,8 +265,8 @@ FrameReport ExperienceBuilder::Process(const Frame& frame) {
     last_truth_ = frame.world_T_camera_truth;
   }
 
-  if (!reference_is_new_) Recentre(reference_, k_T_q_);
-  Recentre(anchor_, anchor_T_q_);
+  if (!reference_is_new_) Recentre(reference_, k_T_q_, k_covariance_);
+  Recentre(anchor_, anchor_T_q_, anchor_covariance_);
 
   FrameReport report;
   std::vector<LocalisationAttempt> observed;
@@ -255,6 +288,7 @@ FrameReport ExperienceBuilder::Process(const Frame& frame) {
   }
   report.reference = reference_ ? map_.at(*reference_).node.id : Uuid();
   report.reference_T_camera = k_T_q_;
+  report.reference_covariance = k_covariance_;
   report.distance_since_success_m =
       frame.world_T_camera_truth ? truth_since_success_m_ : vo_since_success_m_;
   return report;

@@ -12,6 +12,7 @@
 
 #include "fleetmap/core/error.h"
 #include "fleetmap/ebn/descriptor_matcher.h"
+#include "fleetmap/ebn/hamming.h"
 #include "stereo_reprojection.h"
 
 namespace fleetmap {
@@ -132,6 +133,82 @@ Eigen::VectorXd MatchSigmas(const Landmarks& landmarks, const std::vector<Descri
   return sigma;
 }
 
+// The covariance of a rigid fit's node_T_frame from its point residuals (pose_covariance.h's
+// left perturbation): each inlier's residual r = exp(xi) T p_frame - p_node moves by
+// d r / d xi = [-[q]x, I] with q = T p_frame; the residuals' variance per coordinate is
+// estimated from their sum of squares over 3 n - 6 degrees of freedom.
+PoseCovariance PointCovariance(const Correspondences& c, const Se3& node_T_frame,
+                               const std::vector<int>& inliers) {
+  Eigen::Matrix<double, 6, 6> information = Eigen::Matrix<double, 6, 6>::Zero();
+  double squared = 0.0;
+  for (const int k : inliers) {
+    const Eigen::Vector3d q = node_T_frame * Eigen::Vector3d(c.p_frame.col(k));
+    squared += (q - c.p_node.col(k)).squaredNorm();
+    Eigen::Matrix<double, 3, 6> j;
+    j << 0, q.z(), -q.y(), 1, 0, 0,  //
+        -q.z(), 0, q.x(), 0, 1, 0,   //
+        q.y(), -q.x(), 0, 0, 0, 1;
+    information.noalias() += j.transpose() * j;
+  }
+  const double dof = 3.0 * static_cast<double>(inliers.size()) - 6.0;
+  const double variance = dof > 0 ? squared / dof : 0.0;
+  const Eigen::LDLT<Eigen::Matrix<double, 6, 6>> solver(information);
+  if (solver.info() != Eigen::Success || !(solver.rcond() > 1e-12)) {
+    return PoseCovariance::Identity() * 1e6;  // a fit that fixes no pose: no information
+  }
+  return variance * solver.solve(Eigen::Matrix<double, 6, 6>::Identity());
+}
+
+// Guided matches for Register: frame point i, carried into the node by the prior, against the
+// node points within its gate; the nearest descriptor wins when it is within
+// guided_max_distance and passes the ratio test against the gate's runner-up; a node point
+// claimed twice goes to the nearer descriptor (ties to the lower frame index).
+std::vector<DescriptorMatch> GuidedMatches(const Landmarks& frame, const Landmarks& node,
+                                           const Se3& prior, const PoseCovariance& covariance,
+                                           const LocaliserOptions& options) {
+  std::vector<DescriptorMatch> chosen(node.size());
+  for (DescriptorMatch& m : chosen) m.distance = std::numeric_limits<int>::max();
+  for (std::size_t i = 0; i < frame.size(); ++i) {
+    const Eigen::Vector3d q = prior * frame.points_camera[i].cast<double>();
+    Se3 node_T_point = Se3::Identity();
+    node_T_point.translation() = q;
+    double gate = options.guided_gate_sigmas * PositionSigma(node_T_point, covariance) +
+                  options.inlier_threshold_m;
+    if (frame.stereo || node.stereo) {
+      // A stereo point's own depth error grows as depth^2 / (focal baseline) per pixel.
+      const StereoCamera& camera = node.stereo ? *node.stereo : *frame.stereo;
+      gate += options.guided_gate_sigmas * q.z() * q.z() / (camera.focal_px * camera.baseline_m);
+    }
+    const double gate_sq = gate * gate;
+    int best = -1, best_distance = 257, second = 257;
+    for (std::size_t j = 0; j < node.size(); ++j) {
+      if ((node.points_camera[j].cast<double>() - q).squaredNorm() > gate_sq) continue;
+      const int d = HammingDistance(frame.descriptors[i], node.descriptors[j]);
+      if (d < best_distance) {
+        second = best_distance;
+        best_distance = d;
+        best = static_cast<int>(j);
+      } else if (d < second) {
+        second = d;
+      }
+    }
+    if (best < 0 || best_distance > options.guided_max_distance) continue;
+    if (second <= 256 && !(best_distance < options.ratio * second)) continue;
+    DescriptorMatch& slot = chosen[static_cast<std::size_t>(best)];
+    if (best_distance < slot.distance) {
+      slot = {static_cast<int>(i), best, best_distance};
+    }
+  }
+  std::vector<DescriptorMatch> matches;
+  for (const DescriptorMatch& m : chosen) {
+    if (m.query_index >= 0) matches.push_back(m);
+  }
+  std::sort(matches.begin(), matches.end(), [](const DescriptorMatch& a, const DescriptorMatch& b) {
+    return a.query_index < b.query_index;
+  });
+  return matches;
+}
+
 }  // namespace
 
 Localiser::Localiser(const LocaliserOptions& options) : options_(options) {
@@ -149,15 +226,35 @@ Localiser::Localiser(const LocaliserOptions& options) : options_(options) {
   if (!(options.inlier_threshold_m > 0.0)) fail("inlier_threshold_m must be > 0");
   if (!(options.reprojection_threshold_px > 0.0)) fail("reprojection_threshold_px must be > 0");
   if (options.min_inliers < 3) fail("min_inliers must be >= 3");
+  if (!(options.guided_gate_sigmas > 0.0)) fail("guided_gate_sigmas must be > 0");
+  if (options.guided_max_distance < 0 || options.guided_max_distance > 256) {
+    fail("guided_max_distance must be in [0, 256]");
+  }
 }
 
 LocalisationResult Localiser::Localise(const Landmarks& frame, const Landmarks& node) const {
   CheckConsistent(frame, "frame");
   CheckConsistent(node, "node");
+  return Solve(frame, node,
+               MatchDescriptors(frame.descriptors, node.descriptors,
+                                {.ratio = options_.ratio, .max_distance = options_.max_distance}));
+}
 
-  const std::vector<DescriptorMatch> matches =
-      MatchDescriptors(frame.descriptors, node.descriptors,
-                       {.ratio = options_.ratio, .max_distance = options_.max_distance});
+LocalisationResult Localiser::Register(const Landmarks& frame, const Landmarks& node,
+                                       const Se3& prior_node_T_frame,
+                                       const PoseCovariance& prior_covariance) const {
+  CheckConsistent(frame, "frame");
+  CheckConsistent(node, "node");
+  if (!prior_node_T_frame.matrix().allFinite() || !IsValidPoseCovariance(prior_covariance)) {
+    throw Error(ErrorCode::kInvalidArgument,
+                "register: the prior pose or its covariance is not finite and positive");
+  }
+  return Solve(frame, node,
+               GuidedMatches(frame, node, prior_node_T_frame, prior_covariance, options_));
+}
+
+LocalisationResult Localiser::Solve(const Landmarks& frame, const Landmarks& node,
+                                    const std::vector<DescriptorMatch>& matches) const {
   LocalisationResult result;
   result.matches = static_cast<int>(matches.size());
   if (result.matches < options_.min_inliers) return result;  // cannot succeed; min_inliers >= 3
@@ -238,7 +335,11 @@ LocalisationResult Localiser::Localise(const Landmarks& frame, const Landmarks& 
 
   result.inliers = static_cast<int>(best_inliers.size());
   result.success = result.inliers >= options_.min_inliers;
-  if (result.success) result.node_T_frame = best;
+  if (result.success) {
+    result.node_T_frame = best;
+    result.covariance =
+        stereo ? stereo->Covariance(best, best_inliers) : PointCovariance(c, best, best_inliers);
+  }
   return result;
 }
 

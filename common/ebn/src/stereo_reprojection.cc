@@ -93,44 +93,51 @@ std::vector<int> StereoReprojection::Inliers(const Se3& node_T_frame, double thr
   return inliers;
 }
 
+StereoReprojection::Normal StereoReprojection::Linearise(const Se3& pose,
+                                                         const std::vector<int>& inliers) const {
+  Normal normal;
+  const Eigen::Matrix3d r = pose.linear();
+  const Eigen::Vector3d t = pose.translation();
+  const auto add = [&](const View& view, const Eigen::Vector3d& q,
+                       const Eigen::Matrix<double, 3, 6>& dq_dxi, Eigen::Index k) {
+    if (!(q.z() > kMinDepth_m)) return;
+    const Eigen::Vector3d e = Project(view.focal_px, view.baseline_m, q) - view.measured.col(k);
+    const Eigen::Matrix<double, 3, 6> j =
+        ProjectJacobian(view.focal_px, view.baseline_m, q) * dq_dxi;
+    const double w = view.inverse_variance(k);
+    normal.h.noalias() += w * (j.transpose() * j);
+    normal.g.noalias() += w * (j.transpose() * e);
+    normal.squared += w * e.squaredNorm();
+    normal.residuals += 3;
+  };
+  for (int index : inliers) {
+    const Eigen::Index k = index;
+    if (node_view_) {
+      // s = pose * p_frame; exp(xi) moves it by omega x s + v.
+      const Eigen::Vector3d s = r * p_frame_.col(k) + t;
+      Eigen::Matrix<double, 3, 6> ds;
+      ds << -Skew(s), Eigen::Matrix3d::Identity();
+      add(*node_view_, node_view_->rect_R_points * s, node_view_->rect_R_points * ds, k);
+    }
+    if (frame_view_) {
+      // s = pose^-1 * p_node; pose^-1 exp(-xi) moves it by R^T (p x omega - v).
+      const Eigen::Vector3d p = p_node_.col(k);
+      const Eigen::Vector3d s = r.transpose() * (p - t);
+      Eigen::Matrix<double, 3, 6> ds;
+      ds << r.transpose() * Skew(p), -r.transpose();
+      add(*frame_view_, frame_view_->rect_R_points * s, frame_view_->rect_R_points * ds, k);
+    }
+  }
+  return normal;
+}
+
 Se3 StereoReprojection::Refine(const Se3& node_T_frame, const std::vector<int>& inliers) const {
   Se3 pose = node_T_frame;
   for (int iteration = 0; iteration < kMaxIterations; ++iteration) {
-    Eigen::Matrix<double, 6, 6> h = Eigen::Matrix<double, 6, 6>::Zero();
-    Eigen::Matrix<double, 6, 1> g = Eigen::Matrix<double, 6, 1>::Zero();
-    const Eigen::Matrix3d r = pose.linear();
-    const Eigen::Vector3d t = pose.translation();
-    const auto add = [&](const View& view, const Eigen::Vector3d& q,
-                         const Eigen::Matrix<double, 3, 6>& dq_dxi, Eigen::Index k) {
-      if (!(q.z() > kMinDepth_m)) return;
-      const Eigen::Vector3d e = Project(view.focal_px, view.baseline_m, q) - view.measured.col(k);
-      const Eigen::Matrix<double, 3, 6> j =
-          ProjectJacobian(view.focal_px, view.baseline_m, q) * dq_dxi;
-      const double w = view.inverse_variance(k);
-      h.noalias() += w * (j.transpose() * j);
-      g.noalias() += w * (j.transpose() * e);
-    };
-    for (int index : inliers) {
-      const Eigen::Index k = index;
-      if (node_view_) {
-        // s = pose * p_frame; exp(xi) moves it by omega x s + v.
-        const Eigen::Vector3d s = r * p_frame_.col(k) + t;
-        Eigen::Matrix<double, 3, 6> ds;
-        ds << -Skew(s), Eigen::Matrix3d::Identity();
-        add(*node_view_, node_view_->rect_R_points * s, node_view_->rect_R_points * ds, k);
-      }
-      if (frame_view_) {
-        // s = pose^-1 * p_node; pose^-1 exp(-xi) moves it by R^T (p x omega - v).
-        const Eigen::Vector3d p = p_node_.col(k);
-        const Eigen::Vector3d s = r.transpose() * (p - t);
-        Eigen::Matrix<double, 3, 6> ds;
-        ds << r.transpose() * Skew(p), -r.transpose();
-        add(*frame_view_, frame_view_->rect_R_points * s, frame_view_->rect_R_points * ds, k);
-      }
-    }
-    const Eigen::LDLT<Eigen::Matrix<double, 6, 6>> solver(h);
+    const Normal normal = Linearise(pose, inliers);
+    const Eigen::LDLT<Eigen::Matrix<double, 6, 6>> solver(normal.h);
     if (solver.info() != Eigen::Success || !(solver.rcond() > 1e-12)) break;
-    const Eigen::Matrix<double, 6, 1> xi = -solver.solve(g);
+    const Eigen::Matrix<double, 6, 1> xi = -solver.solve(normal.g);
     if (!xi.allFinite()) break;
     Se3 step = Se3::Identity();
     const Eigen::Vector3d omega = xi.head<3>();
@@ -141,6 +148,18 @@ Se3 StereoReprojection::Refine(const Se3& node_T_frame, const std::vector<int>& 
     if (xi.squaredNorm() < kConverged) break;
   }
   return pose;
+}
+
+PoseCovariance StereoReprojection::Covariance(const Se3& node_T_frame,
+                                              const std::vector<int>& inliers) const {
+  const Normal normal = Linearise(node_T_frame, inliers);
+  const Eigen::LDLT<Eigen::Matrix<double, 6, 6>> solver(normal.h);
+  if (solver.info() != Eigen::Success || !(solver.rcond() > 1e-12)) {
+    return PoseCovariance::Identity() * 1e6;  // a fit that fixes no pose: no information
+  }
+  const int dof = normal.residuals - 6;
+  const double variance = dof > 0 ? normal.squared / dof : 1.0;
+  return variance * solver.solve(Eigen::Matrix<double, 6, 6>::Identity());
 }
 
 }  // namespace fleetmap

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "fleetmap/core/graph.h"
+#include "fleetmap/core/pose_covariance.h"
 #include "fleetmap/core/se3.h"
 
 namespace fleetmap {
@@ -39,6 +40,10 @@ class StereoReprojection {
   // the system is singular.
   Se3 Refine(const Se3& node_T_frame, const std::vector<int>& inliers) const;
 
+  // The covariance of node_T_frame (pose_covariance.h) at a fit over `inliers`: the inverse of
+  // the weighted normal matrix, scaled by the weighted residuals' variance per pixel.
+  PoseCovariance Covariance(const Se3& node_T_frame, const std::vector<int>& inliers) const;
+
  private:
   struct View {
     Eigen::Matrix3d rect_R_points;
@@ -48,6 +53,15 @@ class StereoReprojection {
   };
   static View MakeView(const StereoCamera& camera, const Eigen::Matrix3Xd& points,
                        const Eigen::VectorXd& sigma);
+  // The weighted normal equations at `pose` over `inliers`: h += J^T W J, g += J^T W e, and the
+  // weighted squared residuals and their count.
+  struct Normal {
+    Eigen::Matrix<double, 6, 6> h = Eigen::Matrix<double, 6, 6>::Zero();
+    Eigen::Matrix<double, 6, 1> g = Eigen::Matrix<double, 6, 1>::Zero();
+    double squared = 0.0;
+    int residuals = 0;
+  };
+  Normal Linearise(const Se3& pose, const std::vector<int>& inliers) const;
 
   const Eigen::Matrix3Xd& p_frame_;
   const Eigen::Matrix3Xd& p_node_;

@@ -221,8 +221,14 @@ void PathRanking::Rank(const Uuid& reference, std::vector<Candidate>& candidates
   Prepare(reference_node);
   std::vector<std::pair<double, std::size_t>> scored;
   scored.reserve(candidates.size());
+  // While W holds failures only (the robot is lost, or on ground its paths never covered),
+  // the posterior of seed 002 eq. 8 can only say which candidates are *not* on the failed
+  // members' paths; with the neighbourhood widened by the estimate's uncertainty that favours
+  // far candidates no path vouches for. Rank by distance to the estimate until one succeeds.
+  const bool lost = successes_ == 0 && observed_count_ > 0;
   for (std::size_t i = 0; i < candidates.size(); ++i) {
-    scored.emplace_back(Score(reference_node, candidates[i].node), i);
+    scored.emplace_back(
+        lost ? -candidates[i].distance_m : Score(reference_node, candidates[i].node), i);
   }
   std::sort(scored.begin(), scored.end(), [&](const auto& a, const auto& b) {
     if (a.first != b.first) return a.first > b.first;

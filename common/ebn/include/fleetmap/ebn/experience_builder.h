@@ -27,6 +27,15 @@ struct BuilderOptions {
   int rounds = 1;  // Nr: rounds per frame, >= 1; rounds stop after one that succeeded
   // Candidates Y: nodes within this distance of the position estimate ...
   double candidate_radius_m = 8.0;
+  // ... widened by reach_sigmas standard deviations of the estimate's uncertainty (odometry's
+  // since the last localisation, odometry_noise) and of the map's poses between the estimate's
+  // node and the candidate (the covariances its edges carry: MERGE's links), up to
+  // max_candidate_radius_m: the farther the robot has driven on odometry alone, or the less
+  // certain a link, the farther the right experience may lie from where the map composes it.
+  // VT&R3 sizes its localisation window from 3 sigma of its prior the same way.
+  double max_candidate_radius_m = 8.0;  // >= candidate_radius_m; equal: a fixed radius
+  double reach_sigmas = 3.0;            // >= 0
+  OdometryNoise odometry_noise{};
   // ... found by a search that expands nodes up to this far from n_k, so that a fresh
   // experience chain still reaches the old experiences it branched from.
   double search_radius_m = 25.0;
@@ -55,6 +64,10 @@ struct FrameReport {
   // The camera's pose in n_k after this frame: the localised pose when the frame localised
   // (MERGE links a replayed node to the server node by it), else the dead-reckoned estimate.
   Se3 reference_T_camera = Se3::Identity();
+  // The uncertainty of reference_T_camera: the localisation's when the frame localised, else
+  // the estimate's (odometry since then, and the map's own poses it was carried through), when
+  // the builder keeps it (BuilderOptions::max_candidate_radius_m); zero when it does not.
+  PoseCovariance reference_covariance = PoseCovariance::Zero();
   // Ground-truth metres travelled since the last successful localisation (0 on success);
   // visual-odometry metres when the frame carries no ground truth.
   double distance_since_success_m = 0.0;
@@ -100,7 +113,16 @@ class ExperienceBuilder {
                                         std::vector<LocalisationAttempt>& observed);
   std::optional<Attempt> Relocalise(const Frame& frame, FrameReport& report,
                                     std::vector<LocalisationAttempt>& observed);
-  void Recentre(std::optional<ExperienceMap::NodeIndex>& origin, Se3& origin_T_q) const;
+  void Recentre(std::optional<ExperienceMap::NodeIndex>& origin, Se3& origin_T_q,
+                PoseCovariance& covariance) const;
+  ExperienceMap::Reach ReachOf(const Se3& origin_T_q, const PoseCovariance& covariance) const;
+  // Whether the reach can grow, and so the estimate's uncertainty is kept. The builder's own
+  // edges carry none: widening the search by them, measured on three worlds, diluted the
+  // candidates more than it found (seed 002 Fig. 11, Γ(path)@2 P(X > 10 m) 0.0038 -> 0.0057
+  // on the default world); MERGE's links carry theirs (link_registration.h).
+  bool TracksUncertainty() const {
+    return options_.max_candidate_radius_m > options_.candidate_radius_m;
+  }
   void MoveTo(const Attempt& attempt);
   void CreateExperience(const Frame& frame);
   void RecordPathStep(const Uuid& to);
@@ -116,11 +138,13 @@ class ExperienceBuilder {
   std::int64_t first_stamp_ns_ = 0, last_stamp_ns_ = 0;
   std::optional<ExperienceMap::NodeIndex> reference_;  // n_k
   Se3 k_T_q_ = Se3::Identity();
+  PoseCovariance k_covariance_ = PoseCovariance::Zero();  // of k_T_q_
   // The node created on this outing that n_k is, when it is one: a fresh experience chain
   // rejoins the old map with a metric edge at its next successful localisation.
   bool reference_is_new_ = false;
   std::optional<ExperienceMap::NodeIndex> anchor_;  // the last node localised in
   Se3 anchor_T_q_ = Se3::Identity();
+  PoseCovariance anchor_covariance_ = PoseCovariance::Zero();  // of anchor_T_q_
   Uuid path_tail_;  // the last node on this outing's path (nil before the first)
   double anchor_travel_m_ = 0.0;
   double vo_since_success_m_ = 0.0;

@@ -8,13 +8,16 @@
 // must be the only user. Localise-only runs share one map read-only.
 #pragma once
 
+#include <cstdint>
 #include <memory>
+#include <optional>
 #include <span>
 #include <unordered_map>
 #include <vector>
 
 #include "fleetmap/core/graph.h"
 #include "fleetmap/core/graph_io.h"
+#include "fleetmap/core/pose_covariance.h"
 #include "fleetmap/ebn/appearance_index.h"
 
 namespace fleetmap {
@@ -26,6 +29,10 @@ class ExperienceMap {
   struct MetricLink {
     NodeIndex to = 0;
     Se3 from_T_to = Se3::Identity();
+    // The edge's PoseCovariance in covariance(), or -1 when it carries none; `reversed` for the
+    // direction opposite to the edge's own (its covariance is then that of the inverse pose).
+    std::int32_t covariance = -1;
+    bool reversed = false;
   };
 
   struct Experience {
@@ -49,8 +56,12 @@ class ExperienceMap {
   // Adds a node (landmarks decoded from node.landmarks_blob unless given) and indexes its
   // appearance. Re-adding a known id throws Error(kConflict).
   NodeIndex AddNode(const Node& node, Landmarks landmarks);
-  // Adds a metric edge; both endpoints must be known (Error(kIntegrity) otherwise).
-  void AddMetricEdge(const Uuid& from, const Uuid& to, const Se3& from_T_to);
+  // Adds a metric edge, with the covariance of from_T_to when known; both endpoints must be
+  // known (Error(kIntegrity) otherwise).
+  void AddMetricEdge(const Uuid& from, const Uuid& to, const Se3& from_T_to,
+                     const std::optional<PoseCovariance>& covariance = std::nullopt);
+  // The covariance of `link`'s from_T_to (its own direction), none when its edge carries none.
+  std::optional<PoseCovariance> LinkCovariance(const MetricLink& link) const;
 
   std::optional<NodeIndex> Find(const Uuid& id) const;
   const Experience& at(NodeIndex index) const { return experiences_[index]; }
@@ -71,14 +82,33 @@ class ExperienceMap {
     NodeIndex node = 0;
     Se3 origin_T_node = Se3::Identity();
     double distance_m = 0.0;
+    // The standard deviation of the node's position in the origin's frame, composed along the
+    // chain from the covariances its edges carry (edges without one add nothing), and the
+    // covariance of origin_T_node it comes from (none when no edge on the chain carried one).
+    double sigma_m = 0.0;
+    std::optional<PoseCovariance> covariance;
   };
   std::vector<Nearby> Neighbourhood(NodeIndex origin, const Eigen::Vector3d& position_in_origin,
                                     double radius_m, double search_radius_m) const;
+
+  // How far a neighbourhood reaches when the chain and the position are uncertain: a node is
+  // near when its distance from the position is within radius_m plus `sigmas` standard
+  // deviations of the two together (position_sigma_m and the chain's, Nearby::sigma_m), and
+  // never beyond max_radius_m. With no uncertainty anywhere this is the fixed radius above.
+  struct Reach {
+    double radius_m = 0.0;
+    double max_radius_m = 0.0;  // >= radius_m
+    double position_sigma_m = 0.0;
+    double sigmas = 3.0;
+  };
+  std::vector<Nearby> Neighbourhood(NodeIndex origin, const Eigen::Vector3d& position_in_origin,
+                                    const Reach& reach, double search_radius_m) const;
 
  private:
   std::vector<Experience> experiences_;
   std::unordered_map<Uuid, NodeIndex> index_of_;
   std::size_t metric_edges_ = 0;
+  std::vector<PoseCovariance> covariances_;  // MetricLink::covariance indexes these
   AppearanceIndex appearance_;
 };
 

@@ -28,11 +28,15 @@
 #pragma once
 
 #include <cstdint>
+#include <vector>
 
 #include "fleetmap/core/graph.h"
+#include "fleetmap/core/pose_covariance.h"
 #include "fleetmap/core/se3.h"
 
 namespace fleetmap {
+
+struct DescriptorMatch;  // descriptor_matcher.h
 
 struct LocaliserOptions {
   double ratio = 0.8;           // Lowe ratio of descriptor matching, (0, 1]; 1 disables
@@ -60,6 +64,12 @@ struct LocaliserOptions {
   // 95 % point of a chi-square with 3 degrees of freedom at 1 px noise per coordinate (as stereo
   // SLAM front ends gate their matches): sqrt(7.815).
   double reprojection_threshold_px = 2.8;
+  // Guided registration (Register): a frame point may match a node point within this many
+  // standard deviations of where the prior puts it, at a descriptor distance of at most
+  // guided_max_distance bits (the spatial gate stands in for most of the global matcher's
+  // distinctiveness tests, as in a guided search after a pose prior).
+  double guided_gate_sigmas = 3.0;  // > 0
+  int guided_max_distance = 100;    // [0, 256]
 };
 
 struct LocalisationResult {
@@ -68,6 +78,9 @@ struct LocalisationResult {
   int inliers = 0;                     // inliers of the best hypothesis (0 if none was tried)
   int matches = 0;                     // descriptor matches RANSAC worked on
   bool stereo_residuals = false;       // judged by stereo reprojection (see above)
+  // The uncertainty of node_T_frame (pose_covariance.h) from the final fit's residuals over its
+  // inliers; meaningful when success.
+  PoseCovariance covariance = PoseCovariance::Zero();
 };
 
 class Localiser {
@@ -83,9 +96,23 @@ class Localiser {
   // depend on earlier calls, and concurrent calls on one Localiser are safe.
   LocalisationResult Localise(const Landmarks& frame, const Landmarks& node) const;
 
+  // Registers `frame` against `node` guided by a prior pose and its uncertainty: each frame
+  // point is carried into the node by the prior and matched only with node points within
+  // guided_gate_sigmas of where it lands (its position's standard deviation under the prior,
+  // plus the inlier threshold), then the matches go through the same RANSAC and refinement as
+  // Localise. A frame that the global matcher cannot localise for want of distinctive matches
+  // can still register where the prior narrows each search to a few points. Same errors and
+  // determinism as Localise.
+  LocalisationResult Register(const Landmarks& frame, const Landmarks& node,
+                              const Se3& prior_node_T_frame,
+                              const PoseCovariance& prior_covariance) const;
+
   const LocaliserOptions& options() const { return options_; }
 
  private:
+  LocalisationResult Solve(const Landmarks& frame, const Landmarks& node,
+                           const std::vector<DescriptorMatch>& matches) const;
+
   LocaliserOptions options_;
 };
 

@@ -34,6 +34,7 @@ namespace fleetmap {
 inline BuilderOptions RankingBuilderOptions() {
   BuilderOptions options;
   options.candidate_radius_m = 2.0;
+  options.max_candidate_radius_m = 8.0;
   options.relocalisation_candidates = 1;
   return options;
 }

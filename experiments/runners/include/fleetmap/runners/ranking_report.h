@@ -15,7 +15,7 @@ struct RankingVerdict {
   double distance_at_reference = 0.0;  // Γ(distance), Np = reference_cores
   double distance_at_double = 0.0;     // Γ(distance), Np = 2 x reference_cores (NaN if not run)
   bool path_beats_distance = false;    // strictly better at the same Np
-  bool path_matches_double = false;    // at least as good as Γ(distance) with twice the cores
+  bool path_beats_double = false;      // strictly better than Γ(distance) with twice the cores
 };
 
 RankingVerdict JudgeRanking(const RankingExperimentResult& result,
