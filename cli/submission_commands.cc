@@ -196,6 +196,10 @@ void PrintMerge(const Uuid& id, const MergeOutcome& outcome) {
       "  edges      %zu metric added (%zu links to the map), %zu path added, %zu path "
       "dropped\n",
       r.metric_edges_added, r.links_added, r.path_edges_added, r.path_edges_dropped);
+  std::printf(
+      "  links      %zu registered against the map, %zu dropped (more than 3 sigma from their "
+      "neighbours)\n",
+      r.links_registered, r.links_inconsistent);
   std::printf("  paths      %zu added\n", r.paths_added);
   std::printf("  time       %.2f s (MERGE %.2f s)\n", outcome.seconds, r.seconds);
 }

@@ -9,6 +9,7 @@
 
 #include "corridor_scene.h"
 #include "fleetmap/core/error.h"
+#include "fleetmap/core/pose_covariance.h"
 #include "fleetmap/ranking/distance_ranking.h"
 #include "fleetmap/store/graph_store.h"
 #include "scratch_dir.h"
@@ -178,8 +179,16 @@ TEST_F(MergeTest, AWholeSegmentIsAddedLessItsLocalisedEndsAndLinkedWhereItLocali
     if (edge.kind != EdgeKind::kMetric || !server_store.FindNode(edge.from).has_value()) continue;
     if (!stamp.contains(edge.to)) continue;  // a robot edge carried onto a stand-in
     ++links;
-    if (stamp.at(edge.to) < day_from_ns) ++night_links[edge.to];
+    // Every link says how far it can be trusted: a night frame, which the replay could not
+    // localise, is placed by odometry from the day frames and carries that uncertainty.
+    ASSERT_TRUE(edge.covariance.has_value()) << "a link without a covariance";
+    EXPECT_TRUE(IsValidPoseCovariance(*edge.covariance));
+    if (stamp.at(edge.to) < day_from_ns) {
+      ++night_links[edge.to];
+      EXPECT_GT(PositionSigma(edge.from_T_to, *edge.covariance), 0.0);
+    }
   }
+  EXPECT_LE(result.report.links_registered, result.report.links_added);
   EXPECT_GE(links, result.report.links_added);
   for (const Node& node : submission.nodes) {
     if (node.stamp_ns >= day_from_ns) continue;

@@ -69,6 +69,46 @@ std::vector<Edge> DownloadEdges(const std::vector<Edge>& map, const ContractedPa
   return edges;
 }
 
+// A metric edge contracted over left-out nodes says as much of its uncertainty as the chain it
+// stands for: the covariances along it composed (pose_covariance.h), none when no edge of the
+// chain carried one; read from either end, the same edge.
+TEST(MetricContraction, ADerivedEdgeCarriesItsChainsComposedCovariance) {
+  const auto metric = [](int id, int from, int to, const Se3& pose,
+                         std::optional<PoseCovariance> covariance) {
+    Edge edge;
+    edge.id = NumberedUuid(id);
+    edge.from = NumberedUuid(from);
+    edge.to = NumberedUuid(to);
+    edge.from_T_to = pose;
+    edge.covariance = covariance;
+    return edge;
+  };
+  Se3 step = Se3::Identity();
+  step.translation() = Eigen::Vector3d(0.0, 0.0, 2.0);
+  step.rotate(Eigen::AngleAxisd(0.1, Eigen::Vector3d::UnitY()));
+  PoseCovariance link = PoseCovariance::Zero();
+  link.diagonal() << 1e-4, 2e-4, 3e-4, 0.01, 0.02, 0.03;
+  // 1 -> 2 -> 3 with only the second edge uncertain; 4 -> 5 -> 6 with neither.
+  const std::vector<Edge> map = {
+      metric(101, 1, 2, step, std::nullopt), metric(102, 2, 3, step, link),
+      metric(103, 4, 5, step, std::nullopt), metric(104, 5, 6, step, std::nullopt)};
+  const std::vector<Edge> derived = ContractMetric(map, Sent({1, 3, 4, 6}), 25.0);
+  ASSERT_EQ(derived.size(), 2u);
+  for (const Edge& edge : derived) {
+    if (edge.from == NumberedUuid(4) || edge.to == NumberedUuid(4)) {
+      EXPECT_FALSE(edge.covariance.has_value());
+      continue;
+    }
+    ASSERT_TRUE(edge.covariance.has_value());
+    // 1_T_3 = step * step with the second step's covariance carried through the first.
+    const PoseCovariance expected = ComposeCovariance(step, PoseCovariance::Zero(), link);
+    const PoseCovariance& got = edge.from == NumberedUuid(1)
+                                    ? *edge.covariance
+                                    : InverseCovariance(edge.from_T_to, *edge.covariance);
+    EXPECT_LT((got - expected).cwiseAbs().maxCoeff(), 1e-12) << got;
+  }
+}
+
 TEST(PathContraction, AChainOverLeftOutNodesBecomesOneDerivedEdge) {
   const std::vector<Edge> map = Walk(900, {1, 2, 3, 4}, 100);
   const ContractedPaths contracted = ContractPaths(map, Sent({1, 4}));

@@ -101,15 +101,25 @@ std::vector<Edge> ContractMetric(std::span<const Edge> map_edges, std::span<cons
   struct Link {
     Uuid to;
     Se3 from_T_to;
+    std::optional<PoseCovariance> covariance;  // of from_T_to, when the edge carries one
   };
   std::unordered_map<Uuid, std::vector<Link>> links;
   std::unordered_set<NodePair, NodePairHash> direct;
   for (const Edge& edge : map_edges) {
     if (edge.kind != EdgeKind::kMetric || edge.from == edge.to) continue;
-    links[edge.from].push_back({edge.to, edge.from_T_to});
-    links[edge.to].push_back({edge.from, edge.from_T_to.inverse()});
+    links[edge.from].push_back({edge.to, edge.from_T_to, edge.covariance});
+    std::optional<PoseCovariance> reverse;
+    if (edge.covariance) reverse = InverseCovariance(edge.from_T_to, *edge.covariance);
+    links[edge.to].push_back({edge.from, edge.from_T_to.inverse(), reverse});
     direct.emplace(std::min(edge.from, edge.to), std::max(edge.from, edge.to));
   }
+  // A chain's pose, and its covariance once an edge on it carried one (the others add nothing
+  // known): the contracted edge says as much of its uncertainty as its chain did.
+  struct Chain {
+    double metres = 0.0;
+    Se3 start_T_at = Se3::Identity();
+    std::optional<PoseCovariance> covariance;
+  };
   std::vector<Edge> derived;
   std::unordered_set<NodePair, NodePairHash> emitted;
   for (const Uuid& start : sent) {
@@ -121,8 +131,8 @@ std::vector<Edge> ContractMetric(std::span<const Edge> map_edges, std::span<cons
     // Dijkstra in metres through left-out nodes only.
     using Entry = std::pair<double, Uuid>;
     std::priority_queue<Entry, std::vector<Entry>, std::greater<>> queue;
-    std::unordered_map<Uuid, std::pair<double, Se3>> best;
-    best.emplace(start, std::pair(0.0, Se3::Identity()));
+    std::unordered_map<Uuid, Chain> best;
+    best.emplace(start, Chain{});
     queue.emplace(0.0, start);
     std::unordered_set<Uuid> done;
     while (!queue.empty()) {
@@ -136,20 +146,30 @@ std::vector<Edge> ContractMetric(std::span<const Edge> map_edges, std::span<cons
           edge.from = pair.first;
           edge.to = pair.second;
           edge.kind = EdgeKind::kMetric;
-          const Se3& start_T_at = best.at(at).second;
-          edge.from_T_to = pair.first == start ? start_T_at : start_T_at.inverse();
+          const Chain& chain = best.at(at);
+          edge.from_T_to = pair.first == start ? chain.start_T_at : chain.start_T_at.inverse();
+          if (chain.covariance) {
+            edge.covariance = pair.first == start
+                                  ? *chain.covariance
+                                  : InverseCovariance(chain.start_T_at, *chain.covariance);
+          }
           edge.id = DerivedMetricEdgeId(edge.from, edge.to);
           derived.push_back(edge);
         }
         continue;  // never expand through a sent node
       }
-      const Se3 start_T_at = best.at(at).second;
+      const Chain here = best.at(at);
       for (const Link& link : links[at]) {
         const double next = distance + link.from_T_to.translation().norm();
         if (next > reach_m || done.contains(link.to)) continue;
         const auto it = best.find(link.to);
-        if (it != best.end() && it->second.first <= next) continue;
-        best[link.to] = std::pair(next, start_T_at * link.from_T_to);
+        if (it != best.end() && it->second.metres <= next) continue;
+        Chain chain{next, here.start_T_at * link.from_T_to, here.covariance};
+        if (link.covariance) {
+          chain.covariance = ComposeCovariance(
+              here.start_T_at, here.covariance.value_or(PoseCovariance::Zero()), *link.covariance);
+        }
+        best[link.to] = std::move(chain);
         queue.emplace(next, link.to);
       }
     }

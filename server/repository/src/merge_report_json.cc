@@ -16,6 +16,8 @@ std::string MergeReportJson(const MergeReport& r) {
   json["nodes_added"] = r.nodes_added;
   json["metric_edges_added"] = r.metric_edges_added;
   json["links_added"] = r.links_added;
+  json["links_registered"] = r.links_registered;
+  json["links_inconsistent"] = r.links_inconsistent;
   json["path_edges_added"] = r.path_edges_added;
   json["path_edges_dropped"] = r.path_edges_dropped;
   json["paths_added"] = r.paths_added;

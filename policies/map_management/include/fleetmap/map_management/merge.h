@@ -46,6 +46,11 @@ struct MergeOptions {
   // An added stretch leaves out its frames at either end that localised (they stand in by
   // where they localised); false adds the whole stretch, as before issue 37.
   bool omit_localised_ends = true;
+  // Each frame linked to the server map is registered against the server's experiences near
+  // where its replay placed it (link_registration.h); false links at the placement itself.
+  bool register_links = true;
+  // How odometry's error grows with the distance a placement is composed over.
+  OdometryNoise odometry_noise = {};
   // The replaying localiser (localise_only is forced on).
   BuilderOptions localiser = {};
 };
@@ -62,6 +67,8 @@ struct MergeReport {
   std::size_t nodes_added = 0;
   std::size_t metric_edges_added = 0;  // the robot's, plus links to the server map
   std::size_t links_added = 0;         // of those, the links
+  std::size_t links_registered = 0;    // links placed by the frame's own registration
+  std::size_t links_inconsistent = 0;  // links dropped: more than 3 sigma from their neighbours
   std::size_t path_edges_added = 0;
   std::size_t path_edges_dropped = 0;  // an end neither on the server nor localised
   std::size_t stand_ins = 0;           // omitted nodes placed on a server node (result.stand_ins)

@@ -68,7 +68,8 @@ ContractedPaths ContractPaths(std::span<const Edge> map_edges, std::span<const U
 // The metric edges contracted over the nodes left out (see above): for each pair of sent nodes
 // joined by a chain of left-out nodes of total length <= reach_m (metres, the sum of the edges'
 // translations) and by no metric edge of the map, one edge from the lower UUID to the higher,
-// with the pose composed along the shortest such chain. Ascending by id. Deterministic.
+// with the pose composed along the shortest such chain, and the covariances its edges carry
+// composed with it (none when none of them carries one). Ascending by id. Deterministic.
 // REQUIRES: `sent` ascending and unique; reach_m > 0.
 std::vector<Edge> ContractMetric(std::span<const Edge> map_edges, std::span<const Uuid> sent,
                                  double reach_m);
