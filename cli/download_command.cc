@@ -23,7 +23,7 @@ struct DownloadArgs {
   std::string policy;
   std::string mission_start;
   std::string mission_end;
-  double window_min = 180.0;
+  double window_min = 0.0;  // 0: the policy's own (ParseDownloadPolicy)
   double epoch_min = 60.0;
   double percent = 50.0;
   std::optional<std::int64_t> budget_bytes;
@@ -53,9 +53,11 @@ DownloadPolicy PolicyOf(const DownloadArgs& args) {
   const auto fail = [](const std::string& message) {
     throw Error(ErrorCode::kInvalidArgument, message);
   };
-  if (!(std::isfinite(args.window_min) && args.window_min > 0)) {
-    fail("--window-min (T_w of Eq. 4) must be a positive number of minutes, not " +
-         std::to_string(args.window_min));
+  if (!(std::isfinite(args.window_min) && args.window_min >= 0)) {
+    fail(
+        "--window-min (T_w of Eq. 4) must be a positive number of minutes (0: the policy's "
+        "default), not " +
+        std::to_string(args.window_min));
   }
   if (!(args.epoch_min > 0 && args.epoch_min <= 1440)) {
     fail("--epoch-min (Δt of Eq. 5) must be in (0, 1440] minutes, not " +
@@ -64,7 +66,7 @@ DownloadPolicy PolicyOf(const DownloadArgs& args) {
   if (!(args.percent > 0 && args.percent <= 100)) {
     fail("--percent (p of Algorithm 3) must be in (0, 100], not " + std::to_string(args.percent));
   }
-  policy.window_min = args.window_min;
+  if (args.window_min > 0) policy.window_min = args.window_min;
   policy.epoch_min = args.epoch_min;
   policy.coverage = args.coverage;
   policy.best_percent = args.percent;
@@ -243,7 +245,9 @@ void AddDownloadCommand(CLI::App& app) {
   download->add_option("--mission-end", args->mission_end,
                        "Mission end, UTC, " + std::string(kTimeOfDayGrammar) +
                            "; for paths without tod (default: the last epoch with data)");
-  download->add_option("--window-min", args->window_min, "T_w of Eq. 4, minutes")
+  download
+      ->add_option("--window-min", args->window_min,
+                   "T_w of Eq. 4, minutes (0, the default: 120 with cover, else 180)")
       ->capture_default_str();
   download->add_option("--epoch-min", args->epoch_min, "Δt of Eq. 5, minutes")
       ->capture_default_str();

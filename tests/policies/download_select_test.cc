@@ -177,6 +177,17 @@ TEST(DownloadPolicyName, RejectsUnknownEmptyRepeatedAndCopyJoined) {
   }
 }
 
+TEST(DownloadPolicyName, CoverPoliciesDefaultToTheirOwnWindow) {
+  // The paper's policies keep its T_w; those with the coverage guarantee default to theirs.
+  for (const char* name : {"tod", "tod+paths", "paths", "copy", "tod+budget"}) {
+    EXPECT_EQ(ParseDownloadPolicy(name).window_min, 180.0) << name;
+  }
+  for (const char* name : {"tod+cover", "tod+paths+cover", "cover", "route+tod+cover"}) {
+    EXPECT_EQ(ParseDownloadPolicy(name).window_min, kCoverWindowMin) << name;
+  }
+  EXPECT_LT(kCoverWindowMin, 180.0);
+}
+
 TEST(DownloadPolicyName, NameFollowsTheFlags) {
   DownloadPolicy policy;
   EXPECT_EQ(policy.Name(), "copy");

@@ -173,7 +173,7 @@ class LifelongRun {
     for (const std::size_t outing : forays) jobs.push_back({0, outing, whole});
     for (std::size_t p = 0; p < options_.policies.size(); ++p) {
       DownloadPolicy policy = ParseDownloadPolicy(options_.policies[p]);
-      policy.window_min = options_.tod_window_min;
+      if (options_.tod_window_min > 0) policy.window_min = options_.tod_window_min;
       policy.best_percent = options_.paths_percent;
       policy.epoch_min = options_.epoch_min;
       policy.coverage = options_.coverage;

@@ -413,6 +413,7 @@ DownloadPolicy ParseDownloadPolicy(std::string_view name) {
   // "copy" is the whole map (Eq. 3); joined with another part it would mean only that part.
   if (copy && parts.size() > 1) InvalidPolicy("\"copy\" stands alone, not in " + quoted);
   if (budget) policy.budget_bytes = kParsedBudgetBytes;
+  if (policy.cover) policy.window_min = kCoverWindowMin;
   // The route comes apart from the name (download_policy.h); until the caller sets it, the
   // empty one fails validation, saying so.
   if (route) policy.route.emplace();

@@ -46,7 +46,7 @@ struct LifelongOptions {
   // The downloads each held-out foray is also localised in, beside copy (download_policy.h
   // names), with these parameters.
   std::vector<std::string> policies = {"tod+cover", "tod+paths+cover"};
-  double tod_window_min = 180.0;
+  double tod_window_min = 0.0;  // T_w; 0: each policy's default (ParseDownloadPolicy)
   double paths_percent = 50.0;
   double epoch_min = 60.0;
   CoverageOptions coverage = {};
