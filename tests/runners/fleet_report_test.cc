@@ -9,6 +9,7 @@
 
 #include <cmath>
 #include <filesystem>
+#include <limits>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -55,6 +56,18 @@ FleetFrontierPoint Point(const std::string& label, double share, std::int64_t be
   return point;
 }
 
+// 100 edges between outings of `map` whose errors run evenly up to 10/9 of `p90_m`: their
+// nearest-rank p90 is `p90_m`.
+FleetEdgeErrors EdgeErrors(const std::string& map, double p90_m) {
+  FleetEdgeErrors e;
+  e.map = map;
+  for (int i = 1; i <= 100; ++i) {
+    e.errors_m.push_back(static_cast<float>(p90_m * i / 90.0));
+    e.sigmas_m.push_back(std::numeric_limits<float>::quiet_NaN());
+  }
+  return e;
+}
+
 // One fold that meets every line: merged 70 % of single-agent's nodes, the merging strategy
 // 35 % of its wall time, downloads 70 % and 60 % of copy, probabilities equal to the references.
 FleetExperimentResult GoodResult() {
@@ -74,6 +87,9 @@ FleetExperimentResult GoodResult() {
   // The frontier: one point at half of copy's nodes failing 1.4 x as often as copy (30 frames of
   // 10000 beyond 10 m), and one smaller that fails far more.
   r.frontier = {Point("tod+cover k=1 cap=1", 0.50, 42), Point("tod T_w=60", 0.30, 400)};
+  // Edges between outings: single-agent's p90 1.0 m, the merged map's 1.1 m.
+  r.edge_errors = {EdgeErrors("single", 1.0), EdgeErrors("merged", 1.1),
+                   EdgeErrors("merge links", 1.1)};
   return r;
 }
 
@@ -187,20 +203,37 @@ TEST(FleetJudgeTest, TheFrontierLinePassesOnItsBestPointAtHalfOfCopy) {
   EXPECT_NE(Line(v, kFrontier).detail.find("tod+cover k=1 cap=1"), std::string::npos);
 }
 
-TEST(FleetJudgeTest, AFrontierWhosePointsAtHalfOfCopyFailTooOftenFails) {
+TEST(FleetJudgeTest, TheFrontierIsReportedNotJudged) {
   FleetExperimentResult r = GoodResult();
-  r.frontier[0].beyond_10m = 50;  // (50 + 1) / (30 + 1) = 1.65 > 1.5
-  EXPECT_EQ(Failed(JudgeFleet(r)), Names{kFrontier});
+  r.frontier[0].beyond_10m = 50;  // (50 + 1) / (30 + 1) = 1.65: shown, no line fails
+  FleetVerdict v = JudgeFleet(r);
+  EXPECT_FALSE(Line(v, kFrontier).judged);
+  EXPECT_NEAR(Line(v, kFrontier).value, 51.0 / 31.0, 1e-12);
+  EXPECT_EQ(Failed(v), Names{});
+  r.frontier.clear();
+  v = JudgeFleet(r);
+  EXPECT_EQ(Failed(v), Names{});
+  EXPECT_EQ(Line(v, kFrontier).detail, "not run");
 }
 
-TEST(FleetJudgeTest, AFrontierWithNoPointAtHalfOfCopyFails) {
+constexpr char kEdgeError[] = "merged edges between outings: error p90 / single-agent's";
+
+TEST(FleetJudgeTest, MergedEdgesBetweenOutingsAt1Point3TimesSingleAgentsP90Fail) {
   FleetExperimentResult r = GoodResult();
-  r.frontier = {Point("tod+cover", 0.51, 10)};
-  EXPECT_EQ(Failed(JudgeFleet(r)), Names{kFrontier});
-  r.frontier.clear();
+  EXPECT_NEAR(Line(JudgeFleet(r), kEdgeError).value, 1.1, 1e-5);
+  r.edge_errors[1] = EdgeErrors("merged", 1.3);
   const FleetVerdict v = JudgeFleet(r);
-  EXPECT_EQ(Failed(v), Names{kFrontier});
-  EXPECT_EQ(Line(v, kFrontier).detail, "not run");
+  EXPECT_NEAR(Line(v, kEdgeError).value, 1.3, 1e-5);
+  EXPECT_EQ(Failed(v), Names{kEdgeError});
+}
+
+TEST(FleetJudgeTest, EdgeErrorsNotMeasuredFailTheirLine) {
+  FleetExperimentResult r = GoodResult();
+  std::erase_if(r.edge_errors, [](const FleetEdgeErrors& e) { return e.map == "merged"; });
+  const FleetVerdict v = JudgeFleet(r);
+  EXPECT_EQ(Failed(v), Names{kEdgeError});
+  // MERGE's own links are shown beside, not judged.
+  EXPECT_FALSE(Line(v, "MERGE's links: error p90 / single-agent's edges between outings").judged);
 }
 
 TEST(FleetJudgeTest, FrontierPointsAreThoseNoOtherBeatsOnBothAxes) {

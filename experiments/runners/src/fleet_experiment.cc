@@ -48,7 +48,7 @@ void Validate(const FleetExperimentOptions& o) {
   }
   if (o.test_cores < 1) fail("test_cores must be >= 1");
   if (o.test_window < 0) fail("test_window must be >= 0");
-  if (!(o.tod_window_min > 0.0)) fail("tod_window_min must be > 0");
+  if (!(o.tod_window_min >= 0.0)) fail("tod_window_min must be >= 0 (0: each policy's own)");
   if (!(o.paths_percent > 0.0 && o.paths_percent <= 100.0)) fail("paths_percent in (0, 100]");
   if (!(o.epoch_min > 0.0 && o.epoch_min <= 1440.0)) fail("epoch_min in (0, 1440]");
   if (o.dream_folds < 0 || o.dream_folds > o.folds) fail("dream_folds in [0, folds]");
@@ -349,6 +349,7 @@ class FleetRun {
     RecordBuild({"single", fold.number, single.nodes, single.cpu_seconds, single.wall_seconds});
     HeldOutRun run = LocaliseContent("single", fold.number, single.content, fold.test);
     fold.single_places = Places(single.content);
+    RecordEdgeErrors(fold.number, "single", single.content);
     fold.single_localised = run.localised;
     RecordRun(std::move(run));
     // How much of it MERGE finds redundant: merged into an empty map, what does it keep? This
@@ -368,6 +369,7 @@ class FleetRun {
     BuiltMap built = Build(StorePath(fold, "group-" + std::to_string(g)), fold.groups[g]);
     RecordBuild({"group " + std::to_string(g), fold.number, built.nodes, built.cpu_seconds,
                  built.wall_seconds});
+    RecordEdgeErrors(fold.number, "groups", built.content);
     fold.group_maps[g] = std::move(built);
   }
 
@@ -404,10 +406,19 @@ class FleetRun {
                        ThreadCpuSeconds() - cpu, SecondsSince(wall)};
       build.push_seconds = pushed;
       build.merge_algorithm_seconds = outcome.report.seconds;
+      build.links = outcome.report.links_added;
+      build.links_registered = outcome.report.links_registered;
+      build.links_inconsistent = outcome.report.links_inconsistent;
       build.merge_call_seconds = outcome.seconds;
       RecordBuild(build);
     }
     const GraphBatch merged = repository->Checkout();
+    RecordEdgeErrors(fold.number, "merged", merged);
+    std::unordered_set<Uuid> group_edges;
+    for (const BuiltMap& group : fold.group_maps) {
+      for (const Edge& edge : group.content.edges) group_edges.insert(edge.id);
+    }
+    RecordEdgeErrors(fold.number, "merge links", merged, group_edges);
     fold.merged_map = std::make_shared<const ExperienceMap>(
         ExperienceMap::FromGraph(merged.nodes, merged.edges, vocabulary_));
     HeldOutRun merged_run = Localise("merged", fold.number, *fold.merged_map, PathMemoryOf(merged),
@@ -433,7 +444,7 @@ class FleetRun {
     for (const Node& node : merged.nodes) stamp_of.emplace(node.id, node.stamp_ns);
     for (const std::string name : {"copy", "tod", "tod+paths", "tod+cover", "tod+paths+cover"}) {
       DownloadPolicy policy = ParseDownloadPolicy(name);
-      policy.window_min = options_.tod_window_min;
+      if (options_.tod_window_min > 0) policy.window_min = options_.tod_window_min;
       policy.best_percent = options_.paths_percent;
       policy.epoch_min = options_.epoch_min;
       policy.coverage = options_.coverage;
@@ -490,7 +501,7 @@ class FleetRun {
     const auto add = [&](const std::string& name, const std::string& label,
                          const std::function<void(DownloadPolicy&)>& set) {
       DownloadPolicy policy = ParseDownloadPolicy(name);
-      policy.window_min = options_.tod_window_min;
+      if (options_.tod_window_min > 0) policy.window_min = options_.tod_window_min;
       policy.best_percent = options_.paths_percent;
       policy.epoch_min = options_.epoch_min;
       policy.coverage = options_.coverage;
@@ -558,7 +569,7 @@ class FleetRun {
 
   // Where a node was captured, from its outing's ground truth (none for a node of no rendered
   // frame, which the experiment never makes).
-  std::optional<Eigen::Vector3d> TruePlace(const Node& node) const {
+  std::optional<Se3> TruePose(const Node& node) const {
     const auto outing = outing_index_.find(node.outing);
     if (outing == outing_index_.end()) return std::nullopt;
     const std::vector<Frame>& frames = frames_[outing->second];
@@ -568,7 +579,38 @@ class FleetRun {
     if (frame == frames.end() || frame->stamp_ns != node.stamp_ns || !frame->world_T_camera_truth) {
       return std::nullopt;
     }
-    return frame->world_T_camera_truth->translation();
+    return *frame->world_T_camera_truth;
+  }
+
+  std::optional<Eigen::Vector3d> TruePlace(const Node& node) const {
+    const std::optional<Se3> pose = TruePose(node);
+    if (!pose) return std::nullopt;
+    return pose->translation();
+  }
+
+  // FleetEdgeErrors of `map`'s metric edges between outings, less those in `skip`.
+  void RecordEdgeErrors(int fold, const std::string& name, const GraphBatch& map,
+                        const std::unordered_set<Uuid>& skip = {}) {
+    std::unordered_map<Uuid, const Node*> node_of;
+    for (const Node& node : map.nodes) node_of.emplace(node.id, &node);
+    FleetEdgeErrors errors{fold, name, {}, {}};
+    for (const Edge& edge : map.edges) {
+      if (edge.kind != EdgeKind::kMetric || skip.contains(edge.id)) continue;
+      const auto from = node_of.find(edge.from), to = node_of.find(edge.to);
+      if (from == node_of.end() || to == node_of.end()) continue;
+      if (from->second->outing == to->second->outing) continue;
+      const std::optional<Se3> world_T_from = TruePose(*from->second),
+                               world_T_to = TruePose(*to->second);
+      if (!world_T_from || !world_T_to) continue;
+      const Se3 truth = world_T_from->inverse() * *world_T_to;
+      errors.errors_m.push_back(
+          static_cast<float>((truth.translation() - edge.from_T_to.translation()).norm()));
+      errors.sigmas_m.push_back(
+          edge.covariance ? static_cast<float>(PositionSigma(edge.from_T_to, *edge.covariance))
+                          : std::numeric_limits<float>::quiet_NaN());
+    }
+    const std::lock_guard lock(result_mutex_);
+    result_.edge_errors.push_back(std::move(errors));
   }
 
   std::vector<Eigen::Vector3d> Places(const GraphBatch& map) const {
@@ -894,6 +936,10 @@ class FleetRun {
     });
     std::sort(result_.dream_timings.begin(), result_.dream_timings.end(),
               [](const auto& a, const auto& b) { return a.fold < b.fold; });
+    std::sort(result_.edge_errors.begin(), result_.edge_errors.end(),
+              [](const auto& a, const auto& b) {
+                return std::tie(a.map, a.fold) < std::tie(b.map, b.fold);
+              });
   }
 
   const FleetExperimentOptions& options_;

@@ -18,8 +18,10 @@
 // --format graphml` writes each node's UUID beside the same pose.
 //
 // The information matrix is the identity for every edge (kG2oEdgeInformation on the diagonal;
-// rows x, y, z, then the three rotation components): fleetmap keeps no covariance per edge,
-// so every measurement weighs the same and an optimiser spreads a loop's disagreement evenly.
+// rows x, y, z, then the three rotation components), so every measurement weighs the same and
+// an optimiser spreads a loop's disagreement evenly. Only MERGE's links carry a covariance
+// (Edge::covariance, in (omega, v) with a left perturbation); it is not converted to g2o's
+// convention here.
 #pragma once
 
 #include <cstddef>

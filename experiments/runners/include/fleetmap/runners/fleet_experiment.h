@@ -50,7 +50,7 @@ struct FleetExperimentOptions {
   // MERGE's inclusion rule; its replay localises with `builder` at build_cores.
   MergeOptions merge = {};
   // Fig. 9: T_w and p of the tod and tod+paths downloads, Δt of the path matrices.
-  double tod_window_min = 180.0;
+  double tod_window_min = 0.0;  // T_w; 0: each policy's default (ParseDownloadPolicy)
   double paths_percent = 50.0;
   double epoch_min = 60.0;
   // "tod+cover" and "tod+paths+cover": the coverage guarantee's stretches, k and cap.
@@ -97,6 +97,9 @@ struct FleetBuild {
   double push_seconds = 0.0;
   double merge_algorithm_seconds = 0.0;
   double merge_call_seconds = 0.0;
+  // A merge's links to the server map: made, of those registered by the frame's own
+  // registration, and dropped as inconsistent with their neighbours (MergeReport).
+  std::size_t links = 0, links_registered = 0, links_inconsistent = 0;
 };
 
 // Issue 34: could the localiser have reached the experience it needed? Each held-out frame a
@@ -197,6 +200,23 @@ struct FleetFrameCost {
   double cpu_seconds = 0.0;  // of the whole outing
 };
 
+// How well a map's metric edges between outings agree with the world: per edge joining nodes
+// of two outings, the distance in metres between the translation it carries and the true one
+// (the `to` camera in the `from` camera's frame, from the frames' ground truth). Within an
+// outing an edge is visual odometry; between outings it is where one experience was placed
+// against another, which is what the localiser's search composes across.
+struct FleetEdgeErrors {
+  int fold = 0;
+  // "single": single-agent's map; "groups": each group's map before MERGE; "merged": the merged
+  // map (its groups' own edges between outings and MERGE's); "merge links": only the edges
+  // MERGE wrote.
+  std::string map;
+  std::vector<float> errors_m;
+  // Per edge, as errors_m: the standard deviation of its position that its covariance claims
+  // (pose_covariance.h PositionSigma), or NaN when it carries none.
+  std::vector<float> sigmas_m;
+};
+
 // Fig. 10: one order of one fold.
 struct FleetDreamOrder {
   int fold = 0;
@@ -227,6 +247,7 @@ struct FleetExperimentResult {
   std::vector<FleetMergeDiagnosis> merge_diagnoses;
   std::vector<FleetFrameCost> frame_costs;
   std::vector<FleetFrontierPoint> frontier;  // empty unless options.frontier
+  std::vector<FleetEdgeErrors> edge_errors;
   int outings = 0;
   std::int64_t frames_rendered = 0;
   double seconds = 0.0;
