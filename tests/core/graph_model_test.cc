@@ -320,7 +320,7 @@ TEST(ProtoConvert, MalformedCovarianceIsCorrupt) {
   // The upper triangle makes the matrix symmetric whatever it holds; negative definite is
   // what is left to refuse.
   Edge negative = MetricEdgeWithCovariance();
-  *negative.covariance = -*negative.covariance;
+  negative.covariance = PoseCovariance(-*negative.covariance);
   expect_corrupt(ToProto(negative), "not a finite, positive semi-definite");
   v1::Edge on_path = good;
   on_path.set_kind(v1::EDGE_KIND_PATH);
@@ -341,6 +341,25 @@ TEST(Validate, RulesOfTheModel) {
   EXPECT_THROW(Validate(neither), Error);
   Annotation untyped{Uuid::Generate(), AnnotationTarget::kNode, Uuid::Generate(), Uuid(), "", ""};
   EXPECT_THROW(Validate(untyped), Error);
+}
+
+// Most edges carry no covariance: an Edge must not hold a 6 x 6 matrix inline (plans and merges
+// keep every edge of a map in memory, and the copy plan's cache cap counts sizeof(Edge)).
+TEST(EdgeCovarianceTest, AnEdgeHoldsItsCovarianceApartAndCopiesShareIt) {
+  EXPECT_LE(sizeof(EdgeCovariance), 2 * sizeof(void*));
+  EXPECT_LT(sizeof(Edge), sizeof(PoseCovariance));
+  Edge edge;
+  EXPECT_FALSE(edge.covariance.has_value());
+  EXPECT_EQ(edge.covariance.optional(), std::nullopt);
+  const PoseCovariance identity = PoseCovariance::Identity();
+  edge.covariance = identity;
+  const Edge copy = edge;
+  ASSERT_TRUE(copy.covariance.has_value());
+  EXPECT_EQ(&*copy.covariance, &*edge.covariance) << "copies share the one value";
+  EXPECT_TRUE(copy.covariance.value_or(PoseCovariance::Zero()).isIdentity());
+  edge.covariance.reset();
+  EXPECT_FALSE(edge.covariance);
+  EXPECT_TRUE(copy.covariance->isIdentity()) << "a reset leaves the copies' value";
 }
 
 }  // namespace

@@ -1,4 +1,4 @@
-#include "fleetmap/core/pose_covariance.h"
+#include "fleetmap/core/se3.h"
 
 #include <gtest/gtest.h>
 

@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "corridor_scene.h"
-#include "fleetmap/core/pose_covariance.h"
+#include "fleetmap/core/se3.h"
 
 namespace fleetmap {
 namespace {

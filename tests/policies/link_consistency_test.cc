@@ -1,12 +1,11 @@
-// MERGE's check of the links along one stretch (link_consistency.h): a link that its neighbours,
+// MERGE's check of the links along one stretch (merge_links.h): a link that its neighbours,
 // moved by the robot's odometry and the server's own poses, place more than 3 sigma away from
 // where it says is dropped; an uncertain link is not.
-#include "fleetmap/map_management/link_consistency.h"
-
 #include <gtest/gtest.h>
 
 #include <vector>
 
+#include "fleetmap/map_management/merge_links.h"
 #include "numbered_uuid.h"
 
 namespace fleetmap {

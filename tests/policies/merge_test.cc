@@ -9,7 +9,7 @@
 
 #include "corridor_scene.h"
 #include "fleetmap/core/error.h"
-#include "fleetmap/core/pose_covariance.h"
+#include "fleetmap/core/se3.h"
 #include "fleetmap/ranking/distance_ranking.h"
 #include "fleetmap/store/graph_store.h"
 #include "scratch_dir.h"

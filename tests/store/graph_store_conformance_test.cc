@@ -466,7 +466,7 @@ TYPED_TEST(GraphStoreConformance, EdgeCovarianceIsPartOfTheEdgesContent) {
   g.edges[3].covariance = SomeCovariance(2.0);
   this->store_->Put(g);
   Edge scaled = g.edges[3];
-  *scaled.covariance *= 2.0;
+  scaled.covariance = PoseCovariance(*scaled.covariance * 2.0);
   Edge dropped = g.edges[3];
   dropped.covariance.reset();
   Edge added = g.edges[4];
@@ -483,7 +483,9 @@ TYPED_TEST(GraphStoreConformance, EdgeCovarianceIsPartOfTheEdgesContent) {
   }
   // Within SameEdgeContent's tolerance it is the same edge: a no-op that keeps what is stored.
   Edge close = g.edges[3];
-  (*close.covariance)(2, 2) *= 1 + 1e-9;
+  PoseCovariance nudged = *close.covariance;
+  nudged(2, 2) *= 1 + 1e-9;
+  close.covariance = nudged;
   this->store_->PutEdge(close);
   GraphBatch again = g;
   again.edges[3] = close;

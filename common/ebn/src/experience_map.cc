@@ -33,7 +33,7 @@ ExperienceMap ExperienceMap::FromGraph(std::span<const Node> nodes, std::span<co
     // would only give the search a second, disagreeing estimate.
     bool linked = false;
     for (const MetricLink& link : map.experiences_[*from].links) linked |= link.to == *to;
-    if (!linked) map.AddMetricEdge(edge.from, edge.to, edge.from_T_to, edge.covariance);
+    if (!linked) map.AddMetricEdge(edge.from, edge.to, edge.from_T_to, edge.covariance.optional());
   }
   return map;
 }

@@ -9,7 +9,7 @@
 #include <string>
 #include <string_view>
 
-#include "fleetmap/core/pose_covariance.h"
+#include "fleetmap/core/se3.h"
 #include "fleetmap/core/uuid.h"
 
 namespace fleetmap::internal {

@@ -1,7 +1,7 @@
-#include "fleetmap/map_management/link_consistency.h"
-
 #include <algorithm>
 #include <cmath>
+
+#include "fleetmap/map_management/merge_links.h"
 
 namespace fleetmap {
 

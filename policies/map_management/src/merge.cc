@@ -11,8 +11,7 @@
 
 #include "fleetmap/core/clock.h"
 #include "fleetmap/core/error.h"
-#include "fleetmap/map_management/link_consistency.h"
-#include "fleetmap/map_management/link_registration.h"
+#include "fleetmap/map_management/merge_links.h"
 #include "fleetmap/map_management/segment_discovery.h"
 #include "fleetmap/map_management/subset_contraction.h"
 #include "fleetmap/ranking/distance_ranking.h"
@@ -321,8 +320,8 @@ class Merger {
   // accurate than the replay's dead reckoning, which re-expresses its estimate on the server's
   // poses as it goes (measured on the default world: links through dead reckoning p90 3.7 m
   // from the truth, through a localised neighbour 0.24 m). The placement's covariance grows
-  // with the distance composed over (MergeOptions::odometry_noise). A segment with neither is
-  // not placed.
+  // with the distance composed over (MergeOptions::odometry_noise). A segment with neither
+  // keeps the replay's dead-reckoned place.
   static void PlaceByOdometry(std::vector<Replayed>& frames,
                               const std::vector<std::optional<Placement>>& own_anchors,
                               const OdometryNoise& noise) {
@@ -359,9 +358,7 @@ class Merger {
     }
     for (std::size_t i = 0; i < frames.size(); ++i) {
       if (frames[i].localised) continue;
-      // The replay's own dead reckoning competes too, when it kept its uncertainty.
       std::optional<Placement> best;
-      if (frames[i].placed && !frames[i].placed->covariance.isZero()) best = frames[i].placed;
       for (const std::optional<std::size_t>& l : {before[i], after[i]}) {
         if (!l) continue;
         const Placement candidate = through(*l, i);
@@ -370,7 +367,9 @@ class Merger {
           best = candidate;
         }
       }
-      frames[i].placed = best;
+      // The replay's own dead reckoning only where nothing anchors the segment: it re-expresses
+      // its estimate on the server's poses as it goes, whose error its covariance lacks.
+      if (best) frames[i].placed = best;
     }
   }
 
@@ -498,7 +497,7 @@ class Merger {
     std::size_t index = 0;
   };
 
-  // The links of a stretch that agree with their neighbours (link_consistency.h); the rest are
+  // The links of a stretch that agree with their neighbours (merge_links.h); the rest are
   // counted and dropped.
   std::vector<LinkCandidate> DropInconsistent(const std::vector<LinkCandidate>& links,
                                               std::span<const Replayed> stretch) {
@@ -637,7 +636,7 @@ class Merger {
     for (const ExperienceMap::MetricLink& link : server_.at(*server_.Find(edge.from)).links) {
       linked |= link.to == *server_.Find(edge.to);
     }
-    if (!linked) server_.AddMetricEdge(edge.from, edge.to, edge.from_T_to, edge.covariance);
+    if (!linked) server_.AddMetricEdge(edge.from, edge.to, edge.from_T_to, edge.covariance.optional());
     result_.additions.edges.push_back(edge);
     written_edges_.insert(edge.id);
     ++result_.report.metric_edges_added;

@@ -107,7 +107,7 @@ std::vector<Edge> ContractMetric(std::span<const Edge> map_edges, std::span<cons
   std::unordered_set<NodePair, NodePairHash> direct;
   for (const Edge& edge : map_edges) {
     if (edge.kind != EdgeKind::kMetric || edge.from == edge.to) continue;
-    links[edge.from].push_back({edge.to, edge.from_T_to, edge.covariance});
+    links[edge.from].push_back({edge.to, edge.from_T_to, edge.covariance.optional()});
     std::optional<PoseCovariance> reverse;
     if (edge.covariance) reverse = InverseCovariance(edge.from_T_to, *edge.covariance);
     links[edge.to].push_back({edge.from, edge.from_T_to.inverse(), reverse});

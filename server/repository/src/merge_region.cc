@@ -201,7 +201,8 @@ MergeRegion LoadMergeRegion(GraphStore& store, RevisionNumber head, const GraphB
     const ExperienceMap::NodeIndex to = *region.map.Find(edge->to);
     bool linked = false;
     for (const ExperienceMap::MetricLink& link : region.map.at(from).links) linked |= link.to == to;
-    if (!linked) region.map.AddMetricEdge(edge->from, edge->to, edge->from_T_to, edge->covariance);
+    if (!linked)
+      region.map.AddMetricEdge(edge->from, edge->to, edge->from_T_to, edge->covariance.optional());
   }
   return region;
 }

@@ -5,11 +5,11 @@
 #include <Eigen/Core>
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
-#include "fleetmap/core/pose_covariance.h"
 #include "fleetmap/core/se3.h"
 #include "fleetmap/core/uuid.h"
 
@@ -74,6 +74,35 @@ enum class EdgeKind : int {
   kPath = 2,    // non-metric path-memory link of one path (seed 002 §IV)
 };
 
+// An edge's covariance, when it has one. Held apart from the edge and shared by its copies
+// (it never changes once made): most edges carry none, and a 6 x 6 matrix inline would make
+// every Edge in a plan, a download or a merge 300 bytes larger. Reads like std::optional.
+class EdgeCovariance {
+ public:
+  EdgeCovariance() = default;
+  EdgeCovariance(std::nullopt_t) {}  // NOLINT(google-explicit-constructor): as std::optional
+  EdgeCovariance(const PoseCovariance& covariance)  // NOLINT(google-explicit-constructor)
+      : value_(std::make_shared<const PoseCovariance>(covariance)) {}
+  EdgeCovariance(const std::optional<PoseCovariance>& covariance) {  // NOLINT
+    if (covariance) value_ = std::make_shared<const PoseCovariance>(*covariance);
+  }
+
+  bool has_value() const { return value_ != nullptr; }
+  explicit operator bool() const { return has_value(); }
+  const PoseCovariance& operator*() const { return *value_; }
+  const PoseCovariance* operator->() const { return value_.get(); }
+  PoseCovariance value_or(const PoseCovariance& otherwise) const {
+    return value_ ? *value_ : otherwise;
+  }
+  std::optional<PoseCovariance> optional() const {
+    return value_ ? std::optional<PoseCovariance>(*value_) : std::nullopt;
+  }
+  void reset() { value_.reset(); }
+
+ private:
+  std::shared_ptr<const PoseCovariance> value_;
+};
+
 struct Edge {
   Uuid id;
   Uuid from;
@@ -81,9 +110,9 @@ struct Edge {
   EdgeKind kind = EdgeKind::kMetric;
   Se3 from_T_to = Se3::Identity();  // meaningful for metric edges
   Uuid path;                        // set for path edges, nil otherwise
-  // How far from_T_to can be trusted (pose_covariance.h), where whoever made the edge knew:
-  // MERGE's links carry their registration's or their composition's. Metric edges only.
-  std::optional<PoseCovariance> covariance = std::nullopt;
+  // How far from_T_to can be trusted (se3.h), where whoever made the edge knew: MERGE's links
+  // carry their registration's or their composition's. Metric edges only.
+  EdgeCovariance covariance = {};
 };
 
 // Same identity and endpoints, poses equal within tolerance (a pose that went through a

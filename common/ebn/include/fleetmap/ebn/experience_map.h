@@ -17,7 +17,7 @@
 
 #include "fleetmap/core/graph.h"
 #include "fleetmap/core/graph_io.h"
-#include "fleetmap/core/pose_covariance.h"
+#include "fleetmap/core/se3.h"
 #include "fleetmap/ebn/appearance_index.h"
 
 namespace fleetmap {

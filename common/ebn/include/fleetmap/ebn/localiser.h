@@ -31,7 +31,6 @@
 #include <vector>
 
 #include "fleetmap/core/graph.h"
-#include "fleetmap/core/pose_covariance.h"
 #include "fleetmap/core/se3.h"
 
 namespace fleetmap {

@@ -47,7 +47,7 @@ struct MergeOptions {
   // where they localised); false adds the whole stretch, as before issue 37.
   bool omit_localised_ends = true;
   // Each frame linked to the server map is registered against the server's experiences near
-  // where its replay placed it (link_registration.h); false links at the placement itself.
+  // where its replay placed it (merge_links.h); false links at the placement itself.
   bool register_links = true;
   // How odometry's error grows with the distance a placement is composed over.
   OdometryNoise odometry_noise = {};
