@@ -1,10 +1,10 @@
-#include "fleetmap/core/se3.h"
-
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
 #include <cmath>
 #include <random>
+
+#include "fleetmap/core/se3.h"
 
 namespace fleetmap {
 namespace {
@@ -36,6 +36,12 @@ PoseCovariance RandomCovariance(std::mt19937& rng, double scale) {
   Eigen::Matrix<double, 6, 6> a;
   for (int i = 0; i < 36; ++i) a(i / 6, i % 6) = n(rng);
   return a * a.transpose() + 1e-6 * scale * scale * PoseCovariance::Identity();
+}
+
+TEST(PoseCovariance, SkewIsTheCrossProduct) {
+  const Eigen::Vector3d w(0.3, -1.2, 2.0), x(-0.7, 0.4, 1.1);
+  EXPECT_TRUE((Skew(w) * x).isApprox(w.cross(x), 1e-15));
+  EXPECT_TRUE((Skew(w) + Skew(w).transpose()).isZero());
 }
 
 TEST(PoseCovariance, AdjointMovesAPerturbationFromTheRightToTheLeft) {

@@ -1,19 +1,16 @@
-#include "fleetmap/core/se3.h"
-
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
 
+#include "fleetmap/core/se3.h"
+
 namespace fleetmap {
-namespace {
 
 Eigen::Matrix3d Skew(const Eigen::Vector3d& w) {
   Eigen::Matrix3d s;
   s << 0, -w.z(), w.y(), w.z(), 0, -w.x(), -w.y(), w.x(), 0;
   return s;
 }
-
-}  // namespace
 
 Eigen::Matrix<double, 6, 6> Adjoint(const Se3& a_T_b) {
   // a_T_b exp(omega, v) a_T_b^-1 = exp(R omega, R v + t x R omega).

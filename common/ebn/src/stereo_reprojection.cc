@@ -31,12 +31,6 @@ Eigen::Matrix3d ProjectJacobian(double f, double b, const Eigen::Vector3d& q) {
   return j;
 }
 
-Eigen::Matrix3d Skew(const Eigen::Vector3d& w) {
-  Eigen::Matrix3d s;
-  s << 0, -w.z(), w.y(), w.z(), 0, -w.x(), -w.y(), w.x(), 0;
-  return s;
-}
-
 }  // namespace
 
 StereoReprojection::View StereoReprojection::MakeView(const StereoCamera& camera,

@@ -44,6 +44,9 @@ bool Se3ApproxEqual(const Se3& a, const Se3& b, double tolerance_m = 1e-9,
 
 using PoseCovariance = Eigen::Matrix<double, 6, 6>;
 
+// The matrix of the cross product: Skew(w) * x = w.cross(x).
+Eigen::Matrix3d Skew(const Eigen::Vector3d& w);
+
 // The adjoint of a_T_b on (omega, v): exp(Ad xi) a_T_b = a_T_b exp(xi).
 Eigen::Matrix<double, 6, 6> Adjoint(const Se3& a_T_b);
 
