@@ -28,6 +28,7 @@
 #include "fleetmap/core/chunk_memory.h"
 #include "fleetmap/core/clock.h"
 #include "fleetmap/core/error.h"
+#include "fleetmap/core/printable_text.h"
 #include "fleetmap/map_management/download_policy.h"
 #include "fleetmap/map_management/download_route.h"
 #include "fleetmap/store/graph_store.h"
@@ -201,7 +202,7 @@ json ResultJson(const SyncResult& r) {
 
 void PrintResult(const SyncResult& r, bool as_json) {
   if (as_json) {
-    std::cout << ResultJson(r).dump() << std::endl;
+    std::cout << JsonText(ResultJson(r)) << std::endl;
     return;
   }
   std::printf("revision %lld: %zu nodes, %zu edges, %zu paths (%s; %zu nodes downloaded)\n",
@@ -429,7 +430,7 @@ int StatusCommand(const AgentArguments& args) {
     }
     out["unmerged"] = unmerged;
     if (args.json) {
-      std::cout << out.dump() << std::endl;
+      std::cout << JsonText(out) << std::endl;
       return kExitOk;
     }
     std::printf("map %s\n", map.dir().string().c_str());

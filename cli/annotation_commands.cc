@@ -9,6 +9,7 @@
 #include <string>
 
 #include "commands.h"
+#include "fleetmap/core/printable_text.h"
 #include "fleetmap/store/annotation_store.h"
 #include "fleetmap/store/graph_store.h"
 #include "fleetmap/store/sensor_index.h"
@@ -69,7 +70,7 @@ void RunBox(const BoxArgs& args) {
     }
     json["label"] = box.box.label;
     json["score"] = box.box.score;
-    std::cout << json.dump(2) << "\n";
+    std::cout << JsonText(json, 2) << "\n";
     return;
   }
   std::printf("%s\n", box.annotation.id.ToString().c_str());
@@ -83,7 +84,7 @@ void RunRemove(const RemoveArgs& args) {
     nlohmann::ordered_json json;
     json["annotation"] = id.ToString();
     json["deleted"] = deleted;
-    std::cout << json.dump(2) << "\n";
+    std::cout << JsonText(json, 2) << "\n";
     return;
   }
   std::printf("deleted %s and the annotations below it: %s in all\n", id.ToString().c_str(),
@@ -123,7 +124,7 @@ void RunQuery(const AnnotatedQueryArgs& args) {
       entry["sensor"] = d.sensor;
       list.push_back(entry);
     }
-    std::cout << list.dump(2) << "\n";
+    std::cout << JsonText(list, 2) << "\n";
     return;
   }
   if (data.empty()) {

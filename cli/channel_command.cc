@@ -82,7 +82,7 @@ void RunChannelSet(const ChannelSetArgs& args) {
     throw InContext(error, "channel set " + args.name);
   }
   if (args.json) {
-    std::cout << MoveJson(move).dump(2) << "\n";
+    std::cout << JsonText(MoveJson(move), 2) << "\n";
     return;
   }
   if (move.from == move.to) {
@@ -122,7 +122,7 @@ void RunChannelList(const ChannelListArgs& args) {
       entry["moved_by"] = channel.moved_by;
       list.push_back(std::move(entry));
     }
-    std::cout << list.dump(2) << "\n";
+    std::cout << JsonText(list, 2) << "\n";
     return;
   }
   std::printf("%-32s  %8s  %11s  %-20s  %s\n", "CHANNEL", "REVISION", "BEHIND HEAD", "MOVED", "BY");
@@ -147,7 +147,7 @@ void RunChannelLog(const ChannelLogArgs& args) {
   if (args.json) {
     nlohmann::ordered_json list = nlohmann::ordered_json::array();
     for (const ChannelMove& move : moves) list.push_back(MoveJson(move));
-    std::cout << list.dump(2) << "\n";
+    std::cout << JsonText(list, 2) << "\n";
     return;
   }
   if (moves.empty()) {

@@ -10,6 +10,7 @@
 #include "commands.h"
 #include "fleetmap/core/clock.h"
 #include "fleetmap/core/error.h"
+#include "fleetmap/core/printable_text.h"
 #include "fleetmap/map_management/download_policy.h"
 #include "fleetmap/map_management/download_route.h"
 #include "new_store.h"
@@ -144,7 +145,7 @@ void PrintReport(const Download& download, const DownloadPolicy& policy, const D
       json["route_length_m"] = r.route_length_m;
       json["route_covered_m"] = r.route_covered_m;
     }
-    std::cout << json.dump(2) << "\n";
+    std::cout << JsonText(json, 2) << "\n";
     return;
   }
   std::printf("download \"%s\" of revision %lld of %s into %s\n", r.policy.c_str(),

@@ -64,7 +64,7 @@ void RunDreamNow(DreamNowArgs args) {
   bar.Finish();
   if (args.json) {
     std::cout << (outcome.candidate ? DreamCandidateJson(*outcome.candidate)
-                                    : nlohmann::json({{"skipped", outcome.skipped}}).dump())
+                                    : JsonText(nlohmann::json({{"skipped", outcome.skipped}})))
               << "\n";
     return;
   }
@@ -92,7 +92,7 @@ void RunCandidates(const CandidatesArgs& args) {
     for (const DreamCandidateRecord& c : records) {
       list.push_back(nlohmann::json::parse(DreamCandidateJson(c)));
     }
-    std::cout << list.dump(2) << "\n";
+    std::cout << JsonText(list, 2) << "\n";
     return;
   }
   if (records.empty()) {

@@ -11,6 +11,7 @@
 
 #include "commands.h"
 #include "fleetmap/core/error.h"
+#include "fleetmap/core/printable_text.h"
 #include "fleetmap/map_management/dream_plan.h"
 #include "fleetmap/map_management/dreaming.h"
 #include "fleetmap/map_management/held_out_replay.h"
@@ -162,7 +163,7 @@ void PrintDreamJson(const DreamArgs& args, const DreamOutcome& d) {
                    {"edges", d.written->edges},
                    {"paths", d.written->paths}};
   }
-  std::cout << json.dump(2) << "\n";
+  std::cout << JsonText(json, 2) << "\n";
 }
 
 void PrintDreamText(const DreamArgs& args, const DreamOutcome& d) {

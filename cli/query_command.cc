@@ -19,6 +19,7 @@
 
 #include "commands.h"
 #include "fleetmap/core/error.h"
+#include "fleetmap/core/printable_text.h"
 #include "fleetmap/store/graph_store.h"
 #include "fleetmap/store/sensor_index.h"
 #include "repository_arguments.h"
@@ -160,7 +161,7 @@ void PrintData(const std::vector<Datum>& data, bool json, Names& names) {
   if (json) {
     nlohmann::json out = nlohmann::json::array();
     for (const Datum& d : data) out.push_back(DatumJson(d, names));
-    std::cout << out.dump(2) << "\n";
+    std::cout << JsonText(out, 2) << "\n";
     return;
   }
   PrintHeader();
@@ -172,7 +173,7 @@ void RunDatum(const QueryArgs& args) {
   Names names(store->sensors());
   const Datum d = store->sensors().GetDatum(args.id);
   if (args.json) {
-    std::cout << DatumJson(d, names).dump(2) << "\n";
+    std::cout << JsonText(DatumJson(d, names), 2) << "\n";
   } else {
     PrintData({d}, false, names);
   }
@@ -225,7 +226,7 @@ void RunBatchJoin(const QueryArgs& args) {
                 row.others[i] ? DatumJson(*row.others[i], names) : nlohmann::json(nullptr);
           }
           line["others"] = matched;
-          std::cout << line.dump() << "\n";
+          std::cout << JsonText(line) << "\n";
           return;
         }
         if (!header) {

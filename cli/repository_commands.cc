@@ -82,7 +82,7 @@ void RunLog(const LogArgs& args) {
       entry["report"] = report.is_discarded() ? nlohmann::ordered_json(r.report) : report;
       list.push_back(std::move(entry));
     }
-    std::cout << list.dump(2) << "\n";
+    std::cout << JsonText(list, 2) << "\n";
     return;
   }
   if (history.empty()) {
@@ -162,7 +162,7 @@ void RunDiff(const DiffArgs& args) {
     json["removed"] = {{"nodes", Ids(c.nodes_removed)},
                        {"edges", Ids(c.edges_removed)},
                        {"paths", Ids(c.paths_removed)}};
-    std::cout << json.dump(2) << "\n";
+    std::cout << JsonText(json, 2) << "\n";
     return;
   }
   std::printf("revision %lld -> %lld\n", static_cast<long long>(args.from),

@@ -41,7 +41,7 @@ void RunRobotAdd(const RobotAddArgs& args) {
     json["name"] = added.robot.name;
     json["robot"] = added.robot.id.ToString();
     json["token"] = added.token;
-    std::cout << json.dump(2) << "\n";
+    std::cout << JsonText(json, 2) << "\n";
     return;
   }
   std::printf("robot %s registered in %s\n", PrintableText(added.robot.name).c_str(),
@@ -86,7 +86,7 @@ void RunRobotList(const RobotListArgs& args) {
                                    : nlohmann::ordered_json(FormatUtc(robot.last_error_ns));
       list.push_back(std::move(entry));
     }
-    std::cout << list.dump(2) << "\n";
+    std::cout << JsonText(list, 2) << "\n";
     return;
   }
   if (robots.empty()) {

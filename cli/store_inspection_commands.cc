@@ -12,6 +12,7 @@
 #include "commands.h"
 #include "fleetmap/core/clock.h"
 #include "fleetmap/core/error.h"
+#include "fleetmap/core/printable_text.h"
 #include "fleetmap/store/graph_store.h"
 #include "fleetmap/store/store_diagnosis.h"
 #include "fleetmap/store/store_facts.h"
@@ -93,7 +94,7 @@ void RunInfo(const InspectArgs& args) {
                         {"newest", FormatUtc(r.newest_ns)}});
     }
     out["robots"] = robots;
-    std::cout << out.dump(2) << "\n";
+    std::cout << JsonText(out, 2) << "\n";
     return;
   }
   std::printf("store         %s\n", f.uri.c_str());
@@ -141,7 +142,7 @@ void RunDoctor(const InspectArgs& args) {
     for (const StoreProblem& p : problems) {
       list.push_back({{"check", p.check}, {"what", p.what}, {"remedy", p.remedy}});
     }
-    std::cout << nlohmann::ordered_json{{"store", store->uri()}, {"problems", list}}.dump(2)
+    std::cout << JsonText(nlohmann::ordered_json{{"store", store->uri()}, {"problems", list}}, 2)
               << "\n";
   } else if (problems.empty()) {
     std::printf(

@@ -137,7 +137,7 @@ void RunSubmissions(const SubmissionsArgs& args) {
       }
       list.push_back(std::move(entry));
     }
-    std::cout << list.dump(2) << "\n";
+    std::cout << JsonText(list, 2) << "\n";
     return;
   }
   if (submissions.empty()) {

@@ -32,6 +32,7 @@
 #include "fleetmap/core/clock.h"
 #include "fleetmap/core/error.h"
 #include "fleetmap/core/map_chunks.h"
+#include "fleetmap/core/printable_text.h"
 #include "fleetmap/map_management/download_policy.h"
 #include "fleetmap/repository/repository.h"
 #include "fleetmap/runners/gnuplot.h"
@@ -113,7 +114,7 @@ void RunScaleStep(const ScaleStepOptions& o) {
     throw Error(ErrorCode::kInvalidArgument, "bench scale-step: unknown --op " + o.op);
   }
   result["peak_rss_bytes"] = PeakRssBytes();
-  std::cout << result.dump() << std::endl;
+  std::cout << JsonText(result) << std::endl;
 }
 
 namespace {

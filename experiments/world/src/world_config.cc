@@ -9,6 +9,7 @@
 #include <type_traits>
 
 #include "fleetmap/core/error.h"
+#include "fleetmap/core/printable_text.h"
 
 namespace fleetmap {
 namespace {
@@ -447,7 +448,7 @@ WorldConfig WorldConfigFromJson(const nlohmann::ordered_json& json) {
 }
 
 std::string FormatWorldConfig(const WorldConfig& config) {
-  return WorldConfigToJson(config).dump(2) + "\n";
+  return JsonText(WorldConfigToJson(config), 2) + "\n";
 }
 
 WorldConfig ParseWorldConfig(std::string_view json_text) {

@@ -5,6 +5,7 @@
 #include <string>
 
 #include "fleetmap/core/error.h"
+#include "fleetmap/core/printable_text.h"
 
 namespace fleetmap {
 namespace {
@@ -43,7 +44,10 @@ std::string EscapeHelp(std::string_view help) {
 
 }  // namespace
 
-std::string EscapePrometheusLabelValue(std::string_view value) {
+std::string EscapePrometheusLabelValue(std::string_view raw) {
+  // Controls, bidirectional overrides and bytes that are not UTF-8 shown as escapes
+  // (printable_text.h): a label is one line of valid UTF-8 whatever a robot sent.
+  const std::string value = PrintableText(raw);
   std::string out;
   out.reserve(value.size());
   for (char c : value) {

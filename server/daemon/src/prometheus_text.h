@@ -48,8 +48,9 @@ class PrometheusTextWriter {
   std::string family_;
 };
 
-// A label value escaped for the inside of its double quotes: `\` → `\\`, `"` → `\"`,
-// line feed → `\n`.
+// A label value as PrintableText shows it (one line of valid UTF-8: controls, bidirectional
+// overrides and stray bytes as visible escapes), escaped for the inside of its double quotes:
+// `\` → `\\`, `"` → `\"`.
 std::string EscapePrometheusLabelValue(std::string_view value);
 
 }  // namespace fleetmap

@@ -4,6 +4,8 @@
 #include <ctime>
 #include <string>
 
+#include "fleetmap/core/printable_text.h"
+
 namespace fleetmap {
 namespace {
 
@@ -210,7 +212,9 @@ void HistoryTable(std::string& html, const FleetStatus& status) {
 
 }  // namespace
 
-std::string EscapeHtml(std::string_view text) {
+std::string EscapeHtml(std::string_view raw) {
+  // Controls and bidirectional overrides shown as escapes (printable_text.h), then HTML's own.
+  const std::string text = PrintableText(raw);
   std::string out;
   out.reserve(text.size());
   for (char c : text) {

@@ -22,8 +22,9 @@ namespace fleetmap {
 // The page for one snapshot. Pure: the same status gives the same page.
 std::string FleetStatusPage(const FleetStatus& status);
 
-// `text` with &, <, >, " and ' replaced by character references: safe inside element content
-// and inside a double- or single-quoted attribute value.
+// `text` as PrintableText shows it (controls, bidirectional overrides and bytes that are not
+// UTF-8 as visible escapes), with &, <, >, " and ' replaced by character references: safe
+// inside element content and inside a double- or single-quoted attribute value.
 std::string EscapeHtml(std::string_view text);
 
 // "2024-05-01T12:34:56Z" for UTC nanoseconds since the Unix epoch (truncated to the second).

@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 
 #include "fleetmap/core/error.h"
+#include "fleetmap/core/printable_text.h"
 #include "fleetmap/ebn/experience_map.h"
 #include "fleetmap/map_management/held_out_replay.h"
 
@@ -176,8 +177,8 @@ ChannelMove ChannelRegistry::Set(std::string_view name, RevisionNumber to, const
   if (move.proposed) record["proposed"] = ScoreJson(*move.proposed);
   const nlohmann::json channel = {{"revision", to}, {"moved_ns", now_ns}, {"moved_by", who}};
   auto transaction = repository_.store().Begin();
-  repository_.versions().PutSetting(LogKey(name, now_ns), record.dump());
-  repository_.versions().PutSetting(ChannelKey(name), channel.dump());
+  repository_.versions().PutSetting(LogKey(name, now_ns), JsonText(record));
+  repository_.versions().PutSetting(ChannelKey(name), JsonText(channel));
   transaction.Commit();
   return move;
 }
@@ -219,8 +220,13 @@ RobotRelease ReleaseOf(const RegisteredRobot& robot, RevisionNumber head,
       if (channel.name == release.channel) release.target = channel.revision;
     }
   }
-  if (release.target && release.installed > 0) release.behind = *release.target - release.installed;
-  release.map_differs = robot.MapDiffers();
+  // A revision past the head is none this repository made: the robot's report is wrong, and
+  // how far behind it is cannot be said.
+  const bool beyond_head = release.installed > head;
+  if (release.target && release.installed > 0 && !beyond_head) {
+    release.behind = *release.target - release.installed;
+  }
+  release.map_differs = robot.MapDiffers() || beyond_head;
   return release;
 }
 

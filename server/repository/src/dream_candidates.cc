@@ -6,6 +6,7 @@
 
 #include "fleetmap/core/error.h"
 #include "fleetmap/core/map_chunks.h"
+#include "fleetmap/core/printable_text.h"
 
 namespace fleetmap {
 namespace {
@@ -60,7 +61,7 @@ std::string DreamCandidateJson(const DreamCandidateRecord& r) {
   json["content"] = {
       {"nodes", r.nodes}, {"edges", r.edges}, {"paths", r.paths}, {"chunks", r.chunks}};
   json["promoted_as"] = r.promoted_as;
-  return json.dump();
+  return JsonText(json);
 }
 
 DreamCandidateRecord DreamCandidateFromJson(std::string_view text) {

@@ -2,6 +2,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "fleetmap/core/printable_text.h"
+
 namespace fleetmap {
 
 std::string MergeReportJson(const MergeReport& r) {
@@ -26,7 +28,7 @@ std::string MergeReportJson(const MergeReport& r) {
   json["edges_to_hidden"] = r.edges_to_hidden;
   json["derived_edges"] = r.derived_edges;
   json["seconds"] = r.seconds;
-  return json.dump();
+  return JsonText(json);
 }
 
 }  // namespace fleetmap

@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "fleetmap/core/error.h"
+#include "fleetmap/core/printable_text.h"
 
 namespace fleetmap {
 namespace {
@@ -69,11 +70,10 @@ std::string KeyOf(std::string_view prefix, const Uuid& robot) {
 
 std::string RobotMapJson(const RobotMapRecord& map) {
   // The digest as text: JSON numbers past 2^53 do not survive every reader.
-  return nlohmann::json{{"channel", map.channel},
-                        {"revision", map.revision},
-                        {"digest", std::to_string(map.digest)},
-                        {"at_ns", map.at_ns}}
-      .dump();
+  return JsonText(nlohmann::json{{"channel", map.channel},
+                                 {"revision", map.revision},
+                                 {"digest", std::to_string(map.digest)},
+                                 {"at_ns", map.at_ns}});
 }
 
 std::optional<RobotMapRecord> ParseRobotMap(const std::optional<std::string>& value) {
@@ -153,7 +153,7 @@ NewRobot RobotRegistry::Add(std::string_view name, std::int64_t now_ns) {
                                {"salt", salt},
                                {"hash", SaltedHash(salt, added.token)},
                                {"added_ns", now_ns}};
-  versions_.PutSetting(RobotKey(added.robot.id), json.dump());
+  versions_.PutSetting(RobotKey(added.robot.id), JsonText(json));
   return added;
 }
 
@@ -234,7 +234,7 @@ void RobotRegistry::RecordInstalled(const Uuid& robot, const RobotMapRecord& ins
 
 void RobotRegistry::RecordError(const Uuid& robot, std::string_view error, std::int64_t now_ns) {
   versions_.PutSetting(KeyOf(kErrorPrefix, robot),
-                       std::to_string(now_ns) + " " + std::string(error.substr(0, kMaxErrorBytes)));
+                       std::to_string(now_ns) + " " + ReceivedText(error, kMaxErrorBytes));
 }
 
 }  // namespace fleetmap

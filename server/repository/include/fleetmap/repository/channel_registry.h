@@ -114,9 +114,11 @@ struct RobotRelease {
   // Its channel's revision now; none for a channel that is not set (any more).
   std::optional<RevisionNumber> target;
   // target − installed: revisions it has still to get (negative: its channel was moved back
-  // and it has not synced since). None without a target or an installed revision.
+  // and it has not synced since). None without a target or an installed revision, or for an
+  // installed revision past the head (none this repository made).
   std::optional<std::int64_t> behind;
-  bool map_differs = false;  // RegisteredRobot::MapDiffers
+  // RegisteredRobot::MapDiffers, or an installed revision past the head.
+  bool map_differs = false;
 };
 
 // `channels` as ChannelRegistry::List gives them; `head` the repository's head.
