@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <deque>
 #include <exception>
+#include <filesystem>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -17,6 +18,7 @@
 #include "fleetmap/core/clock.h"
 #include "fleetmap/core/map_chunks.h"
 #include "fleetmap/store/graph_store.h"
+#include "own_work_restore.h"
 #include "push_plan.h"
 
 namespace fleetmap {
@@ -223,6 +225,7 @@ class SyncRun {
     result_.kept_unmerged = report.kept_unmerged;
     result_.kept_failed = report.kept_failed;
     ReportInstalled(report);
+    if (map_.state().restore_own_work) RestoreOwnWork();
     Progress("installed revision " + std::to_string(report.revision) + ": " +
              agent_internal::ElementCounts(report.nodes, report.edges, report.paths) +
              (report.incremental ? " (incremental)" : " (full)") +
@@ -268,6 +271,35 @@ class SyncRun {
     }
   }
 
+  // After the install of a map that started over (StartOverIfLost): a session of its own. A
+  // failure fails the attempt, whose retry finds the download installed and restores again.
+  void RestoreOwnWork() {
+    try {
+      SyncClient client(server(), options_.link);
+      Hello(client, /*report_error=*/false);
+      const agent_internal::OwnWorkRestored restored =
+          agent_internal::RestoreOwnWork(client, map_, options_.progress);
+      SayBye(client);
+      result_.restored_submissions = restored.submissions;
+      result_.restored_elements = restored.elements;
+      if (restored.submissions > 0 || !restored.complete) {
+        Progress(
+            "restored " + std::to_string(restored.submissions) +
+            " of this robot's submissions from the server: " + std::to_string(restored.elements) +
+            " elements written" +
+            (restored.dangling_edges > 0 ? ", " + std::to_string(restored.dangling_edges) +
+                                               " edges left out (their ends are not in this map)"
+                                         : "") +
+            (restored.complete ? "" : "; more remain for the next sync"));
+      }
+    } catch (const SyncServerError& e) {
+      Progress(std::string("this robot's own work was not restored (the next sync tries "
+                           "again): ") +
+               e.what());
+      throw;
+    }
+  }
+
   // What the server takes, as its last welcome said (or fleetmapd's defaults), within what
   // this agent's link sends.
   ServerLimits CurrentLimits() const {
@@ -280,7 +312,10 @@ class SyncRun {
   // and every encoding happens here, before the connect, and memory holds one batch of nodes.
   void Prepare() {
     if (plan_) return;
-    if (!installed_digest_) installed_digest_ = map_.ReadInstalledDigest();
+    if (!installed_digest_) {
+      installed_digest_ = map_.ReadInstalledDigest();
+      StartOverIfLost();
+    }
     // A map directory of another robot is refused before anything is read.
     if (map_.state().robot) map_.BindRobot(options_.robot);
     const Clock::time_point start = Clock::now();
@@ -324,6 +359,33 @@ class SyncRun {
                " more nodes over the server's limits, kept the same way");
     }
     plan_ = std::move(plan);
+  }
+
+  // A map.db that does not hold what the state says was installed (deleted, emptied, damaged),
+  // or a state that was lost (or never written: a first sync): the map starts over from what
+  // it holds (LocalMap::ForgetServerCopy), so the download is full, the robot's own content is
+  // pushed again, and its own work the download lacks is restored after the install. Until
+  // then the hellos report nothing installed, which the depot shows as a map that differs from
+  // what it was sent.
+  void StartOverIfLost() {
+    const SyncState& state = map_.state();
+    const bool lost_state = !state.robot;
+    const bool map_differs = state.revision > 0 && state.installed_digest != 0 &&
+                             *installed_digest_ != state.installed_digest;
+    if (!lost_state && !map_differs) return;
+    if (map_differs) {
+      Progress(map_.map_path().string() + " does not hold revision " +
+               std::to_string(state.revision) +
+               " as installed (deleted, emptied or changed since): taking a full download and "
+               "restoring this robot's own work from the server");
+    } else if (map_.state().revision == 0 && std::filesystem::exists(map_.map_path())) {
+      Progress("no sync state in " + map_.dir().string() +
+               ": what map.db holds is sorted by the robot each element names (this robot's "
+               "is pushed, the server recognising what it has by UUID) and this robot's own "
+               "work is restored from the server after the download");
+    }
+    map_.ForgetServerCopy(options_.robot);
+    installed_digest_ = 0;
   }
 
   // Ends a session politely (the server closes on Bye).

@@ -963,6 +963,7 @@ InstallReport MapInstallation::Commit() {
   next_state.installed = std::move(s.selection);
   next_state.installed_digest = s.digest.value();
   next_state.last_error = state.last_error;
+  next_state.restore_own_work = state.restore_own_work;
   report.selection_digest = s.digest.value();
   next_state.unmerged = std::move(retirement.still_unmerged);
   auto known = [&](const Uuid& id, int kind) {

@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "fleetmap/core/error.h"
+#include "fleetmap/core/printable_text.h"
 #include "fleetmap/core/staged_file.h"
 
 namespace fleetmap::agent_internal {
@@ -122,11 +123,11 @@ std::string SyncStateToJson(const SyncState& state) {
   key("format");
   out += std::to_string(kStateFormat) + ",\n";
   key("robot");
-  out += (state.robot ? json(state.robot->ToString()) : json(nullptr)).dump() + ",\n";
+  out += JsonText(state.robot ? json(state.robot->ToString()) : json(nullptr)) + ",\n";
   key("revision");
   out += std::to_string(state.revision) + ",\n";
   key("request");
-  out += (state.request ? RequestToJson(*state.request) : json(nullptr)).dump() + ",\n";
+  out += JsonText(state.request ? RequestToJson(*state.request) : json(nullptr)) + ",\n";
   key("installed");
   AppendElements(out, state.installed);
   out += ",\n";
@@ -143,26 +144,27 @@ std::string SyncStateToJson(const SyncState& state) {
     out += ", \"merged_revision\": " +
            (u.merged_revision ? std::to_string(*u.merged_revision) : std::string("null")) +
            ", \"failed\": " + (u.failed ? "true" : "false") +
-           ", \"error\": " + json(u.error).dump() + "}";
+           ", \"error\": " + JsonText(json(u.error)) + "}";
   }
   out += "],\n";
   // Issue 35 item 3; files written before it have neither key (read as none).
   key("server_limits");
-  out += json({{"max_submission_bytes", state.server_limits.max_submission_bytes},
-               {"max_frame_bytes", state.server_limits.max_frame_bytes}})
-             .dump() +
+  out += JsonText(json({{"max_submission_bytes", state.server_limits.max_submission_bytes},
+                        {"max_frame_bytes", state.server_limits.max_frame_bytes}})) +
          ",\n";
   json held = json::array();
   for (const HeldNode& node : state.held) {
     held.push_back({{"id", node.id.ToString()}, {"bytes", node.bytes}});
   }
   key("held");
-  out += held.dump() + ",\n";
+  out += JsonText(held) + ",\n";
   // Issue 38; files written before it have neither key (read as none).
   key("installed_digest");
-  out += json(std::to_string(state.installed_digest)).dump() + ",\n";
+  out += JsonText(json(std::to_string(state.installed_digest))) + ",\n";
   key("last_error");
-  out += json(state.last_error).dump() + ",\n";
+  out += JsonText(json(state.last_error)) + ",\n";
+  key("restore_own_work");
+  out += std::string(state.restore_own_work ? "true" : "false") + ",\n";
   key("submission");
   if (state.submission) {
     out += "{\"id\": \"" + state.submission->id.ToString() + "\", \"content\": ";
@@ -205,6 +207,7 @@ SyncState SyncStateFromJson(const std::string& text, const std::string& source) 
       state.installed_digest = std::stoull(root["installed_digest"].get<std::string>());
     }
     state.last_error = root.value("last_error", std::string());
+    state.restore_own_work = root.value("restore_own_work", false);
     if (root.contains("held")) {
       for (const json& node : root["held"]) {
         state.held.push_back(HeldNode{Uuid::Parse(node.at("id").get<std::string>()),

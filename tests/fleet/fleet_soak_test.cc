@@ -8,7 +8,8 @@
 // then every robot syncs once more with the servers left alone. At the end every node any
 // robot built is at the head, stood in for, or hidden by a named revision (a revert or a
 // promotion), exactly once at the head; no submission failed; the revisions run 1..N with no
-// gap; and no robot's map lost a node it built unless a revision hid it.
+// gap; and no robot's map lost a node it built unless a revision hid it, also robots that lost
+// their map.db, their sync.json or both between syncs at random.
 #include <gtest/gtest.h>
 #include <signal.h>
 
@@ -53,6 +54,8 @@ struct SoakRobot {
   std::optional<Uuid> last;
   int syncs = 0, failed_syncs = 0;
   int chains_restarted = 0;   // its last node hidden by a revision
+  int losses = 0;             // map.db, sync.json or both deleted between its syncs
+  bool map_lost = false;      // since the last loss, no sync has succeeded
   std::string first_problem;  // a local write that could not find its own last node
 };
 
@@ -210,7 +213,8 @@ TYPED_TEST(FleetSoakTest, LockHoldsAndKillsLoseNoRobotsNode) {
       std::mt19937 random(100 + i);
       const auto log = this->dir_ / ("agent-" + std::to_string(i) + ".log");
       while (Clock::now() < chaos_until) {
-        Foray(r, static_cast<std::uint32_t>(1000 * i + r.syncs), uri);
+        // A map lost after its last sync is synced back before the robot builds on it again.
+        if (!r.map_lost) Foray(r, static_cast<std::uint32_t>(1000 * i + r.syncs), uri);
         std::vector<std::string> flags = {"--policy",     "copy", "--retry-for", "10",
                                           "--io-timeout", "5",    "--quiet"};
         if (random() % 2 == 0) {
@@ -226,7 +230,24 @@ TYPED_TEST(FleetSoakTest, LockHoldsAndKillsLoseNoRobotsNode) {
         agent->ReadRest(milliseconds(60'000));
         const std::optional<int> exit = agent->Wait(milliseconds(10'000));
         ++r.syncs;
-        if (exit != 0) ++r.failed_syncs;  // the link or server was down: retried next loop
+        if (exit != 0) {
+          ++r.failed_syncs;  // the link or server was down: retried next loop
+          continue;
+        }
+        r.map_lost = false;
+        // Now and then the robot loses its map.db, its sync.json or both between syncs (all it
+        // built is pushed by now): its next sync must bring back all of it.
+        if (random() % 5 == 0) {
+          const int loss = static_cast<int>(random() % 3);
+          if (loss != 1) {
+            for (const char* suffix : {"", "-wal", "-shm"}) {
+              std::filesystem::remove((r.robot.map_dir / "map.db").string() + suffix);
+            }
+          }
+          if (loss != 0) std::filesystem::remove(r.robot.map_dir / "sync.json");
+          ++r.losses;
+          r.map_lost = true;
+        }
       }
     });
   }
@@ -261,7 +282,7 @@ TYPED_TEST(FleetSoakTest, LockHoldsAndKillsLoseNoRobotsNode) {
     const std::optional<ElementVersion> version = versions.VersionOf(node);
     return version && version->hidden.has_value();
   };
-  std::size_t built = 0, syncs = 0, failed_syncs = 0, built_hidden = 0, restarted = 0;
+  std::size_t built = 0, syncs = 0, failed_syncs = 0, built_hidden = 0, restarted = 0, losses = 0;
   for (const SoakRobot& r : robots) {
     EXPECT_TRUE(r.first_problem.empty()) << r.robot.name << ": " << r.first_problem;
     const std::set<Uuid> local =
@@ -279,7 +300,9 @@ TYPED_TEST(FleetSoakTest, LockHoldsAndKillsLoseNoRobotsNode) {
     syncs += static_cast<std::size_t>(r.syncs);
     failed_syncs += static_cast<std::size_t>(r.failed_syncs);
     restarted += static_cast<std::size_t>(r.chains_restarted);
+    losses += static_cast<std::size_t>(r.losses);
   }
+  EXPECT_GT(losses, 0u) << "no robot lost its map";
   std::size_t merged = 0;
   for (const Submission& s : versions.ListSubmissions()) {
     EXPECT_EQ(s.state, SubmissionState::kMerged) << s.id.ToString() << ": " << s.error;
@@ -298,10 +321,10 @@ TYPED_TEST(FleetSoakTest, LockHoldsAndKillsLoseNoRobotsNode) {
       "soak (%lld s, %d instance(s)): %zu nodes built by %d robots in %zu syncs (%zu failed and "
       "retried later), %d kills, %d lock holds, %d reverts, %d promotions, %d PostgreSQL "
       "restarts; %zu submissions merged; %zu revisions; head %zu nodes; %zu built nodes hidden "
-      "by a revision (%zu chains restarted on one)\n",
+      "by a revision (%zu chains restarted on one); %zu maps or states lost and synced back\n",
       static_cast<long long>(chaos_for.count() / 1000), instances, built, kRobots, syncs,
       failed_syncs, kills.load(), lock_holds.load(), reverts.load(), promotes.load(),
-      pg_restarts.load(), merged, history.size(), head.size(), built_hidden, restarted);
+      pg_restarts.load(), merged, history.size(), head.size(), built_hidden, restarted, losses);
 }
 
 }  // namespace

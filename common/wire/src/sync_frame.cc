@@ -82,6 +82,14 @@ std::string_view SyncFrameName(const v1::SyncFrame& frame) {
       return "download_end";
     case Body::kBye:
       return "bye";
+    case Body::kOwnSubmissionsRequest:
+      return "own_submissions_request";
+    case Body::kOwnSubmissions:
+      return "own_submissions";
+    case Body::kSubmissionChunkRequest:
+      return "submission_chunk_request";
+    case Body::kSubmissionChunk:
+      return "submission_chunk";
     case Body::BODY_NOT_SET:
       break;
   }

@@ -37,19 +37,25 @@ std::optional<v1::InstalledMap> InstalledOf(const v1::Hello& hello) {
   return hello.installed();
 }
 
+// A channel as a robot reports it (channel names are shorter: ValidateChannelName), and an
+// author as a push names it.
+constexpr std::size_t kMaxReportedChannelBytes = 64;
+constexpr std::size_t kMaxAuthorBytes = 128;
+
 // Records what a robot reports installed, and its agent's last error, after its hello was
-// accepted. The text is the robot's: kept printable and short.
+// accepted. The text is the robot's: kept valid UTF-8, printable and short.
 void RecordInstalledMap(RobotRegistry& registry, const Uuid& robot,
                         const v1::InstalledMap& installed) {
   RobotMapRecord map;
-  map.channel = PrintableText(installed.channel().substr(0, 64));
+  map.channel = PrintableText(ReceivedText(installed.channel(), kMaxReportedChannelBytes));
   if (map.channel.empty()) map.channel = std::string(kHeadChannel);
   map.revision = std::max<std::int64_t>(installed.revision(), 0);
   map.digest = installed.digest();
   map.at_ns = WallClockNs();
   registry.RecordInstalled(robot, map);
   if (!installed.last_error().empty()) {
-    registry.RecordError(robot, "agent: " + PrintableText(installed.last_error()), map.at_ns);
+    registry.RecordError(robot, "agent: " + PrintableText(ValidUtf8(installed.last_error())),
+                         map.at_ns);
   }
 }
 
@@ -82,6 +88,9 @@ std::string Mib(std::uint64_t bytes) {
 
 // A TLS connection opens with a handshake record (content type 22) of major version 3: what a
 // plain listener sees first from an agent that speaks TLS to it.
+// Of a robot's own submissions a revision lacks, listed at once (a frame of about 100 kB).
+constexpr int kMaxOwnSubmissionsListed = 2000;
+
 constexpr unsigned char kTlsHandshakeRecord = 0x16;
 constexpr unsigned char kTlsMajorVersion = 0x03;
 
@@ -622,6 +631,10 @@ void SyncSession<Stream>::Handle(const v1::SyncFrame& frame) {
           return OnMergeStatusRequest(frame.merge_status_request());
         case F::kDownloadRequest:
           return OnDownloadRequest(frame.download_request());
+        case F::kOwnSubmissionsRequest:
+          return OnOwnSubmissionsRequest(frame.own_submissions_request());
+        case F::kSubmissionChunkRequest:
+          return OnSubmissionChunkRequest(frame.submission_chunk_request());
         case F::kPushChunk:
         case F::kPushEnd:
           return Fail(v1::ErrorFrame::OUT_OF_ORDER,
@@ -630,7 +643,8 @@ void SyncSession<Stream>::Handle(const v1::SyncFrame& frame) {
           return Fail(v1::ErrorFrame::OUT_OF_ORDER,
                       name +
                           " does not start an exchange (push_begin, merge_status_request, "
-                          "download_request or bye)");
+                          "download_request, own_submissions_request, "
+                          "submission_chunk_request or bye)");
       }
     case Phase::kPushing:
       switch (frame.body_case()) {
@@ -757,7 +771,8 @@ void SyncSession<Stream>::OnPushBegin(const v1::PushBegin& begin) {
   const Uuid id = Uuid::FromBytes(begin.submission_id());
   OnStore(
       [id, robot = robot_, author = begin.author()](Repository& repository) {
-        return repository.BeginChunkedPush(id, robot, author.empty() ? robot.ToString() : author);
+        return repository.BeginChunkedPush(
+            id, robot, author.empty() ? robot.ToString() : ReceivedText(author, kMaxAuthorBytes));
       },
       [self = this->shared_from_this(), begin](Submission stored) {
         if (stored.robot != self->robot_) {  // issue 35 item 11: not another robot's to resume
@@ -961,6 +976,73 @@ void SyncSession<Stream>::QueryMergeStatus(const Uuid& id, bool may_wait, std::u
         }
         v1::SyncFrame frame;
         *frame.mutable_merge_status() = std::move(status);
+        self->Reply(frame);
+      });
+}
+
+template <typename Stream>
+void SyncSession<Stream>::OnOwnSubmissionsRequest(const v1::OwnSubmissionsRequest& request) {
+  OnStore(
+      [robot = robot_, after = request.after_revision()](Repository& repository) {
+        v1::OwnSubmissions listed;
+        for (const Submission& s : repository.versions().ListSubmissions()) {
+          if (s.robot != robot || s.state == SubmissionState::kReceiving) continue;
+          if (s.state == SubmissionState::kMerged && s.revision <= after) continue;
+          if (listed.submissions_size() == kMaxOwnSubmissionsListed) {
+            listed.set_truncated(true);
+            break;
+          }
+          v1::OwnSubmission& entry = *listed.add_submissions();
+          entry.set_submission_id(s.id.ToBytesString());
+          entry.set_state(std::string(SubmissionStateName(s.state)));
+          entry.set_revision(s.revision);
+          entry.set_error(s.error);
+          entry.set_chunk_count(static_cast<std::uint32_t>(s.chunk_count));
+          entry.set_digest(s.digest);
+        }
+        return listed;
+      },
+      [self = this->shared_from_this()](v1::OwnSubmissions listed) {
+        v1::SyncFrame frame;
+        *frame.mutable_own_submissions() = std::move(listed);
+        self->Reply(frame);
+      });
+}
+
+template <typename Stream>
+void SyncSession<Stream>::OnSubmissionChunkRequest(const v1::SubmissionChunkRequest& request) {
+  if (request.submission_id().size() != Uuid::kSize) {
+    return Fail(v1::ErrorFrame::INVALID, "submission_chunk_request: a submission id of " +
+                                             std::to_string(request.submission_id().size()) +
+                                             " bytes (ids are 16 bytes)");
+  }
+  const Uuid id = Uuid::FromBytes(request.submission_id());
+  OnStore(
+      [id, robot = robot_, seq = request.seq()](Repository& repository) {
+        const std::optional<Submission> s = repository.versions().FindSubmission(id);
+        // Another robot's submission is answered as one never pushed: no robot reads what the
+        // others pushed.
+        if (!s || s->robot != robot) {
+          throw Error(ErrorCode::kNotFound, "no submission " + id.ToString() + " is stored");
+        }
+        if (s->state == SubmissionState::kReceiving) {
+          throw Error(ErrorCode::kInvalidArgument,
+                      "submission " + id.ToString() + " is not complete: push it again");
+        }
+        if (seq >= s->chunk_count) {
+          throw Error(ErrorCode::kInvalidArgument, "submission " + id.ToString() + " has " +
+                                                       std::to_string(s->chunk_count) +
+                                                       " chunks, no chunk " + std::to_string(seq));
+        }
+        v1::SubmissionChunk chunk;
+        chunk.set_submission_id(id.ToBytesString());
+        chunk.set_seq(seq);
+        chunk.set_data(repository.versions().SubmissionChunk(id, seq));
+        return chunk;
+      },
+      [self = this->shared_from_this()](v1::SubmissionChunk chunk) {
+        v1::SyncFrame frame;
+        *frame.mutable_submission_chunk() = std::move(chunk);
         self->Reply(frame);
       });
 }

@@ -138,6 +138,10 @@ class SyncSession : public SessionControl,
   void OnPushEnd();
   void OnMergeStatusRequest(const v1::MergeStatusRequest& request);
   void QueryMergeStatus(const Uuid& submission, bool may_wait, std::uint32_t wait_ms);
+  // A robot restoring its own work (lost map or state): what of it a revision lacks, and its
+  // chunks as pushed. Only its own submissions, complete ones only.
+  void OnOwnSubmissionsRequest(const v1::OwnSubmissionsRequest& request);
+  void OnSubmissionChunkRequest(const v1::SubmissionChunkRequest& request);
   void OnDownloadRequest(const v1::DownloadRequest& request);
   // Records `error` as the robot's last (RobotRegistry::RecordError) on a store worker, without
   // waiting: the session is closing anyway.

@@ -110,6 +110,10 @@ struct SyncResult {
   std::size_t kept_unmerged = 0;  // pushed elements kept: their merge is not in the download
   std::size_t kept_failed = 0;    // of those, elements of submissions the server refused (kept
                                   // until `fleetmap-agent discard`)
+  // A map that started over (map.db or sync.json lost): the robot's own submissions the
+  // installed revision lacks, written back into map.db from the server.
+  std::size_t restored_submissions = 0;
+  std::size_t restored_elements = 0;
   // The link, over every attempt.
   std::uint64_t bytes_sent = 0;
   std::uint64_t bytes_received = 0;

@@ -138,6 +138,9 @@ struct SyncState {
   std::uint64_t installed_digest = 0;
   // The last sync that failed, said to the depot at the next hello; "" once a sync succeeds.
   std::string last_error;
+  // The map or this state was lost (LocalMap::ForgetServerCopy): after the next install the
+  // agent asks the server for the robot's own work the installed revision lacks.
+  bool restore_own_work = false;
 
   friend bool operator==(const SyncState&, const SyncState&) = default;
 };
@@ -262,6 +265,30 @@ class LocalMap {
   // The nodes, edges and paths of map.db the server does not have, each kind ordered by UUID
   // (so the same content always encodes to the same chunks). Edges may reference known nodes.
   GraphBatch Unsynced();
+
+  // Starts over from what map.db holds, when map.db is not what the state says was installed
+  // (deleted, emptied, damaged) or the state was lost: nothing counts as installed, so the next
+  // download is full; content that names another robot (nodes, paths, and edges that touch none
+  // of this robot's nodes) came from the server, so it is known and never pushed; this robot's
+  // content is unsynced, pushed again (the server recognises what it has by UUID), except a
+  // pending push and the unmerged submissions the state knew whose content map.db still holds
+  // whole, which stay as they were; and the next install is followed by a restore of the
+  // robot's own work (restore_own_work). `robot` is the robot this map syncs as: kept in memory
+  // only until BindRobot when the state names none (a lost state is written once the server
+  // has accepted the robot), written at once otherwise.
+  void ForgetServerCopy(const Uuid& robot);
+  // Writes a submission of this robot's the server sent back (its content as pushed) into
+  // map.db and records it as unmerged, as if this map had pushed it: the next installs keep it
+  // until a download reflects its merge. Elements map.db holds already are left as they are;
+  // edges whose ends map.db does not hold are not written (counted in the result). A submission
+  // already recorded changes nothing. Returns the elements written.
+  struct Restored {
+    std::size_t written = 0;
+    std::size_t dangling_edges = 0;
+  };
+  Restored RestoreSubmission(const UnmergedSubmission& submission, const GraphBatch& content);
+  // The restore after an install is done (restore_own_work cleared).
+  void FinishRestore();
 
   // Records `robot` as the robot this directory syncs as. Throws Error(kInvalidArgument) when
   // it synced as another robot before (its known set belongs to that robot's history).

@@ -51,11 +51,15 @@ struct RegisteredRobot {
   std::string last_error;                   // of a sync, the server's or its agent's; "" when none
   std::int64_t last_error_ns = 0;
 
-  // The robot said it installed the revision it was last sent, but a map whose digest is not
-  // the one sent (both known): a damaged or diverged map, for a person to look at.
+  // The robot was sent a map and says it holds none (its map was lost), or it says it installed
+  // the revision it was last sent but holds a map whose digest is not the one sent (known): a
+  // damaged, emptied or diverged map. An agent reports the digest of what its map holds, so
+  // its 0 is an empty map, never "not known".
   bool MapDiffers() const {
-    return sent && installed && sent->revision == installed->revision && sent->digest != 0 &&
-           installed->digest != 0 && sent->digest != installed->digest;
+    if (!sent || !installed || sent->revision == 0) return false;
+    if (installed->revision == 0) return true;
+    return sent->revision == installed->revision && sent->digest != 0 &&
+           sent->digest != installed->digest;
   }
 };
 
