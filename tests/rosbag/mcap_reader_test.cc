@@ -7,14 +7,16 @@
 // at every length, every single byte flipped (each refused: MCAP's CRCs cover every byte), an
 // unsupported compression, a chunk claiming 1 GiB, a CRC that does not match; CRCs of 0 mean
 // "not computed" and are not checked, and with them 0 every flipped byte reaches the parsers and
-// decoders, which read it or refuse it by name. The CDR decoders refuse every cut, bytes left over
-// and encapsulations other than plain CDR.
+// decoders, which read it or refuse it by name. Chunks of every compression whose sizes lie at and
+// around the decompressors' buffer sizes (64 KiB, 128 KiB, up to 4 MiB) read whole. The CDR
+// decoders refuse every cut, bytes left over and encapsulations other than plain CDR.
 #include "fleetmap/rosbag/mcap_reader.h"
 
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <chrono>
+#include <cstdio>
 #include <cstring>
 #include <fstream>
 #include <iostream>
@@ -541,6 +543,98 @@ TEST_F(McapReaderBadFile, ForeignFilesAreNamedByTheirFirstBytes) {
       ErrorCode::kInvalidArgument, [&] { RecordingReader reader(bad_); },
       "not a ROS bag or MCAP file: it begins \"neither\\x0a\"");
 }
+
+// ---- Chunk sizes at the decompression buffers' edges ---------------------------------------
+
+// Each chunk record's (uncompressed_size, compressed size), in file order.
+std::vector<std::pair<std::uint64_t, std::uint64_t>> ChunkSizes(const std::string& bytes) {
+  std::vector<std::pair<std::uint64_t, std::uint64_t>> out;
+  for (const auto& [at, op] : DataRecords(bytes)) {
+    if (op != 0x06) continue;
+    std::uint64_t uncompressed, compressed;
+    std::uint32_t compression;
+    std::memcpy(&uncompressed, bytes.data() + at + 9 + 16, 8);
+    std::memcpy(&compression, bytes.data() + at + 9 + 28, 4);
+    std::memcpy(&compressed, bytes.data() + at + 9 + 32 + compression, 8);
+    out.emplace_back(uncompressed, compressed);
+  }
+  return out;
+}
+
+std::string Fnv1a32(std::string_view bytes) {
+  std::uint32_t h = 0x811c9dc5u;
+  for (const char c : bytes) h = (h ^ static_cast<unsigned char>(c)) * 0x01000193u;
+  char hex[9];
+  std::snprintf(hex, sizeof hex, "%08x", h);
+  return hex;
+}
+
+class McapReaderSizedChunks : public ::testing::TestWithParam<std::string> {
+ protected:
+  void SetUp() override { FLEETMAP_REQUIRE_MCAP_FILES(); }
+};
+
+// Chunks whose records take 64 KiB - 1, 64 KiB and 64 KiB + 1 bytes, and so around 128 KiB
+// (zstd's ZSTD_DStreamOutSize()), then multiples of 64 KiB up to 4 MiB; in the compressed files
+// also chunks whose compressed bytes are 64 KiB - 1, 64 KiB, 64 KiB + 1, 128 KiB and 256 KiB. The
+// decompressors gather their output 64 KiB at a time, so a chunk ending exactly at a buffer's end
+// is where a streaming loop can mistake "done" for "more to come". Each file, written by @mcap/core
+// with lz4js and libzstd (levels 1 and 19), reads whole: every message, every byte (by size and
+// FNV-1a hash).
+TEST_P(McapReaderSizedChunks, EveryChunkSizeAtABuffersEdgeReads) {
+  const testing::McapTestFiles& files = WrittenMcapFiles();
+  const std::string bytes = ReadFileBytes(files.Path(GetParam()));
+  const json& written = files.written.at("files").at(GetParam());
+  const bool compressed = written.at("compression") != "none";
+
+  // The file holds the chunk sizes this test is about.
+  std::vector<std::uint64_t> wanted_uncompressed = {65535,  65536,  65537,  131071,  131072, 131073,
+                                                    196608, 262144, 393216, 1 << 20, 4 << 20};
+  if (GetParam() == "sizes-zstd19.mcap")
+    std::erase_if(wanted_uncompressed, [](auto n) { return n > 131072; });
+  const std::vector<std::uint64_t> wanted_compressed = {65535, 65536, 65537, 131072, 262144};
+  const auto sizes = ChunkSizes(bytes);
+  ASSERT_EQ(sizes.size(), written.at("chunks").size());
+  std::vector<std::uint64_t> uncompressed, compressed_sizes;
+  for (std::size_t i = 1; i < sizes.size(); ++i) {  // the first also holds the schema
+    uncompressed.push_back(sizes[i].first);
+    compressed_sizes.push_back(sizes[i].second);
+    if (!compressed) {
+      EXPECT_EQ(sizes[i].first, sizes[i].second);
+    }
+  }
+  const auto holds = [](const std::vector<std::uint64_t>& all, std::uint64_t n) {
+    return std::find(all.begin(), all.end(), n) != all.end();
+  };
+  for (const std::uint64_t n : wanted_uncompressed) {
+    EXPECT_TRUE(holds(uncompressed, n)) << "no chunk of " << n << " bytes uncompressed";
+  }
+  if (compressed) {
+    for (const std::uint64_t n : wanted_compressed) {
+      EXPECT_TRUE(holds(compressed_sizes, n)) << "no chunk of " << n << " bytes compressed";
+    }
+  }
+
+  const json& messages = written.at("messages");
+  std::size_t i = 0;
+  McapReader reader(files.Path(GetParam()));
+  reader.ReadMessages([&](const McapMessage& m) {
+    ASSERT_LT(i, messages.size());
+    const json& w = messages[i++];
+    EXPECT_EQ(m.sequence, w.at("sequence").get<std::uint32_t>());
+    const RosCompressedImage image = DecodeRos2CompressedImage(m.data);
+    EXPECT_EQ(image.data.size(), w.at("message").at("data_size").get<std::size_t>()) << i;
+    EXPECT_EQ(Fnv1a32(image.data), w.at("message").at("data_fnv1a32").get<std::string>()) << i;
+  });
+  EXPECT_EQ(i, messages.size());
+}
+
+INSTANTIATE_TEST_SUITE_P(Written, McapReaderSizedChunks,
+                         ::testing::ValuesIn(testing::kSizedMcapFiles), [](const auto& param) {
+                           std::string name = param.param.substr(0, param.param.find('.'));
+                           std::erase(name, '-');
+                           return name;
+                         });
 
 // ---- The CDR decoders --------------------------------------------------------------------
 
