@@ -9,7 +9,9 @@
 // "not computed" and are not checked, and with them 0 every flipped byte reaches the parsers and
 // decoders, which read it or refuse it by name. Chunks of every compression whose sizes lie at and
 // around the decompressors' buffer sizes (64 KiB, 128 KiB, up to 4 MiB) read whole. The CDR
-// decoders refuse every cut, bytes left over and encapsulations other than plain CDR.
+// decoders refuse every cut, bytes left over, encapsulations other than plain CDR, a CameraInfo
+// whose d has more coefficients than any distortion model and an Image whose data is longer
+// than its rows.
 #include "fleetmap/rosbag/mcap_reader.h"
 
 #include <gtest/gtest.h>
@@ -30,6 +32,7 @@
 #include "fleetmap/rosbag/recording_reader.h"
 #include "fleetmap/rosbag/ros2_sensor_msgs.h"
 #include "mcap_test_files.h"
+#include "peak_memory.h"
 #include "scratch_dir.h"
 
 namespace fleetmap {
@@ -460,23 +463,6 @@ TEST_F(McapReaderBadFile, AnUnsupportedCompressionIsNamed) {
                     ": unsupported compression 'brot' (supported: none (\"\"), lz4, zstd)");
 }
 
-// The peak resident memory since ResetMcapPeakMemory (Linux: VmHWM, reset by writing "5" to
-// /proc/self/clear_refs).
-void ResetMcapPeakMemory() {
-  std::ofstream clear("/proc/self/clear_refs");
-  clear << "5";
-  clear.flush();
-  ASSERT_TRUE(clear.good()) << "cannot reset the peak RSS through /proc/self/clear_refs";
-}
-std::int64_t McapPeakMemoryBytes(const char* field = "VmHWM:") {
-  std::ifstream status("/proc/self/status");
-  for (std::string line; std::getline(status, line);) {
-    if (line.starts_with(field)) return std::stoll(line.substr(std::strlen(field))) * 1024;
-  }
-  ADD_FAILURE() << "no " << field << " in /proc/self/status";
-  return 0;
-}
-
 // A small file whose first chunk claims 1 GiB uncompressed (and, uncompressed, one whose claim is
 // just under the limit) is refused as corrupt, naming the chunk, without the reader allocating
 // what the claim says.
@@ -488,10 +474,10 @@ TEST_F(McapReaderBadFile, AChunkClaimingAGibibyteIsRefusedWithoutAllocatingIt) {
     ASSERT_EQ(bytes[chunk], 0x06);
     for (const std::uint64_t claim : {std::uint64_t{1} << 30, (std::uint64_t{1} << 30) - 1}) {
       std::memcpy(bytes.data() + chunk + 9 + 16, &claim, 8);  // uncompressed_size
-      ResetMcapPeakMemory();
-      const std::int64_t before = McapPeakMemoryBytes("VmRSS:");
+      testing::ResetPeakMemory();
+      const std::int64_t before = testing::PeakMemoryBytes("VmRSS:");
       ExpectRefused(bytes, ErrorCode::kCorrupt, "chunk record at byte " + std::to_string(chunk));
-      const std::int64_t grown = McapPeakMemoryBytes() - before;
+      const std::int64_t grown = testing::PeakMemoryBytes() - before;
       EXPECT_LT(grown, 64 << 20) << "reading a " << bytes.size() << "-byte file took " << grown
                                  << " bytes more at its peak";
     }
@@ -669,6 +655,60 @@ TEST(Ros2SensorMsgs, OnlyPlainCdrIsRead) {
   imu[1] = 0x03;
   ExpectError(
       ErrorCode::kInvalidArgument, [&] { DecodeRos2Imu(imu); }, "parameter-list CDR");
+}
+
+// The small file's CameraInfo with `extra` more coefficients at the front of d (its count and
+// the bytes: each 8 bytes, so the fields after stay aligned).
+std::string WithMoreCoefficients(const std::string& info, std::uint32_t extra) {
+  const double first = -0.28;  // the first of d as written (write_mcap.js)
+  std::string pattern(8, '\0');
+  std::memcpy(pattern.data(), &first, 8);
+  const std::size_t at = info.find(pattern);
+  EXPECT_NE(at, std::string::npos);
+  std::uint32_t count;
+  std::size_t count_at = at - 4;
+  std::memcpy(&count, info.data() + count_at, 4);
+  if (count != 5) count_at = at - 8;  // padding between the count and the doubles
+  std::memcpy(&count, info.data() + count_at, 4);
+  EXPECT_EQ(count, 5u);
+  std::string out = info;
+  count += extra;
+  std::memcpy(out.data() + count_at, &count, 4);
+  out.insert(at, std::string(8 * std::size_t{extra}, '\0'));
+  return out;
+}
+
+TEST(Ros2SensorMsgs, ACameraInfoWithMoreCoefficientsThanAnyDistortionModelIsRefused) {
+  FLEETMAP_REQUIRE_MCAP_FILES();
+  std::string info;
+  for (const auto& [type, data] : SmallMessages()) {
+    if (type == kRos2CameraInfoType) info = data;
+  }
+  ASSERT_FALSE(info.empty());
+  EXPECT_EQ(DecodeRos2CameraInfo(WithMoreCoefficients(info, 9)).d.size(), 14u);
+  for (const std::uint32_t n : {15u, 1000u}) {
+    ExpectError(
+        ErrorCode::kCorrupt, [&] { DecodeRos2CameraInfo(WithMoreCoefficients(info, n - 5)); },
+        "sensor_msgs/msg/CameraInfo: d has " + std::to_string(n) +
+            " elements, more than the 14 it may have");
+  }
+}
+
+// An Image whose data holds more than step x height bytes (its height lowered from 6 to 5).
+TEST(Ros2SensorMsgs, AnImageWhoseDataIsLongerThanItsRowsIsRefused) {
+  FLEETMAP_REQUIRE_MCAP_FILES();
+  std::string image;
+  for (const auto& [type, data] : SmallMessages()) {
+    if (type == kRos2ImageType) image = data;
+  }
+  ASSERT_FALSE(image.empty());
+  const std::string height_width("\x06\0\0\0\x08\0\0\0", 8);  // little-endian CDR
+  const std::size_t at = image.find(height_width);
+  ASSERT_NE(at, std::string::npos);
+  image[at] = 5;
+  ExpectError(
+      ErrorCode::kCorrupt, [&] { DecodeRos2Image(image); },
+      "sensor_msgs/msg/Image: data holds 48 bytes, more than step 8 x height 5");
 }
 
 TEST(Ros2SensorMsgs, AStampBefore1970OrWithASecondOfNanosecondsIsRefused) {
