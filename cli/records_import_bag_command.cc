@@ -99,6 +99,16 @@ void AddRecordsImportBagCommand(CLI::App& records) {
       "compressed image that does not decode, or a topic that is missing or "
       "of another type is named in the error; on any error nothing is written under the root "
       "and nothing is indexed. Importing a bag twice is refused (conflict).");
+  // The bounds an image bomb meets, from the constants that enforce them.
+  const std::string side = std::to_string(kMaxRosImageSidePx);
+  cmd->footer(cmd->get_footer() + "\nImages are at most " + side + "x" + side +
+              " pixels (the largest camera a robot carries) and no larger than their camera's "
+              "CameraInfo when it comes first: each image's size is read from its message or its "
+              "file's header (PNG IHDR, JPEG SOFn) before it is decoded, so one image takes at "
+              "most " +
+              std::to_string((std::uint64_t{kMaxRosImageSidePx} * kMaxRosImageSidePx * 4) >> 20) +
+              " MiB of pixels whatever the file declares. A CameraInfo's D has at most 14 "
+              "coefficients. An image or CameraInfo beyond these bounds is refused by name.");
   cmd->add_option("bag", args->bag, "The ROS 1 bag (.bag) or MCAP file (.mcap)")->required();
   cmd->add_option("--root", args->root, "The repository root of record files")->required();
   cmd->add_option("--platform", args->options.platform, "The platform that recorded the bag")

@@ -7,14 +7,18 @@
 // at every length, every single byte flipped (each refused: MCAP's CRCs cover every byte), an
 // unsupported compression, a chunk claiming 1 GiB, a CRC that does not match; CRCs of 0 mean
 // "not computed" and are not checked, and with them 0 every flipped byte reaches the parsers and
-// decoders, which read it or refuse it by name. The CDR decoders refuse every cut, bytes left over
-// and encapsulations other than plain CDR.
+// decoders, which read it or refuse it by name. Chunks of every compression whose sizes lie at and
+// around the decompressors' buffer sizes (64 KiB, 128 KiB, up to 4 MiB) read whole. The CDR
+// decoders refuse every cut, bytes left over, encapsulations other than plain CDR, a CameraInfo
+// whose d has more coefficients than any distortion model and an Image whose data is longer
+// than its rows.
 #include "fleetmap/rosbag/mcap_reader.h"
 
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <chrono>
+#include <cstdio>
 #include <cstring>
 #include <fstream>
 #include <iostream>
@@ -28,6 +32,7 @@
 #include "fleetmap/rosbag/recording_reader.h"
 #include "fleetmap/rosbag/ros2_sensor_msgs.h"
 #include "mcap_test_files.h"
+#include "peak_memory.h"
 #include "scratch_dir.h"
 
 namespace fleetmap {
@@ -458,23 +463,6 @@ TEST_F(McapReaderBadFile, AnUnsupportedCompressionIsNamed) {
                     ": unsupported compression 'brot' (supported: none (\"\"), lz4, zstd)");
 }
 
-// The peak resident memory since ResetMcapPeakMemory (Linux: VmHWM, reset by writing "5" to
-// /proc/self/clear_refs).
-void ResetMcapPeakMemory() {
-  std::ofstream clear("/proc/self/clear_refs");
-  clear << "5";
-  clear.flush();
-  ASSERT_TRUE(clear.good()) << "cannot reset the peak RSS through /proc/self/clear_refs";
-}
-std::int64_t McapPeakMemoryBytes(const char* field = "VmHWM:") {
-  std::ifstream status("/proc/self/status");
-  for (std::string line; std::getline(status, line);) {
-    if (line.starts_with(field)) return std::stoll(line.substr(std::strlen(field))) * 1024;
-  }
-  ADD_FAILURE() << "no " << field << " in /proc/self/status";
-  return 0;
-}
-
 // A small file whose first chunk claims 1 GiB uncompressed (and, uncompressed, one whose claim is
 // just under the limit) is refused as corrupt, naming the chunk, without the reader allocating
 // what the claim says.
@@ -486,10 +474,10 @@ TEST_F(McapReaderBadFile, AChunkClaimingAGibibyteIsRefusedWithoutAllocatingIt) {
     ASSERT_EQ(bytes[chunk], 0x06);
     for (const std::uint64_t claim : {std::uint64_t{1} << 30, (std::uint64_t{1} << 30) - 1}) {
       std::memcpy(bytes.data() + chunk + 9 + 16, &claim, 8);  // uncompressed_size
-      ResetMcapPeakMemory();
-      const std::int64_t before = McapPeakMemoryBytes("VmRSS:");
+      testing::ResetPeakMemory();
+      const std::int64_t before = testing::PeakMemoryBytes("VmRSS:");
       ExpectRefused(bytes, ErrorCode::kCorrupt, "chunk record at byte " + std::to_string(chunk));
-      const std::int64_t grown = McapPeakMemoryBytes() - before;
+      const std::int64_t grown = testing::PeakMemoryBytes() - before;
       EXPECT_LT(grown, 64 << 20) << "reading a " << bytes.size() << "-byte file took " << grown
                                  << " bytes more at its peak";
     }
@@ -542,6 +530,98 @@ TEST_F(McapReaderBadFile, ForeignFilesAreNamedByTheirFirstBytes) {
       "not a ROS bag or MCAP file: it begins \"neither\\x0a\"");
 }
 
+// ---- Chunk sizes at the decompression buffers' edges ---------------------------------------
+
+// Each chunk record's (uncompressed_size, compressed size), in file order.
+std::vector<std::pair<std::uint64_t, std::uint64_t>> ChunkSizes(const std::string& bytes) {
+  std::vector<std::pair<std::uint64_t, std::uint64_t>> out;
+  for (const auto& [at, op] : DataRecords(bytes)) {
+    if (op != 0x06) continue;
+    std::uint64_t uncompressed, compressed;
+    std::uint32_t compression;
+    std::memcpy(&uncompressed, bytes.data() + at + 9 + 16, 8);
+    std::memcpy(&compression, bytes.data() + at + 9 + 28, 4);
+    std::memcpy(&compressed, bytes.data() + at + 9 + 32 + compression, 8);
+    out.emplace_back(uncompressed, compressed);
+  }
+  return out;
+}
+
+std::string Fnv1a32(std::string_view bytes) {
+  std::uint32_t h = 0x811c9dc5u;
+  for (const char c : bytes) h = (h ^ static_cast<unsigned char>(c)) * 0x01000193u;
+  char hex[9];
+  std::snprintf(hex, sizeof hex, "%08x", h);
+  return hex;
+}
+
+class McapReaderSizedChunks : public ::testing::TestWithParam<std::string> {
+ protected:
+  void SetUp() override { FLEETMAP_REQUIRE_MCAP_FILES(); }
+};
+
+// Chunks whose records take 64 KiB - 1, 64 KiB and 64 KiB + 1 bytes, and so around 128 KiB
+// (zstd's ZSTD_DStreamOutSize()), then multiples of 64 KiB up to 4 MiB; in the compressed files
+// also chunks whose compressed bytes are 64 KiB - 1, 64 KiB, 64 KiB + 1, 128 KiB and 256 KiB. The
+// decompressors gather their output 64 KiB at a time, so a chunk ending exactly at a buffer's end
+// is where a streaming loop can mistake "done" for "more to come". Each file, written by @mcap/core
+// with lz4js and libzstd (levels 1 and 19), reads whole: every message, every byte (by size and
+// FNV-1a hash).
+TEST_P(McapReaderSizedChunks, EveryChunkSizeAtABuffersEdgeReads) {
+  const testing::McapTestFiles& files = WrittenMcapFiles();
+  const std::string bytes = ReadFileBytes(files.Path(GetParam()));
+  const json& written = files.written.at("files").at(GetParam());
+  const bool compressed = written.at("compression") != "none";
+
+  // The file holds the chunk sizes this test is about.
+  std::vector<std::uint64_t> wanted_uncompressed = {65535,  65536,  65537,  131071,  131072, 131073,
+                                                    196608, 262144, 393216, 1 << 20, 4 << 20};
+  if (GetParam() == "sizes-zstd19.mcap")
+    std::erase_if(wanted_uncompressed, [](auto n) { return n > 131072; });
+  const std::vector<std::uint64_t> wanted_compressed = {65535, 65536, 65537, 131072, 262144};
+  const auto sizes = ChunkSizes(bytes);
+  ASSERT_EQ(sizes.size(), written.at("chunks").size());
+  std::vector<std::uint64_t> uncompressed, compressed_sizes;
+  for (std::size_t i = 1; i < sizes.size(); ++i) {  // the first also holds the schema
+    uncompressed.push_back(sizes[i].first);
+    compressed_sizes.push_back(sizes[i].second);
+    if (!compressed) {
+      EXPECT_EQ(sizes[i].first, sizes[i].second);
+    }
+  }
+  const auto holds = [](const std::vector<std::uint64_t>& all, std::uint64_t n) {
+    return std::find(all.begin(), all.end(), n) != all.end();
+  };
+  for (const std::uint64_t n : wanted_uncompressed) {
+    EXPECT_TRUE(holds(uncompressed, n)) << "no chunk of " << n << " bytes uncompressed";
+  }
+  if (compressed) {
+    for (const std::uint64_t n : wanted_compressed) {
+      EXPECT_TRUE(holds(compressed_sizes, n)) << "no chunk of " << n << " bytes compressed";
+    }
+  }
+
+  const json& messages = written.at("messages");
+  std::size_t i = 0;
+  McapReader reader(files.Path(GetParam()));
+  reader.ReadMessages([&](const McapMessage& m) {
+    ASSERT_LT(i, messages.size());
+    const json& w = messages[i++];
+    EXPECT_EQ(m.sequence, w.at("sequence").get<std::uint32_t>());
+    const RosCompressedImage image = DecodeRos2CompressedImage(m.data);
+    EXPECT_EQ(image.data.size(), w.at("message").at("data_size").get<std::size_t>()) << i;
+    EXPECT_EQ(Fnv1a32(image.data), w.at("message").at("data_fnv1a32").get<std::string>()) << i;
+  });
+  EXPECT_EQ(i, messages.size());
+}
+
+INSTANTIATE_TEST_SUITE_P(Written, McapReaderSizedChunks,
+                         ::testing::ValuesIn(testing::kSizedMcapFiles), [](const auto& param) {
+                           std::string name = param.param.substr(0, param.param.find('.'));
+                           std::erase(name, '-');
+                           return name;
+                         });
+
 // ---- The CDR decoders --------------------------------------------------------------------
 
 TEST(Ros2SensorMsgs, EveryCutAndBytesLeftOverAreRefusedNamingTheType) {
@@ -575,6 +655,60 @@ TEST(Ros2SensorMsgs, OnlyPlainCdrIsRead) {
   imu[1] = 0x03;
   ExpectError(
       ErrorCode::kInvalidArgument, [&] { DecodeRos2Imu(imu); }, "parameter-list CDR");
+}
+
+// The small file's CameraInfo with `extra` more coefficients at the front of d (its count and
+// the bytes: each 8 bytes, so the fields after stay aligned).
+std::string WithMoreCoefficients(const std::string& info, std::uint32_t extra) {
+  const double first = -0.28;  // the first of d as written (write_mcap.js)
+  std::string pattern(8, '\0');
+  std::memcpy(pattern.data(), &first, 8);
+  const std::size_t at = info.find(pattern);
+  EXPECT_NE(at, std::string::npos);
+  std::uint32_t count;
+  std::size_t count_at = at - 4;
+  std::memcpy(&count, info.data() + count_at, 4);
+  if (count != 5) count_at = at - 8;  // padding between the count and the doubles
+  std::memcpy(&count, info.data() + count_at, 4);
+  EXPECT_EQ(count, 5u);
+  std::string out = info;
+  count += extra;
+  std::memcpy(out.data() + count_at, &count, 4);
+  out.insert(at, std::string(8 * std::size_t{extra}, '\0'));
+  return out;
+}
+
+TEST(Ros2SensorMsgs, ACameraInfoWithMoreCoefficientsThanAnyDistortionModelIsRefused) {
+  FLEETMAP_REQUIRE_MCAP_FILES();
+  std::string info;
+  for (const auto& [type, data] : SmallMessages()) {
+    if (type == kRos2CameraInfoType) info = data;
+  }
+  ASSERT_FALSE(info.empty());
+  EXPECT_EQ(DecodeRos2CameraInfo(WithMoreCoefficients(info, 9)).d.size(), 14u);
+  for (const std::uint32_t n : {15u, 1000u}) {
+    ExpectError(
+        ErrorCode::kCorrupt, [&] { DecodeRos2CameraInfo(WithMoreCoefficients(info, n - 5)); },
+        "sensor_msgs/msg/CameraInfo: d has " + std::to_string(n) +
+            " elements, more than the 14 it may have");
+  }
+}
+
+// An Image whose data holds more than step x height bytes (its height lowered from 6 to 5).
+TEST(Ros2SensorMsgs, AnImageWhoseDataIsLongerThanItsRowsIsRefused) {
+  FLEETMAP_REQUIRE_MCAP_FILES();
+  std::string image;
+  for (const auto& [type, data] : SmallMessages()) {
+    if (type == kRos2ImageType) image = data;
+  }
+  ASSERT_FALSE(image.empty());
+  const std::string height_width("\x06\0\0\0\x08\0\0\0", 8);  // little-endian CDR
+  const std::size_t at = image.find(height_width);
+  ASSERT_NE(at, std::string::npos);
+  image[at] = 5;
+  ExpectError(
+      ErrorCode::kCorrupt, [&] { DecodeRos2Image(image); },
+      "sensor_msgs/msg/Image: data holds 48 bytes, more than step 8 x height 5");
 }
 
 TEST(Ros2SensorMsgs, AStampBefore1970OrWithASecondOfNanosecondsIsRefused) {

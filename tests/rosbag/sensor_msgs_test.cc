@@ -1,6 +1,7 @@
 // The sensor_msgs decoders (fleetmap/rosbag/sensor_msgs.h) on messages serialised by ROS's own
 // code (ros::serialization of sensor_msgs types, ros_test_bag.h): every field comes back; a message
-// cut short at any byte is refused naming the type, and bytes left over are refused too.
+// cut short at any byte is refused naming the type, and bytes left over are refused too; so are an
+// Image whose data is longer than its rows and a CameraInfo whose D has more than 14 coefficients.
 #include "fleetmap/rosbag/sensor_msgs.h"
 
 #include <gtest/gtest.h>
@@ -60,6 +61,15 @@ TEST(RosSensorMsgs, ImageWhoseDataIsShorterThanItsRowsIsRefused) {
       ErrorCode::kCorrupt, [&] { DecodeRosImage(SerialiseWithRos(m)); }, "fewer than step");
 }
 
+// Rows are `step` apart and there are `height` of them: bytes beyond are no image of this size.
+TEST(RosSensorMsgs, ImageWhoseDataIsLongerThanItsRowsIsRefused) {
+  testing::TestImage m = Content().left[0];
+  m.data += "x";
+  ExpectError(
+      ErrorCode::kCorrupt, [&] { DecodeRosImage(SerialiseWithRos(m)); },
+      "sensor_msgs/Image: data holds 49 bytes, more than step 8 x height 6");
+}
+
 TEST(RosSensorMsgs, CompressedImageComesBackFieldByField) {
   testing::TestCompressedImage m;
   m.stamp_ns = kBagStartNs + 42;
@@ -101,6 +111,22 @@ TEST(RosSensorMsgs, CameraInfoComesBackFieldByField) {
   EXPECT_EQ(info.roi_width, 4u);
   EXPECT_TRUE(info.roi_do_rectify);
   ExpectEveryCutRefused(bytes, "sensor_msgs/CameraInfo", DecodeRosCameraInfo);
+}
+
+// D holds at most the 14 coefficients of OpenCV's largest distortion model; more is refused by
+// the count, before anything is allocated for them.
+TEST(RosSensorMsgs, CameraInfoWithMoreCoefficientsThanAnyDistortionModelIsRefused) {
+  RosCameraInfo m = Content().left_info[0];
+  m.distortion_model = "rational_polynomial";
+  m.d.assign(kMaxCameraInfoDistortionCoefficients, 0.125);
+  EXPECT_EQ(DecodeRosCameraInfo(SerialiseWithRos(m)).d, m.d);
+  for (const std::size_t n : {std::size_t{15}, std::size_t{1000}}) {
+    m.d.assign(n, 0.125);
+    ExpectError(
+        ErrorCode::kCorrupt, [&] { DecodeRosCameraInfo(SerialiseWithRos(m)); },
+        "sensor_msgs/CameraInfo: D has " + std::to_string(n) +
+            " elements, more than the 14 it may have");
+  }
 }
 
 TEST(RosSensorMsgs, ImuComesBackFieldByField) {

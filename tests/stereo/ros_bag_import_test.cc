@@ -9,6 +9,9 @@
 // foreign bags, an unsupported encoding or compressed format, an undecodable compressed image, a
 // missing topic and a second import each fail by name and leave the root and the store exactly
 // as they were; every flipped byte of a compressed image's PNG fails or imports, never crashes.
+// Image bombs (a JPEG or PNG header declaring 32768x32768 or 30000x30000 pixels, a raw image wider
+// than any camera, an image larger than its CameraInfo, a CameraInfo with 1000 coefficients) are
+// refused by name before anything is decoded, the peak memory barely growing.
 #include "fleetmap/stereo/ros_bag_import.h"
 
 #include <gtest/gtest.h>
@@ -30,6 +33,7 @@
 #include "fleetmap/stereo/stereo_image_log.h"
 #include "fleetmap_cli_run.h"
 #include "imported_files.h"
+#include "peak_memory.h"
 #include "ros_test_bag.h"
 #include "scratch_dir.h"
 #include "store_backends.h"
@@ -530,6 +534,170 @@ TYPED_TEST(RosBagImportTest, BadCompressedImagesFailByNameAndChangeNothing) {
   this->ExpectFailsCleanly(
       bad, ErrorCode::kInvalidArgument,
       "is sensor_msgs/Imu, not sensor_msgs/Image or sensor_msgs/CompressedImage", wrong);
+}
+
+// CRC-32 of PNG (ISO 3309), computed here so that a file made to declare a size passes it, as an
+// attacker's would.
+std::uint32_t PngCrc(std::string_view bytes) {
+  std::uint32_t c = 0xFFFFFFFFu;
+  for (const char b : bytes) {
+    c ^= static_cast<unsigned char>(b);
+    for (int k = 0; k < 8; ++k) c = (c & 1) ? 0xEDB88320u ^ (c >> 1) : c >> 1;
+  }
+  return c ^ 0xFFFFFFFFu;
+}
+
+std::string BigEndian32(std::uint32_t v) {
+  return {static_cast<char>(v >> 24), static_cast<char>(v >> 16), static_cast<char>(v >> 8),
+          static_cast<char>(v)};
+}
+
+std::string PngChunk(const std::string& type, const std::string& data) {
+  return BigEndian32(static_cast<std::uint32_t>(data.size())) + type + data +
+         BigEndian32(PngCrc(type + data));
+}
+
+// A PNG whose IHDR declares `width` x `height` grey 8-bit pixels, every CRC right, and whose
+// IDAT holds a valid zlib stream (RFC 1950/1951: one stored block, its Adler-32) of one row of
+// the image: a file of width + 70 bytes.
+std::string PngDeclaring(std::uint32_t width, std::uint32_t height) {
+  const std::string row(width + 1, '\0');  // filter byte 0, then black pixels
+  std::uint32_t a = 1, b = 0;
+  for (const char c : row) {
+    a = (a + static_cast<unsigned char>(c)) % 65521;
+    b = (b + a) % 65521;
+  }
+  const auto n = static_cast<std::uint16_t>(row.size());
+  const std::string zlib = std::string("\x78\x01\x01", 3) +
+                           std::string{static_cast<char>(n), static_cast<char>(n >> 8),
+                                       static_cast<char>(~n), static_cast<char>(~n >> 8)} +
+                           row + BigEndian32(b << 16 | a);
+  return std::string("\x89PNG\r\n\x1a\n", 8) +
+         PngChunk("IHDR",
+                  BigEndian32(width) + BigEndian32(height) + std::string("\x08\0\0\0\0", 5)) +
+         PngChunk("IDAT", zlib) + PngChunk("IEND", "");
+}
+
+// A real 8x8 grey JPEG (OpenCV's encoder) whose baseline frame header (SOF0) is made to declare
+// `width` x `height`: a few hundred bytes that libjpeg would decode into width x height pixels.
+std::string JpegDeclaring(std::uint16_t width, std::uint16_t height) {
+  std::vector<unsigned char> file;
+  EXPECT_TRUE(cv::imencode(".jpg", cv::Mat(8, 8, CV_8UC1, cv::Scalar(128)), file));
+  std::string jpeg(file.begin(), file.end());
+  const std::size_t sof = jpeg.find("\xff\xc0");
+  EXPECT_NE(sof, std::string::npos);
+  EXPECT_EQ(jpeg.substr(sof + 4, 5), std::string("\x08\0\x08\0\x08", 5));  // 8 bits, 8x8
+  jpeg[sof + 5] = static_cast<char>(height >> 8);
+  jpeg[sof + 6] = static_cast<char>(height);
+  jpeg[sof + 7] = static_cast<char>(width >> 8);
+  jpeg[sof + 8] = static_cast<char>(width);
+  return jpeg;
+}
+
+// Image bombs: a bag of a few hundred bytes whose compressed images declare 32768x32768 (JPEG)
+// or 30000x30000 (PNG, with a valid zlib stream and every CRC right) is refused from the file's
+// header, before a decoder allocates the image: the error names the topic, the message and both
+// sizes, the peak memory barely grows, and what an earlier import stored stays. So are a raw
+// Image wider than any camera, a PNG larger than its camera's CameraInfo (which came first), and
+// a CameraInfo whose D has 1000 coefficients.
+TYPED_TEST(RosBagImportTest, ImageBombsAreRefusedBeforeDecoding) {
+  const auto start = std::chrono::steady_clock::now();
+  const fs::path good = this->dir_ / "good.bag";
+  testing::WriteRosBag(good, this->Content(2), BagCompression::kNone);
+  this->Import(good, this->Options());  // something stored before
+  RosBagImportOptions o = this->Options();
+  o.platform = "other";
+  o.stereo_sensor = "other-stereo";
+  o.imu_sensor = "other-imu";
+  o.gps_sensor = "other-gps";
+
+  // One stereo pair of 8x6 frames with their CameraInfo, changed by `change`.
+  const fs::path bad = this->dir_ / "bomb.bag";
+  const auto write = [&](const auto& change) {
+    cv::Mat pixels(6, 8, CV_8UC1, cv::Scalar(7));
+    testing::StereoBagContent c = testing::MakeStereoBagContent({pixels}, {pixels}, 1, 0, 0);
+    change(c);
+    testing::WriteRosBag(bad, c, BagCompression::kNone);
+  };
+  const auto compressed = [](testing::StereoBagContent& c, const std::string& format,
+                             const std::string& data) {
+    for (auto [raw, out] :
+         {std::pair{&c.left, &c.left_compressed}, std::pair{&c.right, &c.right_compressed}}) {
+      out->push_back({raw->front().stamp_ns, "camera", format, data});
+      raw->clear();
+    }
+  };
+  // The root and the store are compared with these at the end: no refused import changes them.
+  const auto files = testing::FilesUnder(this->root_);
+  this->store_.reset();  // StoredState reads the store from outside; nothing may be held open
+  const std::string state = this->backend_.StoredState();
+  this->store_ = GraphStore::Open(this->backend_.Uri());
+  const auto expect_refused_small = [&](ErrorCode code, const std::vector<std::string>& mentions) {
+    EXPECT_LT(fs::file_size(bad), 128u << 10);
+    testing::ResetPeakMemory();
+    const std::int64_t before = testing::PeakMemoryBytes("VmRSS:");
+    try {
+      this->Import(bad, o);
+      ADD_FAILURE() << "the bag was imported";
+    } catch (const Error& e) {
+      EXPECT_EQ(e.code(), code) << e.what();
+      for (const std::string& mention : mentions) {
+        EXPECT_TRUE(testing::Contains(e.what(), mention))
+            << e.what() << "\nshould mention " << mention;
+      }
+    }
+    const std::int64_t grown = testing::PeakMemoryBytes() - before;
+    EXPECT_LT(grown, 64 << 20) << "refusing a " << fs::file_size(bad) << "-byte bag took " << grown
+                               << " bytes more at its peak";
+  };
+
+  write([&](auto& c) { compressed(c, "jpeg", JpegDeclaring(32768, 32768)); });
+  expect_refused_small(ErrorCode::kInvalidArgument,
+                       {"topic /stereo/left/image_raw/compressed, message 1 (chunk at byte",
+                        "sensor_msgs/CompressedImage of format 'jpeg': the jpeg file declares "
+                        "32768x32768 pixels, more than the largest camera fleetmap imports "
+                        "(8192x8192); refused before decoding"});
+  write([&](auto& c) { compressed(c, "png", PngDeclaring(30000, 30000)); });
+  expect_refused_small(ErrorCode::kInvalidArgument,
+                       {"topic /stereo/left/image_raw/compressed, message 1",
+                        "the png file declares 30000x30000 pixels, more than the largest camera "
+                        "fleetmap imports (8192x8192)"});
+  // A raw image one pixel wider than the limit (its data exactly step x height).
+  write([&](auto& c) {
+    for (auto* images : {&c.left, &c.right}) {
+      images->front() =
+          testing::ImageMessage(cv::Mat(1, kMaxRosImageSidePx + 1, CV_8UC1, cv::Scalar(3)), "mono8",
+                                images->front().stamp_ns);
+    }
+  });
+  expect_refused_small(ErrorCode::kInvalidArgument,
+                       {"topic /stereo/left/image_raw, message 1",
+                        "sensor_msgs/Image mono8 declares 8193x1 pixels, more than the largest "
+                        "camera fleetmap imports (8192x8192)"});
+  // A real PNG of 16x12 where the camera's CameraInfo, recorded before it, says 8x6.
+  write([&](auto& c) {
+    for (auto* infos : {&c.left_info, &c.right_info}) infos->front().header.stamp_ns -= 1'000'000;
+    std::vector<unsigned char> png;
+    ASSERT_TRUE(cv::imencode(".png", cv::Mat(12, 16, CV_8UC1, cv::Scalar(9)), png));
+    compressed(c, "png", std::string(png.begin(), png.end()));
+  });
+  expect_refused_small(ErrorCode::kCorrupt,
+                       {"topic /stereo/left/image_raw/compressed, message 1",
+                        "the png file declares 16x12 pixels, more than its camera's CameraInfo "
+                        "(8x6); refused before decoding"});
+  write([&](auto& c) { c.left_info.front().d.assign(1000, 0.5); });
+  expect_refused_small(ErrorCode::kCorrupt,
+                       {"topic /stereo/left/camera_info, message 1",
+                        "sensor_msgs/CameraInfo: D has 1000 elements, more than the 14 it may "
+                        "have"});
+  EXPECT_EQ(testing::FilesUnder(this->root_), files);
+  this->store_.reset();
+  EXPECT_EQ(this->backend_.StoredState(), state);
+  std::cout << "[ timing ] image bombs refused: "
+            << std::chrono::duration_cast<std::chrono::milliseconds>(
+                   std::chrono::steady_clock::now() - start)
+                   .count()
+            << " ms\n";
 }
 
 // Every single byte of one compressed image's PNG flipped in an uncompressed bag (a ROS 1 bag

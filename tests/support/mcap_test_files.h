@@ -44,6 +44,10 @@ inline const std::vector<std::string> kEurocMcapFiles = {"euroc-none.mcap", "eur
                                                          "euroc-zstd.mcap"};
 // The EuRoC content with the right camera's images as CompressedImage PNG files.
 inline const std::string kCompressedMcapFile = "euroc-compressed.mcap";
+// One message a chunk, chunks of sizes at and around the decompressors' buffer sizes, in every
+// compression (zstd at levels 1 and 19).
+inline const std::vector<std::string> kSizedMcapFiles = {"sizes-none.mcap", "sizes-lz4.mcap",
+                                                         "sizes-zstd.mcap", "sizes-zstd19.mcap"};
 
 struct McapTestFiles {
   std::filesystem::path dir;

@@ -63,9 +63,14 @@ class ByteCursor {
     return out;
   }
 
-  // A variable array of doubles (ROS `float64[]`: a uint32 count first).
-  std::vector<double> DoubleVector(std::string_view what) {
+  // A variable array of doubles (ROS `float64[]`: a uint32 count first) of at most `max_count`
+  // (more: Error(kCorrupt), before anything is allocated).
+  std::vector<double> DoubleVector(std::string_view what, std::uint32_t max_count) {
     const auto n = Number<std::uint32_t>(what);
+    if (n > max_count) {
+      Fail(std::string(what) + " has " + std::to_string(n) + " elements, more than the " +
+           std::to_string(max_count) + " it may have");
+    }
     Need(std::uint64_t{n} * sizeof(double), what);  // before allocating for a corrupt count
     std::vector<double> out(n);
     for (double& d : out) d = Number<double>(what);

@@ -15,7 +15,7 @@ RosCameraInfo DecodeRosCameraInfo(std::string_view bytes) {
   info.height = cursor.Number<std::uint32_t>("height");
   info.width = cursor.Number<std::uint32_t>("width");
   info.distortion_model = std::string(cursor.LengthPrefixed("distortion_model"));
-  info.d = cursor.DoubleVector("D");
+  info.d = cursor.DoubleVector("D", kMaxCameraInfoDistortionCoefficients);
   info.k = cursor.Doubles<9>("K");
   info.r = cursor.Doubles<9>("R");
   info.p = cursor.Doubles<12>("P");

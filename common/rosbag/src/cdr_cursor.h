@@ -91,9 +91,14 @@ class CdrCursor {
     return out;
   }
 
-  // A `float64[]` (a uint32 count first).
-  std::vector<double> DoubleSequence(std::string_view what) {
+  // A `float64[]` (a uint32 count first) of at most `max_count` (more: Error(kCorrupt), before
+  // anything is allocated).
+  std::vector<double> DoubleSequence(std::string_view what, std::uint32_t max_count) {
     const auto n = Number<std::uint32_t>(what);
+    if (n > max_count) {
+      Fail(std::string(what) + " has " + std::to_string(n) + " elements, more than the " +
+           std::to_string(max_count) + " it may have");
+    }
     if (n > 0) Align(8, what);
     Need(std::uint64_t{n} * sizeof(double), what);  // before allocating for a corrupt count
     std::vector<double> out(n);

@@ -19,7 +19,7 @@ namespace {
 
 // Decompressed output is gathered one scratch buffer at a time, so memory follows the bytes the
 // data really decompress to, never the size the chunk's header claims: a small bag claiming a
-// 1 GiB chunk is refused after its few real bytes (issue 35 item 7). Output beyond the claim
+// 1 GiB chunk is refused after its few real bytes. Output beyond the claim
 // is refused as it appears.
 constexpr std::size_t kScratchBytes = std::size_t{1} << 16;
 
@@ -110,18 +110,23 @@ std::string Zstd(std::string_view compressed, std::uint64_t size, const std::str
   std::string out;
   std::unique_ptr<char[]> scratch(new char[kScratchBytes]);
   ZSTD_inBuffer in{compressed.data(), compressed.size(), 0};
-  std::size_t hint = 1;  // 0 once a frame is complete
   for (;;) {
     ZSTD_outBuffer piece{scratch.get(), kScratchBytes, 0};
-    hint = ZSTD_decompressStream(dctx.get(), &piece, &in);
+    const std::size_t hint = ZSTD_decompressStream(dctx.get(), &piece, &in);
     if (ZSTD_isError(hint)) {
       Undecodable(context, std::string("zstd data do not decompress: ") + ZSTD_getErrorName(hint));
     }
     AppendWithin(out, scratch.get(), piece.pos, size, "zstd", context);
-    // Done when the input is used up and the output buffer was not filled (nothing held back).
-    if (in.pos == in.size && piece.pos < piece.size) break;
+    // 0: a frame ended and all of it is flushed. That may happen in the call that fills the
+    // buffer exactly (a chunk of a multiple of kScratchBytes), so it ends the chunk when the
+    // input is used up, whether or not the buffer is full; asking again would start a next frame
+    // from no input and hear "more input", which is not a cut.
+    if (hint == 0 && in.pos == in.size) break;
+    // Mid-frame with the input used up and room left in the buffer: nothing more can come out.
+    if (in.pos == in.size && piece.pos < piece.size) {
+      Undecodable(context, "zstd frame cut short (the chunk ends inside it)");
+    }
   }
-  if (hint != 0) Undecodable(context, "zstd frame cut short (the chunk ends inside it)");
   if (out.size() != size) {
     Undecodable(context, "zstd data decompress to " + std::to_string(out.size()) +
                              " bytes, not the chunk's size " + std::to_string(size));

@@ -18,8 +18,12 @@ RosImage DecodeRosImage(std::string_view bytes) {
   image.step = cursor.Number<std::uint32_t>("step");
   image.data = cursor.LengthPrefixed("data");
   cursor.ExpectEnd();
-  if (image.data.size() < std::uint64_t{image.step} * image.height) {
-    cursor.Fail("data holds " + std::to_string(image.data.size()) + " bytes, fewer than step " +
+  // Exactly: rows are `step` apart and there are `height` of them. Fewer would be read past;
+  // more is no image of this size.
+  if (const std::uint64_t rows = std::uint64_t{image.step} * image.height;
+      image.data.size() != rows) {
+    cursor.Fail("data holds " + std::to_string(image.data.size()) + " bytes, " +
+                (image.data.size() < rows ? "fewer" : "more") + " than step " +
                 std::to_string(image.step) + " x height " + std::to_string(image.height));
   }
   return image;

@@ -49,8 +49,12 @@ RosImage DecodeRos2Image(std::string_view cdr) {
   image.step = cursor.Number<std::uint32_t>("step");
   image.data = cursor.ByteSequence("data");
   cursor.ExpectEnd();
-  if (image.data.size() < std::uint64_t{image.step} * image.height) {
-    cursor.Fail("data holds " + std::to_string(image.data.size()) + " bytes, fewer than step " +
+  // Exactly: rows are `step` apart and there are `height` of them. Fewer would be read past;
+  // more is no image of this size.
+  if (const std::uint64_t rows = std::uint64_t{image.step} * image.height;
+      image.data.size() != rows) {
+    cursor.Fail("data holds " + std::to_string(image.data.size()) + " bytes, " +
+                (image.data.size() < rows ? "fewer" : "more") + " than step " +
                 std::to_string(image.step) + " x height " + std::to_string(image.height));
   }
   return image;
@@ -73,7 +77,7 @@ RosCameraInfo DecodeRos2CameraInfo(std::string_view cdr) {
   info.height = cursor.Number<std::uint32_t>("height");
   info.width = cursor.Number<std::uint32_t>("width");
   info.distortion_model = cursor.String("distortion_model");
-  info.d = cursor.DoubleSequence("d");
+  info.d = cursor.DoubleSequence("d", kMaxCameraInfoDistortionCoefficients);
   info.k = cursor.Doubles<9>("k");
   info.r = cursor.Doubles<9>("r");
   info.p = cursor.Doubles<12>("p");

@@ -439,15 +439,21 @@ RosBagImportResult ImportRosBag(
             case Role::kLeft:
             case Role::kRight: {
               StereoFrame frame;
+              // Its camera's CameraInfo bounds the image when it came first.
+              const std::optional<RosCameraInfo>& info =
+                  role == Role::kLeft ? left_info : right_info;
+              const RosCameraInfo* camera_info = info ? &*info : nullptr;
               if (m.connection->sensor_type == SensorMsgType::kCompressedImage) {
                 const RosCompressedImage image = reader.DecodeCompressedImage(m.data);
-                internal::DecodedRosImage decoded = internal::RosCompressedImageToPng(image);
+                internal::DecodedRosImage decoded =
+                    internal::RosCompressedImageToPng(image, camera_info);
                 frame = StereoFrame{StampOf(image.header, m, result.stamped_by_receive_time),
                                     std::move(decoded.png), decoded.width_px, decoded.height_px};
               } else {
                 const RosImage image = reader.DecodeImage(m.data);
                 frame = StereoFrame{StampOf(image.header, m, result.stamped_by_receive_time),
-                                    internal::RosImageToPng(image), image.width, image.height};
+                                    internal::RosImageToPng(image, camera_info), image.width,
+                                    image.height};
               }
               role == Role::kLeft ? pairing.AddLeft(std::move(frame))
                                   : pairing.AddRight(std::move(frame));

@@ -10,6 +10,8 @@
 #include <vector>
 
 #include "fleetmap/core/error.h"
+#include "fleetmap/stereo/ros_bag_import.h"
+#include "image_header.h"
 
 namespace fleetmap::internal {
 namespace {
@@ -59,9 +61,30 @@ bool BeginsAs(std::string_view data, const std::string& codec) {
   return codec == "png" ? data.starts_with("\x89PNG\r\n\x1a\n") : data.starts_with("\xff\xd8\xff");
 }
 
+// Refuses an image of `width` x `height` pixels larger than any camera fleetmap imports, or
+// than its camera's CameraInfo says (`info`, when given with a size). `what` names the image.
+void CheckImageSize(const std::string& what, std::uint32_t width, std::uint32_t height,
+                    const RosCameraInfo* info) {
+  const std::string size = std::to_string(width) + "x" + std::to_string(height);
+  if (width > kMaxRosImageSidePx || height > kMaxRosImageSidePx) {
+    throw Error(ErrorCode::kInvalidArgument,
+                what + " declares " + size + " pixels, more than the largest camera fleetmap " +
+                    "imports (" + std::to_string(kMaxRosImageSidePx) + "x" +
+                    std::to_string(kMaxRosImageSidePx) + "); refused before decoding");
+  }
+  if (info != nullptr && info->width > 0 && info->height > 0 &&
+      (width > info->width || height > info->height)) {
+    throw Error(ErrorCode::kCorrupt,
+                what + " declares " + size + " pixels, more than its camera's CameraInfo (" +
+                    std::to_string(info->width) + "x" + std::to_string(info->height) +
+                    "); refused before decoding");
+  }
+}
+
 }  // namespace
 
-DecodedRosImage RosCompressedImageToPng(const RosCompressedImage& image) {
+DecodedRosImage RosCompressedImageToPng(const RosCompressedImage& image,
+                                        const RosCameraInfo* camera_info) {
   const std::string codec = CodecOf(image.format);
   if (codec.empty()) {
     throw Error(ErrorCode::kInvalidArgument,
@@ -73,6 +96,22 @@ DecodedRosImage RosCompressedImageToPng(const RosCompressedImage& image) {
     throw Error(ErrorCode::kCorrupt, "sensor_msgs/CompressedImage of format '" + image.format +
                                          "': its " + std::to_string(image.data.size()) +
                                          " bytes do not begin as a " + codec + " file does");
+  }
+  // The size first, from the file's header: the decoders allocate what it declares.
+  const std::string what = "sensor_msgs/CompressedImage of format '" + image.format + "'";
+  EncodedImageHeader header;
+  try {
+    header = codec == "png" ? ReadPngHeader(image.data) : ReadJpegHeader(image.data);
+  } catch (const Error& e) {
+    throw Error(e.code(), what + ": its " + std::to_string(image.data.size()) +
+                              " bytes do not decode as " + codec + " (" + e.message() + ")");
+  }
+  CheckImageSize(what + ": the " + codec + " file", header.width_px, header.height_px, camera_info);
+  if (!header.unsupported.empty()) {
+    throw Error(ErrorCode::kInvalidArgument,
+                what + ": the " + codec + " file declares " + header.unsupported +
+                    ", which is not supported (supported: the pixels of " +
+                    kSupportedRosImageEncodings + "); refused before decoding");
   }
   cv::Mat pixels;
   try {
@@ -108,12 +147,13 @@ DecodedRosImage RosCompressedImageToPng(const RosCompressedImage& image) {
                          static_cast<std::uint32_t>(pixels.rows)};
 }
 
-std::string RosImageToPng(const RosImage& image) {
+std::string RosImageToPng(const RosImage& image, const RosCameraInfo* camera_info) {
   const PixelFormat format = FormatOf(image.encoding);
   if (image.width == 0 || image.height == 0) {
     throw Error(ErrorCode::kCorrupt, "sensor_msgs/Image of " + std::to_string(image.width) + "x" +
                                          std::to_string(image.height) + " pixels: empty");
   }
+  CheckImageSize("sensor_msgs/Image " + image.encoding, image.width, image.height, camera_info);
   const std::uint64_t row_bytes = std::uint64_t{image.width} * format.bytes_per_pixel;
   if (image.step < row_bytes) {
     throw Error(ErrorCode::kCorrupt, "sensor_msgs/Image " + image.encoding + " of width " +
@@ -123,7 +163,7 @@ std::string RosImageToPng(const RosImage& image) {
   }
   // Rows copied out packed: a step need not be a multiple of the pixel size (a mono16 row may
   // be padded by an odd byte count), which OpenCV cannot view. DecodeRosImage checked that
-  // data holds step * height bytes.
+  // data holds step * height bytes, so the copy is no larger than the message.
   cv::Mat pixels(static_cast<int>(image.height), static_cast<int>(image.width), format.cv_type);
   for (int r = 0; r < pixels.rows; ++r) {
     std::memcpy(pixels.ptr(r), image.data.data() + std::size_t{image.step} * r, row_bytes);

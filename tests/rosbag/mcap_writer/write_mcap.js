@@ -26,9 +26,20 @@
 //     CompressedImage) in chunks of about 1 KiB,
 //     their schemas without the types they use: the files the tests flip and cut byte by byte;
 //   small-big-endian.mcap  the small content in big-endian CDR, uncompressed;
+//   sizes-none.mcap, sizes-lz4.mcap, sizes-zstd.mcap (zstd level 1), sizes-zstd19.mcap (level 19)
+//     chunks of sizes at and around multiples of the readers' decompression buffers (64 KiB,
+//     and zstd's 128 KiB ZSTD_DStreamOutSize()): one message a chunk, each a
+//     sensor_msgs/msg/CompressedImage of format "bytes" on /sizes, padded so that its chunk's
+//     records take exactly the bytes kSizedChunks says (text of words, which both codecs
+//     compress), and in the compressed files also chunks whose compressed records take exactly
+//     the bytes kSizedCompressedChunks says (random bytes, which neither compresses); the first
+//     chunk, which also holds the schema and the channel, is small. level 19 only on the chunks
+//     up to 128 KiB (it compresses at a few hundred KiB a second);
 //   written.json  every value written, file by file and message by message in file order (times
 //     as decimal strings of nanoseconds; image pixels as the PNG they came from, or as numbers for
-//     the synthetic ones), for the tests to compare what fleetmap reads with.
+//     the synthetic ones; the sized files' data as its length and FNV-1a 32 hash, and their
+//     chunks' uncompressed and compressed sizes), for the tests to compare what fleetmap reads
+//     with.
 //
 // Every value is chosen deterministically (no randomness, no clock): two runs write the same
 // files.
@@ -369,6 +380,144 @@ async function WriteMcap(file, messages, compression, chunkSize, kind, fullSchem
   return { compression, messages: written };
 }
 
+// The uncompressed sizes of the sized files' chunks (after the first), and the compressed sizes
+// of further chunks of the compressed ones.
+const kSizedChunks = [
+  65535, 65536, 65537, 131071, 131072, 131073, 196608, 262144, 393216, 1048576, 4194304,
+];
+const kSizedCompressedChunks = [65535, 65536, 65537, 131072, 262144];
+
+// Deterministic bytes: xorshift32 from `seed`. `text`: words of a fixed list (compressible);
+// else the generator's bytes (incompressible).
+function PatternBytes(n, seed, text) {
+  const out = new Uint8Array(n);
+  let s = seed >>> 0 || 1;
+  const next = () => {
+    s ^= s << 13;
+    s ^= s >>> 17;
+    s ^= s << 5;
+    return s >>> 0;
+  };
+  if (!text) {
+    for (let i = 0; i < n; ++i) out[i] = next() >>> 24;
+    return out;
+  }
+  const words = [];
+  for (let w = 0; w < 256; ++w) {
+    let t = "";
+    for (let k = 0; k < 3 + (w % 7); ++k) t += String.fromCharCode(97 + ((w * 7 + k * 13) % 26));
+    words.push(t + " ");
+  }
+  for (let i = 0; i < n; ) {
+    const word = words[next() >>> 24];
+    for (let k = 0; k < word.length && i < n; ++k) out[i++] = word.charCodeAt(k);
+  }
+  return out;
+}
+
+function Fnv1a32(bytes) {
+  let h = 0x811c9dc5;
+  for (let i = 0; i < bytes.length; ++i) h = Math.imul(h ^ bytes[i], 0x01000193) >>> 0;
+  return h.toString(16).padStart(8, "0");
+}
+
+// A Message record (MCAP opcode 0x05) as McapWriter's ChunkBuilder lays it out in a chunk.
+const kMessageRecordOverhead = 1 + 8 + 2 + 4 + 8 + 8;
+function MessageRecord(channelId, sequence, logTime, publishTime, data) {
+  const out = new Uint8Array(kMessageRecordOverhead + data.length);
+  const view = new DataView(out.buffer);
+  out[0] = 0x05;
+  view.setBigUint64(1, BigInt(out.length - 9), true);
+  view.setUint16(9, channelId, true);
+  view.setUint32(11, sequence, true);
+  view.setBigUint64(15, logTime, true);
+  view.setBigUint64(23, publishTime, true);
+  out.set(data, kMessageRecordOverhead);
+  return out;
+}
+
+// Writes the sized file `name` compressed by `compress` (undefined: none) into `outDir`: each
+// chunk one message (McapWriter closes a chunk once it holds more than chunkSize bytes: 0). Checks
+// every chunk's size is the one asked for; returns what written.json says of the file.
+async function WriteSizedMcap(outDir, name, compression, compress, uncompressedSizes,
+                              compressedSizes) {
+  const chunks = [];
+  const writable = new BufferWritable();
+  const writer = new McapWriter({
+    writable, chunkSize: 0,
+    compressChunk: compress && ((data) => {
+      const compressedData = compress(data);
+      chunks.push({ uncompressed_size: data.length, compressed_size: compressedData.length });
+      return { compression, compressedData };
+    }),
+  });
+  await writer.start({ profile: "ros2", library: "fleetmap tests/rosbag/mcap_writer" });
+  const type = "sensor_msgs/msg/CompressedImage";
+  const schemaId = await writer.registerSchema({
+    name: type, encoding: "ros2msg", data: new TextEncoder().encode(kSchemas[type]),
+  });
+  const channelId = await writer.registerChannel({
+    topic: "/sizes", messageEncoding: "cdr", schemaId,
+    metadata: new Map([["offered_qos_profiles", ""]]),
+  });
+  const start = BigInt(kStartSec) * 1000000000n;
+  const cdr = (sequence, bytes) => {
+    const w = new CdrWriter({ kind: EncapsulationKind.CDR_LE });
+    kSerialise[type](w, {
+      header: { ...StampOf(start + BigInt(sequence) * 1000000n), frame_id: "sizes" },
+      format: "bytes",
+    }, bytes);
+    return w.data;
+  };
+  const cdrOverhead = cdr(0, new Uint8Array(0)).length;
+  // [payload, expected chunk size, which size] of each message.
+  const plan = [[PatternBytes(16, 1, true), null, null]];
+  for (const n of uncompressedSizes) {
+    const payload = PatternBytes(n - kMessageRecordOverhead - cdrOverhead, n, true);
+    plan.push([payload, n, "uncompressed_size"]);
+  }
+  for (const n of compress ? compressedSizes : []) {
+    // Random bytes compress to themselves and a few bytes of framing: find the payload whose
+    // record compresses to exactly n bytes.
+    const sequence = plan.length + 1;
+    const logTime = start + BigInt(sequence) * 1000000n + 1000000n;
+    const all = PatternBytes(n + 1024, n, false);
+    let p = n - kMessageRecordOverhead - cdrOverhead;
+    for (let tries = 0; ; ++tries) {
+      const record = MessageRecord(channelId, sequence, logTime, logTime - 1000000n,
+                                   cdr(sequence, all.subarray(0, p)));
+      const got = compress(record).length;
+      if (got === n) break;
+      if (tries === 20) throw new Error(`${name}: no payload compresses to ${n} bytes`);
+      p += n - got;
+    }
+    plan.push([all.slice(0, p), n, "compressed_size"]);
+  }
+  const messages = [];
+  for (const [bytes] of plan) {
+    const sequence = messages.length + 1;
+    const publishTime = start + BigInt(sequence) * 1000000n;
+    const logTime = publishTime + 1000000n;
+    const data = cdr(sequence, bytes);
+    await writer.addMessage({ channelId, sequence, logTime, publishTime, data });
+    if (!compress) chunks.push({ uncompressed_size: data.length + kMessageRecordOverhead });
+    messages.push({
+      topic: "/sizes", type, sequence, log_time: logTime.toString(),
+      publish_time: publishTime.toString(), bytes: data.length,
+      message: { data_size: bytes.length, data_fnv1a32: Fnv1a32(bytes) },
+    });
+  }
+  await writer.end();
+  if (!compress) chunks[0].uncompressed_size = null;  // the first chunk also holds the schema
+  plan.forEach(([, n, which], i) => {
+    if (n !== null && chunks[i][which] !== n) {
+      throw new Error(`${name}: chunk ${i} has ${which} ${chunks[i][which]}, not ${n}`);
+    }
+  });
+  fs.writeFileSync(path.join(outDir, name), Buffer.concat(writable.parts));
+  return { compression, chunks, messages };
+}
+
 async function Main() {
   const [eurocDir, outDir] = process.argv.slice(2);
   if (!eurocDir || !outDir) {
@@ -393,6 +542,17 @@ async function Main() {
   files["small-big-endian.mcap"] = await WriteMcap(
     path.join(outDir, "small-big-endian.mcap"), small, "none", 1024, EncapsulationKind.CDR_BE,
     false);
+  const sized = [
+    ["sizes-none.mcap", "none", undefined, kSizedChunks],
+    ["sizes-lz4.mcap", "lz4", (data) => Uint8Array.from(lz4js.compress(data)), kSizedChunks],
+    ["sizes-zstd.mcap", "zstd", (data) => zstd.compress(data, 1), kSizedChunks],
+    ["sizes-zstd19.mcap", "zstd", (data) => zstd.compress(data, 19),
+     kSizedChunks.filter((n) => n <= 131072)],
+  ];
+  for (const [name, compression, compress, sizes] of sized) {
+    files[name] = await WriteSizedMcap(outDir, name, compression, compress, sizes,
+                                       kSizedCompressedChunks);
+  }
   fs.writeFileSync(path.join(outDir, "written.json"), JSON.stringify({ files }, null, 1));
 }
 

@@ -39,7 +39,7 @@ struct RosHeader {
   std::string frame_id;
 };
 
-// sensor_msgs/Image. REQUIRES of the message, checked: data holds at least step * height bytes.
+// sensor_msgs/Image. REQUIRES of the message, checked: data holds exactly step * height bytes.
 struct RosImage {
   RosHeader header;
   std::uint32_t height = 0, width = 0;
@@ -56,7 +56,13 @@ struct RosCompressedImage {
   std::string_view data;  // the compressed image, as `format` says
 };
 
-// sensor_msgs/CameraInfo (the plumb_bob model's D is k1, k2, t1, t2, k3).
+// The most coefficients a CameraInfo's D may have: the most any distortion model of OpenCV's
+// has (rational_polynomial with thin prism and tilt: k1-k6, p1, p2, s1-s4, tau_x, tau_y). A D
+// with more is refused before it is allocated (a count of 2^25 would be 256 MiB).
+inline constexpr std::uint32_t kMaxCameraInfoDistortionCoefficients = 14;
+
+// sensor_msgs/CameraInfo (the plumb_bob model's D is k1, k2, t1, t2, k3). D holds at most
+// kMaxCameraInfoDistortionCoefficients, checked; K, R and P have their fixed sizes on the wire.
 struct RosCameraInfo {
   RosHeader header;
   std::uint32_t height = 0, width = 0;

@@ -23,6 +23,16 @@
 // Every other topic (a CompressedImage topic beside two Image cameras among them) is skipped and
 // listed.
 //
+// Image bombs: a file of a few hundred bytes can declare an image of 32768 x 32768 pixels, which
+// a decoder would allocate (and fill with what the data do not give). Every image's size is
+// checked before anything is decoded or allocated for it, from the message (sensor_msgs/Image:
+// width and height, data exactly step x height bytes) or from the compressed file's header (PNG's
+// IHDR, JPEG's SOFn): no side over kMaxRosImageSidePx, and none larger than its camera's
+// CameraInfo when that came first. So one image's pixels take at most kMaxRosImageSidePx^2 x 4
+// bytes (256 MiB) while it is converted, whatever the file declares. A CameraInfo's D has at most
+// kMaxCameraInfoDistortionCoefficients (fleetmap/rosbag/sensor_msgs.h; K, R and P have their
+// fixed sizes on the wire).
+//
 // All or nothing: the bag is read once, start to end, each chunk checked before its messages
 // are used; record files are written as hidden partial files and renamed into place only when
 // the whole bag has been read, and all of them are indexed in one transaction. On any error
@@ -41,6 +51,11 @@
 #include "fleetmap/store/graph_store.h"
 
 namespace fleetmap {
+
+// The largest image the import takes, each side in pixels: the largest camera a robot carries.
+// An image declaring more is refused (Error(kInvalidArgument) naming the topic, the message and
+// both sizes) before it is decoded.
+inline constexpr std::uint32_t kMaxRosImageSidePx = 8192;
 
 struct RosBagImportOptions {
   std::string platform;
@@ -90,9 +105,10 @@ struct RosBagImportResult {
 // kInvalidArgument, kCorrupt, naming the file and the offset), Error(kInvalidArgument) naming a
 // topic that is missing or of another type, ambiguous topics (with the candidates), an
 // unsupported image encoding or CompressedImage format (with the supported ones), images of two
-// sizes in one stereo log, or a bag with nothing to import, and Error(kCorrupt) naming the topic,
-// message and chunk offset for a message that does not decode (a CompressedImage whose bytes
-// are not a PNG or JPEG OpenCV decodes among them).
+// sizes in one stereo log, an image larger than kMaxRosImageSidePx, or a bag with nothing to
+// import, and Error(kCorrupt) naming the topic, message and chunk offset for a message that does
+// not decode (a CompressedImage whose bytes are not a PNG or JPEG OpenCV decodes among them, an
+// image larger than its camera's CameraInfo, a CameraInfo with too many coefficients in D).
 RosBagImportResult ImportRosBag(
     const std::filesystem::path& bag, GraphStore& store, const std::filesystem::path& root,
     const RosBagImportOptions& options,
