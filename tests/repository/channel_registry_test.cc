@@ -1,7 +1,8 @@
 // Release channels and what each robot runs (issue 38 items 1-2; channel_registry.h,
 // robot_registry.h), on both stores: names and ranges refused by name, every move logged in
-// order, a score check that refuses a worse revision and changes nothing, robots' reports kept,
-// and the release figures (behind, map differs) each made to fail.
+// order, a score check that refuses a worse revision and changes nothing, or that has nothing
+// to replay, robots' reports kept, and the release figures (behind, map differs) each made to
+// fail.
 #include "fleetmap/repository/channel_registry.h"
 
 #include <gtest/gtest.h>
@@ -134,6 +135,38 @@ TYPED_TEST(ChannelRegistryTest, AScoreCheckRefusesAWorseRevisionAndChangesNothin
   EXPECT_EQ(*log[1].held_out, held_out);
   EXPECT_EQ(log[1].current->revision, 2);
   EXPECT_DOUBLE_EQ(log[1].current->score, forward.current->score);
+}
+
+// A held-out submission that can judge nothing: one still being received (0 bytes so far), and a
+// complete one with no frames. Its replay would score 0 of 0 frames on both revisions, a tie
+// that lets any move through; the move is refused naming the submission, and changes nothing.
+TYPED_TEST(ChannelRegistryTest, AScoreCheckWithNothingToReplayIsRefused) {
+  this->PushAndMerge(0, 0.0);
+  this->PushAndMerge(1, 0.0);
+  ChannelRegistry channels(*this->repository_);
+  channels.Set("stable", 1, "ops", "", 10);
+
+  const Uuid receiving = Uuid::Generate();
+  this->repository_->BeginChunkedPush(receiving, Uuid::Generate(), "scout");
+  const Uuid empty = Uuid::Generate();
+  this->repository_->Push(empty, Uuid::Generate(), "scout", GraphBatch{});
+  for (const std::string channel : {"stable", "canary"}) {  // canary: nothing to compare with
+    SCOPED_TRACE(channel);
+    ExpectError(
+        ErrorCode::kInvalidArgument,
+        [&] { channels.Set(channel, 2, "ops", "", 20, ScoreCheck{receiving}); },
+        receiving.ToString() + " is not fully received");
+    ExpectError(
+        ErrorCode::kInvalidArgument,
+        [&] { channels.Set(channel, 2, "ops", "", 30, ScoreCheck{empty}); },
+        empty.ToString() + " has no frames");
+  }
+  EXPECT_EQ(channels.Resolve("stable"), 1);
+  EXPECT_EQ(channels.Log("stable").size(), 1u);
+  EXPECT_FALSE(channels.Find("canary"));
+  ExpectError(
+      ErrorCode::kInvalidArgument, [&] { channels.Score(2, ScoreCheck{receiving}); },
+      "not fully received");
 }
 
 TYPED_TEST(ChannelRegistryTest, RobotReportsAreKeptAndJudged) {

@@ -87,6 +87,23 @@ ChannelMove ParseMove(std::string_view name, const std::string& value) {
   }
 }
 
+// A held-out submission that can judge a move: stored, and received whole (a submission still
+// arriving holds part of an outing, or nothing).
+void RequireJudge(VersionStore& versions, const Uuid& held_out) {
+  const std::optional<Submission> submission = versions.FindSubmission(held_out);
+  if (!submission) {
+    throw Error(ErrorCode::kNotFound,
+                "score check: no submission " + held_out.ToString() + " is stored");
+  }
+  if (submission->state == SubmissionState::kReceiving) {
+    throw Error(ErrorCode::kInvalidArgument, "score check: held-out submission " +
+                                                 held_out.ToString() + " is not fully received (" +
+                                                 std::to_string(submission->chunk_count) +
+                                                 " chunks, " + std::to_string(submission->bytes) +
+                                                 " bytes so far), so it cannot judge a revision");
+  }
+}
+
 std::string ScoreText(const RevisionScore& score) {
   char text[160];
   std::snprintf(text, sizeof text, "revision %lld scores %.4f (%zu of %zu frames localised)",
@@ -98,6 +115,7 @@ std::string ScoreText(const RevisionScore& score) {
 }  // namespace
 
 RevisionScore ChannelRegistry::Score(RevisionNumber revision, const ScoreCheck& check) {
+  RequireJudge(repository_.versions(), check.held_out);
   const std::vector<HeldOutOuting> held_out =
       HeldOutOutings(repository_.ReadSubmission(check.held_out));
   const GraphBatch map = repository_.Checkout(revision);
@@ -109,6 +127,13 @@ RevisionScore ChannelRegistry::Score(RevisionNumber revision, const ScoreCheck& 
   const ExperienceMap experience_map = ExperienceMap::FromGraph(map.nodes, map.edges, vocabulary);
   const HeldOutReplay replay =
       ReplayHeldOut(experience_map, held_out, repository_.merge_options().localiser);
+  // No frames: both revisions would score 0 of 0 and tie, which would let any move through.
+  if (replay.frames == 0) {
+    throw Error(ErrorCode::kInvalidArgument,
+                "score check: held-out submission " + check.held_out.ToString() +
+                    " has no frames to replay, so it cannot judge a revision (name a "
+                    "submission that holds an outing)");
+  }
   RevisionScore score;
   score.revision = revision;
   score.score = HeldOutScore(replay, check.gap_m);
@@ -147,10 +172,7 @@ ChannelMove ChannelRegistry::Set(std::string_view name, RevisionNumber to, const
   if (move.from == to) return move;
 
   if (check) {
-    if (!repository_.versions().FindSubmission(check->held_out)) {
-      throw Error(ErrorCode::kNotFound,
-                  "score check: no submission " + check->held_out.ToString() + " is stored");
-    }
+    RequireJudge(repository_.versions(), check->held_out);
     move.held_out = check->held_out;
     move.proposed = Score(to, *check);
     if (current) {

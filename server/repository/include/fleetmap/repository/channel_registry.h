@@ -81,7 +81,8 @@ class ChannelRegistry {
   // held-out replay runs first and a proposed score worse than the current one throws
   // Error(kConflict) giving both scores, changing nothing. Throws Error(kInvalidArgument) for a
   // bad name, an empty `who` or a revision out of range, Error(kNotFound) for an unknown
-  // held-out submission, and what the store throws.
+  // held-out submission, Error(kInvalidArgument) for one that cannot judge (Score), and what
+  // the store throws.
   ChannelMove Set(std::string_view name, RevisionNumber to, const std::string& who,
                   const std::string& why, std::int64_t now_ns,
                   const std::optional<ScoreCheck>& check = std::nullopt);
@@ -98,7 +99,9 @@ class ChannelRegistry {
   RevisionNumber Resolve(std::string_view name);
 
   // The held-out replay of the map at `revision` (what Set's check runs). Throws
-  // Error(kNotFound) for an unknown submission or revision.
+  // Error(kNotFound) for an unknown submission or revision, and Error(kInvalidArgument) naming
+  // a submission that cannot judge: one not fully received, or one with no frames (it would
+  // score 0 of 0 frames at every revision, a tie that lets any move through).
   RevisionScore Score(RevisionNumber revision, const ScoreCheck& check);
 
  private:
