@@ -1,16 +1,22 @@
 // Release channels and what each robot runs (issue 38 items 1-2; channel_registry.h,
 // robot_registry.h), on both stores: names and ranges refused by name, every move logged in
-// order, a score check that refuses a worse revision and changes nothing, robots' reports kept,
-// and the release figures (behind, map differs) each made to fail.
+// order, a score check that refuses a worse revision and changes nothing, or that has nothing
+// to replay, moves made at once from several connections logged as one chain, robots' reports
+// kept, and the release figures (behind, map differs) each made to fail.
 #include "fleetmap/repository/channel_registry.h"
 
 #include <gtest/gtest.h>
+
+#include <latch>
+#include <mutex>
+#include <thread>
 
 #include "corridor_robot_map.h"
 #include "expect_error.h"
 #include "fleetmap/core/error.h"
 #include "fleetmap/repository/repository.h"
 #include "fleetmap/repository/robot_registry.h"
+#include "random_robot_map.h"
 #include "store_backends.h"
 
 namespace fleetmap {
@@ -18,6 +24,7 @@ namespace {
 
 using testing::BackendNames;
 using testing::StoreBackends;
+using testing::WallNs;
 
 template <typename Backend>
 class ChannelRegistryTest : public ::testing::Test {
@@ -25,9 +32,15 @@ class ChannelRegistryTest : public ::testing::Test {
   void SetUp() override {
     if (auto why = Backend::Unavailable()) GTEST_SKIP() << *why;
     backend_.emplace();
+    repository_ = OpenAnother();
+  }
+
+  // The repository once more, on a connection of its own: what another `fleetmap channel set`
+  // process has.
+  std::unique_ptr<Repository> OpenAnother() {
     RepositoryOptions options;
     options.vocabulary = SharedCorridorVocabulary();
-    repository_ = Repository::Open(backend_->Uri(), options);
+    return Repository::Open(backend_->Uri(), options);
   }
 
   Uuid PushAndMerge(int condition, double start_m) {
@@ -134,6 +147,112 @@ TYPED_TEST(ChannelRegistryTest, AScoreCheckRefusesAWorseRevisionAndChangesNothin
   EXPECT_EQ(*log[1].held_out, held_out);
   EXPECT_EQ(log[1].current->revision, 2);
   EXPECT_DOUBLE_EQ(log[1].current->score, forward.current->score);
+}
+
+// A held-out submission that can judge nothing: one still being received (0 bytes so far), and a
+// complete one with no frames. Its replay would score 0 of 0 frames on both revisions, a tie
+// that lets any move through; the move is refused naming the submission, and changes nothing.
+TYPED_TEST(ChannelRegistryTest, AScoreCheckWithNothingToReplayIsRefused) {
+  this->PushAndMerge(0, 0.0);
+  this->PushAndMerge(1, 0.0);
+  ChannelRegistry channels(*this->repository_);
+  channels.Set("stable", 1, "ops", "", 10);
+
+  const Uuid receiving = Uuid::Generate();
+  this->repository_->BeginChunkedPush(receiving, Uuid::Generate(), "scout");
+  const Uuid empty = Uuid::Generate();
+  this->repository_->Push(empty, Uuid::Generate(), "scout", GraphBatch{});
+  for (const std::string channel : {"stable", "canary"}) {  // canary: nothing to compare with
+    SCOPED_TRACE(channel);
+    ExpectError(
+        ErrorCode::kInvalidArgument,
+        [&] { channels.Set(channel, 2, "ops", "", 20, ScoreCheck{receiving}); },
+        receiving.ToString() + " is not fully received");
+    ExpectError(
+        ErrorCode::kInvalidArgument,
+        [&] { channels.Set(channel, 2, "ops", "", 30, ScoreCheck{empty}); },
+        empty.ToString() + " has no frames");
+  }
+  EXPECT_EQ(channels.Resolve("stable"), 1);
+  EXPECT_EQ(channels.Log("stable").size(), 1u);
+  EXPECT_FALSE(channels.Find("canary"));
+  ExpectError(
+      ErrorCode::kInvalidArgument, [&] { channels.Score(2, ScoreCheck{receiving}); },
+      "not fully received");
+}
+
+// Moves of one channel from several connections at once, one mover with a score check whose
+// replays let the others move the channel meanwhile. Each move is judged against the revision
+// the channel holds when it lands, so the log is one chain (each move's `from` the previous
+// one's `to`, and a checked move's current score is of that revision) and the channel is where
+// the last logged move put it. A mover that keeps losing the race may be refused, and a checked
+// move to a worse revision is, by name; nothing else may fail.
+TYPED_TEST(ChannelRegistryTest, ConcurrentMovesOfOneChannelLogOneChain) {
+  this->PushAndMerge(0, 0.0);
+  this->PushAndMerge(1, 30.0);
+  this->PushAndMerge(0, 60.0);
+  const Uuid held_out = Uuid::Generate();  // pushed, not merged
+  this->repository_->Push(held_out, Uuid::Generate(), "surveyor", CorridorRobotMap({{0, 30.0}}));
+  constexpr int kMovers = 4;
+  constexpr int kMovesEach = 8;
+  std::vector<std::unique_ptr<Repository>> repositories;
+  for (int i = 0; i < kMovers; ++i) repositories.push_back(this->OpenAnother());
+
+  std::mutex mutex;
+  std::size_t moves_made = 0;
+  std::vector<std::string> unexpected;
+  std::latch start(kMovers);
+  std::vector<std::thread> movers;
+  for (int i = 0; i < kMovers; ++i) {
+    movers.emplace_back([&, i] {
+      ChannelRegistry channels(*repositories[static_cast<std::size_t>(i)]);
+      start.arrive_and_wait();
+      for (int j = 0; j < kMovesEach; ++j) {
+        const RevisionNumber to = 1 + (i + j) % 3;
+        std::optional<ScoreCheck> check;
+        if (i == 0) check = ScoreCheck{held_out, 10.0};
+        try {
+          const ChannelMove move = channels.Set("stable", to, "mover-" + std::to_string(i),
+                                                "move " + std::to_string(j), WallNs(), check);
+          const std::lock_guard<std::mutex> lock(mutex);
+          if (move.from != move.to) ++moves_made;
+        } catch (const Error& error) {
+          const std::string what = error.what();
+          const bool named = what.find("try again") != std::string::npos ||
+                             (check && what.find("localises worse") != std::string::npos);
+          const std::lock_guard<std::mutex> lock(mutex);
+          if (error.code() != ErrorCode::kConflict || !named) unexpected.push_back(what);
+        }
+      }
+    });
+  }
+  for (std::thread& mover : movers) mover.join();
+  for (const std::string& what : unexpected) ADD_FAILURE() << what;
+
+  ChannelRegistry channels(*this->repository_);
+  const std::vector<ChannelMove> log = channels.Log("stable");
+  ASSERT_EQ(log.size(), moves_made) << "every move made is logged, once";
+  ASSERT_FALSE(log.empty());
+  EXPECT_EQ(log[0].from, 0);
+  std::size_t broken = 0;
+  std::size_t checked = 0;
+  for (std::size_t k = 0; k < log.size(); ++k) {
+    EXPECT_NE(log[k].from, log[k].to) << "move " << k;
+    if (k > 0 && log[k].from != log[k - 1].to) ++broken;
+    if (log[k].current) {
+      ++checked;
+      EXPECT_EQ(log[k].current->revision, log[k].from) << "move " << k;
+      EXPECT_LE(log[k].proposed->score, log[k].current->score) << "move " << k;
+    }
+  }
+  EXPECT_EQ(broken, 0u) << "of " << log.size() << " moves, " << broken
+                        << " start where the one before did not leave the channel (" << checked
+                        << " checked)";
+  const std::optional<Channel> stable = channels.Find("stable");
+  ASSERT_TRUE(stable);
+  EXPECT_EQ(stable->revision, log.back().to);
+  EXPECT_EQ(stable->moved_by, log.back().who);
+  EXPECT_EQ(stable->moved_ns, log.back().at_ns);
 }
 
 TYPED_TEST(ChannelRegistryTest, RobotReportsAreKeptAndJudged) {

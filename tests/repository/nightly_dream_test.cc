@@ -5,9 +5,12 @@
 
 #include <gtest/gtest.h>
 
+#include <latch>
 #include <map>
+#include <mutex>
 #include <nlohmann/json.hpp>
 #include <set>
+#include <thread>
 
 #include "corridor_robot_map.h"
 #include "expect_error.h"
@@ -31,9 +34,15 @@ class NightlyDreamTest : public ::testing::Test {
   void SetUp() override {
     if (auto why = Backend::Unavailable()) GTEST_SKIP() << *why;
     backend_.emplace();
+    repository_ = OpenAnother();
+  }
+
+  // The repository once more, on a connection of its own: what another `fleetmap promote`
+  // process has.
+  std::unique_ptr<Repository> OpenAnother() {
     RepositoryOptions options;
     options.vocabulary = SharedCorridorVocabulary();
-    repository_ = Repository::Open(backend_->Uri(), options);
+    return Repository::Open(backend_->Uri(), options);
   }
 
   // Pushes and merges a robot's map of one corridor outing; returns the submission.
@@ -339,6 +348,73 @@ TYPED_TEST(NightlyDreamTest, ACandidateThatDoesNotBeatTheMergedOrderIsPromotedOn
   EXPECT_EQ(forced.kind, RevisionKind::kPromote);
   EXPECT_EQ(candidates.Find(tie.id)->promoted_as, 3);
   EXPECT_EQ(repository.Promote(better.id, "operator").number, 4);
+}
+
+// Promotes of one candidate from several connections at once: exactly one makes a revision; each
+// other is told the candidate is promoted already, as that revision, and makes none (not even
+// an empty one). A few rounds, a new candidate each, since a race need not show every time.
+TYPED_TEST(NightlyDreamTest, ConcurrentPromotesOfOneCandidateMakeOneRevision) {
+  Repository& repository = *this->repository_;
+  const Uuid day = this->PushAndMerge(0, 0.0);
+  const Uuid night = this->PushAndMerge(1, 30.0);
+  constexpr int kPromoters = 3;
+  constexpr int kRounds = 3;
+  std::vector<std::unique_ptr<Repository>> repositories;
+  for (int i = 0; i < kPromoters; ++i) repositories.push_back(this->OpenAnother());
+
+  for (int round = 0; round < kRounds; ++round) {
+    SCOPED_TRACE("round " + std::to_string(round));
+    DreamCandidateRecord record;
+    record.created_ns = 1 + round;
+    record.dreamed_at_head = repository.Head();
+    record.groups = record.merged_order = {day, night};
+    record.orders = 2;
+    record.score = 0.1;
+    record.merged_order_score = 0.5;
+    const DreamCandidateRecord c =
+        DreamCandidates(repository.versions()).Put(record, repository.Checkout());
+
+    std::mutex mutex;
+    std::vector<Revision> made;
+    std::vector<Error> refused;
+    std::latch start(kPromoters);
+    std::vector<std::thread> promoters;
+    for (int i = 0; i < kPromoters; ++i) {
+      promoters.emplace_back([&, i] {
+        Repository& mine = *repositories[static_cast<std::size_t>(i)];
+        start.arrive_and_wait();
+        try {
+          const Revision revision = mine.Promote(c.id, "operator-" + std::to_string(i));
+          const std::lock_guard<std::mutex> lock(mutex);
+          made.push_back(revision);
+        } catch (const Error& error) {
+          const std::lock_guard<std::mutex> lock(mutex);
+          refused.push_back(error);
+        }
+      });
+    }
+    for (std::thread& promoter : promoters) promoter.join();
+
+    ASSERT_EQ(made.size(), 1u) << "promotes that made a revision";
+    const RevisionNumber winner = made[0].number;
+    for (const Error& error : refused) {
+      EXPECT_EQ(error.code(), ErrorCode::kConflict) << error.what();
+      EXPECT_NE(
+          std::string(error.what()).find("promoted already, as revision " + std::to_string(winner)),
+          std::string::npos)
+          << error.what();
+    }
+    std::size_t promotions = 0;
+    for (const Revision& revision : repository.History()) {
+      if (revision.kind == RevisionKind::kPromote &&
+          DreamCandidateFromJson(revision.report).id == c.id) {
+        ++promotions;
+      }
+    }
+    EXPECT_EQ(promotions, 1u);
+    EXPECT_EQ(repository.Head(), winner);
+    EXPECT_EQ(DreamCandidates(repository.versions()).Find(c.id)->promoted_as, winner);
+  }
 }
 
 // The UTC minute of the day of `ns` (nanoseconds since the epoch).

@@ -8,7 +8,9 @@
 #include <chrono>
 #include <functional>
 #include <map>
+#include <optional>
 #include <set>
+#include <string>
 #include <thread>
 #include <tuple>
 #include <type_traits>
@@ -1137,6 +1139,60 @@ TYPED_TEST(VersionStoreConformance, SettingsPutReplaceFind) {
   EXPECT_EQ(this->versions().FindSetting("vocabulary"), "v2");
   EXPECT_EQ(this->versions().FindSetting("other"), "x");
   EXPECT_EQ(this->versions().FindSetting("Vocabulary"), std::nullopt);
+}
+
+TYPED_TEST(VersionStoreConformance, ReplaceSettingWritesOnlyOverTheValueExpected) {
+  VersionStore& versions = this->versions();
+  EXPECT_FALSE(versions.ReplaceSetting("channel", std::string("v1"), "v2")) << "not set";
+  EXPECT_EQ(versions.FindSetting("channel"), std::nullopt);
+  EXPECT_TRUE(versions.ReplaceSetting("channel", std::nullopt, "v1"));
+  EXPECT_FALSE(versions.ReplaceSetting("channel", std::nullopt, "v0")) << "set already";
+  const std::string binary("\0\x01\xfe\xff", 4);
+  EXPECT_FALSE(versions.ReplaceSetting("channel", std::string("v0"), binary));
+  EXPECT_EQ(versions.FindSetting("channel"), "v1");
+  EXPECT_TRUE(versions.ReplaceSetting("channel", std::string("v1"), binary));
+  EXPECT_TRUE(versions.ReplaceSetting("channel", binary, "v3"));
+  EXPECT_EQ(versions.FindSetting("channel"), "v3");
+  // Inside a Transaction it lands, or rolls back, with it.
+  {
+    GraphStore::Transaction transaction = this->store_->Begin();
+    EXPECT_TRUE(versions.ReplaceSetting("channel", std::string("v3"), "v4"));
+    transaction.Rollback();
+  }
+  EXPECT_EQ(versions.FindSetting("channel"), "v3");
+}
+
+// Writers on their own connections each read a counter, then replace it with one more, again
+// when another replaced it first: no increment is lost, with or without a Transaction around
+// the read and the replace.
+TYPED_TEST(VersionStoreConformance, ReplaceSettingLosesNoConcurrentUpdate) {
+  constexpr int kWriters = 4, kIncrements = 25;
+  this->versions().PutSetting("counter", "0");
+  std::vector<std::string> errors(kWriters);
+  std::vector<std::thread> writers;
+  for (int i = 0; i < kWriters; ++i) {
+    writers.emplace_back([&, i] {
+      try {
+        auto store = GraphStore::Open(this->backend_->Uri());
+        VersionStore& versions = store->versions();
+        for (int n = 0; n < kIncrements; ++n) {
+          for (bool done = false; !done;) {
+            const bool in_transaction = (i + n) % 2 == 0;
+            std::optional<GraphStore::Transaction> transaction;
+            if (in_transaction) transaction.emplace(store->Begin());
+            const std::string read = *versions.FindSetting("counter");
+            done = versions.ReplaceSetting("counter", read, std::to_string(std::stoi(read) + 1));
+            if (transaction) transaction->Commit();
+          }
+        }
+      } catch (const Error& e) {
+        errors[i] = e.what();
+      }
+    });
+  }
+  for (std::thread& writer : writers) writer.join();
+  for (int i = 0; i < kWriters; ++i) EXPECT_EQ(errors[i], "") << "writer " << i;
+  EXPECT_EQ(this->versions().FindSetting("counter"), std::to_string(kWriters * kIncrements));
 }
 
 // --- Durability ---------------------------------------------------------------------------

@@ -2,7 +2,9 @@
 
 #include <openssl/rand.h>
 
+#include <algorithm>
 #include <cstdio>
+#include <map>
 #include <nlohmann/json.hpp>
 
 #include "fleetmap/core/error.h"
@@ -51,15 +53,24 @@ RevisionScore ScoreOf(const nlohmann::json& json) {
   return score;
 }
 
-Channel ParseChannel(std::string_view name, const std::string& value) {
+// A channel as stored: with the time in the key of its last move's log entry.
+struct StoredChannel {
+  Channel channel;
+  std::int64_t log_ns = 0;
+};
+
+StoredChannel ParseChannel(std::string_view name, const std::string& value) {
   try {
     const nlohmann::json json = nlohmann::json::parse(value);
-    Channel channel;
+    StoredChannel stored;
+    Channel& channel = stored.channel;
     channel.name = std::string(name);
     channel.revision = json.at("revision").get<RevisionNumber>();
     channel.moved_ns = json.at("moved_ns").get<std::int64_t>();
     channel.moved_by = json.at("moved_by").get<std::string>();
-    return channel;
+    // Records written before "log_ns" keyed their log entry by the move's own time.
+    stored.log_ns = json.value("log_ns", channel.moved_ns);
+    return stored;
   } catch (const nlohmann::json::exception& error) {
     throw Error(ErrorCode::kCorrupt,
                 "channel " + std::string(name) + ": stored record: " + error.what());
@@ -88,6 +99,23 @@ ChannelMove ParseMove(std::string_view name, const std::string& value) {
   }
 }
 
+// A held-out submission that can judge a move: stored, and received whole (a submission still
+// arriving holds part of an outing, or nothing).
+void RequireJudge(VersionStore& versions, const Uuid& held_out) {
+  const std::optional<Submission> submission = versions.FindSubmission(held_out);
+  if (!submission) {
+    throw Error(ErrorCode::kNotFound,
+                "score check: no submission " + held_out.ToString() + " is stored");
+  }
+  if (submission->state == SubmissionState::kReceiving) {
+    throw Error(ErrorCode::kInvalidArgument, "score check: held-out submission " +
+                                                 held_out.ToString() + " is not fully received (" +
+                                                 std::to_string(submission->chunk_count) +
+                                                 " chunks, " + std::to_string(submission->bytes) +
+                                                 " bytes so far), so it cannot judge a revision");
+  }
+}
+
 std::string ScoreText(const RevisionScore& score) {
   char text[160];
   std::snprintf(text, sizeof text, "revision %lld scores %.4f (%zu of %zu frames localised)",
@@ -99,6 +127,7 @@ std::string ScoreText(const RevisionScore& score) {
 }  // namespace
 
 RevisionScore ChannelRegistry::Score(RevisionNumber revision, const ScoreCheck& check) {
+  RequireJudge(repository_.versions(), check.held_out);
   const std::vector<HeldOutOuting> held_out =
       HeldOutOutings(repository_.ReadSubmission(check.held_out));
   const GraphBatch map = repository_.Checkout(revision);
@@ -110,6 +139,13 @@ RevisionScore ChannelRegistry::Score(RevisionNumber revision, const ScoreCheck& 
   const ExperienceMap experience_map = ExperienceMap::FromGraph(map.nodes, map.edges, vocabulary);
   const HeldOutReplay replay =
       ReplayHeldOut(experience_map, held_out, repository_.merge_options().localiser);
+  // No frames: both revisions would score 0 of 0 and tie, which would let any move through.
+  if (replay.frames == 0) {
+    throw Error(ErrorCode::kInvalidArgument,
+                "score check: held-out submission " + check.held_out.ToString() +
+                    " has no frames to replay, so it cannot judge a revision (name a "
+                    "submission that holds an outing)");
+  }
   RevisionScore score;
   score.revision = revision;
   score.score = HeldOutScore(replay, check.gap_m);
@@ -137,56 +173,84 @@ ChannelMove ChannelRegistry::Set(std::string_view name, RevisionNumber to, const
                 "channel " + std::string(name) + ": revision " + std::to_string(to) +
                     " is not in the history (1 ... " + std::to_string(head) + ")");
   }
+  if (check) RequireJudge(repository_.versions(), check->held_out);
   ChannelMove move;
   move.channel = std::string(name);
   move.to = to;
   move.who = who;
   move.at_ns = now_ns;
   move.why = why;
-  const std::optional<Channel> current = Find(name);
-  move.from = current ? current->revision : 0;
-  if (move.from == to) return move;
 
-  if (check) {
-    if (!repository_.versions().FindSubmission(check->held_out)) {
-      throw Error(ErrorCode::kNotFound,
-                  "score check: no submission " + check->held_out.ToString() + " is stored");
-    }
-    move.held_out = check->held_out;
-    move.proposed = Score(to, *check);
-    if (current) {
-      move.current = Score(current->revision, *check);
-      if (move.proposed->score > move.current->score) {
-        throw Error(ErrorCode::kConflict,
-                    "channel " + std::string(name) + " stays at revision " +
-                        std::to_string(current->revision) + ": held-out submission " +
-                        check->held_out.ToString() + " localises worse at the new one (" +
-                        ScoreText(*move.proposed) + "; " + ScoreText(*move.current) +
-                        "; lower is better)");
+  // A move is a compare-and-set of the channel's record: it lands only if the channel still
+  // holds what the move read (and, with a check, was judged against), else it is read, judged
+  // and tried again. So every move's `from` is where the move before it left the channel. A
+  // replay takes seconds and must not hold the store's write lock: the scores are worked out
+  // outside the transaction, once per revision whatever the retries.
+  std::map<RevisionNumber, RevisionScore> scores;
+  constexpr int kAttempts = 8;
+  for (int attempt = 1; attempt <= kAttempts; ++attempt) {
+    GraphStore::Transaction transaction = repository_.store().Begin();
+    const std::optional<std::string> stored = repository_.versions().FindSetting(ChannelKey(name));
+    std::optional<StoredChannel> current;
+    if (stored) current = ParseChannel(name, *stored);
+    move.from = current ? current->channel.revision : 0;
+    if (move.from == to) return move;  // nothing to change or record
+
+    if (check) {
+      if (!scores.contains(to) || (current && !scores.contains(move.from))) {
+        transaction.Rollback();
+        if (!scores.contains(to)) scores.emplace(to, Score(to, *check));
+        if (current && !scores.contains(move.from)) {
+          scores.emplace(move.from, Score(move.from, *check));
+        }
+        continue;  // read the channel again: it may have moved during the replay
+      }
+      move.held_out = check->held_out;
+      move.proposed = scores.at(to);
+      move.current.reset();
+      if (current) {
+        move.current = scores.at(move.from);
+        if (move.proposed->score > move.current->score) {
+          throw Error(ErrorCode::kConflict,
+                      "channel " + std::string(name) + " stays at revision " +
+                          std::to_string(move.from) + ": held-out submission " +
+                          check->held_out.ToString() + " localises worse at the new one (" +
+                          ScoreText(*move.proposed) + "; " + ScoreText(*move.current) +
+                          "; lower is better)");
+        }
       }
     }
-  }
 
-  nlohmann::json record = {{"from", move.from},
-                           {"to", move.to},
-                           {"who", move.who},
-                           {"at_ns", move.at_ns},
-                           {"why", move.why}};
-  if (move.held_out) record["held_out"] = move.held_out->ToString();
-  if (move.current) record["current"] = ScoreJson(*move.current);
-  if (move.proposed) record["proposed"] = ScoreJson(*move.proposed);
-  const nlohmann::json channel = {{"revision", to}, {"moved_ns", now_ns}, {"moved_by", who}};
-  auto transaction = repository_.store().Begin();
-  repository_.versions().PutSetting(LogKey(name, now_ns), JsonText(record));
-  repository_.versions().PutSetting(ChannelKey(name), JsonText(channel));
-  transaction.Commit();
-  return move;
+    // The log lists by key: each move's key sorts after its predecessor's, whatever the clocks
+    // of the hosts that made them say.
+    const std::int64_t log_ns = current ? std::max(now_ns, current->log_ns + 1) : now_ns;
+    nlohmann::json record = {{"from", move.from},
+                             {"to", move.to},
+                             {"who", move.who},
+                             {"at_ns", move.at_ns},
+                             {"why", move.why}};
+    if (move.held_out) record["held_out"] = move.held_out->ToString();
+    if (move.current) record["current"] = ScoreJson(*move.current);
+    if (move.proposed) record["proposed"] = ScoreJson(*move.proposed);
+    const nlohmann::json channel = {
+        {"revision", to}, {"moved_ns", now_ns}, {"moved_by", who}, {"log_ns", log_ns}};
+    if (!repository_.versions().ReplaceSetting(ChannelKey(name), stored, JsonText(channel))) {
+      continue;  // moved by another since it was read
+    }
+    repository_.versions().PutSetting(LogKey(name, log_ns), JsonText(record));
+    transaction.Commit();
+    return move;
+  }
+  throw Error(ErrorCode::kConflict,
+              "channel " + std::string(name) + " was moved by others " + std::to_string(kAttempts) +
+                  " times while this move was being made; nothing changed: try again");
 }
 
 std::vector<Channel> ChannelRegistry::List() {
   std::vector<Channel> channels;
   for (const auto& [key, value] : repository_.versions().ListSettings(kChannelPrefix)) {
-    channels.push_back(ParseChannel(std::string_view(key).substr(kChannelPrefix.size()), value));
+    channels.push_back(
+        ParseChannel(std::string_view(key).substr(kChannelPrefix.size()), value).channel);
   }
   return channels;  // ListSettings orders by key: by name
 }
@@ -194,7 +258,7 @@ std::vector<Channel> ChannelRegistry::List() {
 std::optional<Channel> ChannelRegistry::Find(std::string_view name) {
   const std::optional<std::string> value = repository_.versions().FindSetting(ChannelKey(name));
   if (!value) return std::nullopt;
-  return ParseChannel(name, *value);
+  return ParseChannel(name, *value).channel;
 }
 
 std::vector<ChannelMove> ChannelRegistry::Log(std::string_view name) {

@@ -170,9 +170,31 @@ GraphBatch DreamCandidates::Content(const DreamCandidateRecord& record) {
   }
 }
 
-void DreamCandidates::MarkPromoted(DreamCandidateRecord record, RevisionNumber revision) {
-  record.promoted_as = revision;
-  versions_.PutSetting(RecordKey(record.id), DreamCandidateJson(record));
+DreamCandidateRecord DreamCandidates::MarkPromoted(const Uuid& id, RevisionNumber revision) {
+  // A failed replace means another promotion recorded first: read again, it names that one. (A
+  // record is rewritten only by its promotion, so a second failure means a store changed
+  // behind our back.)
+  for (int attempt = 0; attempt < 2; ++attempt) {
+    const std::optional<std::string> stored = versions_.FindSetting(RecordKey(id));
+    if (!stored) {
+      throw Error(ErrorCode::kNotFound,
+                  "no dream candidate " + id.ToString() + " (`fleetmap candidates` lists them)");
+    }
+    DreamCandidateRecord record = DreamCandidateFromJson(*stored);
+    RequireNotPromoted(record);
+    record.promoted_as = revision;
+    if (versions_.ReplaceSetting(RecordKey(id), stored, DreamCandidateJson(record))) return record;
+  }
+  throw Error(ErrorCode::kConflict, "dream candidate " + id.ToString() +
+                                        " changed while it was being promoted: try again");
+}
+
+void RequireNotPromoted(const DreamCandidateRecord& record) {
+  if (record.promoted_as != 0) {
+    throw Error(ErrorCode::kConflict, "dream candidate " + record.id.ToString() +
+                                          " is promoted already, as revision " +
+                                          std::to_string(record.promoted_as));
+  }
 }
 
 }  // namespace fleetmap

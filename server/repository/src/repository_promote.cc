@@ -26,18 +26,15 @@ Revision Repository::Promote(const Uuid& candidate_id, const std::string& author
     throw Error(ErrorCode::kNotFound, "no dream candidate " + candidate_id.ToString() +
                                           " (`fleetmap candidates` lists them)");
   }
-  if (record->promoted_as != 0) {
-    throw Error(ErrorCode::kConflict, "dream candidate " + candidate_id.ToString() +
-                                          " is promoted already, as revision " +
-                                          std::to_string(record->promoted_as));
-  }
+  RequireNotPromoted(*record);
   const GraphBatch content = candidates.Content(*record);
   // A candidate that only ties the map as merged would swap nodes for nothing (issue 35 item
   // 13 c).
   if (!force) RequireBeatsMergedOrder(*record);
   // fleetmapd instances merging meanwhile append revisions: an append that finds the head moved
   // fails, and the promotion is worked out again on the new head (the operator's command
-  // should not fail because robots are docking).
+  // should not fail because robots are docking). A promotion of this candidate made meanwhile
+  // ends it: MarkPromoted, in the promotion's transaction, says by which revision.
   constexpr int kAttempts = 8;
   for (int attempt = 1;; ++attempt) {
     const RevisionNumber head = versions().HeadRevision();
@@ -47,6 +44,9 @@ Revision Repository::Promote(const Uuid& candidate_id, const std::string& author
       if (error.code() != ErrorCode::kConflict || attempt == kAttempts ||
           versions().HeadRevision() == head) {
         throw;
+      }
+      if (const std::optional<DreamCandidateRecord> now = candidates.Find(candidate_id)) {
+        RequireNotPromoted(*now);
       }
     }
   }
@@ -97,9 +97,12 @@ Revision Repository::PromoteOnHead(const DreamCandidateRecord& record_ref,
   promoted.promoted_as = revision.number;
   revision.report = DreamCandidateJson(promoted);
   GraphStore::Transaction transaction = store_->Begin();
+  // First, so that of promotions of this candidate at once the one that marks it is the one
+  // that appends; the others wait here for it and are told (PostgreSQL's row lock; SQLite's
+  // write lock is taken by Begin already).
+  candidates.MarkPromoted(record->id, revision.number);
   const Revision recorded = versions().AppendPromotion(revision, additions, hide);
   store_->Put(additions);
-  candidates.MarkPromoted(*record, recorded.number);
   transaction.Commit();
   return recorded;
 }

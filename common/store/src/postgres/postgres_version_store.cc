@@ -456,6 +456,23 @@ class PostgresVersionStore final : public VersionStore {
     });
   }
 
+  bool ReplaceSetting(std::string_view key, const std::optional<std::string>& expected,
+                      std::string_view value) override {
+    // One statement each. Under READ COMMITTED an UPDATE that finds the row changed by a writer
+    // still open waits for it and then tests the WHERE again on the row as committed; an INSERT
+    // that meets a key inserted meanwhile waits, then does nothing. Either way the loser sees 0
+    // rows, and the winner holds the row lock until its transaction ends.
+    const std::string k(key);
+    const pqxx::binarystring bytes(value.data(), value.size());
+    return session_.Autocommit("replace setting " + k, [&](pqxx::transaction_base& t) {
+      if (!expected) {
+        return t.exec_prepared("version_insert_setting_if_absent", k, bytes).affected_rows() == 1;
+      }
+      const pqxx::binarystring was(expected->data(), expected->size());
+      return t.exec_prepared("version_replace_setting", k, was, bytes).affected_rows() == 1;
+    });
+  }
+
   std::vector<std::pair<std::string, std::string>> ListSettings(std::string_view prefix) override {
     const std::string p(prefix);
     return session_.Autocommit(
@@ -688,6 +705,10 @@ class PostgresVersionStore final : public VersionStore {
     c.prepare("version_put_setting",
               "INSERT INTO settings (key, value) VALUES ($1, $2)"
               " ON CONFLICT (key) DO UPDATE SET value = excluded.value");
+    c.prepare("version_insert_setting_if_absent",
+              "INSERT INTO settings (key, value) VALUES ($1, $2) ON CONFLICT (key) DO NOTHING");
+    c.prepare("version_replace_setting",
+              "UPDATE settings SET value = $3 WHERE key = $1 AND value = $2");
     // left() rather than LIKE: a prefix may hold '%' or '_'. COLLATE "C" orders bytewise, as
     // SQLite does.
     c.prepare("version_list_settings",

@@ -494,6 +494,22 @@ class SqliteVersionStore final : public VersionStore {
     s->Run();
   }
 
+  bool ReplaceSetting(std::string_view key, const std::optional<std::string>& expected,
+                      std::string_view value) override {
+    // One statement: atomic by itself, and SQLite has one writer at a time.
+    if (!expected) {
+      StatementUse s(s_.insert_setting_if_absent);
+      s->BindText(1, key);
+      s->BindBlob(2, value);
+      return s->Run() == 1;
+    }
+    StatementUse s(s_.replace_setting);
+    s->BindText(1, key);
+    s->BindBlob(2, *expected);
+    s->BindBlob(3, value);
+    return s->Run() == 1;
+  }
+
   std::vector<std::pair<std::string, std::string>> ListSettings(std::string_view prefix) override {
     StatementUse s(s_.list_settings);
     s->BindBlob(1, prefix);
@@ -603,6 +619,10 @@ class SqliteVersionStore final : public VersionStore {
           put_setting(db,
                       "INSERT INTO settings (key, value) VALUES (?1, ?2)"
                       " ON CONFLICT (key) DO UPDATE SET value = excluded.value"),
+          insert_setting_if_absent(db,
+                                   "INSERT INTO settings (key, value) VALUES (?1, ?2)"
+                                   " ON CONFLICT (key) DO NOTHING"),
+          replace_setting(db, "UPDATE settings SET value = ?3 WHERE key = ?1 AND value = ?2"),
           // Compared as bytes (not LIKE, whose '%' and '_' a prefix may hold) and ordered as
           // bytes, like PostgreSQL's COLLATE "C" below.
           list_settings(db,
@@ -647,7 +667,7 @@ class SqliteVersionStore final : public VersionStore {
         hidden_counts;
     Statement nodes_at, nodes_at_bare, edges_at, paths_at, stats_at, changed_between;
     Statement version_of;
-    Statement find_setting, put_setting, list_settings;
+    Statement find_setting, put_setting, insert_setting_if_absent, replace_setting, list_settings;
     Statement put_submission_node, submissions_with_node, put_stand_in, find_stand_in;
     Statement first_claimable, set_claim, renew_claim, release_claim, find_claim;
   };

@@ -261,6 +261,14 @@ class VersionStore {
   virtual std::optional<std::string> FindSetting(std::string_view key) = 0;
   // Sets or replaces a setting.
   virtual void PutSetting(std::string_view key, std::string_view value) = 0;
+  // Sets `key` to `value` only if it holds `expected` now (nullopt: only if it is not set), and
+  // says whether it did; otherwise changes nothing. The comparison and the write are one step
+  // against every other writer on the store: of writers replacing one value at once, at most
+  // one succeeds, so a caller that read a value, worked from it and replaces it knows nobody
+  // moved it meanwhile. Inside a Transaction a replaced key stays locked against other writers
+  // until the Transaction ends (a writer replacing it meanwhile waits, then finds the new value).
+  virtual bool ReplaceSetting(std::string_view key, const std::optional<std::string>& expected,
+                              std::string_view value) = 0;
   // Every setting whose key starts with `prefix` (all of them for ""), as (key, value), by key
   // (bytewise).
   virtual std::vector<std::pair<std::string, std::string>> ListSettings(

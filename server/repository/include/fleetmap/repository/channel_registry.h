@@ -16,8 +16,12 @@
 // §VI-E: lower is better), and the move is refused, changing nothing, when the new revision
 // scores worse.
 //
-// Threading: as the Repository it works on (one thread at a time). Two moves of one channel at
-// once from two processes on PostgreSQL may both record the same `from`; the last one wins.
+// Moves of one channel made at once (several `fleetmap channel set`, on either store) land one
+// after the other: a move is a compare-and-set of the channel inside the transaction that logs
+// it, so the log is one chain, each move's `from` the previous one's `to`, and a check judges the
+// revision the channel holds when the move lands.
+//
+// Threading: as the Repository it works on (one thread at a time).
 #pragma once
 
 #include <cstdint>
@@ -79,9 +83,12 @@ class ChannelRegistry {
   // 32 characters of [a-z0-9._-] and not "head". Moving a channel to the revision it has
   // changes nothing and records nothing (returns the move with from == to). With `check`, the
   // held-out replay runs first and a proposed score worse than the current one throws
-  // Error(kConflict) giving both scores, changing nothing. Throws Error(kInvalidArgument) for a
-  // bad name, an empty `who` or a revision out of range, Error(kNotFound) for an unknown
-  // held-out submission, and what the store throws.
+  // Error(kConflict) giving both scores, changing nothing. The move lands only if the channel
+  // still holds the revision it was read (and judged) at; if another move landed meanwhile it is
+  // read and judged again, a few times, then refused with Error(kConflict) ("try again"),
+  // changing nothing. Throws Error(kInvalidArgument) for a bad name, an empty `who`, a revision
+  // out of range, or a held-out submission that cannot judge (Score), Error(kNotFound) for an
+  // unknown held-out submission, and what the store throws.
   ChannelMove Set(std::string_view name, RevisionNumber to, const std::string& who,
                   const std::string& why, std::int64_t now_ns,
                   const std::optional<ScoreCheck>& check = std::nullopt);
@@ -98,7 +105,9 @@ class ChannelRegistry {
   RevisionNumber Resolve(std::string_view name);
 
   // The held-out replay of the map at `revision` (what Set's check runs). Throws
-  // Error(kNotFound) for an unknown submission or revision.
+  // Error(kNotFound) for an unknown submission or revision, and Error(kInvalidArgument) naming
+  // a submission that cannot judge: one not fully received, or one with no frames (it would
+  // score 0 of 0 frames at every revision, a tie that lets any move through).
   RevisionScore Score(RevisionNumber revision, const ScoreCheck& check);
 
  private:

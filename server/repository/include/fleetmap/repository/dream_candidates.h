@@ -64,6 +64,10 @@ DreamCandidateRecord DreamCandidateFromJson(std::string_view json);
 // naming --force, the way to promote it all the same.
 void RequireBeatsMergedOrder(const DreamCandidateRecord& record);
 
+// Throws Error(kConflict) naming the revision that promoted `record` already; returns when it
+// was never promoted.
+void RequireNotPromoted(const DreamCandidateRecord& record);
+
 class DreamCandidates {
  public:
   explicit DreamCandidates(VersionStore& versions) : versions_(versions) {}
@@ -78,8 +82,13 @@ class DreamCandidates {
   // Its content. Throws Error(kNotFound) for an unknown candidate, Error(kCorrupt) when a
   // chunk is missing or does not decode.
   GraphBatch Content(const DreamCandidateRecord& record);
-  // Records that revision `revision` promoted it (inside the promotion's transaction).
-  void MarkPromoted(DreamCandidateRecord record, RevisionNumber revision);
+  // Records that revision `revision` promoted candidate `id`, inside the promotion's
+  // transaction (REQUIRES: one open), and only if nothing promoted it first: the check and the
+  // write are one step of the store (VersionStore::ReplaceSetting), so of promotions of one
+  // candidate at once exactly one records, and the others wait for it to end. Returns the
+  // record as promoted. Throws Error(kConflict) naming the revision that promoted it already,
+  // Error(kNotFound) for an unknown candidate.
+  DreamCandidateRecord MarkPromoted(const Uuid& id, RevisionNumber revision);
 
  private:
   VersionStore& versions_;
