@@ -120,6 +120,12 @@ void AddLimitOptions(CLI::App& app, fleetmap::SyncServerOptions& options, Flags&
                  "the memory the others sync with; at least 64, one frame of the largest")
       ->capture_default_str()
       ->check(CLI::Range(std::uint64_t{64}, std::uint64_t{1} << 20));
+  app.add_option("--max-route-plans-per-robot", options.max_route_plans_per_robot,
+                 "Route downloads one robot may have queued or being planned at once, across "
+                 "its sessions; past this its route request is refused (BUSY), so one robot's "
+                 "routes cannot hold every store worker")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 100000));
   app.add_option("--max-submission-mib", flags.max_submission_mib,
                  "Largest submission a robot may push, in MiB, as announced and as received; "
                  "a larger push is refused (INVALID). The welcome tells agents the limit: "

@@ -7,6 +7,7 @@
 #include <signal.h>
 #include <sqlite3.h>
 
+#include <atomic>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -1301,6 +1302,81 @@ TEST_F(FleetmapdSqliteTest, ChannelsRoutesAndInstalledReportsFromAHostileRobot) 
 
 // Issue 35 item 10: an agent string with a newline and escape codes became a forged line in
 // fleetmapd's log. What a client sends is logged escaped, on its own line.
+// A route whose two positions are a million metres apart, over a 40 m map, asked for in 12
+// distinct requests from 4 sessions of one robot, while another robot syncs: each is refused at
+// once, by name (far longer than the map; or BUSY while the robot already has a route being
+// planned, robot_allowance.h), and the other robot's hellos and downloads go through quickly.
+TEST_F(FleetmapdSqliteTest, ARouteFarBeyondTheMapIsRefusedAndOtherRobotsStillSync) {
+  const NewRobot other = RobotRegistry(Repository::Open(uri_)->versions()).Add("r2", WallNs());
+  Fleetmapd server = Start();
+  ASSERT_FALSE(server.address.empty());
+  const GraphBatch map = RandomRobotMap(other.robot.id, 40, 83, 20);  // a chain 1 m a step
+  {
+    RawSyncClient pusher(server.address);
+    ASSERT_TRUE(pusher.Hello(other.robot.id, other.token).has_value());
+    const PushPlan plan = PlanPush(map);
+    const std::optional<v1::SyncFrame> accepted = PushWhole(pusher, plan);
+    ASSERT_TRUE(accepted && accepted->has_push_accepted()) << Describe(accepted);
+    ASSERT_EQ(WaitForState(pusher, plan.id, "merged").state(), "merged");
+  }
+
+  std::atomic<int> far = 0, busy = 0, other_errors = 0;
+  std::vector<std::thread> hostile;
+  for (int session = 0; session < 4; ++session) {
+    hostile.emplace_back([&, session] {
+      for (int request = 0; request < 3; ++request) {
+        RawSyncClient client(server.address, false, milliseconds(10'000));
+        const std::optional<v1::SyncFrame> welcome = client.Hello(robot_, token_);
+        if (!welcome || !welcome->has_welcome()) {
+          ++other_errors;
+          continue;
+        }
+        v1::SyncFrame frame;
+        v1::DownloadRequest& route = *frame.mutable_download_request();
+        route.set_policy("route");
+        route.set_route_anchor(map.nodes[0].id.ToBytesString());
+        route.set_route_radius_m(10.0 + 3 * session + request);  // 12 distinct requests
+        for (const double v : {0.0, 0.0, 0.0, 1e6, 0.0, 0.0}) route.add_route_xyz(v);
+        const std::optional<v1::SyncFrame> reply =
+            client.Send(frame) ? client.Receive() : std::nullopt;
+        // A refusal closes the session; once closed it no longer counts among the robot's 4.
+        client.ClosedByServer();
+        if (ErrorCodeOf(reply) == v1::ErrorFrame::INVALID &&
+            ErrorTextOf(reply).find("times the extent of the map") != std::string::npos) {
+          ++far;
+        } else if (ErrorCodeOf(reply) == v1::ErrorFrame::BUSY &&
+                   ErrorTextOf(reply).find("--max-route-plans-per-robot") != std::string::npos) {
+          ++busy;
+        } else {
+          ADD_FAILURE() << "a route 1000 km long over a 40 m map: " << Describe(reply);
+          ++other_errors;
+        }
+      }
+    });
+  }
+  // Meanwhile the other robot syncs: hello and a download, five times.
+  int synced = 0;
+  double slowest_s = 0.0;
+  for (int i = 0; i < 5; ++i) {
+    const auto start = std::chrono::steady_clock::now();
+    RawSyncClient client(server.address, false, milliseconds(10'000));
+    const std::optional<v1::SyncFrame> welcome = client.Hello(other.robot.id, other.token);
+    const std::optional<Downloaded> download =
+        welcome && welcome->has_welcome() ? DownloadCopy(client) : std::nullopt;
+    if (download && download->map.nodes.size() == map.nodes.size()) ++synced;
+    slowest_s = std::max(
+        slowest_s, std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+  }
+  for (std::thread& thread : hostile) thread.join();
+  std::printf("far routes: %d refused as far, %d busy; the other robot's slowest sync %.3f s\n",
+              far.load(), busy.load(), slowest_s);
+  EXPECT_EQ(far + busy, 12) << server.Log();
+  EXPECT_GE(far, 1);
+  EXPECT_EQ(other_errors, 0);
+  EXPECT_EQ(synced, 5) << server.Log();
+  EXPECT_LT(slowest_s, 3.0) << "the other robot's sync was held";
+}
+
 TEST_F(FleetmapdSqliteTest, WhatAClientSendsCannotForgeALogLine) {
   Fleetmapd server = Start();
   ASSERT_FALSE(server.address.empty());
