@@ -33,6 +33,7 @@
 #include "fleetmap/store/graph_store.h"
 #include "fleetmap/wire/sync_frame.h"
 #include "fleetmapd_process.h"
+#include "http_get.h"
 #include "random_robot_map.h"
 #include "raw_sync_client.h"
 #include "scratch_dir.h"
@@ -1165,6 +1166,75 @@ TEST_F(FleetmapdSqliteTest, PlainTextOnANonLoopbackAddressNeedsAnExplicitOption)
     EXPECT_NE(log.find("--allow-plaintext"), std::string::npos) << log;
     EXPECT_EQ(log.find("listening on"), std::string::npos) << log;
   }
+}
+
+// The status page and /metrics name every robot, its UUID, channel and last error: on an
+// address other than loopback they follow the sync address's rule (refused in plain text unless
+// the operator says so, here with --allow-plaintext-http).
+TEST_F(FleetmapdSqliteTest, TheStatusPageOffLoopbackNeedsAnExplicitOption) {
+  const auto [exit, log] = RunFleetmapd(
+      dir_ / "refused.log", {"--store", uri_, "--listen", "127.0.0.1:0", "--http", "0.0.0.0:0"});
+  EXPECT_EQ(exit, std::optional<int>(2)) << log;
+  EXPECT_NE(log.find("refusing to serve the status page"), std::string::npos) << log;
+  EXPECT_NE(log.find("--allow-plaintext-http"), std::string::npos) << log;
+  EXPECT_EQ(log.find("listening on"), std::string::npos) << log;
+
+  Fleetmapd server = Start({"--http", "0.0.0.0:0", "--allow-plaintext-http"});
+  ASSERT_FALSE(server.address.empty());
+  const std::optional<std::string> line =
+      server.process->ReadLineContaining("http on", milliseconds(10'000));
+  ASSERT_TRUE(line.has_value()) << server.Log();
+  const std::string port = line->substr(line->rfind(':') + 1);
+  EXPECT_EQ(HttpGetReply("127.0.0.1:" + port, "/healthz").status, 200);
+  EXPECT_TRUE(server.LogContains("PLAIN TEXT status page")) << server.Log();
+}
+
+// With --http-token-file, every request to the status server carries the token (a bearer
+// header, or ?token= then the cookie it sets for a browser), else 401; a token file others can
+// read is refused as a TLS key is.
+TEST_F(FleetmapdSqliteTest, WithATokenTheStatusPageAnswersOnlyRequestsThatCarryIt) {
+  const std::string token = "0123456789abcdef0123456789abcdef";
+  const std::filesystem::path token_file = dir_ / "http.token";
+  std::ofstream(token_file) << token << "\n";
+  std::filesystem::permissions(token_file, std::filesystem::perms::owner_read,
+                               std::filesystem::perm_options::replace);
+  Fleetmapd server = Start({"--http", "127.0.0.1:0", "--http-token-file", token_file.string()});
+  ASSERT_FALSE(server.address.empty());
+  const std::optional<std::string> line =
+      server.process->ReadLineContaining("http on", milliseconds(10'000));
+  ASSERT_TRUE(line.has_value()) << server.Log();
+  const std::string http = line->substr(line->rfind(' ') + 1);
+
+  for (const char* target : {"/", "/metrics", "/healthz", "/map.svg"}) {
+    SCOPED_TRACE(target);
+    const HttpReply without = HttpGetReply(http, target);
+    EXPECT_EQ(without.status, 401) << without.headers;
+    EXPECT_EQ(without.body.find("fleetmap_"), std::string::npos) << without.body;
+    EXPECT_EQ(HttpGetReply(http, target, "Authorization: Bearer " + token + "x\r\n").status, 401);
+    EXPECT_EQ(
+        HttpGetReply(http, target, "Authorization: Bearer " + token.substr(1) + "\r\n").status,
+        401);
+  }
+  const HttpReply metrics =
+      HttpGetReply(http, "/metrics", "Authorization: Bearer " + token + "\r\n");
+  EXPECT_EQ(metrics.status, 200) << metrics.headers;
+  EXPECT_NE(metrics.body.find("fleetmap_"), std::string::npos) << metrics.body;
+  const HttpReply page = HttpGetReply(http, "/?token=" + token);
+  EXPECT_EQ(page.status, 200) << page.headers;
+  EXPECT_NE(page.headers.find("Set-Cookie: fleetmapd_status_token=" + token), std::string::npos)
+      << page.headers;
+  EXPECT_EQ(HttpGetReply(http, "/?token=" + token.substr(2)).status, 401);
+  EXPECT_EQ(
+      HttpGetReply(http, "/metrics", "Cookie: fleetmapd_status_token=" + token + "\r\n").status,
+      200);
+
+  std::filesystem::permissions(token_file, std::filesystem::perms::others_read,
+                               std::filesystem::perm_options::add);
+  const auto [exit, log] =
+      RunFleetmapd(dir_ / "refused.log", {"--store", uri_, "--listen", "127.0.0.1:0", "--http",
+                                          "127.0.0.1:0", "--http-token-file", token_file.string()});
+  EXPECT_EQ(exit, std::optional<int>(2)) << log;
+  EXPECT_NE(log.find("chmod 600"), std::string::npos) << log;
 }
 
 // Issue 35 item 9: a TLS mismatch said nothing clear on the server's side. A TLS ClientHello on
