@@ -14,6 +14,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <map>
 #include <random>
@@ -465,6 +466,8 @@ TEST(RouteCorridorTest, ARouteFarBeyondTheMapIsRefusedOrCostsOnlyTheMapNearIt) {
     // up 4 x 3 x 3 cells; the coverage: about 55 m in 0.25 m steps, each 3 x 3 x 3 cells.
     // A walk of the whole route made (far_m / 10) x 36 + (far_m / 0.25) x 27 lookups.
     EXPECT_LE(report.route_cells_probed, (60 / 10 + 4) * 36 + (55 * 4 + 4) * 27);
+    std::printf("a route from x = 50 m to %.0f m over the 100 m map: %zu grid cells looked up\n",
+                far_m, report.route_cells_probed);
     probed.push_back(report.route_cells_probed);
   }
   EXPECT_EQ(probed[0], probed[1]);
