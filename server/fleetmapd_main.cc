@@ -45,6 +45,8 @@ struct Flags {
         download_batch_kib(defaults.download_batch_bytes >> 10) {}
 
   std::string http;  // empty: no status page
+  bool allow_plaintext_http = false;
+  std::string http_token_file;  // empty: no token
   int debug_merge_delay_ms = 0;
   int debug_merge_pause_ms = 0;
   std::int64_t busy_timeout_ms;
@@ -75,7 +77,19 @@ void AddServiceOptions(CLI::App& app, fleetmap::SyncServerOptions& options, Flag
   app.add_option("--store", options.store_uri, "Repository store URI")->capture_default_str();
   app.add_option("--listen", options.listen, "Sync address HOST:PORT (port 0: any free port)")
       ->capture_default_str();
-  app.add_option("--http", flags.http, "Status page and /metrics on HOST:PORT (default: none)");
+  app.add_option("--http", flags.http,
+                 "Status page and /metrics on HOST:PORT (default: none). They name every robot, "
+                 "so an address other than loopback is refused without --allow-plaintext-http "
+                 "(this server speaks no TLS: put it behind a TLS reverse proxy)");
+  app.add_flag("--allow-plaintext-http", flags.allow_plaintext_http,
+               "Serve --http on an address other than loopback in plain text (a network you "
+               "trust); logs a warning");
+  app.add_option("--http-token-file", flags.http_token_file,
+                 "File holding the status server's read-only token (one line, 16+ characters "
+                 "of A-Z a-z 0-9 - . _ ~; chmod 600): every request must then carry "
+                 "\"Authorization: Bearer TOKEN\" (or ?token=TOKEN from a browser, which then "
+                 "gets a cookie), else 401")
+      ->check(CLI::ExistingFile);
   app.add_option("--threads", options.io_threads, "IO threads for sessions")
       ->capture_default_str()
       ->check(CLI::Range(1, 64));
@@ -120,6 +134,12 @@ void AddLimitOptions(CLI::App& app, fleetmap::SyncServerOptions& options, Flags&
                  "the memory the others sync with; at least 64, one frame of the largest")
       ->capture_default_str()
       ->check(CLI::Range(std::uint64_t{64}, std::uint64_t{1} << 20));
+  app.add_option("--max-route-plans-per-robot", options.max_route_plans_per_robot,
+                 "Route downloads one robot may have queued or being planned at once, across "
+                 "its sessions; past this its route request is refused (BUSY), so one robot's "
+                 "routes cannot hold every store worker")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 100000));
   app.add_option("--max-submission-mib", flags.max_submission_mib,
                  "Largest submission a robot may push, in MiB, as announced and as received; "
                  "a larger push is refused (INVALID). The welcome tells agents the limit: "
@@ -250,15 +270,25 @@ sigset_t BlockStopSignals() {
 }
 
 // Serves until SIGTERM or SIGINT; 0 once drained, 2 when the server cannot start.
-int Serve(const fleetmap::SyncServerOptions& options, const std::string& http,
+int Serve(const fleetmap::SyncServerOptions& options, const Flags& flags,
           const sigset_t& stop_signals) {
   std::unique_ptr<fleetmap::SyncServer> server;
   std::unique_ptr<fleetmap::StatusHttpServer> status_http;
   try {
+    fleetmap::StatusHttpOptions http_options;
+    http_options.allow_plaintext = flags.allow_plaintext_http;
+    if (!flags.http_token_file.empty()) {
+      if (flags.http.empty()) {
+        throw fleetmap::Error(fleetmap::ErrorCode::kInvalidArgument,
+                              "--http-token-file without --http: there is no status page");
+      }
+      http_options.token = fleetmap::ReadStatusHttpToken(flags.http_token_file);
+    }
     server = std::make_unique<fleetmap::SyncServer>(options);
     server->Start();
-    if (!http.empty()) {
-      status_http = fleetmap::StartStatusHttp(http, [s = server.get()] { return s->Status(); });
+    if (!flags.http.empty()) {
+      status_http = fleetmap::StartStatusHttp(
+          flags.http, [s = server.get()] { return s->Status(); }, std::move(http_options));
     }
   } catch (const fleetmap::Error& e) {
     std::cerr << "fleetmapd: " << e.what() << "\n";
@@ -314,5 +344,5 @@ int main(int argc, char** argv) {
   ApplyFlags(flags, options);
   StartLogging();
   const sigset_t stop_signals = BlockStopSignals();
-  return Serve(options, flags.http, stop_signals);
+  return Serve(options, flags, stop_signals);
 }

@@ -7,6 +7,7 @@
 #include <signal.h>
 #include <sqlite3.h>
 
+#include <atomic>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -32,6 +33,7 @@
 #include "fleetmap/store/graph_store.h"
 #include "fleetmap/wire/sync_frame.h"
 #include "fleetmapd_process.h"
+#include "http_get.h"
 #include "random_robot_map.h"
 #include "raw_sync_client.h"
 #include "scratch_dir.h"
@@ -1166,6 +1168,75 @@ TEST_F(FleetmapdSqliteTest, PlainTextOnANonLoopbackAddressNeedsAnExplicitOption)
   }
 }
 
+// The status page and /metrics name every robot, its UUID, channel and last error: on an
+// address other than loopback they follow the sync address's rule (refused in plain text unless
+// the operator says so, here with --allow-plaintext-http).
+TEST_F(FleetmapdSqliteTest, TheStatusPageOffLoopbackNeedsAnExplicitOption) {
+  const auto [exit, log] = RunFleetmapd(
+      dir_ / "refused.log", {"--store", uri_, "--listen", "127.0.0.1:0", "--http", "0.0.0.0:0"});
+  EXPECT_EQ(exit, std::optional<int>(2)) << log;
+  EXPECT_NE(log.find("refusing to serve the status page"), std::string::npos) << log;
+  EXPECT_NE(log.find("--allow-plaintext-http"), std::string::npos) << log;
+  EXPECT_EQ(log.find("listening on"), std::string::npos) << log;
+
+  Fleetmapd server = Start({"--http", "0.0.0.0:0", "--allow-plaintext-http"});
+  ASSERT_FALSE(server.address.empty());
+  const std::optional<std::string> line =
+      server.process->ReadLineContaining("http on", milliseconds(10'000));
+  ASSERT_TRUE(line.has_value()) << server.Log();
+  const std::string port = line->substr(line->rfind(':') + 1);
+  EXPECT_EQ(HttpGetReply("127.0.0.1:" + port, "/healthz").status, 200);
+  EXPECT_TRUE(server.LogContains("PLAIN TEXT status page")) << server.Log();
+}
+
+// With --http-token-file, every request to the status server carries the token (a bearer
+// header, or ?token= then the cookie it sets for a browser), else 401; a token file others can
+// read is refused as a TLS key is.
+TEST_F(FleetmapdSqliteTest, WithATokenTheStatusPageAnswersOnlyRequestsThatCarryIt) {
+  const std::string token = "0123456789abcdef0123456789abcdef";
+  const std::filesystem::path token_file = dir_ / "http.token";
+  std::ofstream(token_file) << token << "\n";
+  std::filesystem::permissions(token_file, std::filesystem::perms::owner_read,
+                               std::filesystem::perm_options::replace);
+  Fleetmapd server = Start({"--http", "127.0.0.1:0", "--http-token-file", token_file.string()});
+  ASSERT_FALSE(server.address.empty());
+  const std::optional<std::string> line =
+      server.process->ReadLineContaining("http on", milliseconds(10'000));
+  ASSERT_TRUE(line.has_value()) << server.Log();
+  const std::string http = line->substr(line->rfind(' ') + 1);
+
+  for (const char* target : {"/", "/metrics", "/healthz", "/map.svg"}) {
+    SCOPED_TRACE(target);
+    const HttpReply without = HttpGetReply(http, target);
+    EXPECT_EQ(without.status, 401) << without.headers;
+    EXPECT_EQ(without.body.find("fleetmap_"), std::string::npos) << without.body;
+    EXPECT_EQ(HttpGetReply(http, target, "Authorization: Bearer " + token + "x\r\n").status, 401);
+    EXPECT_EQ(
+        HttpGetReply(http, target, "Authorization: Bearer " + token.substr(1) + "\r\n").status,
+        401);
+  }
+  const HttpReply metrics =
+      HttpGetReply(http, "/metrics", "Authorization: Bearer " + token + "\r\n");
+  EXPECT_EQ(metrics.status, 200) << metrics.headers;
+  EXPECT_NE(metrics.body.find("fleetmap_"), std::string::npos) << metrics.body;
+  const HttpReply page = HttpGetReply(http, "/?token=" + token);
+  EXPECT_EQ(page.status, 200) << page.headers;
+  EXPECT_NE(page.headers.find("Set-Cookie: fleetmapd_status_token=" + token), std::string::npos)
+      << page.headers;
+  EXPECT_EQ(HttpGetReply(http, "/?token=" + token.substr(2)).status, 401);
+  EXPECT_EQ(
+      HttpGetReply(http, "/metrics", "Cookie: fleetmapd_status_token=" + token + "\r\n").status,
+      200);
+
+  std::filesystem::permissions(token_file, std::filesystem::perms::others_read,
+                               std::filesystem::perm_options::add);
+  const auto [exit, log] =
+      RunFleetmapd(dir_ / "refused.log", {"--store", uri_, "--listen", "127.0.0.1:0", "--http",
+                                          "127.0.0.1:0", "--http-token-file", token_file.string()});
+  EXPECT_EQ(exit, std::optional<int>(2)) << log;
+  EXPECT_NE(log.find("chmod 600"), std::string::npos) << log;
+}
+
 // Issue 35 item 9: a TLS mismatch said nothing clear on the server's side. A TLS ClientHello on
 // a plain listener and plain bytes on a TLS listener are each named in the log.
 TEST_F(FleetmapdSqliteTest, ATlsMismatchIsNamedInTheServersLog) {
@@ -1301,6 +1372,81 @@ TEST_F(FleetmapdSqliteTest, ChannelsRoutesAndInstalledReportsFromAHostileRobot) 
 
 // Issue 35 item 10: an agent string with a newline and escape codes became a forged line in
 // fleetmapd's log. What a client sends is logged escaped, on its own line.
+// A route whose two positions are a million metres apart, over a 40 m map, asked for in 12
+// distinct requests from 4 sessions of one robot, while another robot syncs: each is refused at
+// once, by name (far longer than the map; or BUSY while the robot already has a route being
+// planned, robot_allowance.h), and the other robot's hellos and downloads go through quickly.
+TEST_F(FleetmapdSqliteTest, ARouteFarBeyondTheMapIsRefusedAndOtherRobotsStillSync) {
+  const NewRobot other = RobotRegistry(Repository::Open(uri_)->versions()).Add("r2", WallNs());
+  Fleetmapd server = Start();
+  ASSERT_FALSE(server.address.empty());
+  const GraphBatch map = RandomRobotMap(other.robot.id, 40, 83, 20);  // a chain 1 m a step
+  {
+    RawSyncClient pusher(server.address);
+    ASSERT_TRUE(pusher.Hello(other.robot.id, other.token).has_value());
+    const PushPlan plan = PlanPush(map);
+    const std::optional<v1::SyncFrame> accepted = PushWhole(pusher, plan);
+    ASSERT_TRUE(accepted && accepted->has_push_accepted()) << Describe(accepted);
+    ASSERT_EQ(WaitForState(pusher, plan.id, "merged").state(), "merged");
+  }
+
+  std::atomic<int> far = 0, busy = 0, other_errors = 0;
+  std::vector<std::thread> hostile;
+  for (int session = 0; session < 4; ++session) {
+    hostile.emplace_back([&, session] {
+      for (int request = 0; request < 3; ++request) {
+        RawSyncClient client(server.address, false, milliseconds(10'000));
+        const std::optional<v1::SyncFrame> welcome = client.Hello(robot_, token_);
+        if (!welcome || !welcome->has_welcome()) {
+          ++other_errors;
+          continue;
+        }
+        v1::SyncFrame frame;
+        v1::DownloadRequest& route = *frame.mutable_download_request();
+        route.set_policy("route");
+        route.set_route_anchor(map.nodes[0].id.ToBytesString());
+        route.set_route_radius_m(10.0 + 3 * session + request);  // 12 distinct requests
+        for (const double v : {0.0, 0.0, 0.0, 1e6, 0.0, 0.0}) route.add_route_xyz(v);
+        const std::optional<v1::SyncFrame> reply =
+            client.Send(frame) ? client.Receive() : std::nullopt;
+        // A refusal closes the session; once closed it no longer counts among the robot's 4.
+        client.ClosedByServer();
+        if (ErrorCodeOf(reply) == v1::ErrorFrame::INVALID &&
+            ErrorTextOf(reply).find("times the extent of the map") != std::string::npos) {
+          ++far;
+        } else if (ErrorCodeOf(reply) == v1::ErrorFrame::BUSY &&
+                   ErrorTextOf(reply).find("--max-route-plans-per-robot") != std::string::npos) {
+          ++busy;
+        } else {
+          ADD_FAILURE() << "a route 1000 km long over a 40 m map: " << Describe(reply);
+          ++other_errors;
+        }
+      }
+    });
+  }
+  // Meanwhile the other robot syncs: hello and a download, five times.
+  int synced = 0;
+  double slowest_s = 0.0;
+  for (int i = 0; i < 5; ++i) {
+    const auto start = std::chrono::steady_clock::now();
+    RawSyncClient client(server.address, false, milliseconds(10'000));
+    const std::optional<v1::SyncFrame> welcome = client.Hello(other.robot.id, other.token);
+    const std::optional<Downloaded> download =
+        welcome && welcome->has_welcome() ? DownloadCopy(client) : std::nullopt;
+    if (download && download->map.nodes.size() == map.nodes.size()) ++synced;
+    slowest_s = std::max(
+        slowest_s, std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+  }
+  for (std::thread& thread : hostile) thread.join();
+  std::printf("far routes: %d refused as far, %d busy; the other robot's slowest sync %.3f s\n",
+              far.load(), busy.load(), slowest_s);
+  EXPECT_EQ(far + busy, 12) << server.Log();
+  EXPECT_GE(far, 1);
+  EXPECT_EQ(other_errors, 0);
+  EXPECT_EQ(synced, 5) << server.Log();
+  EXPECT_LT(slowest_s, 3.0) << "the other robot's sync was held";
+}
+
 TEST_F(FleetmapdSqliteTest, WhatAClientSendsCannotForgeALogLine) {
   Fleetmapd server = Start();
   ASSERT_FALSE(server.address.empty());

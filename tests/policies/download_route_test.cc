@@ -14,6 +14,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <map>
 #include <random>
@@ -436,6 +437,40 @@ TEST(RouteCorridorTest, LengthNearCountsTheRouteWithinReachOfAKeptNode) {
   EXPECT_NEAR(corridor.LengthNear(kept, 1.0), 2.0, 1e-9);
   std::fill(kept.begin(), kept.end(), 1);
   EXPECT_NEAR(corridor.LengthNear(kept), 100.0, 1e-9);
+}
+
+// A route's cost is the map near it: a route a million metres long over this 100 m map is
+// refused before any walk (it is far longer than the map), one nowhere near the map is refused,
+// and one that leaves the map for kilometres costs what its part near the map costs (counted
+// as grid cells looked up, the same whether it runs 5 or 12 km beyond the map).
+TEST(RouteCorridorTest, ARouteFarBeyondTheMapIsRefusedOrCostsOnlyTheMapNearIt) {
+  const RoutePlan plan;
+  DownloadPolicy policy = ParseDownloadPolicy("route");
+  // The map around node 1: x -10 … 110, y -10 … 40, z -10 … 10 (widened by the 10 m radius),
+  // 132 m across, so a route may run 13.2 km.
+  policy.route = AnchoredRoute(1, {{0, 0, 0}, {1e6, 0, 0}});
+  ExpectError(
+      ErrorCode::kInvalidArgument, [&] { plan.Select(policy); }, "times the extent of the map");
+  policy.route = AnchoredRoute(1, {{5e3, 5e3, 0}, {5e3 + 100, 5e3, 0}});
+  ExpectError(
+      ErrorCode::kInvalidArgument, [&] { plan.Select(policy); }, "of no node of the map");
+
+  std::vector<std::size_t> probed;
+  for (const double far_m : {5e3, 12e3}) {
+    policy.route = AnchoredRoute(1, {{50, 0, 0}, {far_m, 0, 0}});
+    const DownloadReport report = plan.Select(policy).report;
+    // A from x = 40 (10 m short of the route's start), B from x = 42 (4 m aside).
+    EXPECT_EQ(report.corridor_nodes, 31u + 30u);
+    EXPECT_NEAR(report.route_covered_m, 55.0, 0.5);  // x = 50 … 105: 5 m past A's last node
+    // The corridor: about 60 m of the route within the map's box in 10 m steps, each looking
+    // up 4 x 3 x 3 cells; the coverage: about 55 m in 0.25 m steps, each 3 x 3 x 3 cells.
+    // A walk of the whole route made (far_m / 10) x 36 + (far_m / 0.25) x 27 lookups.
+    EXPECT_LE(report.route_cells_probed, (60 / 10 + 4) * 36 + (55 * 4 + 4) * 27);
+    std::printf("a route from x = 50 m to %.0f m over the 100 m map: %zu grid cells looked up\n",
+                far_m, report.route_cells_probed);
+    probed.push_back(report.route_cells_probed);
+  }
+  EXPECT_EQ(probed[0], probed[1]);
 }
 
 TEST(RouteCorridorTest, AnUnknownAnchorOrOutingIsNotFound) {

@@ -172,6 +172,55 @@ DownloadRoute PositionsOf(std::span<const std::size_t> places, std::span<const N
   return route;
 }
 
+// The corridor and coverage as a walk of the whole route computes them, every node against
+// every segment and every sample against every kept node: the reference the clipped, indexed
+// walks of RouteCorridor must agree with.
+std::vector<char> FullWalkCorridor(const RouteCorridor& corridor, const MapLayout& layout,
+                                   double radius_m) {
+  std::vector<char> members(layout.component.size(), 0);
+  for (const RouteCorridor::Piece& piece : corridor.pieces()) {
+    for (std::size_t i = 0; i < members.size(); ++i) {
+      if (layout.component[i] != piece.component) continue;
+      const Eigen::Vector3d p = layout.position_m(i);
+      for (std::size_t k = 0; k < piece.p_m.size(); ++k) {
+        const Eigen::Vector3d& a = piece.p_m[k == 0 ? 0 : k - 1];
+        const Eigen::Vector3d& b = piece.p_m[k];
+        const Eigen::Vector3d ab = b - a;
+        const double t = ab.squaredNorm() == 0.0
+                             ? 0.0
+                             : std::clamp((p - a).dot(ab) / ab.squaredNorm(), 0.0, 1.0);
+        if ((p - (a + t * ab)).norm() <= radius_m) members[i] = 1;
+      }
+    }
+  }
+  return members;
+}
+
+double FullWalkLengthNear(const RouteCorridor& corridor, const MapLayout& layout,
+                          std::span<const char> kept) {
+  double near_m = 0.0;
+  for (const RouteCorridor::Piece& piece : corridor.pieces()) {
+    for (std::size_t k = 1; k < piece.p_m.size(); ++k) {
+      const Eigen::Vector3d& a = piece.p_m[k - 1];
+      const Eigen::Vector3d& b = piece.p_m[k];
+      const auto steps = std::max<std::size_t>(
+          1, static_cast<std::size_t>(std::ceil((b - a).norm() / kRouteSampleStep_m)));
+      for (std::size_t s = 0; s < steps; ++s) {
+        const Eigen::Vector3d from = a + (b - a) * (static_cast<double>(s) / steps);
+        const Eigen::Vector3d to = a + (b - a) * (static_cast<double>(s + 1) / steps);
+        const Eigen::Vector3d middle = 0.5 * (from + to);
+        bool near = false;
+        for (std::size_t i = 0; i < kept.size() && !near; ++i) {
+          near = kept[i] && layout.component[i] == piece.component &&
+                 (layout.position_m(i) - middle).norm() <= kRouteCoverageReach_m;
+        }
+        if (near) near_m += (to - from).norm();
+      }
+    }
+  }
+  return near_m;
+}
+
 double Covered(const DownloadReport& report) {
   return report.route_length_m > 0 ? report.route_covered_m / report.route_length_m : 0.0;
 }
@@ -219,6 +268,29 @@ TEST(RouteDownloadWorld, CoversTheRouteWithAFractionOfCopysBytesOverSeveralSeeds
     EXPECT_GT(route.route_length_m, 0.8 * kWorldThird_m);
     EXPECT_LT(route.route_length_m, 1.2 * kWorldThird_m);
     EXPECT_EQ(positions_nodes, outing_nodes);
+
+    // The indexed, clipped walks choose what a walk of the whole route chose, on this map and
+    // on the same route with a detour 2 km out of the map and back (the detour costs nothing,
+    // adds nothing to the corridor, and nothing to the coverage).
+    {
+      DownloadRoute detour = PositionsOf(corridor.pieces()[0].nodes, nodes, layout);
+      const std::size_t middle = detour.anchor_p_m.size() / 2;
+      const Eigen::Vector3d out = detour.anchor_p_m[middle] + Eigen::Vector3d(2000.0, 1500.0, 0.0);
+      detour.anchor_p_m.insert(detour.anchor_p_m.begin() + static_cast<std::ptrdiff_t>(middle),
+                               {detour.anchor_p_m[middle], out});
+      for (const DownloadRoute& checked :
+           {PositionsOf(corridor.pieces()[0].nodes, nodes, layout), detour, by_outing}) {
+        const RouteCorridor placed =
+            RouteCorridor::Place(layout, nodes, map.edges, map.paths, checked);
+        const std::vector<char> reference = FullWalkCorridor(placed, layout, checked.radius_m);
+        EXPECT_TRUE(std::equal(reference.begin(), reference.end(), placed.members().begin(),
+                               placed.members().end()))
+            << "the corridor differs from a full walk's";
+        std::vector<char> kept(nodes.size(), 0);
+        for (std::size_t i = 0; i < nodes.size(); i += 3) kept[i] = 1;  // a thinned download
+        EXPECT_DOUBLE_EQ(placed.LengthNear(kept), FullWalkLengthNear(placed, layout, kept));
+      }
+    }
     const DownloadReport* variants[] = {&route, &route_tod_cover, &positions};
     for (std::size_t v = 0; v < std::size(variants); ++v) {
       SCOPED_TRACE(variants[v]->policy);

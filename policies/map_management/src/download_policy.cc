@@ -581,7 +581,11 @@ DownloadSelection SelectDownload(std::span<const Node> nodes, std::span<const Ed
     sent[node] = 1;
     report.bytes += static_cast<std::int64_t>(map.nodes[node]->landmarks_blob.size());
   }
-  if (corridor) report.route_covered_m = corridor->LengthNear(sent, kRouteCoverageReach_m);
+  if (corridor) {
+    report.route_cells_probed = corridor->cells_probed();
+    report.route_covered_m =
+        corridor->LengthNear(sent, kRouteCoverageReach_m, &report.route_cells_probed);
+  }
   selection.paths = SentPaths(map, edges, sent, integral.nodes, policy, selection.derived_edges);
   selection.nodes = std::move(integral.nodes);
   selection.edges = std::move(integral.edges);

@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <limits>
 #include <sstream>
 #include <string>
 #include <unordered_map>
@@ -16,9 +17,18 @@
 namespace fleetmap {
 namespace {
 
-// A route given as positions is at most this long: the corridor and the coverage walk it in
-// steps, and a robot's request must not make the server walk without end.
+// A route given as positions is at most this long, whatever the map: a bound checked before
+// the map is read (ValidateDownloadRoute); the map's own bound (kMaxRouteLengthPerMapExtent)
+// is the one that holds the work down.
 constexpr double kMaxRouteLength_m = 1e6;
+// A route given as positions is at most this many times the extent of the map it is placed in
+// (download_route.h). A lap of a map's perimeter is under 3 of its diagonals, so this allows
+// some 30 laps: more than a mission drives through one map, and far less than a route in the
+// wrong frame or units, or one made to keep the server busy.
+constexpr double kMaxRouteLengthPerMapExtent = 100.0;
+// Boxes are widened by this beyond their reach, and a clipped step range by a step either way,
+// so that rounding in the clipping never drops a step the exact test would keep.
+constexpr double kRouteBoxSlack_m = 0.01;
 // The grids' cells are never smaller than this, so a thin corridor is not walked in
 // vanishing steps.
 constexpr double kMinRouteCell_m = 1.0;
@@ -67,6 +77,59 @@ double DistanceToSegment(const Eigen::Vector3d& p, const Eigen::Vector3d& a,
   return (p - (a + t * ab)).norm();
 }
 
+// An axis-aligned box, empty until a point is added.
+struct RouteBox {
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
+  Eigen::Vector3d hi = Eigen::Vector3d::Constant(-std::numeric_limits<double>::infinity());
+
+  bool empty() const { return !(lo.array() <= hi.array()).all(); }
+  void Add(const Eigen::Vector3d& p) {
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  }
+  RouteBox Widened(double by_m) const {
+    if (empty()) return *this;
+    return RouteBox{(lo.array() - by_m).matrix(), (hi.array() + by_m).matrix()};
+  }
+  double diagonal_m() const { return empty() ? 0.0 : (hi - lo).norm(); }
+};
+
+// The boxes of the nodes flagged in `flags` (all when empty) by component, widened by `by_m`.
+std::vector<RouteBox> ComponentBoxes(std::span<const std::size_t> component,
+                                     std::span<const Eigen::Vector3d> p_m,
+                                     std::span<const char> flags, double by_m) {
+  std::vector<RouteBox> boxes;
+  for (std::size_t i = 0; i < p_m.size(); ++i) {
+    if (!flags.empty() && !flags[i]) continue;
+    if (component[i] >= boxes.size()) boxes.resize(component[i] + 1);
+    boxes[component[i]].Add(p_m[i]);
+  }
+  for (RouteBox& box : boxes) box = box.Widened(by_m);
+  return boxes;
+}
+
+// The parameters [t0, t1] within [0, 1] where a + t (b - a) is inside `box` (the slab method);
+// false when the segment misses it.
+bool ClipToBox(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const RouteBox& box, double& t0,
+               double& t1) {
+  t0 = 0.0;
+  t1 = 1.0;
+  if (box.empty()) return false;
+  for (int k = 0; k < 3; ++k) {
+    const double d = b[k] - a[k];
+    if (d == 0.0) {
+      if (a[k] < box.lo[k] || a[k] > box.hi[k]) return false;
+      continue;
+    }
+    double enter = (box.lo[k] - a[k]) / d, leave = (box.hi[k] - a[k]) / d;
+    if (enter > leave) std::swap(enter, leave);
+    t0 = std::max(t0, enter);
+    t1 = std::min(t1, leave);
+    if (t0 > t1) return false;
+  }
+  return true;
+}
+
 // Nodes by (component, cube of `cell_m`), to find those near a point or a short segment without
 // walking the whole map.
 class RouteNodeGrid {
@@ -80,13 +143,15 @@ class RouteNodeGrid {
   }
 
   // Calls visit(node) for every node in the cells that the box [lo, hi] touches.
+  // Counts the cells looked up in `cells_probed`.
   template <typename Visit>
   void ForEachNear(std::size_t component, const Eigen::Vector3d& lo, const Eigen::Vector3d& hi,
-                   Visit&& visit) const {
+                   std::size_t& cells_probed, Visit&& visit) const {
     const Key from = KeyOf(component, lo), to = KeyOf(component, hi);
     for (long x = from.x; x <= to.x; ++x) {
       for (long y = from.y; y <= to.y; ++y) {
         for (long z = from.z; z <= to.z; ++z) {
+          ++cells_probed;
           const auto it = cells_.find(Key{component, x, y, z});
           if (it == cells_.end()) continue;
           for (const std::size_t node : it->second) visit(node);
@@ -125,17 +190,30 @@ class RouteNodeGrid {
 };
 
 // Calls visit(a, b) for consecutive sub-segments of a piece's polyline at most `step_m` long
-// (a piece of one place: once, with a == b).
+// (a piece of one place: once, with a == b), but only for those that may touch `box`: a
+// segment is cut into the same steps as a walk of all of it would cut it, and the steps
+// outside the box are skipped without being made. So what a walk costs is the route's length
+// within the box (the map near the route), not its length.
 template <typename Visit>
-void ForEachStep(std::span<const Eigen::Vector3d> p_m, double step_m, Visit&& visit) {
+void ForEachStepIn(std::span<const Eigen::Vector3d> p_m, double step_m, const RouteBox& box,
+                   Visit&& visit) {
   if (p_m.size() == 1) visit(p_m[0], p_m[0]);
   for (std::size_t i = 1; i < p_m.size(); ++i) {
     const Eigen::Vector3d& a = p_m[i - 1];
     const Eigen::Vector3d& b = p_m[i];
+    double t0 = 0.0, t1 = 1.0;
+    if (!ClipToBox(a, b, box, t0, t1)) continue;
     const double length = (b - a).norm();
     const auto steps =
         std::max<std::size_t>(1, static_cast<std::size_t>(std::ceil(length / step_m)));
-    for (std::size_t s = 0; s < steps; ++s) {
+    const double last = static_cast<double>(steps - 1);
+    // Step s spans [s, s + 1] / steps; it may touch [t0, t1] when s is in [t0 steps - 1,
+    // t1 steps], widened by a step for rounding.
+    const auto from = static_cast<std::size_t>(
+        std::clamp(std::floor(t0 * static_cast<double>(steps)) - 2.0, 0.0, last));
+    const auto to = static_cast<std::size_t>(
+        std::clamp(std::floor(t1 * static_cast<double>(steps)) + 1.0, 0.0, last));
+    for (std::size_t s = from; s <= to; ++s) {
       visit(a + (b - a) * (static_cast<double>(s) / static_cast<double>(steps)),
             a + (b - a) * (static_cast<double>(s + 1) / static_cast<double>(steps)));
     }
@@ -344,6 +422,29 @@ RouteCorridor RouteCorridor::Place(const MapLayout& layout, std::span<const Node
     }
   }
 
+  // The map near each component: what the corridor can reach there. Steps of the route
+  // outside it are never made (ForEachStepIn).
+  const std::vector<RouteBox> near_map = ComponentBoxes(layout.component, corridor.root_p_node_m_,
+                                                        {}, route.radius_m + kRouteBoxSlack_m);
+  const auto box_of = [&near_map](std::size_t component) {
+    return component < near_map.size() ? near_map[component] : RouteBox{};
+  };
+  if (route.anchor) {
+    // A route given as positions is judged against the map it is placed in (download_route.h):
+    // far longer than that map it is refused before any walk (near none of its nodes, after).
+    const Piece& piece = corridor.pieces_.front();
+    const double length_m = PolylineLength(piece.p_m);
+    const double extent_m = box_of(piece.component).diagonal_m();
+    if (length_m > kMaxRouteLengthPerMapExtent * extent_m) {
+      InvalidRoute("the positions run " + RouteNumber(length_m) + " m, more than " +
+                   RouteNumber(kMaxRouteLengthPerMapExtent) + " times the extent of the map " +
+                   "around anchor " + route.anchor->ToString() + " (" + RouteNumber(extent_m) +
+                   " m: the diagonal of its component's box, widened by radius_m); a route is " +
+                   "driven through the map it downloads (are the positions in the anchor's " +
+                   "camera frame, in metres?)");
+    }
+  }
+
   RouteNodeGrid grid(route.radius_m);
   for (std::size_t i = 0; i < nodes.size(); ++i) {
     grid.Add(layout.component[i], layout.position_m(i), i);
@@ -352,39 +453,55 @@ RouteCorridor RouteCorridor::Place(const MapLayout& layout, std::span<const Node
   const Eigen::Vector3d reach = Eigen::Vector3d::Constant(route.radius_m);
   for (const Piece& piece : corridor.pieces_) {
     corridor.length_m_ += PolylineLength(piece.p_m);
-    ForEachStep(piece.p_m, grid.cell_m(), [&](const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
-      grid.ForEachNear(
-          piece.component, a.cwiseMin(b) - reach, a.cwiseMax(b) + reach, [&](std::size_t node) {
-            if (!corridor.members_[node] &&
-                DistanceToSegment(corridor.root_p_node_m_[node], a, b) <= route.radius_m) {
-              corridor.members_[node] = 1;
-              ++corridor.size_;
-            }
-          });
-    });
+    ForEachStepIn(piece.p_m, grid.cell_m(), box_of(piece.component),
+                  [&](const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+                    grid.ForEachNear(piece.component, a.cwiseMin(b) - reach, a.cwiseMax(b) + reach,
+                                     corridor.cells_probed_, [&](std::size_t node) {
+                                       if (!corridor.members_[node] &&
+                                           DistanceToSegment(corridor.root_p_node_m_[node], a, b) <=
+                                               route.radius_m) {
+                                         corridor.members_[node] = 1;
+                                         ++corridor.size_;
+                                       }
+                                     });
+                  });
+  }
+  if (route.anchor && corridor.size_ == 0) {
+    InvalidRoute("the positions come within radius_m = " + RouteNumber(route.radius_m) +
+                 " m of no node of the map (are they in anchor " + route.anchor->ToString() +
+                 "'s camera frame, in metres?)");
   }
   return corridor;
 }
 
-double RouteCorridor::LengthNear(std::span<const char> kept, double reach_m) const {
+double RouteCorridor::LengthNear(std::span<const char> kept, double reach_m,
+                                 std::size_t* cells_probed) const {
   RouteNodeGrid grid(reach_m);
   for (std::size_t i = 0; i < kept.size(); ++i) {
     if (kept[i]) grid.Add(component_[i], root_p_node_m_[i], i);
   }
+  // A sample farther than reach_m from every kept node's box is near none: never made.
+  const std::vector<RouteBox> near_kept =
+      ComponentBoxes(component_, root_p_node_m_, kept, reach_m + kRouteBoxSlack_m);
   const Eigen::Vector3d reach = Eigen::Vector3d::Constant(reach_m);
+  std::size_t probed = 0;
   double near_m = 0.0;
   for (const Piece& piece : pieces_) {
     if (piece.p_m.size() < 2) continue;  // a place alone has no length
-    ForEachStep(
-        piece.p_m, kRouteSampleStep_m, [&](const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
-          const Eigen::Vector3d middle = 0.5 * (a + b);
-          bool near = false;
-          grid.ForEachNear(piece.component, middle - reach, middle + reach, [&](std::size_t node) {
-            near = near || (root_p_node_m_[node] - middle).norm() <= reach_m;
-          });
-          if (near) near_m += (b - a).norm();
-        });
+    if (piece.component >= near_kept.size()) continue;
+    ForEachStepIn(piece.p_m, kRouteSampleStep_m, near_kept[piece.component],
+                  [&](const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+                    const Eigen::Vector3d middle = 0.5 * (a + b);
+                    bool near = false;
+                    grid.ForEachNear(piece.component, middle - reach, middle + reach, probed,
+                                     [&](std::size_t node) {
+                                       near = near ||
+                                              (root_p_node_m_[node] - middle).norm() <= reach_m;
+                                     });
+                    if (near) near_m += (b - a).norm();
+                  });
   }
+  if (cells_probed) *cells_probed += probed;
   return near_m;
 }
 

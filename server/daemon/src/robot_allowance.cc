@@ -7,10 +7,10 @@
 namespace fleetmap::daemon {
 
 RobotAllowance::RobotAllowance(RobotLimits limits) : limits_(limits) {
-  if (limits_.sessions < 1 || limits_.frame_bytes < 1) {
+  if (limits_.sessions < 1 || limits_.frame_bytes < 1 || limits_.route_plans < 1) {
     throw Error(ErrorCode::kInvalidArgument,
-                "fleetmapd: --max-sessions-per-robot and --max-inflight-mib-per-robot must be at "
-                "least 1");
+                "fleetmapd: --max-sessions-per-robot, --max-inflight-mib-per-robot and "
+                "--max-route-plans-per-robot must be at least 1");
   }
 }
 
@@ -50,8 +50,26 @@ void RobotAllowance::ReleaseFrame(const Uuid& robot, std::uint64_t bytes) {
   ForgetIfIdleLocked(it);
 }
 
+bool RobotAllowance::ReserveRoutePlan(const Uuid& robot) {
+  std::lock_guard lock(mutex_);
+  Usage& usage = usage_[robot];
+  if (usage.route_plans >= limits_.route_plans) return false;
+  ++usage.route_plans;
+  return true;
+}
+
+void RobotAllowance::ReleaseRoutePlan(const Uuid& robot) {
+  std::lock_guard lock(mutex_);
+  const auto it = usage_.find(robot);
+  if (it == usage_.end() || it->second.route_plans == 0) return;
+  --it->second.route_plans;
+  ForgetIfIdleLocked(it);
+}
+
 void RobotAllowance::ForgetIfIdleLocked(std::unordered_map<Uuid, Usage>::iterator it) {
-  if (it->second.sessions == 0 && it->second.frame_bytes == 0) usage_.erase(it);
+  if (it->second.sessions == 0 && it->second.frame_bytes == 0 && it->second.route_plans == 0) {
+    usage_.erase(it);
+  }
 }
 
 }  // namespace fleetmap::daemon

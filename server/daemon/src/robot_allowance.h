@@ -9,6 +9,12 @@
 // body is read) and released when the session is done with the frame: the bound is on what
 // the robot may make the server hold, whatever pace its bytes come at.
 //
+// A download with a route costs the store worker that plans it work no other download does
+// (placing the corridor, judging its coverage: download_route.h), asked for by a request of a
+// hundred bytes. So a robot also holds at most `route_plans` such plans queued or running on
+// the store workers at once: with more sessions than that, its other route requests are refused
+// (BUSY), and a robot cannot take every store worker the other robots' hellos wait for.
+//
 // Threading: every member is safe from any thread (one mutex).
 #pragma once
 
@@ -24,11 +30,12 @@ namespace fleetmap::daemon {
 struct RobotLimits {
   std::size_t sessions = 4;                              // sessions past their hello, per robot
   std::uint64_t frame_bytes = std::uint64_t{128} << 20;  // announced frame bytes in flight
+  std::size_t route_plans = 1;  // route downloads being planned (queued or running)
 };
 
 class RobotAllowance {
  public:
-  // REQUIRES: both limits at least 1 (Error(kInvalidArgument) otherwise).
+  // REQUIRES: every limit at least 1 (Error(kInvalidArgument) otherwise).
   explicit RobotAllowance(RobotLimits limits);
 
   // A session of `robot` past its hello: true when it fits (and is counted), false when the
@@ -44,12 +51,19 @@ class RobotAllowance {
   // REQUIRES: a ReserveFrame of `robot` and `bytes` that returned true, not yet released.
   void ReleaseFrame(const Uuid& robot, std::uint64_t bytes);
 
+  // A route download of `robot` to plan on a store worker: true when the robot holds fewer than
+  // `route_plans` (and it is counted), false otherwise.
+  bool ReserveRoutePlan(const Uuid& robot);
+  // REQUIRES: a ReserveRoutePlan of `robot` that returned true, not yet released.
+  void ReleaseRoutePlan(const Uuid& robot);
+
   const RobotLimits& limits() const { return limits_; }
 
  private:
   struct Usage {
     std::size_t sessions = 0;
     std::uint64_t frame_bytes = 0;
+    std::size_t route_plans = 0;
   };
   // Forgets a robot that holds nothing. REQUIRES: mutex_ held.
   void ForgetIfIdleLocked(std::unordered_map<Uuid, Usage>::iterator it);
@@ -57,6 +71,20 @@ class RobotAllowance {
   const RobotLimits limits_;
   std::mutex mutex_;
   std::unordered_map<Uuid, Usage> usage_;  // guarded by mutex_; robots holding something
+};
+
+// A route plan reserved (RobotAllowance::ReserveRoutePlan), released when this is destroyed.
+class RoutePlanSlot {
+ public:
+  RoutePlanSlot(RobotAllowance& allowance, const Uuid& robot)
+      : allowance_(allowance), robot_(robot) {}
+  ~RoutePlanSlot() { allowance_.ReleaseRoutePlan(robot_); }
+  RoutePlanSlot(const RoutePlanSlot&) = delete;
+  RoutePlanSlot& operator=(const RoutePlanSlot&) = delete;
+
+ private:
+  RobotAllowance& allowance_;
+  Uuid robot_;
 };
 
 }  // namespace fleetmap::daemon

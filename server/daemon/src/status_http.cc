@@ -4,6 +4,8 @@
 // can drain them with a deadline instead of dropping work in flight.
 #include "fleetmap/daemon/status_http.h"
 
+#include <spdlog/spdlog.h>
+
 #include <array>
 #include <boost/asio/bind_executor.hpp>
 #include <boost/asio/dispatch.hpp>
@@ -30,6 +32,7 @@
 #include <vector>
 
 #include "fleetmap/core/error.h"
+#include "status_access.h"
 #include "status_routes.h"
 
 namespace fleetmap {
@@ -114,8 +117,11 @@ class SessionRegistry {
 class HttpSession : public std::enable_shared_from_this<HttpSession> {
  public:
   HttpSession(tcp::socket&& socket, const StatusHttpServer::StatusSource& status_source,
-              std::shared_ptr<SessionRegistry> registry)
-      : stream_(std::move(socket)), status_source_(status_source), registry_(std::move(registry)) {}
+              const std::string& token, std::shared_ptr<SessionRegistry> registry)
+      : stream_(std::move(socket)),
+        status_source_(status_source),
+        token_(token),
+        registry_(std::move(registry)) {}
   ~HttpSession() { registry_->Remove(this); }
 
   void Start() {
@@ -164,7 +170,14 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
     // Timeout, reset or cancelled by Close(): nothing to answer; the stream closes with us.
     if (ec) return;
     if (closing_) return CloseNow();
-    HttpResponse response = RouteStatusRequest(parser_->get(), status_source_);
+    const HttpRequest& request = parser_->get();
+    const StatusAccess access =
+        token_.empty() ? StatusAccess::kByHeaderOrCookie : CheckStatusAccess(request, token_);
+    if (access == StatusAccess::kDenied) return Reply(StatusUnauthorized(request));
+    HttpResponse response = RouteStatusRequest(request, status_source_);
+    if (access == StatusAccess::kByQuery) {
+      response.set(http::field::set_cookie, StatusTokenCookie(token_));
+    }
     Reply(std::move(response));
   }
 
@@ -214,6 +227,7 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
 
   beast::tcp_stream stream_;
   const StatusHttpServer::StatusSource& status_source_;  // owned by the server, outlives us
+  const std::string& token_;                             // likewise; empty: none
   std::shared_ptr<SessionRegistry> registry_;
   beast::flat_buffer buffer_;
   std::optional<http::request_parser<http::string_body>> parser_;
@@ -252,12 +266,13 @@ bool SessionRegistry::Add(const std::shared_ptr<HttpSession>& session) {
 class HttpListener : public std::enable_shared_from_this<HttpListener> {
  public:
   HttpListener(net::io_context& io, tcp::acceptor&& acceptor,
-               const StatusHttpServer::StatusSource& status_source,
+               const StatusHttpServer::StatusSource& status_source, const std::string& token,
                std::shared_ptr<SessionRegistry> registry)
       : io_(io),
         acceptor_(std::move(acceptor)),
         backoff_(acceptor_.get_executor()),
         status_source_(status_source),
+        token_(token),
         registry_(std::move(registry)) {}
 
   void Start() {
@@ -288,7 +303,8 @@ class HttpListener : public std::enable_shared_from_this<HttpListener> {
       });
       return;
     }
-    auto session = std::make_shared<HttpSession>(std::move(socket), status_source_, registry_);
+    auto session =
+        std::make_shared<HttpSession>(std::move(socket), status_source_, token_, registry_);
     // Refused (stopping or full): the session and its socket go away right here.
     if (registry_->Add(session)) session->Start();
     DoAccept();
@@ -298,6 +314,7 @@ class HttpListener : public std::enable_shared_from_this<HttpListener> {
   tcp::acceptor acceptor_;
   net::steady_timer backoff_;
   const StatusHttpServer::StatusSource& status_source_;
+  const std::string& token_;
   std::shared_ptr<SessionRegistry> registry_;
 };
 
@@ -351,11 +368,13 @@ tcp::acceptor Bind(net::io_context& io, const tcp::endpoint& endpoint, const std
 }  // namespace
 
 struct StatusHttpServer::Impl {
-  explicit Impl(StatusSource source) : status_source(std::move(source)) {}
+  Impl(StatusSource source, std::string token_in)
+      : status_source(std::move(source)), token(std::move(token_in)) {}
 
   // Declared first, destroyed last: the io_context's teardown destroys pending handlers,
-  // which hold sessions that refer to it.
+  // which hold sessions that refer to them.
   StatusSource status_source;
+  std::string token;
   std::shared_ptr<SessionRegistry> registry = std::make_shared<SessionRegistry>();
   net::io_context io{1};
   std::shared_ptr<HttpListener> listener;
@@ -365,13 +384,32 @@ struct StatusHttpServer::Impl {
   bool stopped = false;
 };
 
-StatusHttpServer::StatusHttpServer(const std::string& address, StatusSource status_source)
-    : impl_(std::make_unique<Impl>(std::move(status_source))) {
+StatusHttpServer::StatusHttpServer(const std::string& address, StatusSource status_source,
+                                   StatusHttpOptions options)
+    : impl_(std::make_unique<Impl>(std::move(status_source), std::move(options.token))) {
   Impl& impl = *impl_;
-  tcp::acceptor acceptor = Bind(impl.io, Resolve(impl.io, address), address);
+  const tcp::endpoint endpoint = Resolve(impl.io, address);
+  if (!endpoint.address().is_loopback()) {
+    // The same rule as the sync server's plain text (sync_server.h allow_plaintext): what the
+    // page shows is for the fleet's operators, not for whoever reaches the address.
+    if (!options.allow_plaintext) {
+      throw Error(ErrorCode::kInvalidArgument,
+                  "refusing to serve the status page and /metrics on " + address +
+                      " in plain text: they name every robot, its UUID, channel and last error "
+                      "to whoever reaches the address (and this server speaks no TLS). Serve "
+                      "them on loopback (--http 127.0.0.1:PORT) behind a TLS reverse proxy or "
+                      "an SSH tunnel, or, on a network you trust, say so with "
+                      "--allow-plaintext-http (and require a token with --http-token-file)");
+    }
+    spdlog::warn("PLAIN TEXT status page and /metrics on {} (--allow-plaintext-http){}", address,
+                 impl.token.empty()
+                     ? ", with no token: anyone who reaches it sees every robot (--http-token-file)"
+                     : ", token required");
+  }
+  tcp::acceptor acceptor = Bind(impl.io, endpoint, address);
   impl.bound = acceptor.local_endpoint();
   impl.listener = std::make_shared<HttpListener>(impl.io, std::move(acceptor), impl.status_source,
-                                                 impl.registry);
+                                                 impl.token, impl.registry);
   impl.listener->Start();
   impl.thread = std::thread([&io = impl.io] { io.run(); });
 }
@@ -404,8 +442,9 @@ void StatusHttpServer::Stop() {
 }
 
 std::unique_ptr<StatusHttpServer> StartStatusHttp(const std::string& address,
-                                                  StatusHttpServer::StatusSource status_source) {
-  return std::make_unique<StatusHttpServer>(address, std::move(status_source));
+                                                  StatusHttpServer::StatusSource status_source,
+                                                  StatusHttpOptions options) {
+  return std::make_unique<StatusHttpServer>(address, std::move(status_source), std::move(options));
 }
 
 }  // namespace fleetmap

@@ -92,7 +92,8 @@ class SyncServer::Impl {
         cache_(options_.download_cache_bytes, options_.download_cache_entry_bytes),
         admission_(LimitsOf(options_)),
         robots_(daemon::RobotLimits{options_.max_sessions_per_robot,
-                                    options_.max_inflight_bytes_per_robot}),
+                                    options_.max_inflight_bytes_per_robot,
+                                    options_.max_route_plans_per_robot}),
         acceptor_(asio::make_strand(ioc_)) {
     if (options_.io_threads < 1 || options_.store_threads < 1) {
       throw Error(ErrorCode::kInvalidArgument, "fleetmapd: --threads must be at least 1");

@@ -1049,10 +1049,25 @@ void SyncSession<Stream>::OnSubmissionChunkRequest(const v1::SubmissionChunkRequ
 
 template <typename Stream>
 void SyncSession<Stream>::OnDownloadRequest(const v1::DownloadRequest& request) {
+  bool route = false;
   try {
-    PolicyOfRequest(request);  // refuse a bad request before it costs the store anything
+    // Refuse a bad request before it costs the store anything.
+    route = PolicyOfRequest(request).route.has_value();
   } catch (const Error& error) {
     return Fail(v1::ErrorFrame::INVALID, "download_request: " + error.message());
+  }
+  // A route is planned within the robot's allowance (robot_allowance.h): the slot is held until
+  // the store job is done with it (the job, and the slot with it, is destroyed once it ran).
+  std::shared_ptr<RoutePlanSlot> route_slot;
+  if (route) {
+    if (!context_.robots.ReserveRoutePlan(robot_)) {
+      return Fail(v1::ErrorFrame::BUSY,
+                  "download_request: robot " + robot_name_ + " has its maximum of " +
+                      std::to_string(context_.robots.limits().route_plans) +
+                      " route downloads being planned (fleetmapd --max-route-plans-per-robot); "
+                      "retry when one ends");
+    }
+    route_slot = std::make_shared<RoutePlanSlot>(context_.robots, robot_);
   }
   // Either a whole download (from the cache, or encoded whole for a version 2 robot) or the
   // plan of one to stream.
@@ -1065,7 +1080,8 @@ void SyncSession<Stream>::OnDownloadRequest(const v1::DownloadRequest& request) 
   download_start_ = std::chrono::steady_clock::now();
   download_channel_ = ChannelOfRequest(request);
   OnStore(
-      [request, version = protocol_version_, &cache = context_.downloads](Repository& repository) {
+      [request, version = protocol_version_, &cache = context_.downloads,
+       route_slot = std::move(route_slot)](Repository& repository) {
         // The channel's revision (channel_registry.h); the head for "head".
         const RevisionNumber head = ChannelRegistry(repository).Resolve(request.channel());
         Result result;

@@ -153,6 +153,9 @@ struct DownloadReport {
   std::size_t corridor_nodes = 0;
   double route_length_m = 0.0;
   double route_covered_m = 0.0;
+  // The work the route took: grid cells looked up to place its corridor and to judge its
+  // coverage (RouteCorridor::cells_probed, LengthNear), bounded by the map near the route.
+  std::size_t route_cells_probed = 0;
   // Components before and after, bridging nodes, always against the picked nodes (when a
   // budget sends its grown selection, the bridges counted are the growth's).
   IntegrityReport integrity;

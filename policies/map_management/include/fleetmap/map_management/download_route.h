@@ -18,6 +18,23 @@
 // The corridor is every node within radius_m of a piece of the route (of its polyline; a piece
 // of one place is a point), in the piece's component.
 //
+// A route given as positions is judged against the map it is placed in: the extent of its
+// anchor's component (the diagonal of the box of that component's node positions, widened by
+// radius_m on every side). A route longer than 100 times that extent, or whose corridor holds
+// no node at all, is refused (Error(kInvalidArgument) naming the figures): a robot drives a
+// route through the map it downloads, so such a route is in the wrong frame or units, or made
+// to keep the server busy. A route may still leave the map for a while (a segment through
+// unmapped ground is no error). An outing's route is the map's own places, so it is bounded by
+// the map already and never judged so.
+//
+// Cost: the map's nodes go into a grid of cells (radius_m wide for the corridor, the coverage
+// reach for the coverage), built once per call. Each segment is clipped to the box of the nodes
+// it can reach in its component (widened by the corridor's radius, or by the coverage reach
+// around the nodes kept) and only the steps within that box are made, each looking up the few
+// cells its own box touches. So the work is bounded by the route's length near the map, not by
+// its length: a segment that runs a million metres beyond a 100 m map costs what 100 m of it
+// costs. cells_probed() counts the lookups.
+//
 // How well a download covers the route: the length of the route with a downloaded node within
 // kRouteCoverageReach_m, judged at the middle of every step of at most kRouteSampleStep_m along
 // each segment of the polyline. Pieces of one place have no length.
@@ -56,8 +73,8 @@ struct DownloadRoute {
 
 // Throws Error(kInvalidArgument) naming what is wrong: neither or both of outing and anchor, a
 // nil UUID, positions with an outing, an anchor without positions, a position or radius not
-// finite, a radius <= 0, positions whose polyline runs more than 1000 km (a robot's request
-// must not make the server walk a corridor without end).
+// finite, a radius <= 0, positions whose polyline runs more than 1000 km (a bound that needs no
+// map; RouteCorridor::Place bounds a route by the map it is placed in).
 void ValidateDownloadRoute(const DownloadRoute& route);
 
 // The route a command line gives (`--route`): either an outing's UUID alone, or text whose
@@ -89,7 +106,8 @@ class RouteCorridor {
   // Throws Error(kInvalidArgument) for a route ValidateDownloadRoute refuses, Error(kNotFound)
   // naming an anchor not among the nodes or an outing with no node in the map (none made by
   // it, none on a path of it), Error(kIntegrity) naming a path edge of the outing with an end
-  // outside `nodes`.
+  // outside `nodes`, and Error(kInvalidArgument) for positions far longer than the map around
+  // their anchor or near none of its nodes (see the file comment).
   static RouteCorridor Place(const MapLayout& layout, std::span<const Node* const> nodes,
                              std::span<const Edge> edges, std::span<const Path> paths,
                              const DownloadRoute& route);
@@ -99,11 +117,15 @@ class RouteCorridor {
   std::size_t size() const { return size_; }
   std::span<const Piece> pieces() const { return pieces_; }
   double length_m() const { return length_m_; }
+  // Grid cells looked up to place the corridor: the work it took (see the file comment).
+  std::size_t cells_probed() const { return cells_probed_; }
 
   // The route's length with a node flagged in `kept` (by node position) within `reach_m` in
   // the same component, sampled every kRouteSampleStep_m at most (see the file comment).
-  // REQUIRES: kept.size() is the node count, reach_m > 0.
-  double LengthNear(std::span<const char> kept, double reach_m = kRouteCoverageReach_m) const;
+  // REQUIRES: kept.size() is the node count, reach_m > 0. Adds the grid cells it looked up to
+  // `*cells_probed` when given.
+  double LengthNear(std::span<const char> kept, double reach_m = kRouteCoverageReach_m,
+                    std::size_t* cells_probed = nullptr) const;
 
  private:
   // Each node's component and layout position, for LengthNear.
@@ -113,6 +135,7 @@ class RouteCorridor {
   std::size_t size_ = 0;
   std::vector<Piece> pieces_;
   double length_m_ = 0.0;
+  std::size_t cells_probed_ = 0;
 };
 
 }  // namespace fleetmap

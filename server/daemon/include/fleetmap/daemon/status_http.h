@@ -10,6 +10,13 @@
 //                 revision; 503 until the first is drawn), image/svg+xml
 // A query string is ignored for routing.
 //
+// Who may read it: the page and /metrics name every robot, its UUID, channel and last error.
+// So, as the sync server refuses plain text off loopback, an address other than loopback is
+// refused unless StatusHttpOptions::allow_plaintext says the network is trusted (this server
+// speaks no TLS: off loopback, put it behind a TLS reverse proxy or an SSH tunnel). With a
+// token every request must carry it, else 401 (status_access.h: "Authorization: Bearer", or
+// "?token=" for a browser, then a cookie), compared in constant time.
+//
 // Limits: request headers up to 8 KiB and bodies up to 8 KiB (larger: 431/413 and the
 // connection closes); 3 s to receive a whole request, counted from when the server starts
 // waiting for it (a keep-alive connection waiting for its next request included), so a client
@@ -34,6 +41,13 @@
 
 namespace fleetmap {
 
+struct StatusHttpOptions {
+  // Serve in plain text on an address other than loopback (fleetmapd --allow-plaintext-http).
+  bool allow_plaintext = false;
+  // Not empty: every request must carry it (see above).
+  std::string token;
+};
+
 class StatusHttpServer {
  public:
   using StatusSource = std::function<FleetStatus()>;
@@ -41,9 +55,11 @@ class StatusHttpServer {
   // Binds `address` ("HOST:PORT", "[IPv6]:PORT"; HOST an address or a name that resolves;
   // PORT 0 picks a free one) and starts serving. A snapshot whose now_ns is 0 is stamped
   // with the system clock before rendering.
-  // Throws Error(kInvalidArgument) for a malformed address or a host that does not resolve,
+  // Throws Error(kInvalidArgument) for a malformed address, a host that does not resolve, or
+  // an address other than loopback without options.allow_plaintext (naming the ways out),
   // Error(kBackend) when the address cannot be bound (in use, not ours, no permission).
-  StatusHttpServer(const std::string& address, StatusSource status_source);
+  StatusHttpServer(const std::string& address, StatusSource status_source,
+                   StatusHttpOptions options = {});
   // Stop().
   ~StatusHttpServer();
   StatusHttpServer(const StatusHttpServer&) = delete;
@@ -67,6 +83,13 @@ class StatusHttpServer {
 // The fleetmapd main's entry point for `--http HOST:PORT`: a running StatusHttpServer.
 // Throws as the constructor.
 std::unique_ptr<StatusHttpServer> StartStatusHttp(const std::string& address,
-                                                  StatusHttpServer::StatusSource status_source);
+                                                  StatusHttpServer::StatusSource status_source,
+                                                  StatusHttpOptions options = {});
+
+// The token in the file at `path` (fleetmapd --http-token-file): its first line, trailing
+// whitespace cut. Throws Error(kInvalidArgument) when others can read the file (chmod 600, as
+// for a TLS key), it cannot be read, or the token is shorter than 16 characters or holds
+// characters other than A-Z a-z 0-9 - . _ ~ (so a URL and a cookie carry it as it is).
+std::string ReadStatusHttpToken(const std::string& path);
 
 }  // namespace fleetmap

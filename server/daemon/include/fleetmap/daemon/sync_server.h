@@ -60,6 +60,10 @@ struct SyncServerOptions {
   // sessions go on. An agent uses one session at a time; 2 frames of the 64 MiB cap in flight.
   std::size_t max_sessions_per_robot = 4;
   std::uint64_t max_inflight_bytes_per_robot = std::uint64_t{128} << 20;
+  // Route downloads one robot may have queued or being planned on the store workers at once
+  // (robot_allowance.h); past this its route request is refused (BUSY). Below store_threads, so
+  // one robot's routes never hold every store worker.
+  std::size_t max_route_plans_per_robot = 1;
   // The bytes of one submission at most, as announced at push_begin (total_bytes) and as
   // received; more is refused with INVALID. Every chunk of a submission is read back at once
   // to decode it when the push ends, so this bounds the memory of that step.
