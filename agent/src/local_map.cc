@@ -10,6 +10,7 @@
 #include <cstring>
 #include <map>
 #include <memory>
+#include <span>
 #include <utility>
 
 #include "background_flusher.h"
@@ -18,6 +19,8 @@
 #include "fleetmap/core/map_chunks.h"
 #include "fleetmap/core/staged_file.h"
 #include "fleetmap/store/graph_store.h"
+#include "fleetmap/store/version_store.h"
+#include "install_rules.h"
 #include "sorted_by_id.h"
 #include "sync_state_file.h"
 
@@ -59,6 +62,16 @@ bool HasLiveLog(const fs::path& db) {
   return !ec && size > 0;
 }
 
+// Where an install in place records its token in map.db (the VersionStore's settings).
+constexpr std::string_view kInstallTokenKey = "agent.install_token";
+
+// Whether the install that wrote `next` happened: one that replaced map.db whole got as far
+// as its rename (no token; sync.json.next alone means so), one in place committed its token.
+bool InstalledInPlace(const SyncState& next, const std::string& map_uri) {
+  if (next.install_token.empty()) return true;
+  return GraphStore::Open(map_uri)->versions().FindSetting(kInstallTokenKey) == next.install_token;
+}
+
 void Rename(const fs::path& from, const fs::path& to) {
   if (::rename(from.c_str(), to.c_str()) != 0) {
     throw Error(ErrorCode::kBackend, "cannot rename " + from.string() + " to " + to.string() +
@@ -89,9 +102,7 @@ GraphBatch Filter(const GraphBatch& map, Keep keep) {
   return out;
 }
 
-const std::set<Uuid>& OfKind(const ElementIds& ids, int kind) {
-  return kind == 0 ? ids.nodes : kind == 1 ? ids.edges : ids.paths;
-}
+using agent_internal::OfKind;
 
 bool InAny(const ElementIds& a, const ElementIds& b, const Uuid& id, int kind) {
   return OfKind(a, kind).contains(id) || OfKind(b, kind).contains(id);
@@ -148,12 +159,17 @@ struct MapIndex {
   }
 };
 
-// Unmerged submissions a download of `revision` reflects retire; the others' content stays.
-struct Retirement {
-  std::vector<UnmergedSubmission> still_unmerged;
-  ElementIds keep;  // their content
-  std::size_t failed_elements = 0;
-};
+}  // namespace
+
+namespace agent_internal {
+
+const std::set<Uuid>& OfKind(const ElementIds& ids, int kind) {
+  return kind == 0 ? ids.nodes : kind == 1 ? ids.edges : ids.paths;
+}
+
+std::set<Uuid>& OfKind(ElementIds& ids, int kind) {
+  return kind == 0 ? ids.nodes : kind == 1 ? ids.edges : ids.paths;
+}
 
 Retirement Retire(const SyncState& state, std::int64_t revision) {
   Retirement retirement;
@@ -168,6 +184,13 @@ Retirement Retire(const SyncState& state, std::int64_t revision) {
   }
   return retirement;
 }
+
+}  // namespace agent_internal
+
+namespace {
+
+using agent_internal::Retire;
+using agent_internal::Retirement;
 
 }  // namespace
 
@@ -220,8 +243,10 @@ LocalMap LocalMap::Open(const fs::path& dir, LocalMapAccess access) {
     if (fs::exists(new_map)) {
       RemoveDatabaseFiles(new_map);
       fs::remove(next_state);
-    } else {
+    } else if (InstalledInPlace(ReadSyncState(next_state), map.map_uri())) {
       Rename(next_state, dir / kStateFile);
+    } else {
+      fs::remove(next_state);
     }
     SyncToDisk(dir);
   } else if (fs::exists(new_map)) {
@@ -407,6 +432,41 @@ void LocalMap::Discard(const Uuid& submission) {
   SaveState();
 }
 
+void LocalMap::CommitChangesInPlace(GraphStore& store, const ElementIds& gone,
+                                    const GraphBatch& writes, SyncState next_state) {
+  if (HasLiveLog(map_path())) {
+    throw Error(ErrorCode::kConflict, map_path().string() +
+                                          " is open in another process (its write-ahead log "
+                                          "is live); stop the map builder before a sync");
+  }
+  const fs::path next_state_path = dir_ / kNextStateFile;
+  WriteFileAtomically(next_state_path, SyncStateToJson(next_state));
+  try {
+    GraphStore::Transaction transaction = store.Begin();
+    const std::vector<Uuid> nodes(gone.nodes.begin(), gone.nodes.end());
+    const std::vector<Uuid> edges(gone.edges.begin(), gone.edges.end());
+    const std::vector<Uuid> paths(gone.paths.begin(), gone.paths.end());
+    store.Erase(nodes, edges, paths);
+    store.Put(writes);
+    store.versions().PutSetting(kInstallTokenKey, next_state.install_token);
+    transaction.Commit();
+  } catch (const Error& e) {
+    std::error_code ignored;
+    fs::remove(next_state_path, ignored);
+    if (e.code() == ErrorCode::kIntegrity) {
+      throw Error(ErrorCode::kCorrupt, "download of revision " +
+                                           std::to_string(next_state.revision) +
+                                           " does not fit the installed map: " + e.message() +
+                                           "; " + map_path().string() + " left as it was");
+    }
+    throw;
+  }
+  SyncToDisk(map_path());
+  Rename(next_state_path, dir_ / kStateFile);
+  SyncToDisk(dir_);
+  state_ = std::move(next_state);
+}
+
 void LocalMap::CommitNewMap(SyncState next_state) {
   const fs::path new_map = dir_ / kNewMapFile;
   if (HasLiveLog(new_map)) {  // closing the only connection should have checkpointed it
@@ -421,6 +481,7 @@ void LocalMap::CommitNewMap(SyncState next_state) {
                                           "is live); stop the map builder before a sync");
   }
   // Commit: the state that goes with the new map, then the map, then the state.
+  next_state.install_token.clear();
   const fs::path next_state_path = dir_ / kNextStateFile;
   WriteFileAtomically(next_state_path, SyncStateToJson(next_state));
   Rename(new_map, map_path());
@@ -448,9 +509,12 @@ void CheckIncrementalBase(const MapDownload& download, const SyncState& state,
   }
 }
 
+}  // namespace
+
 // The selection a download gives must have the counts its header says.
-void CheckDownloadCounts(const MapDownload& download, std::size_t nodes, std::size_t edges,
-                         std::size_t paths, const fs::path& map_path) {
+void agent_internal::CheckDownloadCounts(const MapDownload& download, std::size_t nodes,
+                                         std::size_t edges, std::size_t paths,
+                                         const fs::path& map_path) {
   if (nodes != download.nodes || edges != download.edges || paths != download.paths) {
     throw Error(ErrorCode::kCorrupt,
                 std::string(download.base_revision != 0 ? "incremental" : "full") +
@@ -460,6 +524,10 @@ void CheckDownloadCounts(const MapDownload& download, std::size_t nodes, std::si
                     "; " + map_path.string() + " left as it was");
   }
 }
+
+namespace {
+
+using agent_internal::CheckDownloadCounts;
 
 // The next map: the selection, plus local content the server does not have yet and pushed
 // content not merged yet, with whatever of `current` it references. Counts what it kept.
@@ -597,7 +665,9 @@ InstallReport LocalMap::Install(const MapDownload& download) {
     return report;
   }
 
+  if (incremental) return InstallChanges(download, retirement);
   const GraphBatch current = ReadWholeMap(map_uri());
+  report.nodes_read = current.nodes.size();
 
   // The selection the download makes, in full.
   MapIndex selection;
@@ -626,11 +696,31 @@ InstallReport LocalMap::Install(const MapDownload& download) {
 
 std::uint64_t LocalMap::ReadInstalledDigest() const {
   if (state_.revision == 0) return 0;
-  const GraphBatch map = ReadElements(map_uri(), [&](const Uuid& id, int kind) {
-    return OfKind(state_.installed, kind).contains(id);
-  });
+  // Every landmark byte of the selection is read (a damaged node must show), a batch of nodes
+  // at a time: memory holds one batch, not the map.
+  constexpr std::size_t kNodesPerRead = 512;
+  const std::unique_ptr<GraphStore> store = GraphStore::Open(map_uri());
+  NodeFilter bare;
+  bare.with_landmarks = false;
+  std::vector<Uuid> held;
+  std::vector<Uuid> all;
+  for (const Node& node : store->ListNodes(bare)) {
+    all.push_back(node.id);
+    if (state_.installed.nodes.contains(node.id)) held.push_back(node.id);
+  }
   SelectionDigest digest;
-  digest.Add(map);
+  for (std::size_t from = 0; from < held.size(); from += kNodesPerRead) {
+    const std::size_t count = std::min(kNodesPerRead, held.size() - from);
+    for (const Node& node : store->GetNodes(std::span(held).subspan(from, count))) {
+      digest.Add(node);
+    }
+  }
+  for (const Edge& edge : store->EdgesTouching(all)) {
+    if (state_.installed.edges.contains(edge.id)) digest.Add(edge);
+  }
+  for (const Path& path : store->ListPaths({})) {
+    if (state_.installed.paths.contains(path.id)) digest.Add(path);
+  }
   return digest.value();
 }
 

@@ -12,6 +12,7 @@
 #include "fleetmap/core/proto_convert.h"
 #include "fleetmap/map.pb.h"
 #include "fleetmap/wire/sync_frame.h"
+#include "install_rules.h"
 #include "sorted_by_id.h"
 
 namespace fleetmap::agent_internal {
@@ -211,10 +212,6 @@ class Partitioner {
   std::unique_ptr<ChunkStream> stream_;
   std::uint64_t used_ = 0;  // bytes the current submission will take, at most
 };
-
-const std::set<Uuid>& OfKind(const ElementIds& ids, int kind) {
-  return kind == 0 ? ids.nodes : kind == 1 ? ids.edges : ids.paths;
-}
 
 [[noreturn]] void ThrowGone(const Uuid& submission, const std::string& map, const char* what,
                             const Uuid& id) {

@@ -165,6 +165,8 @@ std::string SyncStateToJson(const SyncState& state) {
   out += JsonText(json(state.last_error)) + ",\n";
   key("restore_own_work");
   out += std::string(state.restore_own_work ? "true" : "false") + ",\n";
+  key("install_token");
+  out += JsonText(json(state.install_token)) + ",\n";
   key("submission");
   if (state.submission) {
     out += "{\"id\": \"" + state.submission->id.ToString() + "\", \"content\": ";
@@ -208,6 +210,7 @@ SyncState SyncStateFromJson(const std::string& text, const std::string& source) 
     }
     state.last_error = root.value("last_error", std::string());
     state.restore_own_work = root.value("restore_own_work", false);
+    state.install_token = root.value("install_token", std::string());
     if (root.contains("held")) {
       for (const json& node : root["held"]) {
         state.held.push_back(HeldNode{Uuid::Parse(node.at("id").get<std::string>()),

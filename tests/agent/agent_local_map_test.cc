@@ -503,5 +503,91 @@ TEST(AgentLocalMapTest, CrashBetweenMapRenameAndStateRenameRollsForward) {
   EXPECT_TRUE(map.Unsynced().edges.empty());
 }
 
+// An incremental install reads what it changes: the nodes leaving the selection (for the
+// digest), not the map; and the digest it keeps is the one the map's content gives.
+TEST(AgentLocalMapTest, AnIncrementalInstallReadsWhatItChangesNotTheMap) {
+  const ScratchDir dir("fleetmap-agent-map");
+  LocalMap map = LocalMap::Open(dir / "robot");
+  const GraphBatch& day = SharedMaps().day;
+  const GraphBatch& night = SharedMaps().night;
+  MapDownload first = FullDownload(Join(day, night), 2);
+  map.Install(first);
+  const std::size_t map_nodes = day.nodes.size() + night.nodes.size();
+
+  // Revision 3 drops two day nodes with their edges and adds a third outing.
+  const GraphBatch third = CorridorRobotMap({{0, 10.0}});
+  MapDownload next;
+  next.revision = 3;
+  next.base_revision = 2;
+  next.request = first.request;
+  next.content = third;
+  GraphBatch expected = Join(Join(day, night), third);
+  for (const Node& node : {day.nodes[3], day.nodes[7]}) next.removed.nodes.insert(node.id);
+  for (const Edge& edge : day.edges) {
+    if (next.removed.nodes.contains(edge.from) || next.removed.nodes.contains(edge.to)) {
+      next.removed.edges.insert(edge.id);
+    }
+  }
+  std::erase_if(expected.nodes, [&](const Node& n) { return next.removed.nodes.contains(n.id); });
+  std::erase_if(expected.edges, [&](const Edge& e) { return next.removed.edges.contains(e.id); });
+  next.nodes = expected.nodes.size();
+  next.edges = expected.edges.size();
+  next.paths = expected.paths.size();
+
+  const InstallReport report = map.Install(next);
+  EXPECT_LE(report.nodes_read, 2u) << "of a map of " << map_nodes << " nodes";
+  EXPECT_EQ(IdsOf(ReadStore(map.map_uri())), IdsOf(expected));
+  EXPECT_EQ(map.state().installed, IdsOf(expected));
+  EXPECT_EQ(map.state().installed_digest, map.ReadInstalledDigest());
+  EXPECT_EQ(report.selection_digest, map.state().installed_digest);
+  SelectionDigest digest;
+  digest.Add(expected);
+  EXPECT_EQ(map.state().installed_digest, digest.value());
+  EXPECT_TRUE(map.Unsynced().nodes.empty());
+}
+
+// An install in place interrupted after its transaction committed rolls forward; one whose
+// transaction never committed leaves the map and the state as they were.
+TEST(AgentLocalMapTest, AnInterruptedInstallInPlaceRollsForwardOnlyWhenItCommitted) {
+  const ScratchDir dir("fleetmap-agent-map");
+  const fs::path robot = dir / "robot";
+  std::string old_state;
+  SyncState after;
+  MapDownload next;
+  {
+    LocalMap map = LocalMap::Open(robot);
+    const MapDownload first = FullDownload(SharedMaps().day, 1);
+    map.Install(first);
+    old_state = ReadText(robot / "sync.json");
+    next.revision = 2;
+    next.base_revision = 1;
+    next.request = first.request;
+    next.content = SharedMaps().night;
+    next.nodes = first.nodes + SharedMaps().night.nodes.size();
+    next.edges = first.edges + SharedMaps().night.edges.size();
+    next.paths = first.paths + SharedMaps().night.paths.size();
+    map.Install(next);
+    after = map.state();
+    ASSERT_FALSE(after.install_token.empty());
+  }
+  // Committed, not renamed: rolled forward.
+  fs::rename(robot / "sync.json", robot / "sync.json.next");
+  WriteText(robot / "sync.json", old_state);
+  {
+    LocalMap map = LocalMap::Open(robot);
+    EXPECT_EQ(map.state(), after);
+    EXPECT_FALSE(fs::exists(robot / "sync.json.next"));
+  }
+  // A next state whose transaction never committed (another token): dropped.
+  std::string uncommitted = ReadText(robot / "sync.json");
+  const std::size_t token = uncommitted.find(after.install_token);
+  ASSERT_NE(token, std::string::npos);
+  uncommitted.replace(token, after.install_token.size(), "not-the-one-in-map.db");
+  WriteText(robot / "sync.json.next", uncommitted);
+  LocalMap map = LocalMap::Open(robot);
+  EXPECT_EQ(map.state(), after);
+  EXPECT_FALSE(fs::exists(robot / "sync.json.next"));
+}
+
 }  // namespace
 }  // namespace fleetmap

@@ -1,6 +1,7 @@
 // Every text a robot sends in its hello (its agent's name, the channel it reports, its last
-// error, the revision it says it runs), through a real fleetmapd on both stores, read back by
-// a real `fleetmap robot list` (JSON and table), /metrics and the status page: whatever the
+// error, the revision it says it runs) and in a push (its author), through a real fleetmapd on
+// both stores, read back by a real `fleetmap robot list` and `fleetmap submissions` (JSON and
+// table), /metrics, the status page and fleetmapd's log: whatever the
 // robot sent, each output is valid UTF-8, parses, has one line per record, and shows C1
 // controls and bidirectional overrides as escapes. Texts long enough that the server's caps
 // fall inside a character, from several seeds.
@@ -97,9 +98,30 @@ TYPED_TEST(HostileTextTest, EveryOutputOfARobotsTextsIsValidAndOneLinePerRecord)
       ASSERT_TRUE(client.Send(hello));
       const std::optional<v1::SyncFrame> welcome = client.Receive();
       ASSERT_TRUE(welcome && welcome->has_welcome()) << server.Log();
+      // A push whose author is hostile too (longer than the server keeps).
+      v1::SyncFrame begin;
+      begin.mutable_push_begin()->set_submission_id(Uuid::Generate().ToBytesString());
+      begin.mutable_push_begin()->set_author(HostileText(random, 120 + random() % 20));
+      begin.mutable_push_begin()->set_chunk_count(1);
+      begin.mutable_push_begin()->set_total_bytes(10);
+      ASSERT_TRUE(client.Send(begin));
+      const std::optional<v1::SyncFrame> ready = client.Receive();
+      ASSERT_TRUE(ready && ready->has_push_ready()) << server.Log();
       v1::SyncFrame bye;
       bye.mutable_bye();
       client.Send(bye);
+    }
+    for (const bool as_json : {true, false}) {
+      std::vector<std::string> args = {"submissions", "--store", uri};
+      if (as_json) args.push_back("--json");
+      const CliRun listed = RunFleetmapCli(this->dir_.path(), args);
+      ASSERT_EQ(listed.exit_code, 0) << listed.err;
+      EXPECT_TRUE(ShowsEverything(listed.out)) << listed.out;
+      if (as_json) {
+        EXPECT_EQ(nlohmann::json::parse(listed.out).size(), seed);
+      } else {
+        EXPECT_EQ(Lines(listed.out).size(), 1 + seed) << "a header and one line a submission";
+      }
     }
 
     const CliRun json =

@@ -21,6 +21,7 @@
 #include "fleetmap/core/error.h"
 #include "fleetmap/core/graph.h"
 #include "fleetmap/store/graph_store.h"
+#include "fleetmap/store/version_store.h"
 #include "graph_elements.h"
 #include "store_backends.h"
 
@@ -237,6 +238,50 @@ TYPED_TEST(GraphStoreConformance, OpeningOnlyAnExistingStoreRefusesWhatIsNotOne)
 }
 
 // --- Nodes --------------------------------------------------------------------------------
+
+// A robot's working map changed in place (the agent's install): elements go by UUID, all or
+// none; a node an edge still hangs from stays; a repository's versioned elements never go.
+TYPED_TEST(GraphStoreConformance, EraseRemovesElementsAllOrNone) {
+  GraphStore& store = *this->store_;
+  const GraphBatch chain = Chain(4);
+  store.Put(chain);
+  const std::vector<Uuid> last_node = {chain.nodes[3].id};
+  const std::vector<Uuid> last_edge = {chain.edges[2].id};
+  // The node alone: an edge still names it, so nothing goes.
+  ExpectError(ErrorCode::kIntegrity, [&] { store.Erase(last_node, {}, {}); });
+  EXPECT_TRUE(store.FindNode(chain.nodes[3].id).has_value());
+  // With its edge, both go; an unknown UUID is passed over.
+  const std::vector<Uuid> with_unknown = {chain.nodes[3].id, Uuid::Generate()};
+  store.Erase(with_unknown, last_edge, {});
+  EXPECT_FALSE(store.FindNode(chain.nodes[3].id).has_value());
+  EXPECT_EQ(store.Stats().nodes, 3);
+  EXPECT_EQ(store.Stats().edges, 2);
+  // Inside a transaction that rolls back, nothing goes.
+  {
+    GraphStore::Transaction transaction = store.Begin();
+    const std::vector<Uuid> edges = {chain.edges[0].id, chain.edges[1].id};
+    store.Erase({}, edges, {});
+    transaction.Rollback();
+  }
+  EXPECT_EQ(store.Stats().edges, 2);
+  // A repository's element (one a revision added) is refused.
+  const GraphBatch versioned = Chain(2);
+  {
+    GraphStore::Transaction transaction = store.Begin();
+    Revision merge;
+    merge.number = store.versions().HeadRevision() + 1;
+    merge.kind = RevisionKind::kMerge;
+    merge.author = "test";
+    merge.created_ns = 5000;
+    merge.submission = Uuid::Generate();
+    store.versions().AppendRevision(merge, versioned);
+    store.Put(versioned);
+    transaction.Commit();
+  }
+  const std::vector<Uuid> repository_edge = {versioned.edges[0].id};
+  ExpectError(ErrorCode::kInvalidArgument, [&] { store.Erase({}, repository_edge, {}); });
+  EXPECT_NO_THROW(store.GetEdge(versioned.edges[0].id));
+}
 
 TYPED_TEST(GraphStoreConformance, PutGetNode) {
   const Node node = MakeNode(Uuid::Generate(), Uuid::Generate(), -42, std::string("\0\x01\xff", 3));

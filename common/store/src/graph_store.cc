@@ -7,6 +7,7 @@
 
 #include "backends.h"
 #include "fleetmap/core/error.h"
+#include "fleetmap/store/version_store.h"
 #include "migration.h"
 
 namespace fleetmap {
@@ -162,6 +163,18 @@ void GraphStore::Put(const GraphBatch& batch) {
     for (const Edge& e : batch.edges) Validate(e);
     for (const Annotation& a : batch.annotations) Validate(a);
     DoPut(batch);
+  });
+}
+
+void GraphStore::Erase(std::span<const Uuid> nodes, std::span<const Uuid> edges,
+                       std::span<const Uuid> paths) {
+  Guarded([&] {
+    if (const RevisionNumber head = versions().HeadRevision(); head > 0) {
+      throw Error(ErrorCode::kInvalidArgument,
+                  "erase: " + uri() + " is a repository (revision " + std::to_string(head) +
+                      "): revisions hide its elements, nothing erases them");
+    }
+    DoErase(nodes, edges, paths);
   });
 }
 

@@ -16,6 +16,10 @@
 //   map.db.new and sync.json.next      the map rename did not happen: both are deleted;
 //   sync.json.next alone               the map rename happened: sync.json.next is renamed over
 //                                      sync.json (rolled forward).
+// An incremental download is installed in place instead: sync.json.next first, with a token,
+// then one transaction on map.db that applies the changes and records the token, then the
+// rename over sync.json. Open rolls sync.json.next forward when map.db holds its token (the
+// transaction committed) and deletes it otherwise.
 // So map.db and sync.json always describe each other: nothing the server sent is taken for
 // local content (and pushed back), and nothing local is taken for the server's.
 //
@@ -141,6 +145,11 @@ struct SyncState {
   // The map or this state was lost (LocalMap::ForgetServerCopy): after the next install the
   // agent asks the server for the robot's own work the installed revision lacks.
   bool restore_own_work = false;
+  // The install in place that wrote this state (LocalMap::Install of changes): the same token
+  // is written into map.db inside the install's transaction, and an interrupted install's
+  // sync.json.next is rolled forward only when map.db holds it. "" for an install that
+  // replaced map.db whole.
+  std::string install_token;
 
   friend bool operator==(const SyncState&, const SyncState&) = default;
 };
@@ -176,10 +185,17 @@ struct InstallReport {
   // SelectionDigest of the installed selection as written (the robot's own version where it
   // kept one).
   std::uint64_t selection_digest = 0;
+  // Nodes whose content the install read back from map.db: an install of changes reads what
+  // they change (nodes leaving the selection, the robot's own the download also holds), never
+  // the map.
+  std::size_t nodes_read = 0;
 };
 
 class LocalMap;
 class GraphStore;
+namespace agent_internal {
+struct Retirement;
+}
 
 // A full download installed while it arrives (sync.proto version 3, seed 004 §V-B): the next
 // map is written into DIR/map.db.new chunk by chunk, inside one transaction, so that memory
@@ -348,6 +364,13 @@ class LocalMap {
   // Installs map.db.new (written, checked and closed) with `next_state`: fsync, then the
   // renames of the file comment. Removes map.db.new and throws when it cannot.
   void CommitNewMap(SyncState next_state);
+  // An incremental download's changes applied to map.db in place (src/install_changes.cc).
+  InstallReport InstallChanges(const MapDownload& download,
+                               const agent_internal::Retirement& retirement);
+  // Writes `next_state` as sync.json.next, then in one transaction of `store` (map.db) erases
+  // `gone`, puts `writes` and records next_state.install_token, then makes the state current.
+  void CommitChangesInPlace(GraphStore& store, const ElementIds& gone, const GraphBatch& writes,
+                            SyncState next_state);
 
   std::filesystem::path dir_;
   LocalMapAccess access_;

@@ -239,6 +239,17 @@ class PostgresGraphStore final : public GraphStore {
     });
   }
 
+  void DoErase(std::span<const Uuid> nodes, std::span<const Uuid> edges,
+               std::span<const Uuid> paths) override {
+    // Edges first: the foreign keys refuse a node or path an edge still names, and the
+    // transaction (or savepoint) undoes the whole call.
+    session_.Atomically("erase elements", [&](pqxx::transaction_base& t) {
+      for (const Uuid& id : edges) t.exec_params("DELETE FROM edges WHERE id = $1", id.ToString());
+      for (const Uuid& id : nodes) t.exec_params("DELETE FROM nodes WHERE id = $1", id.ToString());
+      for (const Uuid& id : paths) t.exec_params("DELETE FROM paths WHERE id = $1", id.ToString());
+    });
+  }
+
   std::optional<Node> DoFindNode(const Uuid& id) override {
     return session_.Autocommit("find node", [&](pqxx::transaction_base& t) -> std::optional<Node> {
       const pqxx::result r = t.exec_prepared("find_node", id.ToString());

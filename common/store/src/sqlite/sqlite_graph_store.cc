@@ -274,6 +274,36 @@ class SqliteGraphStore final : public GraphStore {
     }
   }
 
+  void DoErase(std::span<const Uuid> nodes, std::span<const Uuid> edges,
+               std::span<const Uuid> paths) override {
+    // Edges first: the foreign keys (on outside DoPut's own batches) refuse a node or path an
+    // edge still names, and the savepoint or transaction undoes the whole call.
+    const bool nested = in_transaction();
+    ExecSql(db_, nested ? "SAVEPOINT fleetmap_erase" : "BEGIN IMMEDIATE");
+    try {
+      const auto erase = [&](const char* sql, std::span<const Uuid> ids) {
+        Statement statement(db_, sql);
+        for (const Uuid& id : ids) {
+          statement.Bind(1, id);
+          statement.Run();
+          statement.Reset();
+        }
+      };
+      erase("DELETE FROM edges WHERE id = ?1", edges);
+      erase("DELETE FROM nodes WHERE id = ?1", nodes);
+      erase("DELETE FROM paths WHERE id = ?1", paths);
+      ExecSql(db_, nested ? "RELEASE fleetmap_erase" : "COMMIT");
+    } catch (...) {
+      if (nested) {
+        ExecSql(db_, "ROLLBACK TO fleetmap_erase");
+        ExecSql(db_, "RELEASE fleetmap_erase");
+      } else if (!sqlite3_get_autocommit(db_)) {
+        ExecSql(db_, "ROLLBACK");
+      }
+      throw;
+    }
+  }
+
   std::optional<Node> DoFindNode(const Uuid& id) override {
     StatementUse s(statements_->find_node);
     s->Bind(1, id);

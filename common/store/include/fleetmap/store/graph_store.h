@@ -157,6 +157,12 @@ class GraphStore : public GraphReader, public GraphWriter {
   void PutPath(const Path& path);
   void PutAnnotation(const Annotation& annotation);
   void Put(const GraphBatch& batch) override;
+  // Removes elements by UUID, all of them or none (also when the process is killed): for a
+  // robot's working map, which an install changes in place. A repository's elements are never
+  // removed (revisions hide them): a store with a revision refuses with
+  // Error(kInvalidArgument). An edge left on a node or path that goes is refused with
+  // Error(kIntegrity). UUIDs not stored are ignored.
+  void Erase(std::span<const Uuid> nodes, std::span<const Uuid> edges, std::span<const Uuid> paths);
 
   // Reads by UUID.
   Node GetNode(const Uuid& id);
@@ -228,6 +234,8 @@ class GraphStore : public GraphReader, public GraphWriter {
   virtual void DoPutPath(const Path& path) = 0;
   virtual void DoPutAnnotation(const Annotation& annotation) = 0;
   virtual void DoPut(const GraphBatch& batch) = 0;
+  virtual void DoErase(std::span<const Uuid> nodes, std::span<const Uuid> edges,
+                       std::span<const Uuid> paths) = 0;
   virtual std::optional<Node> DoFindNode(const Uuid& id) = 0;
   // Whether a node with this id is stored, read off the id index alone: a reference check
   // must not read the node's landmarks (kilobytes each, 2 per edge checked).

@@ -1,0 +1,31 @@
+// What LocalMap's installs share (local_map.cc, install_changes.cc): which elements a download
+// retires and keeps, and the check of a download's counts.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <filesystem>
+#include <set>
+#include <vector>
+
+#include "fleetmap/agent/local_map.h"
+
+namespace fleetmap::agent_internal {
+
+const std::set<Uuid>& OfKind(const ElementIds& ids, int kind);  // 0 nodes, 1 edges, 2 paths
+std::set<Uuid>& OfKind(ElementIds& ids, int kind);
+
+// Unmerged submissions a download of `revision` reflects retire; the others' content stays.
+struct Retirement {
+  std::vector<UnmergedSubmission> still_unmerged;
+  ElementIds keep;  // their content
+  std::size_t failed_elements = 0;
+};
+Retirement Retire(const SyncState& state, std::int64_t revision);
+
+// The selection a download gives must have the counts its header says: Error(kCorrupt) naming
+// `map_path` (left as it was) otherwise.
+void CheckDownloadCounts(const MapDownload& download, std::size_t nodes, std::size_t edges,
+                         std::size_t paths, const std::filesystem::path& map_path);
+
+}  // namespace fleetmap::agent_internal
