@@ -3,7 +3,8 @@
 // keeps its own pushed nodes; `fleetmap channel set` refused by --require-score changes
 // nothing; a move reaches the robot at its next sync, incrementally; `robot list --json`,
 // /metrics and the status page in headless Chromium agree on every robot's installed revision;
-// a robot whose map.db was damaged after its install is flagged. And a route download (item 3)
+// a robot whose map.db was damaged after its install is flagged until its next sync makes it
+// whole. And a route download (item 3)
 // through the same processes.
 #include <gtest/gtest.h>
 #include <sqlite3.h>
@@ -237,10 +238,16 @@ TYPED_TEST(FleetReleaseTest, RobotsFollowTheirChannelAndTheDepotSeesWhatEachRuns
   EXPECT_EQ(page.at(alpha.id.ToString()), head);
   EXPECT_EQ(page.at(beta.id.ToString()), head);
 
-  // alpha's map damaged after its install: its next hello says so, and it is flagged; beta
-  // is not.
+  // alpha's map damaged after its install: its next hello says so (here a sync that fails
+  // after its hello, asking for a channel that is not set), and it is flagged; beta is not.
   DamageOneInstalledNode(alpha, *RevisionNodes(uri, 1).begin());
-  ASSERT_EQ(sync(alpha, on_stable).exit, 0);
+  {
+    const auto log = this->dir_ / "alpha-unknown-channel.log";
+    const std::unique_ptr<ChildProcess> failing =
+        StartSync(alpha, server.address, log, {"--channel", "no-such-channel"});
+    failing->ReadRest(std::chrono::milliseconds(60'000));
+    EXPECT_NE(failing->Wait(std::chrono::milliseconds(10'000)).value_or(0), 0);
+  }
   listed = RobotList(this->dir_, uri);
   EXPECT_EQ(listed["alpha"]["map_differs"], true);
   EXPECT_EQ(listed["beta"]["map_differs"], false);
@@ -259,6 +266,15 @@ TYPED_TEST(FleetReleaseTest, RobotsFollowTheirChannelAndTheDepotSeesWhatEachRuns
       << metrics_text;
   const std::string dom = RunChromium(this->dir_, "--dump-dom", "http://" + http + "/");
   EXPECT_NE(dom.find("MAP DIFFERS"), std::string::npos);
+
+  // Its next sync takes the map whole again (a full download, its own nodes kept): no longer
+  // flagged.
+  SyncOutcome repaired = sync(alpha, on_stable);
+  ASSERT_EQ(repaired.exit, 0);
+  EXPECT_EQ(repaired.result["incremental"], false);
+  EXPECT_TRUE(HoldsAll(AgentMapNodes(alpha), RevisionNodes(uri, head)));
+  EXPECT_TRUE(HoldsAll(AgentMapNodes(alpha), alpha_own));
+  EXPECT_EQ(RobotList(this->dir_, uri)["alpha"]["map_differs"], false);
 }
 
 // A mission's route (issue 38 item 3) through real processes: positions in the frame of the
