@@ -3,7 +3,8 @@
 // the install of changes did before it was made in place). The ratio is the figure: an install
 // should cost what it changes, not the map. Run by hand:
 //   build/tests/benchmarks/install_benchmark --benchmark_counters_tabular=true
-// Counters: peak_mib, the growth of the process' peak resident memory over the install.
+// Counters: peak_mib, the growth of the process' peak resident memory over the install. Also the
+// digest a sync with nothing new reads, beside the map read whole.
 #include <benchmark/benchmark.h>
 
 #include <filesystem>
@@ -113,6 +114,41 @@ BENCHMARK(IncrementalInstall)
     ->Unit(benchmark::kMillisecond)
     ->Iterations(2)
     ->UseRealTime();
+
+// A sync with nothing new reads the installed selection back for its digest (so a damaged map
+// shows): LocalMap::ReadInstalledDigest, a batch of nodes at a time, beside the map read whole
+// (GraphStore::ReadMap, the baseline: what the digest read before).
+void InstalledDigest(benchmark::State& state) {
+  const Maps& maps = MapsOf(static_cast<int>(state.range(0)));
+  const ScratchDir dir("fleetmap-install-bench");
+  LocalMap map = LocalMap::Open(dir / "robot");
+  map.Install(Full(maps.installed, 1));
+  for (auto _ : state) {
+    ResetPeakMemory();
+    const std::int64_t before = PeakMemoryBytes("VmRSS:");
+    benchmark::DoNotOptimize(map.ReadInstalledDigest());
+    Report(state, before);
+  }
+}
+BENCHMARK(InstalledDigest)
+    ->Arg(20'000)
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(2)
+    ->UseRealTime();
+
+void MapReadWhole(benchmark::State& state) {
+  const Maps& maps = MapsOf(static_cast<int>(state.range(0)));
+  const ScratchDir dir("fleetmap-install-bench");
+  LocalMap map = LocalMap::Open(dir / "robot");
+  map.Install(Full(maps.installed, 1));
+  for (auto _ : state) {
+    ResetPeakMemory();
+    const std::int64_t before = PeakMemoryBytes("VmRSS:");
+    benchmark::DoNotOptimize(GraphStore::Open(map.map_uri())->ReadMap());
+    Report(state, before);
+  }
+}
+BENCHMARK(MapReadWhole)->Arg(20'000)->Unit(benchmark::kMillisecond)->Iterations(2)->UseRealTime();
 
 }  // namespace
 }  // namespace fleetmap::testing
