@@ -118,7 +118,9 @@ BENCHMARK(IncrementalInstall)
 // A sync with nothing new reads the installed selection back for its digest (so a damaged map
 // shows): LocalMap::ReadInstalledDigest, a batch of nodes at a time, beside the map read whole
 // (GraphStore::ReadMap, the baseline: what the digest read before).
-void InstalledDigest(benchmark::State& state) {
+// `read` over an installed map of range(0) nodes, timed with the growth of the peak memory.
+template <typename Read>
+void ReadInstalledMap(benchmark::State& state, Read read) {
   const Maps& maps = MapsOf(static_cast<int>(state.range(0)));
   const ScratchDir dir("fleetmap-install-bench");
   LocalMap map = LocalMap::Open(dir / "robot");
@@ -126,9 +128,14 @@ void InstalledDigest(benchmark::State& state) {
   for (auto _ : state) {
     ResetPeakMemory();
     const std::int64_t before = PeakMemoryBytes("VmRSS:");
-    benchmark::DoNotOptimize(map.ReadInstalledDigest());
+    read(map);
     Report(state, before);
   }
+}
+
+void InstalledDigest(benchmark::State& state) {
+  ReadInstalledMap(state,
+                   [](LocalMap& map) { benchmark::DoNotOptimize(map.ReadInstalledDigest()); });
 }
 BENCHMARK(InstalledDigest)
     ->Arg(20'000)
@@ -137,16 +144,9 @@ BENCHMARK(InstalledDigest)
     ->UseRealTime();
 
 void MapReadWhole(benchmark::State& state) {
-  const Maps& maps = MapsOf(static_cast<int>(state.range(0)));
-  const ScratchDir dir("fleetmap-install-bench");
-  LocalMap map = LocalMap::Open(dir / "robot");
-  map.Install(Full(maps.installed, 1));
-  for (auto _ : state) {
-    ResetPeakMemory();
-    const std::int64_t before = PeakMemoryBytes("VmRSS:");
+  ReadInstalledMap(state, [](LocalMap& map) {
     benchmark::DoNotOptimize(GraphStore::Open(map.map_uri())->ReadMap());
-    Report(state, before);
-  }
+  });
 }
 BENCHMARK(MapReadWhole)->Arg(20'000)->Unit(benchmark::kMillisecond)->Iterations(2)->UseRealTime();
 

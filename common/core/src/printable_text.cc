@@ -8,69 +8,60 @@ namespace {
 
 constexpr std::string_view kReplacement = "\xEF\xBF\xBD";  // U+FFFD
 
-// The length of the well-formed UTF-8 sequence at text[at] and its code point; 0 when the
-// bytes there are not one (RFC 3629: no overlong forms, no surrogates, nothing above U+10FFFF).
-std::size_t SequenceAt(std::string_view text, std::size_t at, char32_t& code) {
-  const auto byte = [&](std::size_t i) { return static_cast<unsigned char>(text[i]); };
-  const unsigned char lead = byte(at);
-  if (lead < 0x80) {
-    code = lead;
-    return 1;
-  }
+// The sequence whose lead byte is text[at]: the length it announces (0: not a lead byte) and
+// how many of its bytes, the lead included, are as RFC 3629 allows (no overlong forms, no
+// surrogates, nothing above U+10FFFF). Whole when the two agree.
+struct Prefix {
   std::size_t length = 0;
+  std::size_t fitting = 0;
+};
+
+Prefix PrefixAt(std::string_view text, std::size_t at) {
+  const auto lead = static_cast<unsigned char>(text[at]);
+  if (lead < 0x80) return {1, 1};
+  Prefix prefix;
   unsigned char low = 0x80, high = 0xBF;  // the second byte's range
   if (lead >= 0xC2 && lead <= 0xDF) {
-    length = 2;
+    prefix.length = 2;
   } else if (lead >= 0xE0 && lead <= 0xEF) {
-    length = 3;
+    prefix.length = 3;
     if (lead == 0xE0) low = 0xA0;
     if (lead == 0xED) high = 0x9F;
   } else if (lead >= 0xF0 && lead <= 0xF4) {
-    length = 4;
+    prefix.length = 4;
     if (lead == 0xF0) low = 0x90;
     if (lead == 0xF4) high = 0x8F;
   } else {
-    return 0;
+    return prefix;
   }
-  if (at + length > text.size()) return 0;
-  if (byte(at + 1) < low || byte(at + 1) > high) return 0;
-  for (std::size_t i = 2; i < length; ++i) {
-    if ((byte(at + i) & 0xC0) != 0x80) return 0;
+  prefix.fitting = 1;
+  while (prefix.fitting < prefix.length && at + prefix.fitting < text.size()) {
+    const auto next = static_cast<unsigned char>(text[at + prefix.fitting]);
+    const bool fits = prefix.fitting == 1 ? next >= low && next <= high : (next & 0xC0) == 0x80;
+    if (!fits) break;
+    ++prefix.fitting;
   }
-  code = lead & (0xFF >> (length + 1));
-  for (std::size_t i = 1; i < length; ++i) code = (code << 6) | (byte(at + i) & 0x3F);
-  return length;
+  return prefix;
+}
+
+// The length of the well-formed sequence at text[at] and its code point; 0 when the bytes there
+// are not one.
+std::size_t SequenceAt(std::string_view text, std::size_t at, char32_t& code) {
+  const Prefix prefix = PrefixAt(text, at);
+  if (prefix.length == 0 || prefix.fitting < prefix.length) return 0;
+  const auto lead = static_cast<unsigned char>(text[at]);
+  code = prefix.length == 1 ? lead : lead & (0xFF >> (prefix.length + 1));
+  for (std::size_t i = 1; i < prefix.length; ++i) {
+    code = (code << 6) | (static_cast<unsigned char>(text[at + i]) & 0x3F);
+  }
+  return prefix.length;
 }
 
 // Where the bytes at text[at] are not a well-formed sequence: how many of them one U+FFFD
 // replaces, the maximal subpart of a sequence (Unicode's recommended practice, as nlohmann's
 // replacing writer does): a lead byte and the continuation bytes that could still follow it.
 std::size_t InvalidRun(std::string_view text, std::size_t at) {
-  const auto byte = [&](std::size_t i) { return static_cast<unsigned char>(text[i]); };
-  const unsigned char lead = byte(at);
-  std::size_t length = 0;
-  unsigned char low = 0x80, high = 0xBF;
-  if (lead >= 0xC2 && lead <= 0xDF) {
-    length = 2;
-  } else if (lead >= 0xE0 && lead <= 0xEF) {
-    length = 3;
-    if (lead == 0xE0) low = 0xA0;
-    if (lead == 0xED) high = 0x9F;
-  } else if (lead >= 0xF0 && lead <= 0xF4) {
-    length = 4;
-    if (lead == 0xF0) low = 0x90;
-    if (lead == 0xF4) high = 0x8F;
-  } else {
-    return 1;
-  }
-  std::size_t run = 1;
-  while (run < length && at + run < text.size()) {
-    const unsigned char next = byte(at + run);
-    const bool fits = run == 1 ? next >= low && next <= high : (next & 0xC0) == 0x80;
-    if (!fits) break;
-    ++run;
-  }
-  return run;
+  return std::max<std::size_t>(PrefixAt(text, at).fitting, 1);
 }
 
 // Characters shown escaped although valid: they end a line or reorder what a reader sees.
