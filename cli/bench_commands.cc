@@ -116,8 +116,8 @@ void AddLimitsBench(CLI::App* bench) {
       "against ORB alone on KITTI and EuRoC pairs (stereo_front_end_benchmark); descriptor "
       "matching against a plain popcount loop (fleetmap_microbenchmarks). The last three are the "
       "build tree's benchmark executables, run as child processes. Figures are medians over "
-      "--repetitions, ratios are taken per repetition. Prints the table (the README's "
-      "performance section), writes OUT/limits.csv and OUT/limits.md, and exits 1 when a line "
+      "--repetitions, ratios are taken per repetition. Prints the table (as in "
+      "docs/experiments.md), writes OUT/limits.csv and OUT/limits.md, and exits 1 when a line "
       "misses its bound. Run it on an otherwise idle machine: a line notes a 1-min load above 1.");
   limits
       ->add_option("--only", o->measures,

@@ -30,7 +30,7 @@ namespace fleetmap::cli {
 namespace {
 
 struct ConditionsArgs {
-  // Where the repository's README says the shared data sits beside a checkout.
+  // Where the shared data sits beside a checkout (docs/experiments.md).
   std::string data_dir = "../shared/data/kitti-odometry-excerpts/seq1";
   std::string out_dir = "experiment-conditions";
   std::string layout = "auto";

@@ -16,7 +16,7 @@ namespace fleetmap::cli {
 namespace {
 
 struct RealArgs {
-  // Where the repository's README says the shared data sits beside a checkout.
+  // Where the shared data sits beside a checkout (docs/experiments.md).
   std::string data_dir = "../shared/data/euroc-v1_01-micro";
   std::string out_dir = "experiment-real";
   std::string layout = "auto";

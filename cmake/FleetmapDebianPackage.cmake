@@ -1,8 +1,9 @@
 # `cpack -G DEB` (in the build directory, after the build): a Debian package `fleetmap` of the
 # install component `runtime`: the three programs (stripped), the systemd units, the example
-# config files in /etc/fleetmap (conffiles), the sysusers.d entry and README.md. Its postinst
-# makes the user `fleetmap` and enables nothing (packaging/debian/). The libraries, headers and
-# CMake package are for `cmake --install` (README.md "Using fleetmap from another project").
+# config files in /etc/fleetmap (conffiles), the sysusers.d entry, README.md and docs/. Its
+# postinst makes the user `fleetmap` and enables nothing (packaging/debian/). The libraries,
+# headers and CMake package are for `cmake --install` (docs/operations.md, "Using fleetmap from
+# another project").
 #
 # Depends comes from dpkg-shlibdeps (dpkg-dev) over the programs' shared libraries, plus what
 # the postinst needs; tests/install/debian_package_test.sh checks that every library the

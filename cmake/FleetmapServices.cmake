@@ -1,8 +1,8 @@
-# `cmake --install`: the programs as system services (README.md "Run as services"): systemd
-# units for fleetmapd and `fleetmap-agent daemon`, their example config files, and the
-# sysusers.d entry of the user they run as. Included by the top-level CMakeLists.txt after
-# FleetmapInstall.cmake; everything here is in the install component `runtime`, which is also
-# what the Debian package holds (FleetmapDebianPackage.cmake).
+# `cmake --install`: the programs as system services (docs/operations.md, "Run as services"):
+# systemd units for fleetmapd and `fleetmap-agent daemon`, their example config files, the
+# sysusers.d entry of the user they run as, and the documentation the units name. Included by
+# the top-level CMakeLists.txt after FleetmapInstall.cmake; everything here is in the install
+# component `runtime`, which is also what the Debian package holds (FleetmapDebianPackage.cmake).
 #
 # The units name the programs and config files by absolute path, so they are written at
 # install time for the prefix of that install (`cmake --install build --prefix /opt/fleetmap`,
@@ -27,6 +27,8 @@ install(FILES ${fleetmap_packaging_dir}/sysusers/fleetmap.conf
         DESTINATION ${FLEETMAP_SYSUSERS_DIR} COMPONENT runtime)
 install(FILES ${PROJECT_SOURCE_DIR}/README.md
         DESTINATION ${CMAKE_INSTALL_DOCDIR} COMPONENT runtime)
+install(DIRECTORY ${PROJECT_SOURCE_DIR}/docs/
+        DESTINATION ${CMAKE_INSTALL_DOCDIR}/docs COMPONENT runtime FILES_MATCHING PATTERN "*.md")
 
 # Runs inside cmake_install.cmake, where CMAKE_INSTALL_PREFIX is the prefix being installed to
 # and file(INSTALL) puts DESTDIR (CPack's staging directory) in front of absolute paths.

@@ -1,5 +1,5 @@
-// fleetmap-agent as a service (README.md "Run as services"): its options from a --config TOML
-// file, in a section per subcommand, with the command line winning; the robot's token from a
+// fleetmap-agent as a service (docs/operations.md, "Run as services"): its options from a --config
+// TOML file, in a section per subcommand, with the command line winning; the robot's token from a
 // file (as the systemd unit hands it over, a credential) or from the environment, and never on
 // the command line: /proc/PID/cmdline of the daemon run as the unit runs it holds no token.
 // Unknown keys and sections, a token in the file and unreadable token files are refused (exit 2)

@@ -1,5 +1,5 @@
-// fleetmapd --config FILE (README.md "Run as services"): its options from a TOML file with the
-// command line winning over the file; an unknown key, a malformed line, a bad value and a
+// fleetmapd --config FILE (docs/operations.md, "Run as services"): its options from a TOML file
+// with the command line winning over the file; an unknown key, a malformed line, a bad value and a
 // missing file each refused (exit 2) with the key or the file named, before any store is made;
 // and the example config the packages install (packaging/config/fleetmapd.toml) serving a store
 // of each backend with only its paths overridden, the way the systemd unit runs it.

@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
-# The Debian package and the services as a fresh machine gets them (README.md "Run as
-# services"): `cpack -G DEB` from the finished build into a temporary directory; the package's
-# control fields, conffiles and files; every shared library the programs load comes from a
-# package its Depends names, and every Depends is installed here in a version it allows; the
-# programs, extracted with `dpkg-deb -x`, run (`--help`); the units pass `systemd-analyze
+# The Debian package and the services as a fresh machine gets them (docs/operations.md,
+# "Run as services"): `cpack -G DEB` from the finished build into a temporary directory; the
+# package's control fields, conffiles and files; every shared library the programs load comes
+# from a package its Depends names, and every Depends is installed here in a version it allows;
+# the programs, extracted with `dpkg-deb -x`, run (`--help`); the units pass `systemd-analyze
 # verify` and score OK or better in `systemd-analyze security`, start the programs with
 # --config and never with a token in argv; its sysusers.d entry makes the user (in a temporary
 # root). Then `cmake --install --component runtime` into a temporary prefix: units configured
@@ -51,7 +51,8 @@ for file in /usr/bin/fleetmap /usr/bin/fleetmapd /usr/bin/fleetmap-agent \
             /usr/lib/systemd/system/fleetmapd.service \
             /usr/lib/systemd/system/fleetmap-agent.service \
             /etc/fleetmap/fleetmapd.toml /etc/fleetmap/agent.toml \
-            /usr/lib/sysusers.d/fleetmap.conf /usr/share/doc/fleetmap/README.md; do
+            /usr/lib/sysusers.d/fleetmap.conf /usr/share/doc/fleetmap/README.md \
+            /usr/share/doc/fleetmap/docs/operations.md; do
   grep -qx "$file" "$work/contents" || fail "not in the package: $file"
 done
 # Only the programs and services: the static libraries and headers are for `cmake --install`.

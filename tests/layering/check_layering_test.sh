@@ -72,7 +72,7 @@ expect_fail "a link cycle" "link cycle"
 
 make_tree
 layering "fleetmap_core||" "fleetmap_ebn|fleetmap_core fleetmap_store|" "fleetmap_store|fleetmap_core|"
-expect_fail "ebn linking the store (README: ebn may use core only)" "fleetmap_ebn reaches fleetmap_store through its links"
+expect_fail "ebn linking the store (docs/architecture.md: ebn may use core only)" "fleetmap_ebn reaches fleetmap_store through its links"
 
 make_tree
 for i in $(seq 1 12); do printf '#pragma once\n' >"$work/tree/core/include/fleetmap/core/extra$i.h"; done

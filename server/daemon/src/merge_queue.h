@@ -2,7 +2,7 @@
 // one at a time by one dedicated thread with its own Repository (its own store connection and
 // in-memory mirror of the head).
 //
-// Several fleetmapd may share one store (README "Several fleetmapd on one database"). The
+// Several fleetmapd may share one store (docs/operations.md, "Several fleetmapd"). The
 // queue itself is the store's: every kQueued submission, oldest first. The merge thread
 // claims the next one with a lease (VersionStore::ClaimQueuedSubmission) before merging it,
 // so each submission is merged by one instance at a time, whichever instance received it;

@@ -37,7 +37,7 @@ double MedianRatio(const LimitLine& line);
 bool Met(const LimitLine& line);
 std::string BoundText(const LimitLine& line);  // "<= 1.2", ">= 300 MB/s", "-"
 
-// The table as Markdown (the README's performance section) and as CSV (one row per line:
+// The table as Markdown (docs/experiments.md, "Benchmarks") and as CSV (one row per line:
 // measure, unit, ours, limit_name, limit, ratio, bound, met, repetitions, note).
 void WriteLimitsMarkdown(const std::vector<LimitLine>& lines, std::ostream& out);
 void WriteLimitsCsv(const std::vector<LimitLine>& lines, std::ostream& out);

@@ -1,6 +1,6 @@
 // `fleetmap bench limits` (issue 39): every performance measure beside its raw limit in the
-// same run, with the bound on their ratio, printed as one table (the README's performance
-// section) and written as CSV and Markdown:
+// same run, with the bound on their ratio, printed as one table (docs/experiments.md, "Benchmarks")
+// and written as CSV and Markdown:
 //   MERGE CPU        the fleet experiment's merging strategy (groups in parallel) and all its
 //                    groups and merges, against single-agent EBN's CPU (mean over world seeds);
 //   sensor index     insert and nearest on SQLite, synchronous and buffered, against plain
