@@ -105,7 +105,7 @@ void AddIndexBench(CLI::App* bench) {
 void AddLimitsBench(CLI::App* bench) {
   auto o = std::make_shared<bench::LimitsBenchOptions>();
   CLI::App* limits = bench->add_subcommand(
-      "limits", "Every performance measure beside its raw limit in the same run (issue 39)");
+      "limits", "Every performance measure beside its raw limit in the same run");
   limits->footer(
       "Measures, each with its raw limit taken in the same minutes: MERGE CPU (the fleet "
       "experiment's Fig. 7 builds, groups in parallel and in total) against single-agent EBN CPU, "

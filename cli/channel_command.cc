@@ -1,5 +1,5 @@
-// `fleetmap channel set|list|log`: the release channels robots follow (channel_registry.h,
-// issue 38 item 1). The depot moves a channel to a revision; robots on it (fleetmap-agent
+// `fleetmap channel set|list|log`: the release channels robots follow (channel_registry.h).
+// The depot moves a channel to a revision; robots on it (fleetmap-agent
 // --channel NAME) get that revision at their next sync, incrementally.
 #include <cstdio>
 #include <iostream>

@@ -237,7 +237,7 @@ void AddDownloadCommand(CLI::App& app) {
                    "copy, tod, paths, cover, budget, or parts joined with '+' (tod+paths, "
                    "tod+cover, tod+paths+cover, tod+budget, ...). cover keeps in every stretch of "
                    "the map its k experiences most likely to localise at the mission's time, "
-                   "even outside the window (issue 19); with it tod also keeps what robots used "
+                   "even outside the window; with it tod also keeps what robots used "
                    "within the window")
       ->required();
   download->add_option("--mission-start", args->mission_start,

@@ -126,8 +126,8 @@ std::uint64_t ParseSeed(const std::string& text, const std::string& what) {
   return value;
 }
 
-// --seeds: a count N runs the world's seed and the N - 1 after it (issue 19 judges over seeds);
-// a comma list names them. Without --seeds, the world's seed alone.
+// --seeds: a count N runs the world's seed and the N - 1 after it (the acceptance is judged over
+// seeds); a comma list names them. Without --seeds, the world's seed alone.
 std::vector<std::uint64_t> FleetSeeds(const FleetArgs& args, std::uint64_t world_seed) {
   if (args.seeds.empty()) return {world_seed};
   std::vector<std::uint64_t> seeds;
@@ -212,7 +212,7 @@ void RunFleet(const FleetArgs& args) {
   for (const FleetSeedRun& run : runs) verdicts.push_back(JudgeFleet(run.result));
   const FleetAcceptance acceptance = JudgeFleetSeeds(verdicts);
   if (!acceptance.all()) {
-    std::cerr << "note: acceptance lines failed (issues 19 and 34):\n";
+    std::cerr << "note: acceptance lines failed:\n";
     for (const FleetLine& line : acceptance.lines) {
       if (line.judged && !line.pass) std::cerr << "  " << line.name << ": " << line.why << "\n";
     }
@@ -368,9 +368,9 @@ void AddExperimentCommand(CLI::App& app) {
       ->check(CLI::PositiveNumber);
   fleet->add_flag("--merge-whole-stretches", fleet_args->merge_whole_stretches,
                   "MERGE adds a stretch that does not localise whole, with the frames at its ends "
-                  "that did (the behaviour before issue 37; for comparison)");
+                  "that did (the earlier behaviour; for comparison)");
   fleet->add_flag("--no-frontier", fleet_args->no_frontier,
-                  "Skip the frontier (each download policy with its knobs swept; issue 34): "
+                  "Skip the frontier (each download policy with its knobs swept): "
                   "about a third less work; its judged line then fails as not run");
   fleet->add_option("--threads", fleet_args->threads, "Worker threads")
       ->capture_default_str()
@@ -386,7 +386,7 @@ void AddExperimentCommand(CLI::App& app) {
   auto lifelong_args = std::make_shared<LifelongArgs>();
   CLI::App* lifelong = experiment->add_subcommand(
       "lifelong",
-      "A map that stops growing (issue 34): forays merged day after day; per day the nodes "
+      "A map that stops growing: forays merged day after day; per day the nodes "
       "MERGE added, the map's size, and the next day's forays localised (held out, before they "
       "drive) with copy and with their downloads. Writes lifelong.csv, lifelong.png and "
       "summary.md to --out and prints the summary.");

@@ -1,5 +1,5 @@
-// `fleetmap export`: a revision of the map in the formats other robotics tools read (issue 22
-// item 2): its landmarks as a PLY point cloud, its pose graph as g2o, the whole graph as
+// `fleetmap export`: a revision of the map in the formats other robotics tools read: its
+// landmarks as a PLY point cloud, its pose graph as g2o, the whole graph as
 // GraphML, one outing's trajectory as TUM lines. Poses come from the graph layout
 // (fleetmap/interchange/graph_layout.h): metric edges composed from the earliest node of each
 // connected component.

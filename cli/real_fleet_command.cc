@@ -84,7 +84,7 @@ void RunRealFleet(const RealFleetArgs& args) {
 }
 
 constexpr const char* kRealFleetDescription =
-    "The fleet loop on real drives (issue 37): robots drive the given drives at different "
+    "The fleet loop on real drives: robots drive the given drives at different "
     "hours, each foray every Kth pair of its drive (K = hours x forays per hour, so no foray "
     "sees an image another's map was built from) under its hour's condition rendered from the "
     "recorded images by the physics of image formation (light, shot and read noise, motion "
@@ -92,7 +92,7 @@ constexpr const char* kRealFleetDescription =
     "download policy for the foray's hour through fleetmap-agent and the foray localises "
     "against both; then its robot pulls, builds with single-agent EBN on its own map and pushes "
     "to fleetmapd, which merges. Per drive and foray: frames tracked, localised against copy and "
-    "the download, bytes pulled, nodes MERGE added, and the issue's acceptance lines with "
+    "the download, bytes pulled, nodes MERGE added, and the acceptance lines with "
     "PASS/FAIL. Writes summary.md, real_fleet.csv, real_fleet.png and DRIVE/work/ to --out. "
     "Exits 0 whatever the acceptance lines say.";
 

@@ -57,12 +57,12 @@ void RunRealMerge(const RealMergeArgs& args) {
 }
 
 constexpr const char* kDescription =
-    "MERGE of two real drives (issue 18): robot A maps the even stereo pairs before "
+    "MERGE of two real drives: robot A maps the even stereo pairs before "
     "--overlap-end, robot B those from --overlap-start on, each with single-agent EBN on its own "
     "map; both push through real fleetmapd and fleetmap-agent processes (A first); the odd pairs "
     "then localise against the merged head. Prints summary.md (nodes of A, B and the head, B's "
     "overlap nodes MERGE omitted, odd pairs localised and their pose error against ground truth, "
-    "the issue's acceptance lines with PASS/FAIL) and writes it with real_merge.csv (per pair) "
+    "the acceptance lines with PASS/FAIL) and writes it with real_merge.csv (per pair) "
     "and work/ (stores, maps, logs) to --out. Exits 0 whatever the acceptance lines say.";
 
 }  // namespace

@@ -1,4 +1,4 @@
-// `fleetmap render`: a picture of the map at a revision (issue 22 item 1), seen from above:
+// `fleetmap render`: a picture of the map at a revision, seen from above:
 // the graph layout (fleetmap/interchange/graph_layout.h) drawn by the map picture
 // (map_picture.h) as SVG text or, through OpenCV, as PNG pixels: the same picture either way.
 #include <algorithm>

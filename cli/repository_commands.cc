@@ -91,7 +91,7 @@ void RunLog(const LogArgs& args) {
     return;
   }
   // Authors are outside text: escaped to one line each, so none can forge a row or drive the
-  // terminal (issue 35 item 10).
+  // terminal.
   int author_width = 6;
   for (const Revision& r : history) {
     author_width = std::max(author_width, static_cast<int>(PrintableText(r.author).size()));
@@ -224,7 +224,7 @@ void AddHistoryCommands(CLI::App& app) {
       "each added and hid.");
   AddStoreOption(*log, log_args->store);
   log->add_flag("--json", log_args->json, "Print JSON (with each merge's full report)");
-  // Record files moved from `log` to `records` (issue 20): a user who types the old command
+  // Record files moved from `log` to `records`: a user who types the old command
   // is told where it went instead of reading a parse error.
   log->allow_extras();
   log->callback([log_args, log] {

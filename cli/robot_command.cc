@@ -68,7 +68,7 @@ void RunRobotList(const RobotListArgs& args) {
       entry["last_sync"] = robot.last_sync_ns == 0
                                ? nlohmann::ordered_json(nullptr)
                                : nlohmann::ordered_json(FormatUtc(robot.last_sync_ns));
-      // What it runs (issue 38 item 2).
+      // What it runs.
       const RobotRelease release = ReleaseOf(robot, head, channels);
       entry["channel"] = release.channel;
       entry["installed_revision"] = release.installed;
@@ -97,7 +97,7 @@ void RunRobotList(const RobotListArgs& args) {
   int name_width = 4;
   for (const RegisteredRobot& robot : robots) {
     // Checked printable when added, escaped all the same: the registry is a store's setting,
-    // which anything that can write the store can change (issue 35 item 10).
+    // which anything that can write the store can change.
     name_width = std::max(name_width, static_cast<int>(PrintableText(robot.name).size()));
   }
   std::printf("%-*s  %-36s  %-20s  %-12s  %9s  %6s  %-4s  %s\n", name_width, "NAME", "ROBOT ID",
@@ -125,7 +125,7 @@ void AddRobotCommands(CLI::App& app) {
   robot->require_subcommand(1);
   robot->footer(
       "Robots sync with the repository through fleetmapd with their UUID and token "
-      "(DESIGN.md \"Sync protocol\"); fleetmapd refuses unknown robots and wrong tokens.");
+      "(docs/sync-protocol.md); fleetmapd refuses unknown robots and wrong tokens.");
 
   auto add_args = std::make_shared<RobotAddArgs>();
   CLI::App* add = robot->add_subcommand("add", "Register a robot; prints its UUID and token once");

@@ -1,7 +1,7 @@
 // The --out file of the commands that write one file (`export`, `render`), written whole or
 // not at all (fleetmap/core/staged_file.h): a failed or interrupted command never leaves a
 // half-written FILE, a file already there stays as it was, and a symbolic link at FILE.tmp is
-// refused, never written through (issue 35 item 6). This adds only the command's wording of
+// refused, never written through. This adds only the command's wording of
 // failures.
 #pragma once
 

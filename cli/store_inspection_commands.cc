@@ -1,4 +1,4 @@
-// `fleetmap info STORE` and `fleetmap doctor STORE` (issue 22 item 4): what a map store holds,
+// `fleetmap info STORE` and `fleetmap doctor STORE`: what a map store holds,
 // and what is wrong with it (store_facts.h, store_diagnosis.h). Both open the store read-only,
 // so neither can change what they look at.
 #include <CLI/CLI.hpp>

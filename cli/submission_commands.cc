@@ -146,7 +146,7 @@ void RunSubmissions(const SubmissionsArgs& args) {
     return;
   }
   // Authors, errors and instance names are outside text: escaped to one line each, so none can
-  // forge a row or drive the terminal (issue 35 item 10).
+  // forge a row or drive the terminal.
   int author_width = 6;
   for (const Submission& s : submissions) {
     author_width = std::max(author_width, static_cast<int>(PrintableText(s.author).size()));

@@ -4,7 +4,7 @@ include(GNUInstallDirs)
 set(FLEETMAP_WARNINGS -Wall -Wextra -Wpedantic -Wshadow -Wnon-virtual-dtor -Wold-style-cast
                       -Wcast-align -Wunused -Woverloaded-virtual)
 
-# Precompiled headers (issue 36): the third-party and standard headers nearly every unit parses
+# Precompiled headers: the third-party and standard headers nearly every unit parses
 # (Eigen through graph.h and se3.h in 197 of 278 units, the standard library; GoogleTest in every
 # test) are compiled once into a header of each donor below, which every library, program and
 # test reuses (REUSE_FROM). Only third-party and standard headers, never a fleetmap/ one, so a
@@ -16,8 +16,8 @@ set(FLEETMAP_PCH_STD_HEADERS <algorithm> <chrono> <cstdint> <filesystem> <functi
                              <unordered_map> <unordered_set> <utility> <vector>)
 
 # The test binaries whose cases drive built programs in subprocesses (fleetmap_test's
-# DRIVES_PROCESSES: fleetmapd, fleetmap-agent, fleetmap) are compiled without optimisation
-# (issue 36): code generation at -O2 was two thirds of their compile time, and what they measure
+# DRIVES_PROCESSES: fleetmapd, fleetmap-agent, fleetmap) are compiled without optimisation:
+# code generation at -O2 was two thirds of their compile time, and what they measure
 # runs in the programs, built -O2 as ever. Not for binaries that run library code in-process:
 # the linker keeps the first copy of an inline function it meets, the test's unoptimised one,
 # and the library would run it (the fleet experiment's test took 1.5x as long).

@@ -1,4 +1,4 @@
-// fleetmapd: the fleet's central repository daemon (DESIGN.md "Sync protocol"). Robots
+// fleetmapd: the fleet's central repository daemon (docs/sync-protocol.md). Robots
 // registered with `fleetmap robot add` connect, push their maps, follow their merges and
 // download the map; `--http` adds the status page and Prometheus metrics.
 //
@@ -219,7 +219,7 @@ void AddTestOptions(CLI::App& app, Flags& flags) {
   app.add_option("--debug-merge-pause-ms", flags.debug_merge_pause_ms)->group("");
   app.add_option("--debug-chunk-delay-ms", flags.debug_chunk_delay_ms)->group("");
   // And the deadline of each frame after the hello (SyncServerOptions::io_deadline), so a test
-  // of a robot's large backlog (issue 35 item 4) need not build 30 s of work to pass it.
+  // of a robot's large backlog need not build 30 s of work to pass it.
   app.add_option("--frame-timeout-s", flags.frame_timeout_s)
       ->group("")
       ->check(CLI::Range(0.05, 3600.0));

@@ -1,4 +1,4 @@
-// How a robot's unsynced content goes to a server (issue 35 items 3 and 4): as submissions
+// How a robot's unsynced content goes to a server: as submissions
 // that each fit the server's limits, planned before the agent says hello and sent chunk by
 // chunk, so that neither the size of the content nor the time to read it can wedge a robot.
 //

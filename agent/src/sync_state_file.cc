@@ -85,7 +85,7 @@ DownloadParams RequestFromJson(const json& object) {
   for (const json& item : object.at("include_nodes")) {
     request.include_nodes.push_back(Uuid::Parse(item.get<std::string>()));
   }
-  // Issue 38; files written before it have none of these (the head, no route).
+  // Channels and routes; files written before them have none of these (the head, no route).
   request.channel = object.value("channel", std::string("head"));
   if (object.contains("route_xyz"))
     request.route_xyz = object["route_xyz"].get<std::vector<double>>();
@@ -107,7 +107,7 @@ DownloadParams RequestFromJson(const json& object) {
 
 // The state as JSON, the id lists written straight into the text: a large backlog's state
 // holds millions of ids, and a JSON tree of them took seconds and hundreds of MB each time it
-// was saved, inside a session the server times out (issue 35 item 4).
+// was saved, inside a session the server times out.
 std::string SyncStateToJson(const SyncState& state) {
   std::string out;
   std::size_t ids = state.installed.size() + state.pushed.size();
@@ -147,7 +147,8 @@ std::string SyncStateToJson(const SyncState& state) {
            ", \"error\": " + JsonText(json(u.error)) + "}";
   }
   out += "],\n";
-  // Issue 35 item 3; files written before it have neither key (read as none).
+  // The server's limits and the held nodes; files written before them have neither key (read as
+  // none).
   key("server_limits");
   out += JsonText(json({{"max_submission_bytes", state.server_limits.max_submission_bytes},
                         {"max_frame_bytes", state.server_limits.max_frame_bytes}})) +
@@ -158,7 +159,8 @@ std::string SyncStateToJson(const SyncState& state) {
   }
   key("held");
   out += JsonText(held) + ",\n";
-  // Issue 38; files written before it have neither key (read as none).
+  // What was installed and the last error; files written before them have neither key (read as
+  // none).
   key("installed_digest");
   out += JsonText(json(std::to_string(state.installed_digest))) + ",\n";
   key("last_error");

@@ -60,7 +60,7 @@ class AgentConfigTest : public ::testing::Test {
   }
 
   // A token file as `fleetmap robot add`'s user keeps it: readable by its owner only (the
-  // agent refuses one others can read, issue 35 item 12).
+  // agent refuses one others can read).
   static void WriteSecretFile(const fs::path& path, const std::string& text) {
     WriteWholeFile(path, text);
     fs::permissions(path, fs::perms::owner_read | fs::perms::owner_write,
@@ -242,7 +242,7 @@ TEST_F(AgentConfigTest, UnreadableEmptyOrDoubledTokensAreNamedBeforeDialling) {
   EXPECT_TRUE(Contains(both.err, "excludes")) << both.err;
 }
 
-// Issue 38: a channel name or a route the server would refuse is named before dialling.
+// A channel name or a route the server would refuse is named before dialling.
 TEST_F(AgentConfigTest, ABadChannelOrRouteIsNamedBeforeDialling) {
   const std::vector<std::string> sync = {"sync",
                                          "--server",
@@ -269,7 +269,7 @@ TEST_F(AgentConfigTest, ABadChannelOrRouteIsNamedBeforeDialling) {
   EXPECT_TRUE(Contains(radius.err, "radius")) << radius.err;
 }
 
-// Issue 35 item 12: a token file everyone could read (mode 0644) was accepted without a word.
+// A token file everyone could read (mode 0644) was accepted without a word.
 // As ssh refuses such a key, the agent refuses a token file its group or others can read,
 // saying how to fix it, before it dials; at 0600 the same file syncs.
 TEST_F(AgentConfigTest, ATokenFileOthersCanReadIsRefusedUntilItIsPrivate) {

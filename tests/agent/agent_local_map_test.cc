@@ -72,7 +72,7 @@ Uuid PushDay(LocalMap& map) {
   return submission;
 }
 
-// Issue 35 item 6: the sync state is staged at sync.json.tmp; a symbolic link someone put
+// The sync state is staged at sync.json.tmp; a symbolic link someone put
 // there is never written through (its target stays as it was) and the state is written.
 TEST(AgentLocalMapTest, ASymbolicLinkAtTheStagedStateIsNotWrittenThrough) {
   const ScratchDir dir("fleetmap-agent-map");
@@ -339,7 +339,7 @@ TEST(AgentLocalMapTest, FailedSubmissionIsKeptUntilDiscarded) {
   EXPECT_EQ(IdsOf(ReadStore(map.map_uri())), IdsOf(SharedMaps().night));
 }
 
-// Issue 38 item 2: the digest of the installed selection as the install wrote it, the same
+// The digest of the installed selection as the install wrote it, the same
 // read back from map.db, and after a byte of map.db changed behind the agent's back, not the
 // same. The channel, the route and the last error live in the state across a reopen.
 TEST(AgentLocalMapTest, TheInstalledDigestIsTheSelectionsAndSeesADamagedMap) {

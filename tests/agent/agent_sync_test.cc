@@ -1,5 +1,5 @@
 // fleetmap-agent against the real fleetmapd, both the built executables run as subprocesses on
-// 127.0.0.1 (DESIGN.md "Sync protocol"; seed 004 §V): a robot's corridor map pushed, merged and
+// 127.0.0.1 (docs/sync-protocol.md; seed 004 §V): a robot's corridor map pushed, merged and
 // downloaded back; a second sync that moves nothing; a refused token; a server that comes up
 // late; a pending submission resumed under its id; the daemon's dock file; TLS. Every wait is
 // bounded; ChildProcess kills what still runs when a test ends.
@@ -265,8 +265,8 @@ class AgentSyncTest : public ::testing::Test {
   fs::path server_log() const { return dir_ / "fleetmapd.log"; }
 
   // The robot's EBN builder wrote `map` into its map directory, each node and path stamped
-  // with this robot's id (the server takes a robot's nodes only in its own name, issue 35
-  // item 11).
+  // with this robot's id (the server takes a robot's nodes only in its own
+  // name).
   void WriteRobotMap(GraphBatch map) {
     for (Node& node : map.nodes) node.robot = robot_;
     for (Path& path : map.paths) path.robot = robot_;
@@ -610,7 +610,7 @@ TEST_F(AgentSyncTest, SyncsOverTlsVerifyingTheServer) {
   EXPECT_EQ(RunAgent(insecure, token_).exit, 0);
 }
 
-// Issue 35 item 9: an agent without TLS against a TLS server sent its token in clear five times
+// An agent without TLS against a TLS server sent its token in clear five times
 // and reported only "End of file". It now says the server speaks TLS and how to connect, after
 // one attempt: the server saw plain bytes once.
 TEST_F(AgentSyncTest, APlainAgentAgainstATlsServerIsToldSoAfterOneAttempt) {
@@ -707,7 +707,7 @@ TEST_F(AgentSyncTest, ADownloadWithAWrongDigestOrCutBeforeItsEndLeavesTheMapAsIt
   EXPECT_NE(testing::ReadLog(map_dir_ / "sync.json"), state_before);  // the new request
 }
 
-// Issue 35 item 3, a robot already wedged: an agent before the fix recorded its whole backlog as
+// A robot already wedged: an agent before the fix recorded its whole backlog as
 // one pending submission, which the server refuses at push_begin (over --max-submission-mib,
 // before storing a byte) on every sync. The agent abandons that submission and pushes its
 // content again in submissions that fit.
@@ -735,8 +735,8 @@ TEST_F(AgentSyncTest, APendingSubmissionOverTheServersLimitIsPushedAgainInPartsT
   }
 }
 
-// A backlog of FLEETMAP_BACKLOG_NODES nodes (20 000 by default; scripts/soak measures the
-// 10^6 of issue 35 item 4, about 600 MB, in several minutes): `fleetmap-agent status` and a sync
+// A backlog of FLEETMAP_BACKLOG_NODES nodes (20 000 by default; scripts/soak measures
+// 10^6, about 600 MB, in several minutes): `fleetmap-agent status` and a sync
 // against a fleetmapd with its default 30 s frame timeout, each under /usr/bin/time -v, which
 // prints its time and peak RSS.
 TEST_F(AgentSyncTest, ABacklogSyncsAndItsStatusAndSyncAreMeasured) {
@@ -780,7 +780,7 @@ TEST_F(AgentSyncTest, ABacklogSyncsAndItsStatusAndSyncAreMeasured) {
   timed({"status", "--map-dir", map_dir_.string(), "--json"}, "status-after");
 }
 
-// Issue 35 item 4: a robot with a large backlog never synced. The agent read, selected and
+// A robot with a large backlog never synced. The agent read, selected and
 // encoded its whole backlog after its hello, and the server, hearing no frame within its frame
 // timeout, closed the session; every retry the same. The agent now prepares its submission
 // before it says hello and streams it chunk by chunk. A fleetmapd with a short frame timeout

@@ -3,13 +3,13 @@
 // - BM_OpenCvOrbBothImages: cv::ORB on the left then the right image, nothing else, one thread;
 // - BM_OpenCvOrbTwoThreads: cv::ORB's detectAndCompute on both images with the front end's
 //   detector (CreateOrbDetector: detect_oversampling x orb_features keypoints per image), one
-//   image on a std::async thread, nothing else: ORB alone, the baseline of issues 18 and 39's
-//   acceptance lines. The front end does less ORB work than this on the left image (it describes
-//   only the keypoints bucketing keeps) and the same on the right;
+//   image on a std::async thread, nothing else: ORB alone, the baseline of the front end's
+//   acceptance lines (`fleetmap bench limits`). The front end does less ORB work than this on the
+//   left image (it describes only the keypoints bucketing keeps) and the same on the right;
 // - BM_OpenCvOrbKeptTwoThreads: the same with orb_features keypoints per image (no
 //   oversampling): plain ORB giving as many keypoints as the front end keeps, for reference;
 // - BM_StereoFrontEnd: ORB on both images (two threads), row matching with the left-right check
-//   and sub-pixel refinement, triangulation: the figure the issue asks for, ms per pair;
+//   and sub-pixel refinement, triangulation: the headline figure, ms per pair;
 // - BM_StereoRowMatching: the matching step alone, on keypoints found (and bucketed) beforehand;
 // - BM_Rectify: undistortion and rectification of both images (before the front end);
 // - BM_VisualOdometry: one frame tracked from the previous (the localiser's match + RANSAC).
@@ -315,7 +315,7 @@ void BM_KittiOpenCvOrbBothImages(benchmark::State& state) {
 BENCHMARK(BM_KittiOpenCvOrbBothImages)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 // The argument is the keypoints kept (StereoFrontEndOptions::orb_features): the default and the
-// 1500 of before issue 37, side by side in one run.
+// earlier 1500, side by side in one run.
 StereoFrontEndOptions WithFeatures(const benchmark::State& state) {
   StereoFrontEndOptions o;
   o.orb_features = static_cast<int>(state.range(0));

@@ -1,4 +1,4 @@
-// Downloading a large map from a real fleetmapd over loopback (issue: ≥ 500 MB at ≥ 200 MB/s),
+// Downloading a large map from a real fleetmapd over loopback (the bar: ≥ 500 MB at ≥ 200 MB/s),
 // beside the ceiling of the same machine: the same bytes over a plain TCP socket on loopback.
 //
 // Setup, once: a SQLite central store holding a map of about 540 MB of landmarks (random, so

@@ -1,4 +1,4 @@
-// `fleetmap bench limits` (issue 39 item 5): the judgement of a line (ratios per repetition,
+// `fleetmap bench limits`: the judgement of a line (ratios per repetition,
 // medians, bounds either way, a missing side never passing), Google Benchmark's JSON read per
 // repetition, and the command end to end: the sensor index against plain sqlite3, PostgreSQL's
 // ingest against plain COPY and the matcher's child benchmark, their CSV consistent with the

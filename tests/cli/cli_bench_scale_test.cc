@@ -1,4 +1,4 @@
-// `fleetmap bench scale` (issue 21 item 4) end to end at small sizes on both stores: the
+// `fleetmap bench scale` end to end at small sizes on both stores: the
 // table, the CSV with a row per backend and size whose figures come from running the steps
 // (a revisit that MERGE localises, a subset that is encoded, a store that holds the
 // landmarks), the scratch stores gone afterwards, and bad arguments refused with their names.

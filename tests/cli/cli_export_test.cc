@@ -260,7 +260,7 @@ TEST_F(CliExportTest, BadInputIsNamedAndLeavesNoOutputFile) {
   EXPECT_EQ(testing::ReadPly(ReadWholeFile(out)).Element("vertex").count, 240u);
 }
 
-// Issue 35 item 6: a symbolic link someone put at OUT.tmp (the name the export stages its
+// A symbolic link someone put at OUT.tmp (the name the export stages its
 // file under) is never written through: the export refuses, naming the link, and the file it
 // points to stays byte for byte as it was (also a link to nowhere creates nothing). A stale
 // OUT.tmp that is a regular file (left by a killed export) is replaced, and OUT is right.

@@ -1,4 +1,4 @@
-// `fleetmap records split|cat|ingest|reindex` (issue 20 item 4): the record-file commands under
+// `fleetmap records split|cat|ingest|reindex`: the record-file commands under
 // their own verb, run as the built executable on real files and a real SQLite store; and
 // `fleetmap log`, now the history only, pointing a user of the old spelling to the new one.
 #include <gtest/gtest.h>

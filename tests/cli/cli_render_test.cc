@@ -295,7 +295,7 @@ TEST_F(CliRenderTest, BadInputIsNamedAndLeavesNoOutputFile) {
   EXPECT_FALSE(std::filesystem::exists(out.string() + ".tmp"));
 }
 
-// Issue 35 item 6: a symbolic link at OUT.tmp (the staging name) is never written through,
+// A symbolic link at OUT.tmp (the staging name) is never written through,
 // for PNG and SVG: refused naming the link, its target byte for byte as it was; a stale
 // regular OUT.tmp is replaced and the picture written.
 TEST_F(CliRenderTest, ASymbolicLinkAtTheStagingNameIsNeverWrittenThrough) {

@@ -228,7 +228,7 @@ std::size_t LinesIn(const std::string& text) {
   return static_cast<std::size_t>(std::count(text.begin(), text.end(), '\n'));
 }
 
-// Issue 35 item 10: an author with a newline and an escape sequence (stored as given) cannot
+// An author with a newline and an escape sequence (stored as given) cannot
 // forge a row of `fleetmap log` or `submissions`, nor clear the terminal: every table prints
 // it escaped on its own row, as do push, merge and revert; --json keeps it as it is.
 TEST_F(CliRepositoryTest, AnAuthorWithControlCharactersCannotForgeATableRow) {
@@ -256,7 +256,7 @@ TEST_F(CliRepositoryTest, AnAuthorWithControlCharactersCannotForgeATableRow) {
   EXPECT_EQ(Json({"submissions"})[0]["author"], author);
 }
 
-// Issue 35 item 13 (c): `fleetmap promote` refuses a candidate that only ties the order the
+// `fleetmap promote` refuses a candidate that only ties the order the
 // server merged (two submissions: one group, one order, the merged one), giving both scores
 // and the way round; --force promotes it.
 TEST_F(CliRepositoryTest, PromoteRefusesACandidateThatDoesNotBeatTheMergedOrderWithoutForce) {

@@ -1,4 +1,4 @@
-// Appearance conditions rendered from real images (experiments/conditions, issue 37 item 2):
+// Appearance conditions rendered from real images (experiments/conditions):
 // the hour and weather -> parameters schedule, each effect of image formation on synthetic
 // pairs whose depth and brightness are known, parameter checks, and a KITTI pair at dusk and
 // at night.

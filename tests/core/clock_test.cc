@@ -26,7 +26,7 @@ TEST(Clock, WallClockIsUtcNanosecondsSinceTheEpochAndDurationsAreSteady) {
   EXPECT_NEAR(SecondsSince(start - std::chrono::seconds(90)), 90.0, 5.0);
 }
 
-// One grammar for every program's time of day (issue 36): `fleetmap download
+// One grammar for every program's time of day: `fleetmap download
 // --mission-start`, `fleetmap-agent --mission-start` and `fleetmapd --dream-at`.
 TEST(TimeOfDay, ParsesHoursAndMinutesAndNamesWhatItRefuses) {
   EXPECT_EQ(ParseTimeOfDay("00:00", "--dream-at"), 0);

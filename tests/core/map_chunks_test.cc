@@ -99,7 +99,7 @@ TEST(MapChunks, ACorruptChunkIsNamed) {
   }
 }
 
-// SelectionDigest (issue 38 item 2): a set's digest, whatever the order; following a selection
+// SelectionDigest: a set's digest, whatever the order; following a selection
 // through additions and removals; changed by any byte of a node's landmarks, an edge's ends or a
 // path's times; not by an edge's pose.
 TEST(SelectionDigestTest, IsOfTheSetAndSeesEveryChangeButAPose) {

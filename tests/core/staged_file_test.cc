@@ -57,7 +57,7 @@ TEST(StagedFile, TakesItsPermissionsLessTheUmask) {
             fs::perms::owner_read | fs::perms::owner_write);
 }
 
-// Issue 35 item 6: never written through a symbolic link at PATH.tmp. By default the link is
+// Never written through a symbolic link at PATH.tmp. By default the link is
 // refused and left alone; with replace_foreign_staging it is unlinked (the name only). A
 // regular file there (a killed write's leftover) is replaced either way.
 TEST(StagedFile, NeverWritesThroughALinkAtTheStagingName) {

@@ -1,9 +1,9 @@
-// fleetmapd under floods of connections (issue "Nothing a robot builds is ever lost", item 4),
-// on real processes on 127.0.0.1: the real daemon (SQLite store), a real fleetmap-agent sync,
-// and a test that opens the flood's sockets itself. Memory follows the bytes a connection
-// sends, not the length it announces; connections that never say hello cannot keep a robot
-// out, whether they sit idle or reconnect as fast as they are closed; idle HTTP connections
-// cannot keep /metrics from a scraper. Every wait is bounded, every flood counted.
+// fleetmapd under floods of connections, on real processes on 127.0.0.1: the real daemon (SQLite
+// store), a real fleetmap-agent sync, and a test that opens the flood's sockets itself. Memory
+// follows the bytes a connection sends, not the length it announces; connections that never say
+// hello cannot keep a robot out, whether they sit idle or reconnect as fast as they are closed;
+// idle HTTP connections cannot keep /metrics from a scraper. Every wait is bounded, every flood
+// counted.
 //
 // The figures (RSS before and at the peak, the agent's sync time) are printed; run
 //   build/tests/fleetmapd_flood_test
@@ -148,7 +148,7 @@ class FleetmapdFloodTest : public ::testing::Test {
   TestRobot robot_;
 };
 
-// The acceptance test of the issue: 100 connections that announce a 64 MiB frame and send
+// The acceptance test: 100 connections that announce a 64 MiB frame and send
 // nothing more took fleetmapd from 22 MB to 4.8 GB. Before a hello a frame is at most 4 KiB,
 // so each is refused at once; and the body is never allocated up front in any case.
 TEST_F(FleetmapdFloodTest, AnnouncedLengthsBeforeAHelloCostNoMemory) {

@@ -1,4 +1,4 @@
-// fleetmapd end to end (DESIGN.md "Sync protocol"; sync.proto): the real daemon on 127.0.0.1,
+// fleetmapd end to end (docs/sync-protocol.md; sync.proto): the real daemon on 127.0.0.1,
 // driven with raw frames by a blocking test client (raw_sync_client.h). Every frame error
 // closes only its own session with the right ErrorFrame while a good session keeps working;
 // pushes resume; merges survive a kill; SIGTERM drains. Also the robot registry and
@@ -605,7 +605,7 @@ TEST_F(FleetmapdSqliteTest, SigtermDrainsAbandonsTheRunningMergeAndExitsZero) {
   EXPECT_NE(server.Log().find("abandoned"), std::string::npos) << server.Log();
 }
 
-// ---- Authentication, limits and floods (issue "Nothing a robot builds is ever lost") ----
+// ---- Authentication, limits and floods ----
 
 TEST_F(FleetmapdSqliteTest, UnknownRobotAndWrongTokenGetTheSameAnswer) {
   Fleetmapd server = Start();
@@ -891,7 +891,7 @@ TEST_F(FleetmapdSqliteTest, AVersion2RobotIsAnsweredInVersion2WithTheTotalsInThe
   EXPECT_TRUE(server.LogContains("from memory")) << server.Log();
 }
 
-// Contracted downloads (protocol version 4, issue 34): a tod download that leaves out the
+// Contracted downloads (protocol version 4): a tod download that leaves out the
 // night experiences between day ones carries the path's order over them, as derived path edges;
 // a robot still on version 3 is served the same nodes with only the edges both of whose ends
 // are sent, as before.
@@ -1052,7 +1052,7 @@ TYPED_TEST(FleetmapdTest, TheHeadsCopyIsPlannedBeforeARobotAsksForIt) {
   EXPECT_EQ(from_memory, 2u) << log;
 }
 
-// ---- Strangers and neighbours kept in their lane (issue 35 items 8 to 13) ----
+// ---- Strangers and neighbours kept in their lane ----
 
 // The resident memory of process `pid` now (VmRSS), in bytes; -1 when unreadable.
 std::int64_t RssBytes(int pid) {
@@ -1082,7 +1082,7 @@ std::pair<std::optional<int>, std::string> RunFleetmapd(const std::filesystem::p
   return {exit, std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>())};
 }
 
-// Issue 35 item 8: one robot's 30 sessions, each 60 MiB into a 64 MiB frame, took fleetmapd
+// One robot's 30 sessions, each 60 MiB into a 64 MiB frame, took fleetmapd
 // from 137 MB to 1.74 GB. A robot now holds 4 sessions at most (--max-sessions-per-robot) and
 // 128 MiB of frames in flight across them (--max-inflight-mib-per-robot); past either the
 // newcomer is told BUSY, and the robot's other sessions and the other robots go on.
@@ -1154,7 +1154,7 @@ TEST_F(FleetmapdSqliteTest, ARobotsSessionsAndFramesInFlightAreCappedAndOthersSt
   EXPECT_EQ(WaitForState(second, plan.id, "merged").state(), "merged");
 }
 
-// Issue 35 item 9: TLS was off by default with no word on an address robots reach over a
+// TLS was off by default with no word on an address robots reach over a
 // network. Plain text on a non-loopback address now needs --allow-plaintext.
 TEST_F(FleetmapdSqliteTest, PlainTextOnANonLoopbackAddressNeedsAnExplicitOption) {
   for (const std::string listen : {"0.0.0.0:0", "[::]:0"}) {
@@ -1237,7 +1237,7 @@ TEST_F(FleetmapdSqliteTest, WithATokenTheStatusPageAnswersOnlyRequestsThatCarryI
   EXPECT_NE(log.find("chmod 600"), std::string::npos) << log;
 }
 
-// Issue 35 item 9: a TLS mismatch said nothing clear on the server's side. A TLS ClientHello on
+// A TLS mismatch said nothing clear on the server's side. A TLS ClientHello on
 // a plain listener and plain bytes on a TLS listener are each named in the log.
 TEST_F(FleetmapdSqliteTest, ATlsMismatchIsNamedInTheServersLog) {
   Fleetmapd plain = Start();
@@ -1256,7 +1256,7 @@ TEST_F(FleetmapdSqliteTest, ATlsMismatchIsNamedInTheServersLog) {
   EXPECT_TRUE(tls.LogContains("not a TLS handshake")) << tls.Log();
 }
 
-// Issue 35 item 12: a TLS key others can read is refused, as ssh refuses such a key.
+// A TLS key others can read is refused, as ssh refuses such a key.
 TEST_F(FleetmapdSqliteTest, ATlsKeyOthersCanReadIsRefused) {
   const std::filesystem::path cert = dir_ / "cert.pem";
   const std::filesystem::path key = dir_ / "key.pem";
@@ -1277,7 +1277,7 @@ TEST_F(FleetmapdSqliteTest, ATlsKeyOthersCanReadIsRefused) {
   ExpectStillServes(*Connect(server, /*tls=*/true));
 }
 
-// Issue 38: what a robot says about channels, routes and its installed map is checked before it
+// What a robot says about channels, routes and its installed map is checked before it
 // costs the store anything beyond a lookup. Each bad download request is refused by name and
 // closes the session; an unknown channel is NOT_FOUND; what a hello says was installed is
 // recorded with its text cut and made printable, and only after the token checks.
@@ -1370,7 +1370,7 @@ TEST_F(FleetmapdSqliteTest, ChannelsRoutesAndInstalledReportsFromAHostileRobot) 
   EXPECT_EQ(robot->last_error, "agent: disk\\nfull");
 }
 
-// Issue 35 item 10: an agent string with a newline and escape codes became a forged line in
+// An agent string with a newline and escape codes became a forged line in
 // fleetmapd's log. What a client sends is logged escaped, on its own line.
 // A route whose two positions are a million metres apart, over a 40 m map, asked for in 12
 // distinct requests from 4 sessions of one robot, while another robot syncs: each is refused at
@@ -1478,7 +1478,7 @@ TEST_F(FleetmapdSqliteTest, WhatAClientSendsCannotForgeALogLine) {
   }
 }
 
-// Issue 35 item 11: a robot could push nodes in another robot's name and ask the merge status
+// A robot could push nodes in another robot's name and ask the merge status
 // of another robot's submission. A node's robot is now the session's, and another robot's
 // submission is, to this robot, as unknown as an id never pushed.
 TYPED_TEST(FleetmapdTest, ARobotPushesOnlyItsOwnNodesAndSeesOnlyItsOwnSubmissions) {
@@ -1543,7 +1543,7 @@ TYPED_TEST(FleetmapdTest, ARobotPushesOnlyItsOwnNodesAndSeesOnlyItsOwnSubmission
 
 class FleetmapdPostgresTest : public FleetmapdTest<PostgresBackend> {};
 
-// Issue 35 item 13: after a PostgreSQL restart each fleetmapd failed its first sessions ("lost
+// After a PostgreSQL restart each fleetmapd failed its first sessions ("lost
 // connection"), one per store connection, before it reconnected. The connections of this
 // test's database are ended behind fleetmapd's back; the very next sessions succeed.
 TEST_F(FleetmapdPostgresTest, SessionsRightAfterTheStoreDroppedItsConnectionsSucceed) {

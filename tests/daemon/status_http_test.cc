@@ -248,7 +248,7 @@ TEST_F(StatusHttpTest, MetricsAreThePrometheusTextFormat) {
            "robot_id=\"0b7e2d6c-1f4a-4c2e-9d3b-5a6f7e8d9c02\"} 1714567889.5",
            "fleetmap_robot_pushes_total{robot=\"<r&d>\","
            "robot_id=\"0b7e2d6c-1f4a-4c2e-9d3b-5a6f7e8d9c01\"} 4",
-           // What each runs (issue 38 item 2); "behind" only where it is known.
+           // What each runs; "behind" only where it is known.
            "fleetmap_robot_installed_revision{robot=\"scout \\\"two\\\"\","
            "robot_id=\"0b7e2d6c-1f4a-4c2e-9d3b-5a6f7e8d9c02\",channel=\"stable\"} 5",
            "fleetmap_robot_installed_revision{robot=\"<r&d>\","
@@ -299,7 +299,7 @@ TEST_F(StatusHttpTest, PageShowsTheFactsWithRobotStringsEscaped) {
   ASSERT_FALSE(table.empty()) << html;
   EXPECT_EQ(Count(table, "<tr"), 3u) << "one header row and one row per robot:\n" << table;
   EXPECT_EQ(Count(table, "</th>"), 11u);
-  // What each runs (issue 38 item 2): the second robot is two behind its channel and its map
+  // What each runs: the second robot is two behind its channel and its map
   // is flagged; its error is escaped like everything a robot says.
   EXPECT_NE(table.find("data-revision=\"5\">5</td>"), std::string::npos) << table;
   EXPECT_NE(table.find("data-behind=\"2\""), std::string::npos) << table;

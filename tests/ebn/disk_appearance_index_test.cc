@@ -1,4 +1,4 @@
-// The appearance index on disk that MERGE seeds its region with (issue 21 item 2): revisited
+// The appearance index on disk that MERGE seeds its region with: revisited
 // places found among many, the same answers after reopening and after its segments merged,
 // and damaged or foreign files refused by name, never read as postings.
 #include "fleetmap/ebn/disk_appearance_index.h"

@@ -1,4 +1,4 @@
-// The localiser's stereo reprojection mode (localiser.h, issue 18 item 2): which matches are
+// The localiser's stereo reprojection mode (localiser.h): which matches are
 // inliers, worked by hand on a scene whose RANSAC answer is exact; the Gauss-Newton refinement
 // recovering a known motion from noisy KITTI-like stereo; mixed and absent cameras; options.
 #include <gtest/gtest.h>

@@ -1,4 +1,4 @@
-// Fleet releases across real processes on 127.0.0.1 (issue 38 items 1 and 2), on both stores:
+// Fleet releases across real processes on 127.0.0.1, on both stores:
 // a robot on channel "stable" keeps getting the stable revision while the head advances and
 // keeps its own pushed nodes; `fleetmap channel set` refused by --require-score changes
 // nothing; a move reaches the robot at its next sync, incrementally; `robot list --json`,
@@ -277,7 +277,7 @@ TYPED_TEST(FleetReleaseTest, RobotsFollowTheirChannelAndTheDepotSeesWhatEachRuns
   EXPECT_EQ(RobotList(this->dir_, uri)["alpha"]["map_differs"], false);
 }
 
-// A mission's route (issue 38 item 3) through real processes: positions in the frame of the
+// A mission's route through real processes: positions in the frame of the
 // corridor's first node, its first 40 m. The robot gets the map within 5 m of them, not the
 // whole corridor, and the server says how much of the route has a node within 5 m.
 TYPED_TEST(FleetReleaseTest, ARouteDownloadHoldsTheMapNearTheRouteOnly) {

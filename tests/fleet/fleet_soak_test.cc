@@ -1,5 +1,5 @@
-// The soak test of the issues "Nothing a robot builds is ever lost" and "Nothing lost after a
-// promote or a revert" (issue 35): 20 robots build on their maps and sync through real
+// The fleet soak: nothing a robot builds is ever lost, not even after a promote or a revert.
+// 20 robots build on their maps and sync through real
 // fleetmap-agent processes in loops, with and without waiting for their merges, while a chaos
 // thread holds the store's write lock, SIGKILLs a fleetmapd (two instances on PostgreSQL, one on
 // SQLite; restarted on the same address), reverts a merge, dreams and promotes the candidate,

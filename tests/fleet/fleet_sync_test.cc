@@ -1,4 +1,4 @@
-// Fleet sync across real processes on 127.0.0.1 (issue: fleetmapd and fleetmap-agent): push →
+// Fleet sync across real processes on 127.0.0.1 (fleetmapd and fleetmap-agent): push →
 // merge → download on both central stores, 20 agents at once, and the server SIGKILLed in the
 // middle of a push and of a merge; landmarks with a stereo camera intact end to end. Exact
 // counts throughout: the robots' maps have random landmarks, so MERGE adds every node pushed and
@@ -175,7 +175,7 @@ std::set<Uuid> EdgeIds(const GraphBatch& map) {
   return ids;
 }
 
-// Issue 34 item 1, end to end: a robot pulls a morning download (protocol 4: path memory
+// End to end: a robot pulls a morning download (protocol 4: path memory
 // contracted over the afternoon chain it leaves out), builds on it, and pushes; then its whole
 // map, derived edges included, is pushed again as a submission. The server recognises every
 // derived edge: nothing the robots built is lost, nothing is stored twice, and no derived edge
@@ -258,7 +258,7 @@ TYPED_TEST(FleetSyncTest, AContractedDownloadBuiltOnAndPushedBackLosesAndDoubles
   EXPECT_EQ(after, before) << "the whole map again changed the map";
 }
 
-// Landmarks with a stereo camera (issue 18) through the whole fleet: pushed by one robot,
+// Landmarks with a stereo camera through the whole fleet: pushed by one robot,
 // merged by fleetmapd (which decodes every pushed node and localises it against the map) and
 // pulled by another robot, and what lands in the central store and in the other robot's map
 // decodes to exactly the landmarks pushed, camera included. Every other node carries no camera,
@@ -474,7 +474,7 @@ nlohmann::json AgentStatus(const TestRobot& robot, const std::filesystem::path& 
   }
 }
 
-// Issue 35 item 3: a robot whose new content was over fleetmapd's --max-submission-mib was
+// A robot whose new content was over fleetmapd's --max-submission-mib was
 // wedged: every sync was refused at push_begin and exited before its download. The agent now
 // learns the server's limit from the welcome and pushes its content as several submissions
 // that each fit, in one sync; an edge to a node of an earlier part resolves because the server
@@ -514,7 +514,7 @@ TYPED_TEST(FleetSyncTest, AMapOverTheSubmissionLimitGoesInPartsThatFitAndTheRobo
   for (const Edge& edge : pushed.edges) EXPECT_TRUE(head_edges.contains(edge.id));
 }
 
-// Issue 35 item 3, a node that cannot fit: one node over the server's limit on its own. It
+// A node that cannot fit: one node over the server's limit on its own. It
 // stays in the robot's map, unpushed, with a clear status; the sync reports it and goes on to
 // push the rest and download; once the server's limit grows the next sync pushes it.
 TYPED_TEST(FleetSyncTest, ANodeOverTheSubmissionLimitIsKeptReportedAndPushedWhenTheLimitGrows) {

@@ -1,4 +1,4 @@
-// Several fleetmapd on one PostgreSQL database (issue 21, "many instances, one database"):
+// Several fleetmapd on one PostgreSQL database:
 // three real fleetmapd processes on one throwaway PostgreSQL, 40 real fleetmap-agent processes
 // spread over them (each told all three, its own first), and one instance SIGKILLed in the
 // middle of a merge. Every pushed node must be in the head exactly once, the revisions 1..N
@@ -225,7 +225,7 @@ double PeakRssMb(int pid) {
   return -1.0;
 }
 
-// A fleet docking at once (issue 35's acceptance): FLEETMAP_DOCK_AGENTS robots (16 by
+// A fleet docking at once: FLEETMAP_DOCK_AGENTS robots (16 by
 // default; scripts/soak runs 100) on two fleetmapd sharing one PostgreSQL, three rounds: each
 // round every robot drives a foray of 20 nodes, then all start their syncs together, push,
 // wait for their merges and pull. None may fail; every node is at the head or stood in for.

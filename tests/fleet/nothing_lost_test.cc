@@ -1,4 +1,4 @@
-// Nothing a robot builds is ever lost (issue: two ways a robot's new experiences vanished, a
+// Nothing a robot builds is ever lost (two ways a robot's new experiences could vanish, a
 // stuck queue), on real fleetmapd and fleetmap-agent processes on 127.0.0.1, both stores:
 // 1. a robot pushes without waiting, builds on the nodes it kept, and pushes again while the
 //    first push is still queued, or after MERGE omitted the nodes it built on;
@@ -142,7 +142,7 @@ TYPED_TEST(NothingLostTest, BuildingOnAPushStillQueuedLosesNothing) {
   }
 }
 
-// Issue 35 item 5: a robot's node carries another node's UUID with content of its own (a
+// A robot's node carries another node's UUID with content of its own (a
 // robot that reused an id). Its push is refused with a clear reason naming the node; both
 // contents are kept (the server's node at the head, the robot's in its failed submission and in
 // its own map, which the download does not overwrite with the other node).

@@ -1,5 +1,5 @@
-// The nightly dream on schedule, across real processes on 127.0.0.1 (issue "Fleet
-// operations" item 5): fleetmapd --dream-at the next minute dreams while five real agents keep
+// The nightly dream on schedule, across real processes on 127.0.0.1:
+// fleetmapd --dream-at the next minute dreams while five real agents keep
 // syncing through it, leaves a candidate without moving the head, reports it in /metrics, and
 // `fleetmap promote` makes it the next revision, which the agents then download.
 #include <gtest/gtest.h>
@@ -145,7 +145,7 @@ TYPED_TEST(ScheduledDreamTest, RunsAMinuteAheadWhileAgentsSyncAndPromoteMakesThe
 
   // Promote it, with fleetmapd serving: the next revision, whose report states the score. A
   // candidate that only ties the order merged (as these corridor outings make it) is refused
-  // without --force (issue 35 item 13 c).
+  // without --force.
   std::vector<std::string> args = {"promote", c.id.ToString(), "--store",
                                    uri,       "--author",      "night-shift"};
   if (!c.merged_order_score || c.score >= *c.merged_order_score) {
@@ -169,7 +169,7 @@ TYPED_TEST(ScheduledDreamTest, RunsAMinuteAheadWhileAgentsSyncAndPromoteMakesThe
   EXPECT_EQ(after.result["revision"], head + 1) << after.result.dump();
 }
 
-// Issue 35 item 13 (b): a dream killed half-way is run again when fleetmapd next starts (its
+// A dream killed half-way is run again when fleetmapd next starts (its
 // time of day long past), once, saying so; not again at the start after it finished. First a
 // dream by hand (`fleetmap dream-now`) is killed, then fleetmapd's own run of it, mid-way.
 TYPED_TEST(ScheduledDreamTest, ADreamKilledMidWayRunsOnceWhenFleetmapdStartsAgain) {

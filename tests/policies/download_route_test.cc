@@ -1,4 +1,4 @@
-// Route downloads (issue 38 item 3, download_route.h): the textual route a command line gives,
+// Route downloads (download_route.h): the textual route a command line gives,
 // the corridor around a route placed in the map's layout, the route's coverage figure, and the
 // route composed with the other parts of DOWNLOAD (copy, tod+cover, budget), incrementally.
 // The maps are laid out by hand on the ground plane with exact metric edges (translations

@@ -94,7 +94,7 @@ TEST(Dreaming, ASampleOfOrdersAndBadArguments) {
 // A robot builds on what it pushed before: its second group has an edge into its first. An order
 // that merges the second first finds that end in neither the map nor the group; the dream used
 // to fail whole ("group 1: merge: edge ... in neither the submission nor the server", seen in
-// issue 35's soak). That order now merges without the edge, and every order is scored.
+// the fleet soak). That order now merges without the edge, and every order is scored.
 TEST(Dreaming, AGroupBuiltOnAnotherGroupDreamsInEveryOrder) {
   const GraphBatch first = GroupMap(0);
   GraphBatch second = GroupMap(1, 30.0);

@@ -137,7 +137,7 @@ std::size_t Components(const ExperienceMap& map) {
 
 // Decided whole (one stretch), a segment that does not localise is added from its first to its
 // last frame that did not: the night half, not the day half's run of localised frames after it,
-// which stands in by where it localised (issue 37 item 4).
+// which stands in by where it localised.
 TEST_F(MergeTest, AWholeSegmentIsAddedLessItsLocalisedEndsAndLinkedWhereItLocalises) {
   Server day = DayServer();
   ExperienceMap& server = day.map;
@@ -169,7 +169,7 @@ TEST_F(MergeTest, AWholeSegmentIsAddedLessItsLocalisedEndsAndLinkedWhereItLocali
             result.report.nodes_added > night ? day_frames - (result.report.nodes_added - night)
                                               : day_frames);
   // Each night frame, which does not localise, is linked once to the server node its replay
-  // placed it by through the day frames (issue 34): each night experience lies beside the day
+  // placed it by through the day frames: each night experience lies beside the day
   // one of its place.
   std::unordered_map<Uuid, std::int64_t> stamp;
   for (const Node& node : submission.nodes) stamp[node.id] = node.stamp_ns;
@@ -204,7 +204,7 @@ TEST_F(MergeTest, AWholeSegmentIsAddedLessItsLocalisedEndsAndLinkedWhereItLocali
 }
 
 // With omit_localised_ends off a stretch that does not localise is added whole, its localised
-// ends and all (the behaviour before issue 37, kept for comparison).
+// ends and all (MERGE's earlier behaviour, kept for comparison).
 TEST_F(MergeTest, WithoutOmittingLocalisedEndsAWholeSegmentIsAddedWhole) {
   Server day = DayServer();
   const GraphBatch submission = Build("robot", {NightThenDay(corridor())})->ReadMap();

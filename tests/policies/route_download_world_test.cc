@@ -1,4 +1,4 @@
-// Issue 38 item 3's acceptance, on maps EBN builds from the synthetic world (experiments/world):
+// Route downloads' acceptance, on maps EBN builds from the synthetic world (experiments/world):
 // a route download holds a node within 5 m of >= 99 % of the route's length, and is <= 40 % of
 // copy's bytes on a route that covers a third of the map. Over six world seeds (a constant is
 // never tuned to one).

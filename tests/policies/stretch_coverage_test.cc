@@ -1,4 +1,4 @@
-// DOWNLOAD's coverage guarantee (issue 19, stretch_coverage.h) on maps built by hand along a
+// DOWNLOAD's coverage guarantee (stretch_coverage.h) on maps built by hand along a
 // straight 30 m route: stretches of 10 m, experiences as chains of nodes every 2 m.
 #include "fleetmap/map_management/stretch_coverage.h"
 

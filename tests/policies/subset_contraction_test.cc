@@ -1,4 +1,4 @@
-// Path memory that survives a download (subset_contraction.h, issue 34): contracted paths keep
+// Path memory that survives a download (subset_contraction.h): contracted paths keep
 // every sent node on exactly its paths, so Γ(path) (seed 002 Eqs. 5-9) reads the same counts
 // over a download as over the whole map restricted to the nodes sent.
 #include "fleetmap/map_management/subset_contraction.h"

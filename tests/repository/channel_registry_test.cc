@@ -1,4 +1,4 @@
-// Release channels and what each robot runs (issue 38 items 1-2; channel_registry.h,
+// Release channels and what each robot runs (channel_registry.h,
 // robot_registry.h), on both stores: names and ranges refused by name, every move logged in
 // order, a score check that refuses a worse revision and changes nothing, or that has nothing
 // to replay, moves made at once from several connections logged as one chain, robots' reports

@@ -1,4 +1,4 @@
-// Merges bounded by the region they touch (issue 21 item 2), on both stores: a revisit loads
+// Merges bounded by the region they touch, on both stores: a revisit loads
 // the place it revisits, not the map; the appearance index on disk follows the head and is
 // rebuilt, not trusted, when it is missing, damaged or of another history.
 #include <gtest/gtest.h>

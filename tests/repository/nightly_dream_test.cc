@@ -115,8 +115,8 @@ TYPED_TEST(NightlyDreamTest, DreamLeavesACandidateAndPromotionMakesItTheMap) {
   EXPECT_FALSE(again.candidate);
   EXPECT_NE(again.skipped.find("needs two"), std::string::npos) << again.skipped;
 
-  // A candidate that only ties the order merged is promoted only when forced (issue 35 item
-  // 13 c); this test is about what a promotion does.
+  // A candidate that only ties the order merged is promoted only when forced;
+  // this test is about what a promotion does.
   if (c.score >= *c.merged_order_score) {
     ExpectError(
         ErrorCode::kInvalidArgument, [&] { repository.Promote(c.id, "operator"); }, "--force");
@@ -191,7 +191,7 @@ std::set<Uuid> HeadPieceOf(Repository& repository, const Uuid& start) {
   return piece;
 }
 
-// Issue 35 items 1 and 2: after a dream, robots build on nodes its candidate does without: one
+// After a dream, robots build on nodes its candidate does without: one
 // merges a chain hanging from such a node before the promotion, another re-drives a dreamed
 // group (omitted: stand-ins into the nodes the promotion hides) and builds on it after. The
 // promotion keeps what the merged chain hangs from (it is not cut off the map), and the later push
@@ -299,7 +299,7 @@ TYPED_TEST(NightlyDreamTest, ADamagedCandidateIsRefusedAndTheMapStays) {
       "1 to " + std::to_string(kMaxDreamGroups));
 }
 
-// Issue 35 item 13 (c): a candidate that only ties the order the server merged (here the only
+// A candidate that only ties the order the server merged (here the only
 // order: one group) is not promoted, and the error gives both scores; --force promotes it. A
 // candidate whose dream did not score the merged order is not known to beat it: refused the
 // same way. One that beats it is promoted as before.
@@ -422,7 +422,7 @@ int MinuteOfDay(std::int64_t ns) {
   return static_cast<int>((ns / 60'000'000'000) % (24 * 60));
 }
 
-// Issue 35 item 13 (b): which scheduled dream fleetmapd missed, told from the store at any
+// Which scheduled dream fleetmapd missed, told from the store at any
 // `now`: none before any dream; none when a dream finished after the last scheduled time; the
 // last scheduled time when the last dream finished before it; and a dream cut off half-way
 // (here abandoned from its progress callback, as a kill leaves it) until one finishes.

@@ -259,7 +259,7 @@ TYPED_TEST(RepositoryTest, RevertedNodesAreNeverAddedTwice) {
   EXPECT_EQ(NodeIds(this->repository_->Checkout()), NodeIds(this->repository_->Checkout(1)));
 }
 
-// Issue 35 item 1: a robot re-drives known nodes (omitted, stood in for by nodes of revision 2),
+// A robot re-drives known nodes (omitted, stood in for by nodes of revision 2),
 // builds on the last, and before it syncs the operator reverts revision 2. Its push used to
 // fail for ever ("ends at ..., in neither the submission nor the server"); now the edge is
 // re-anchored through the hidden stand-in (or dropped when nothing visible joins it) and
@@ -296,7 +296,7 @@ TYPED_TEST(RepositoryTest, APushBuiltOnAStandInThatARevertHidStillMerges) {
   }
 }
 
-// Issue 35 item 5: a node pushed with a UUID the server holds with other content used to merge
+// A node pushed with a UUID the server holds with other content used to merge
 // as a duplicate ("0 nodes added"), and the robot was then sent the other node as its own.
 // Now the merge is refused, naming the node; the submission stays stored (failed), and the
 // stored node and the head are as they were.
@@ -334,7 +334,7 @@ TYPED_TEST(RepositoryTest, ANodeWhoseUuidIsStoredWithOtherContentIsRefusedAndBot
   }
 }
 
-// Issue 35 item 2: `fleetmap doctor` (DiagnoseStore) said healthy of a head a hide had cut in
+// `fleetmap doctor` (DiagnoseStore) said healthy of a head a hide had cut in
 // two. A chain merged onto another chain; the first is reverted: the second is cut off.
 TYPED_TEST(RepositoryTest, DoctorReportsPiecesAHideCutOff) {
   Repository& repository = *this->repository_;

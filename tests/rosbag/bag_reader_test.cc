@@ -215,7 +215,7 @@ std::int64_t PeakMemoryBytes(const char* field = "VmHWM:") {
   return 0;
 }
 
-// Issue 35 item 7: a small bag whose first chunk claims 1 GiB uncompressed (its data a few
+// A small bag whose first chunk claims 1 GiB uncompressed (its data a few
 // KB) is refused as corrupt, naming the chunk, without the reader allocating what the claim
 // says: the peak memory grows by far less than the claim.
 TEST_P(RosBagReaderCompression, AChunkClaimingAGibibyteIsRefusedWithoutAllocatingIt) {

@@ -72,7 +72,7 @@ TEST(FleetDemo, TwoRobotsShareWhatTheyLearnAndTheServerStopsCleanly) {
   EXPECT_EQ(store->versions().HeadRevision(), second.server_revision);
   store.reset();
 
-  // The demo's head rendered by `fleetmap render` (issue "Fleet operations"): the PNG decodes,
+  // The demo's head rendered by `fleetmap render`: the PNG decodes,
   // is not blank, and every connected component's box holds coloured nodes.
   const std::string uri = "sqlite:" + (options.work_dir / "central.db").string();
   const std::filesystem::path png = dir / "head.png";

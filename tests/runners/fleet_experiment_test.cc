@@ -122,7 +122,7 @@ TEST_F(FleetExperimentTest, EveryFigureIsBuiltAndLocalisedOnTheHeldOutFrames) {
     EXPECT_EQ(downloads[policy], 8u) << policy;
   }
 
-  // The frontier (issue 34 item 4): every point on every fold, each over the fold's held-out
+  // The frontier: every point on every fold, each over the fold's held-out
   // outings, never more nodes than copy, every frame counted; Fig. 9's policies among them.
   std::map<std::string, int> folds_of_point;
   for (const FleetFrontierPoint& point : result.frontier) {
@@ -138,7 +138,7 @@ TEST_F(FleetExperimentTest, EveryFigureIsBuiltAndLocalisedOnTheHeldOutFrames) {
        {"tod", "tod+paths", "tod+cover", "tod+paths+cover", "tod+cover k=1 cap=1", "tod T_w=60"}) {
     EXPECT_TRUE(folds_of_point.contains(policy)) << policy;
   }
-  // Every download of a subset carries edges contracted over what it left out (issue 34 item 1)
+  // Every download of a subset carries edges contracted over what it left out
   // whenever it left something out.
   for (const FleetDownload& d : result.downloads) {
     if (d.nodes == d.copy_nodes) EXPECT_EQ(d.derived_edges, 0u) << d.policy;

@@ -1,4 +1,4 @@
-// Issues 19 and 34's judgement of the fleet experiment on hand-made results (no experiment runs):
+// The acceptance judgement of the fleet experiment on hand-made results (no experiment runs):
 // every acceptance line fails on its own when its figure is out of bounds, probabilities compare as
 // Laplace-smoothed ratios (so 0.043 against 0.003 fails, where the old "within 5 points" passed),
 // a policy not run fails, and over seeds the mean must meet the bound with no seed beyond twice
@@ -260,7 +260,7 @@ TEST(FleetJudgeTest, TodCoverP10Of0Point043AgainstCopys0Point003Fails) {
   EXPECT_EQ(Failed(v), Names{"tod+cover P(X > 10 m) / copy's"});
 }
 
-// Merging time is issue 39's line (on CPU); here it is reported, never judged.
+// Merging time is judged by `fleetmap bench limits` (on CPU); here it is reported, never judged.
 TEST(FleetJudgeTest, MergingWallIsReportedNotJudged) {
   FleetExperimentResult r = GoodResult();
   BuildOf(r, "group 0").wall_seconds = 30.0;

@@ -1,4 +1,4 @@
-// The lifelong experiment (issue 34 item 3): its bookkeeping on a small world (every day merged,
+// The lifelong experiment: its bookkeeping on a small world (every day merged,
 // the next day's forays held out in copy and each download, the map's size the sum of what
 // MERGE added), and its judgement on hand-made days, each line shown to fail.
 #include "fleetmap/runners/lifelong_experiment.h"

@@ -1,4 +1,4 @@
-// The acceptance lines of issue 18 on a real drive (JudgeRealExperiment, real_experiment.h),
+// The acceptance lines on a real drive (JudgeRealExperiment, real_experiment.h),
 // judged on hand-made results: each line passes at its exact threshold and fails just past it,
 // and lines whose measure needs ground truth are not judged without it.
 #include <gtest/gtest.h>

@@ -1,4 +1,4 @@
-// `fleetmap experiment real` on the EuRoC sequence (real_experiment.h): the issue's acceptance
+// `fleetmap experiment real` on the EuRoC sequence (real_experiment.h): its acceptance
 // figures, measured by running it, and a bad dataset refused before anything is written.
 #include "fleetmap/runners/real_experiment.h"
 
@@ -51,7 +51,7 @@ TEST_F(RealExperimentTest, EurocSequenceMeetsTheAcceptanceFigures) {
   EXPECT_EQ(r.vo_pairs, 94);
   EXPECT_GE(r.vo_pairs_with_30_inliers, 85) << "90 % of 94";
   EXPECT_LE(r.max_step_m, 0.3);
-  // The standing camera's VO ends within 2 cm of where it started (issue 18).
+  // The standing camera's VO ends within 2 cm of where it started.
   EXPECT_LE(r.end_point_m, 0.02);
   // The localised part overlaps the map's views (the drone stays in one corner of the room
   // for these 4.75 s) and localises there.
@@ -75,9 +75,9 @@ TEST_F(RealExperimentTest, EurocSequenceMeetsTheAcceptanceFigures) {
   EXPECT_EQ(static_cast<std::int64_t>(store->ReadMap().nodes.size()), r.map_nodes);
 }
 
-// Issue 18's acceptance on both KITTI drives, measured by running the experiment: VO tracks
+// The acceptance on both KITTI drives, measured by running the experiment: VO tracks
 // >= 98 % of consecutive pairs, the odd frames localise against the even frames' map >= 95 %
-// with a median position error <= 0.3 m against the ground truth; and issue 37's drift bound,
+// with a median position error <= 0.3 m against the ground truth; and the drift bound,
 // <= 3 %, on both (seq2 with its corrected calibration: 2.72 %, seq1 1.68 %).
 struct KittiCase {
   const char* sequence;

@@ -1,4 +1,4 @@
-// `fleetmap experiment real-fleet` (real_fleet_experiment.h, issue 37 item 3): the judgement on
+// `fleetmap experiment real-fleet` (real_fleet_experiment.h): the judgement on
 // hand-made forays, including the ones that must fail; a run on a shared KITTI excerpt through
 // the built fleetmapd and fleetmap-agent whose figures must agree with each other and with the
 // server's store; bad options refused before anything is written.

@@ -174,7 +174,7 @@ TEST_P(RealMergeKittiTest, ExcerptThroughRealProcessesIsSelfConsistentAndPasses)
   }
 
   // The judgement is the counts', and the summary states each line's verdict: every line
-  // passes (issue 37 item 4: MERGE adds a stretch from its first frame that did not localise,
+  // passes (MERGE adds a stretch from its first frame that did not localise,
   // so B's overlap node where A's map ends is omitted; before, 2 of 3 on both drives).
   const std::vector<AcceptanceLine> judged = JudgeRealMerge(c);
   ASSERT_EQ(judged.size(), 3u);
@@ -201,7 +201,7 @@ TEST_P(RealMergeKittiTest, ExcerptThroughRealProcessesIsSelfConsistentAndPasses)
   EXPECT_EQ(central->versions().HeadRevision(), 2);
   EXPECT_EQ(static_cast<std::int64_t>(central->versions().NodesAt(2, false).size()), c.head_nodes);
   EXPECT_FALSE(steps.empty());
-  // Bounded: well under the issue's minute on 2 cores, with room for a loaded machine.
+  // Bounded: well under the minute asked for on 2 cores, with room for a loaded machine.
   EXPECT_LT(r.seconds, 120.0);
 }
 

@@ -326,7 +326,7 @@ TYPED_TEST(GraphStoreConformance, LargeLandmarkBlobRoundTrips) {
   EXPECT_EQ(this->store_->Stats().landmark_bytes, static_cast<std::int64_t>(blob.size()));
 }
 
-// Landmarks of a stereo camera (issue 18): the store keeps the blob's bytes, so the camera
+// Landmarks of a stereo camera: the store keeps the blob's bytes, so the camera
 // comes back with the points, bit for bit, on every read path; a blob of landmarks without one
 // beside it comes back without one.
 TYPED_TEST(GraphStoreConformance, StereoLandmarksRoundTrip) {

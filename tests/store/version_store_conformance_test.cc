@@ -424,7 +424,7 @@ TYPED_TEST(VersionStoreConformance, QueuedSubmissionKeepsItsLastTransientError) 
   EXPECT_EQ(stored.error, "") << "a merged submission has no error";
 }
 
-// --- Claims: several fleetmapd on one store (issue 21) ------------------------------------
+// --- Claims: several fleetmapd on one store ------------------------------------
 
 // `received_ns` apart, each complete (queued).
 std::vector<Submission> QueueSubmissions(VersionStore& versions, int n) {

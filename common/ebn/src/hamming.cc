@@ -11,7 +11,7 @@
 namespace fleetmap {
 
 // Built for baseline x86-64, std::popcount is a call into libgcc (__popcountdi2) per word:
-// issue 39's profile of MERGE found it under the vocabulary training and tree descent that the
+// a profile of MERGE found it under the vocabulary training and tree descent that the
 // repository runs for every merge. A clone with the POPCNT instruction, chosen when the program
 // loads on CPUs that have it, counts the same bits.
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__POPCNT__)

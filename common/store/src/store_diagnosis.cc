@@ -85,7 +85,7 @@ void CheckHead(GraphStore& store, const DiagnosisOptions& options,
   }
 }
 
-// Pieces of the head's map a hide cut off (issue 35 item 2): a metric component other than the
+// Pieces of the head's map a hide cut off: a metric component other than the
 // largest with a stored metric edge into a node the head hides. A robot localising in the main
 // piece never reaches it, and nothing else says so.
 void CheckHiddenCuts(GraphStore& store, const DiagnosisOptions& options,

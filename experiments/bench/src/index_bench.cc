@@ -198,7 +198,7 @@ void PrintTable(const std::vector<Figures>& all) {
   });
 }
 
-// The targets; returns the failed ones.
+// The index's targets; returns the failed ones.
 std::vector<std::string> CheckTargets(const std::vector<Figures>& all) {
   std::vector<std::string> failed;
   auto check = [&](bool ok, const std::string& what) {

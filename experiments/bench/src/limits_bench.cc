@@ -56,7 +56,7 @@ LimitLine Line(std::string measure, std::string unit, std::string limit_name,
 
 // --- sensor index (in this process) -------------------------------------------------------
 
-// Reported beside the SQLite lines, without a bound: the issue asks for COPY, not a ratio.
+// Reported beside the SQLite lines, without a bound: COPY is asked for, not a ratio.
 LimitLine PostgresIngestLine(const LimitsBenchOptions& o) {
   LimitLine line = Line("index insert, PostgreSQL synchronous (COPY), " +
                             Format("%.0f", static_cast<double>(o.index_rows)) + " rows",
@@ -320,7 +320,7 @@ int RunLimitsBench(const LimitsBenchOptions& given) {
 
   std::ostringstream table;
   WriteLimitsMarkdown(lines, table);
-  std::cout << "\nPerformance against the raw limits (issue 39; medians of " << o.repetitions
+  std::cout << "\nPerformance against the raw limits (medians of " << o.repetitions
             << " repetitions, ratios per repetition)\n\n"
             << table.str();
   int missed = 0;

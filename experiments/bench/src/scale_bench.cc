@@ -1,4 +1,4 @@
-// `fleetmap bench scale` (issue 21 item 4): how the repository's work grows with the map.
+// `fleetmap bench scale`: how the repository's work grows with the map.
 // For each backend and size it writes a fleet map of n nodes (scale_workload.h), then
 // measures, each in a child process of its own so that its peak RSS is its own:
 //   merge     a 500-node submission that revisits a known stretch: Push, then Merge timed;
@@ -257,7 +257,7 @@ void PrintTable(std::ostream& out, const std::vector<ScaleRow>& rows) {
          "it; region: map nodes the merge "
          "loaded; index MB: the appearance index beside the store; dl data: the encoded subset; "
          "lm: landmarks per node)\n";
-  // Growth between consecutive sizes of one backend: what the issue's targets compare.
+  // Growth between consecutive sizes of one backend: what the scale targets compare.
   for (std::size_t i = 1; i < rows.size(); ++i) {
     const ScaleRow& a = rows[i - 1];
     const ScaleRow& b = rows[i];

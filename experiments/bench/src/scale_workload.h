@@ -1,4 +1,4 @@
-// The map `fleetmap bench scale` measures (issue 21 item 4): a fleet repository of n nodes
+// The map `fleetmap bench scale` measures: a fleet repository of n nodes
 // written straight into a store as revisions (MERGE of n nodes would take the benchmark's
 // whole budget and is not what is measured), and the work measured on it: a robot's
 // submission that revisits a known stretch of the map, merged as fleetmapd merges one, and a

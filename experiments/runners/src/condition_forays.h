@@ -1,4 +1,4 @@
-// A foray over a real drive under the condition of its hour (issue 37 item 3): the drive's
+// A foray over a real drive under the condition of its hour: the drive's
 // pairs it takes, each rectified, re-rendered as the camera would have recorded it then
 // (fleetmap/conditions: light, noise, blur, haze, glare), through the stereo front end, and
 // tracked by visual odometry over the foray's own frames only, as a robot that drove them

@@ -148,7 +148,7 @@ std::string WriteLifelongReport(std::span<const LifelongSeedRun> seeds,
   const LifelongVerdict& first = verdicts.front();
 
   std::ostringstream md;
-  md << "# Lifelong experiment: a map that stops growing (issue 34)\n\n"
+  md << "# Lifelong experiment: a map that stops growing\n\n"
      << options.days << " days of " << options.forays_per_day
      << " forays each, merged day after day; each foray drives onto the head it pulled at the "
         "start of its day (single-agent EBN, Γ("

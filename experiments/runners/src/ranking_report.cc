@@ -255,7 +255,7 @@ std::string SummaryText(const RankingExperimentResult& result,
   }
   md << "\n## Γ(path): P(X > 10 m) vs T, Np = " << np_ref << " (Fig. 13)\n\n| T | P |\n|---|---|\n";
   for (const auto& [t, p] : by_window) md << "| " << t << " | " << Fixed(p, 4) << " |\n";
-  md << "\n## Acceptance (issue: EBN core)\n\n"
+  md << "\n## Acceptance\n\n"
      << "- Γ(path) at Np = " << np_ref << ": " << Fixed(v.path_at_reference, 4)
      << "; Γ(distance) at Np = " << np_ref << ": " << Fixed(v.distance_at_reference, 4)
      << "; Γ(distance) at Np = " << 2 * np_ref << ": " << Fixed(v.distance_at_double, 4) << "\n"

@@ -194,7 +194,7 @@ void WriteSummary(const RealExperimentOptions& options, const RealExperimentResu
      << Fixed(r.front_end_ms_median, 1) << " / " << Fixed(r.front_end_ms_mean, 1) << " / "
      << Fixed(r.front_end_ms_p90, 1) << " ms |\n"
      << "| rectification per pair, median | " << Fixed(r.rectify_ms_median, 1) << " ms |\n\n"
-     << "## Acceptance (issue 18)\n\n| line | measured | judged |\n|---|---|---|\n";
+     << "## Acceptance\n\n| line | measured | judged |\n|---|---|---|\n";
   for (const RealAcceptanceLine& line : r.acceptance) {
     md << "| " << line.what << " | " << line.measured << " | " << (line.pass ? "PASS" : "FAIL")
        << " |\n";

@@ -126,7 +126,7 @@ std::string DriveText(const RealFleetOptions& options, const RealFleetDrive& d) 
         << f.download_bytes << ", " << Share(f.localised_download, f.frames) << " | "
         << f.built_nodes << " | " << f.merge_added << " |\n";
   }
-  out << "\n### Acceptance (issue 37), " << d.name << "\n\n";
+  out << "\n### Acceptance, " << d.name << "\n\n";
   for (const AcceptanceLine& line : d.acceptance) {
     out << "- " << (line.pass ? "PASS" : "FAIL") << ": " << line.text << "\n";
   }

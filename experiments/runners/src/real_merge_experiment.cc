@@ -207,7 +207,7 @@ std::string SummaryText(const RealMergeOptions& options, const RealMergeResult& 
       << Ratio(r.direct.localised, r.direct.pairs) << " |\n"
       << "| pose error, direct: position median / p90, rotation median / p90 | "
       << ErrorText(r.direct) << " |\n\n"
-      << "## Acceptance (issue 18)\n\n";
+      << "## Acceptance\n\n";
   for (const AcceptanceLine& line : r.acceptance) {
     out << "- " << (line.pass ? "PASS" : "FAIL") << ": " << line.text << "\n";
   }

@@ -329,7 +329,7 @@ internal::BudgetDownload FillDownloadBudget(const DenseMap& map, std::span<const
   return internal::FillBudget(request);
 }
 
-// A route limits the download to the map within its radius (issue 38 item 3): the picks are
+// A route limits the download to the map within its radius: the picks are
 // joined through the corridor (`in_corridor`, and the nodes to include) only, never through the
 // map beyond it; a piece of an experience that meets the rest only outside stays a component of
 // its own.

@@ -414,8 +414,8 @@ class Merger {
   }
 
   // Omits a stretch that localises well enough, else adds it to the server map, less the
-  // frames at either end that localised: the server already holds their place (issue 37 item
-  // 4: where a robot drives on past the end of what the server knows, the stretch that
+  // frames at either end that localised: the server already holds their place
+  // (where a robot drives on past the end of what the server knows, the stretch that
   // straddles the end is added from the first frame that did not localise, not from the last
   // one that did; on real drives a node spans metres, and that frame is a whole node).
   void Decide(std::span<const Replayed> whole_stretch) {

@@ -1,5 +1,5 @@
-// Which sync connections fleetmapd keeps when more come than it will hold (issue "Nothing a
-// robot builds is ever lost", item 4). A connection costs a socket and a session from the
+// Which sync connections fleetmapd keeps when more come than it will hold, so that floods of
+// connections never keep a robot out. A connection costs a socket and a session from the
 // accept on, before anything is known of who is at the other end; so the connections that have
 // not yet said hello are bounded per address and overall, and the sessions in all.
 //

@@ -90,8 +90,8 @@ std::optional<MissedDream> DreamSchedule::FindMissed() const {
 }
 
 void DreamSchedule::Run() {
-  // A dream that did not run at its time, or did not finish, runs now rather than a day late
-  // (issue 35 item 13 b); once, as it records its finish.
+  // A dream that did not run at its time, or did not finish, runs now rather than a day late;
+  // once, as it records its finish.
   if (const std::optional<MissedDream> missed = FindMissed()) {
     const std::time_t seconds = static_cast<std::time_t>(missed->scheduled_ns / 1'000'000'000);
     std::tm utc{};

@@ -68,7 +68,7 @@ std::string FleetMetricsText(const FleetStatus& status) {
                {{"robot", robot.name}, {"robot_id", robot.uuid}});
   }
 
-  // What each robot runs (issue 38 item 2). The channel is a label of the installed revision,
+  // What each robot runs. The channel is a label of the installed revision,
   // so a robot that changes channel shows as a new series.
   out.Family("fleetmap_robot_installed_revision", kGauge,
              "Revision the robot last reported installed (0: none).");

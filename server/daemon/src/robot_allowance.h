@@ -1,4 +1,4 @@
-// What one authenticated robot may hold of fleetmapd at once (issue 35 item 8): its sessions,
+// What one authenticated robot may hold of fleetmapd at once: its sessions,
 // and the bytes of the frames it has announced and not yet seen handled, across those
 // sessions. Without it one robot's 30 sessions, each 60 MiB into a 64 MiB frame, took the
 // server from 137 MB to 1.74 GB. Strangers are bounded before their hello

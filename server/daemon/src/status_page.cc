@@ -98,7 +98,7 @@ void LastSyncCell(std::string& html, std::int64_t last_sync_ns, std::int64_t now
           TimeAgo(last_sync_ns, now_ns) + "</span></td>";
 }
 
-// A robot's release cells (issue 38 item 2): its channel, the revision it installed and how far
+// A robot's release cells: its channel, the revision it installed and how far
 // that is from what the channel names, the last download sent, and a flag when its map is not
 // the one it was sent. Each cell carries the value as data-* for scripts and tests.
 void ReleaseCells(std::string& html, const RobotStatus& robot) {

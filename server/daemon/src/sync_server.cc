@@ -216,7 +216,7 @@ class SyncServer::Impl {
   bool tls() const { return tls_.has_value(); }
 
  private:
-  // Issue 35 item 9: a robot's hello carries its token, so plain text only where nobody else
+  // A robot's hello carries its token, so plain text only where nobody else
   // can listen (loopback), or where the operator said so.
   void RequirePlaintextAllowed() const {
     if (!options_.allow_plaintext) {
@@ -234,7 +234,7 @@ class SyncServer::Impl {
   }
 
   void LoadTls() {
-    // Issue 35 item 12: the key, before it is loaded.
+    // The key, before it is loaded.
     RequirePrivateSecretFile(options_.tls_key_path, "TLS key (--tls-key)");
     tls_.emplace(asio::ssl::context::tls_server);
     // TLS 1.2 or later only.

@@ -1,4 +1,4 @@
-// Where a node the head hides now lies on the visible map (issue 35 item 1). A robot builds on
+// Where a node the head hides now lies on the visible map. A robot builds on
 // what it was sent or what it re-drove; a revert or a promotion may hide that node (or the node
 // standing in for it) before the robot's next push. Its edges to that node then need a visible
 // node to hang from: the nearest one along the stored metric edges, hidden ones included, with

@@ -1,4 +1,4 @@
-// The part of the map at the head one MERGE can reach (issue 21 item 2), loaded from the store
+// The part of the map at the head one MERGE can reach, loaded from the store
 // instead of the whole map:
 // - every stored node the submission names (its own nodes the server holds, the ends of its
 //   edges, the nodes standing in for ends an earlier merge omitted), so MERGE's UUID dedup and

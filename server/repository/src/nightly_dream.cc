@@ -21,7 +21,7 @@ namespace {
 constexpr std::string_view kLastDreamKey = "dream/since-revision";
 
 // When the last dream started and finished (ns since the epoch, UTC): what FindMissedDream
-// reads at fleetmapd's start (issue 35 item 13 b).
+// reads at fleetmapd's start.
 constexpr std::string_view kStartedKey = "dream/last-started-ns";
 constexpr std::string_view kFinishedKey = "dream/last-finished-ns";
 

@@ -1,6 +1,6 @@
 // A node's UUID names its content: a submitted node whose UUID the store holds with other
-// content (another robot's node, a robot that reused an id) is a collision, not a duplicate
-// (issue 35 item 5). MERGE's UUID dedup (seed 004 §III-D) may only skip a node the server
+// content (another robot's node, a robot that reused an id) is a collision, not a duplicate.
+// MERGE's UUID dedup (seed 004 §III-D) may only skip a node the server
 // holds as it is.
 #pragma once
 

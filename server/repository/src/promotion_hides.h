@@ -2,7 +2,7 @@
 // what the merges of its groups added, so the nodes of those merges it did without are hidden,
 // except what the map has built on since: a node an edge of another revision (a later merge)
 // hangs from is kept, with the shortest chain of would-be-hidden nodes joining it to the rest
-// of the map, so a later merge is never cut off the map (issue 35 item 2).
+// of the map, so a later merge is never cut off the map.
 #pragma once
 
 #include <set>

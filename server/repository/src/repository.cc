@@ -455,8 +455,8 @@ MergeOutcome Repository::Merge(const Uuid& id, const MergeProgress& progress) {
   VersionStore& versions = this->versions();
   const RevisionNumber head = versions.HeadRevision();
   // A UUID is the node: one the server holds with other content is refused, both kept (the
-  // submission as failed, the stored node as it is), never merged as a duplicate (issue 35
-  // item 5: the robot was then sent the other node in place of its own).
+  // submission as failed, the stored node as it is), never merged as a duplicate (else
+  // the robot would be sent the other node in place of its own).
   try {
     RefuseCollidingNodes(*store_, content);
   } catch (const Error& error) {
@@ -467,7 +467,7 @@ MergeOutcome Repository::Merge(const Uuid& id, const MergeProgress& progress) {
   // (a stand-in), hidden since, or only in other submissions. One still queued merges first.
   // Each end is looked up once; MERGE asks again only through these answers. An end the head
   // hides, or whose stand-in it hides (a revert or a promotion since the robot's download),
-  // hangs from the nearest visible node instead (hidden_anchor.h, issue 35 item 1).
+  // hangs from the nearest visible node instead (hidden_anchor.h).
   std::unordered_set<Uuid> looked_up;
   for (const Node& node : content.nodes) looked_up.insert(node.id);
   std::unordered_map<Uuid, NodeStandIn> stand_ins;

@@ -28,8 +28,7 @@ Revision Repository::Promote(const Uuid& candidate_id, const std::string& author
   }
   RequireNotPromoted(*record);
   const GraphBatch content = candidates.Content(*record);
-  // A candidate that only ties the map as merged would swap nodes for nothing (issue 35 item
-  // 13 c).
+  // A candidate that only ties the map as merged would swap nodes for nothing.
   if (!force) RequireBeatsMergedOrder(*record);
   // fleetmapd instances merging meanwhile append revisions: an append that finds the head moved
   // fails, and the promotion is worked out again on the new head (the operator's command

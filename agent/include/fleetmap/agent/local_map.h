@@ -1,5 +1,5 @@
 // The robot's map directory (default ./robot): the map the robot localises in and builds into,
-// and what the agent knows about the server's copy of it (DESIGN.md "Sync protocol"; seed 004
+// and what the agent knows about the server's copy of it (docs/sync-protocol.md; seed 004
 // §V: push, then download).
 //
 //   DIR/map.db          a SQLite GraphStore (sqlite:DIR/map.db): the installed download plus
@@ -55,10 +55,10 @@ struct DownloadParams {
   std::int64_t budget_bytes = 0;    // 0: the server's default
   double epoch_min = 0.0;           // 0: the server's default
   std::vector<Uuid> include_nodes;  // nodes every download keeps (where the robot is docked)
-  // The release channel followed (issue 38 item 1): "head" (the head), or a channel the depot
+  // The release channel followed: "head" (the head), or a channel the depot
   // sets with `fleetmap channel set`.
   std::string channel = "head";
-  // A route (issue 38 item 3): the map within route_radius_m (0: the server's default) of an
+  // A route: the map within route_radius_m (0: the server's default) of an
   // earlier outing, or of positions (x y z metres, flattened) in an anchor node's frame.
   std::optional<Uuid> route_outing;
   std::optional<Uuid> route_anchor;
@@ -118,8 +118,8 @@ struct ServerLimits {
   friend bool operator==(const ServerLimits&, const ServerLimits&) = default;
 };
 
-// A node the last sync could not push because, on its own, it is over the server's limits
-// (issue 35 item 3). It stays in map.db, unsynced, and each sync tries it again: it goes once
+// A node the last sync could not push because, on its own, it is over the server's limits.
+// It stays in map.db, unsynced, and each sync tries it again: it goes once
 // the server takes a submission as large. Edges to it wait with it.
 struct HeldNode {
   Uuid id;
@@ -313,7 +313,7 @@ class LocalMap {
   // Starts a push of `content` (from Unsynced()) under a new time-ordered UUID, durably
   // recorded before it returns. REQUIRES: no submission pending (else kInvalidArgument).
   PendingSubmission BeginSubmission(const GraphBatch& content);
-  // The same for content named by its ids (a part of the unsynced content, issue 35 item 3).
+  // The same for content named by its ids (a part of the unsynced content).
   PendingSubmission BeginSubmission(const ElementIds& content);
   // Forgets the pending submission without pushing it: its content is unsynced again. Only for
   // one the server can never take (over its limits, so refused at push_begin: the server

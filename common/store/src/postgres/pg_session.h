@@ -4,8 +4,8 @@
 // a VersionStore call made inside a Transaction lands or rolls back with it.
 //
 // A connection the server ended while it sat idle (a PostgreSQL restart, an administrator's
-// pg_terminate_backend) is replaced before its next use rather than failing that use (issue 35
-// item 13): a fresh connection, with every AddConnectionSetup step run on it again.
+// pg_terminate_backend) is replaced before its next use rather than failing that use:
+// a fresh connection, with every AddConnectionSetup step run on it again.
 //
 // Threading: as the owning GraphStore (one thread at a time).
 #pragma once

@@ -1,4 +1,4 @@
-// The experience-graph model (DESIGN.md "Data model"; seed 000 §4.3.1 GraphDB).
+// The experience-graph model (docs/data-model.md; seed 000 §4.3.1 GraphDB).
 // Plain value types: what the stores put and get, and what the EBN core works with.
 #pragma once
 

@@ -55,7 +55,7 @@ std::uint64_t DigestOfChunks(std::span<const std::string> chunks);
 // so a receiver checks each chunk before storing it.
 std::uint64_t DigestOfChunk(std::string_view chunk);
 
-// The digest of a selection of a map as a set (issue 38 item 2: which map a robot runs): the
+// The digest of a selection of a map as a set (which map a robot runs): the
 // sum, modulo 2^64, of a digest per element, so it does not depend on the order the elements
 // come in and follows a selection through incremental downloads (add what arrives, remove what
 // is dropped). A node's digest covers its id, stamp, robot, outing and landmark bytes (nearly

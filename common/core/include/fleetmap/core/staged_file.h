@@ -6,7 +6,7 @@
 //
 // PATH.tmp is created exclusively (O_CREAT | O_EXCL | O_NOFOLLOW) and written through the
 // descriptor that created it, so nothing is ever written through a symbolic link someone put
-// at PATH.tmp (issue 35 item 6). A regular file there is what a killed write leaves: it is
+// at PATH.tmp. A regular file there is what a killed write leaves: it is
 // removed and the file created anew. Anything else there (a link, a directory) is refused and
 // left as it is, or, with replace_foreign_staging, unlinked (which removes the name only,
 // never what a link points to). Not thread-safe.

@@ -1,5 +1,5 @@
 // Brute-force matching of binary descriptors: the correspondence step of localising a frame
-// against a node (DESIGN.md "EBN core"; seed 002 §III-C).
+// against a node (docs/ebn-core.md; seed 002 §III-C).
 //
 // A query i and a train descriptor j match when all of these hold:
 // - mutual best (cross-check): j is i's nearest train descriptor and i is j's nearest query;

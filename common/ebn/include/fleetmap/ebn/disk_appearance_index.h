@@ -1,4 +1,4 @@
-// The appearance index of a whole fleet map kept on disk (issue 21: merges bounded by the
+// The appearance index of a whole fleet map kept on disk (so that merges are bounded by the
 // region they touch), so that MERGE finds where a submission relocalises (seed 004 §III-B)
 // without loading the map or rebuilding an index over it.
 //

@@ -74,10 +74,10 @@ class ExperienceMap {
   // Each node's pose is composed along the shortest chain of edges that reaches it, in metres:
   // the map is metric only over short distances (seed 002 §III-B), and every edge adds its
   // error, so the chain that travels least places a node best. (The chain of fewest edges
-  // placed experiences of one place behind detours through other experiences of it: issue 34
-  // measured it losing the frames a merged map or a download should have localised.) Nodes
-  // further than `search_radius_m` from the origin are not expanded, which bounds the search in
-  // a dense map. Returns (node, origin_T_node, distance from the position), unsorted.
+  // placed experiences of one place behind detours through other experiences of it: the fleet
+  // experiment measured it losing the frames a merged map or a download should have localised.)
+  // Nodes further than `search_radius_m` from the origin are not expanded, which bounds the search
+  // in a dense map. Returns (node, origin_T_node, distance from the position), unsorted.
   struct Nearby {
     NodeIndex node = 0;
     Se3 origin_T_node = Se3::Identity();

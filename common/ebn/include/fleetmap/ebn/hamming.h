@@ -1,5 +1,5 @@
 // Hamming distance of 256-bit binary descriptors, and the brute-force nearest-neighbour pass
-// that is the inner loop of descriptor matching (DESIGN.md "EBN core": the localiser matches
+// that is the inner loop of descriptor matching (docs/ebn-core.md: the localiser matches
 // a frame's descriptors against a node's, seed 002 §III-A/C).
 //
 // Conventions: a distance is a number of differing bits in [0, 256]. Neighbours are ranked by

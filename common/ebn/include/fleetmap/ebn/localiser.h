@@ -1,4 +1,4 @@
-// Localisation of a live frame against one experience (node): DESIGN.md "EBN core", the
+// Localisation of a live frame against one experience (node): docs/ebn-core.md, the
 // stereo match between frame Fq and node nk of seed 002 §III-C.
 //
 // Conventions (see se3.h):

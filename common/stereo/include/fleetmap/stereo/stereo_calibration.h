@@ -1,5 +1,5 @@
 // A calibrated stereo camera and its rectification: the first step of the real-image front end
-// (DESIGN.md "EBN core"; seed 002 §III-A's stereo VO needs rectified pairs to triangulate).
+// (docs/ebn-core.md; seed 002 §III-A's stereo VO needs rectified pairs to triangulate).
 //
 // Conventions:
 // - Camera frames as in OpenCV: x right, y down, z forward (the optical axis), metres.

@@ -7,7 +7,7 @@
 // Each step is also measured from the frame before the previous one, through the previous
 // step's estimate, and the two are averaged by their inliers (fuse_frame_before). A step's error
 // then no longer rests on one pair of frames: on the KITTI excerpts of ../shared, 2000 features,
-// drift 1.68 % and 2.72 % against 1.84 % and 3.06 % frame to frame (issue 37's note). Tracking
+// drift 1.68 % and 2.72 % against 1.84 % and 3.06 % frame to frame. Tracking
 // against a keyframe for several frames measured worse (3.9-9.3 % on seq2): on a street the
 // overlap with a frame 2-3 m back is already thin during a turn, and few inliers gave wrong steps.
 //

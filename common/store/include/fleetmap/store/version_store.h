@@ -1,4 +1,4 @@
-// The versioning tables of a map store (seed 004 §V; DESIGN.md "Versions"): the submissions
+// The versioning tables of a map store (seed 004 §V; docs/data-model.md): the submissions
 // robots pushed, kept whole and immutable; the linear history of revisions (like SVN); and,
 // for every node, edge and path, the revision that added it and the one that hid it.
 //

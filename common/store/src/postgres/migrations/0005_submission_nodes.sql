@@ -1,5 +1,5 @@
--- Schema 5: what the server has seen of each node, beyond the map (issue "Nothing a robot
--- builds is ever lost"). Logically the same as sqlite/migrations/0005_submission_nodes.sql,
+-- Schema 5: what the server has seen of each node, beyond the map, so that nothing a robot
+-- builds is ever lost. Logically the same as sqlite/migrations/0005_submission_nodes.sql,
 -- which explains both tables.
 CREATE TABLE submission_nodes (
   node uuid NOT NULL,

@@ -1,4 +1,4 @@
--- Schema 6: several fleetmapd on one store (issue "Depot scale"). Logically the same as
+-- Schema 6: several fleetmapd on one store. Logically the same as
 -- sqlite/migrations/0006_submission_claims.sql, which explains the columns. Leases are
 -- measured by this server's clock, so instances on hosts whose clocks disagree still agree
 -- on when a lease ends.

@@ -1,4 +1,4 @@
--- Schema 2: version control of the map (seed 004 §V; DESIGN.md "Versions"). Logically the
+-- Schema 2: version control of the map (seed 004 §V; docs/data-model.md). Logically the
 -- same as postgres/migrations/0002_versions.sql. UUIDs are 16-byte BLOBs; revision 0 is the
 -- map before the first revision, so "no revision" is 0 or NULL, never a row.
 

@@ -1,5 +1,5 @@
--- Schema 5: what the server has seen of each node, beyond the map (issue "Nothing a robot
--- builds is ever lost"). Logically the same as postgres/migrations/0005_submission_nodes.sql.
+-- Schema 5: what the server has seen of each node, beyond the map, so that nothing a robot
+-- builds is ever lost. Logically the same as postgres/migrations/0005_submission_nodes.sql.
 
 -- Which submissions carried each node. A robot builds on nodes it pushed before their merge
 -- is in its download (still queued, or merged but omitted), so a later push may have edges to

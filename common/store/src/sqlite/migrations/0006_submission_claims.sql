@@ -1,4 +1,4 @@
--- Schema 6: several fleetmapd on one store (issue "Depot scale"). Logically the same as
+-- Schema 6: several fleetmapd on one store. Logically the same as
 -- postgres/migrations/0006_submission_claims.sql.
 --
 -- A queued submission is merged by the one instance that holds its claim: claimed_by names

@@ -1,4 +1,4 @@
--- Schema 7: promotions (issue "Fleet operations", the nightly dream). Logically the same as
+-- Schema 7: promotions (of the nightly dream's candidates). Logically the same as
 -- postgres/migrations/0007_promotions.sql. kind 3 is a promotion: a revision that makes a
 -- dream's candidate map the map, adding what the candidate holds that the head lacks and
 -- hiding the dreamed submissions' nodes it did without.

@@ -1,5 +1,5 @@
 // The secrets of a sync link kept in files (a robot's token, fleetmapd's TLS private key) must
-// be readable by their owner only, as ssh requires of a private key (issue 35 item 12): a token
+// be readable by their owner only, as ssh requires of a private key: a token
 // file others can read lets any user of the robot's computer sync as the robot.
 #pragma once
 

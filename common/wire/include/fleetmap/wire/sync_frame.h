@@ -1,4 +1,4 @@
-// The sync protocol's framing (proto/fleetmap/sync.proto; DESIGN.md "Sync protocol"): each
+// The sync protocol's framing (proto/fleetmap/sync.proto; docs/sync-protocol.md): each
 // frame is a 4-byte big-endian length, then that many bytes of one serialised
 // fleetmap.v1.SyncFrame. The length is checked against a hard cap before a byte of the body
 // is read or buffered, so a peer cannot make the other side allocate more than the cap.

@@ -1,5 +1,5 @@
 // One line of `fleetmap bench limits`: a measure of ours beside its raw limit, both taken in
-// the same run, and the bound issue 39 puts on their ratio. Repetitions are kept so the line's
+// the same run, and the bound put on their ratio. Repetitions are kept so the line's
 // figures are medians and its ratio is the median of the per-repetition ratios (each measured
 // in the same minutes, so machine noise cancels in the ratio, not in the figures).
 #pragma once

@@ -1,4 +1,4 @@
-// `fleetmap bench limits` (issue 39): every performance measure beside its raw limit in the
+// `fleetmap bench limits`: every performance measure beside its raw limit in the
 // same run, with the bound on their ratio, printed as one table (docs/experiments.md, "Benchmarks")
 // and written as CSV and Markdown:
 //   MERGE CPU        the fleet experiment's merging strategy (groups in parallel) and all its

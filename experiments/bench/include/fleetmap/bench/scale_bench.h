@@ -1,4 +1,4 @@
-// `fleetmap bench scale` (issue 21 item 4): how the repository's merge, download and store grow
+// `fleetmap bench scale`: how the repository's merge, download and store grow
 // with the map, each step measured in a child process of its own (its peak RSS is its own).
 #pragma once
 

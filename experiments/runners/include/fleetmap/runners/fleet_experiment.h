@@ -58,7 +58,7 @@ struct FleetExperimentOptions {
   // Ground-truth radius of the diagnoses: a held-out frame "has an experience" in a map when
   // one of its nodes was captured within this distance of the frame.
   double place_radius_m = 5.0;
-  // Issue 34 item 4: each DOWNLOAD policy again with its knobs swept (window, cover k, cap,
+  // Each DOWNLOAD policy again with its knobs swept (window, cover k, cap,
   // paths share), every held-out outing downloading and localising at each point.
   bool frontier = true;
   // Fig. 10 runs on this many folds (0 skips it), each in all k! orders of its groups.
@@ -102,7 +102,7 @@ struct FleetBuild {
   std::size_t links = 0, links_registered = 0, links_inconsistent = 0;
 };
 
-// Issue 34: could the localiser have reached the experience it needed? Each held-out frame a
+// Could the localiser have reached the experience it needed? Each held-out frame a
 // map lost where a reference map localised it (merged vs single-agent's, a download vs copy),
 // by the map's nodes captured within place_radius_m of it (ground truth) and which of them
 // localise it when tried one by one (an oracle the robot lacks).
@@ -159,7 +159,7 @@ struct FleetDownload {
   FleetReach reach;               // of the frames lost where copy localised
 };
 
-// Issue 34 item 4: one policy at one setting of its knobs, on one fold: every held-out outing
+// One policy at one setting of its knobs, on one fold: every held-out outing
 // downloaded for its own start time and localised in it. Fig. 9's own policies are points too.
 struct FleetFrontierPoint {
   std::string label;   // the policy and its settings, e.g. "tod+cover k=1 cap=2"

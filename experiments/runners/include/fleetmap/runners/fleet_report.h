@@ -1,6 +1,6 @@
 // What `fleetmap experiment fleet` leaves behind: per world seed the CSVs of every figure and
 // fleet.png in the layout of seed 004 Figs. 7–10, and one summary.md with the paper's numbers
-// beside ours and issue 19's acceptance judged over the seeds.
+// beside ours and the acceptance judged over the seeds.
 //
 // Every line is a ratio "ours / reference ≤ bound". Probabilities are compared by ratio, not by
 // points: 5 points around a probability of 0.003 is no test at all.
@@ -28,7 +28,7 @@ struct FleetRatio {
   std::string detail;   // what the ratio is made of, for the report
 };
 
-// One seed's acceptance: issue 19's lines in a fixed order, then the reported ones.
+// One seed's acceptance: the judged lines in a fixed order, then the reported ones.
 struct FleetVerdict {
   std::vector<FleetRatio> lines;
 
@@ -37,7 +37,7 @@ struct FleetVerdict {
   bool all() const;  // every judged line passes
 };
 
-// Issues 19 and 34 on one seed. The probabilities (P(X > 10 m) over held-out frames, the fraction
+// The acceptance on one seed. The probabilities (P(X > 10 m) over held-out frames, the fraction
 // not localised) enter as Laplace-smoothed ratios (k + 1) / (n + 2); see fleet_report.cc for why.
 // A policy or map with no runs (or no downloads, or no builds) fails its lines as "not run".
 FleetVerdict JudgeFleet(const FleetExperimentResult& result);
@@ -50,7 +50,7 @@ struct FleetCpuSeconds {
 };
 FleetCpuSeconds SumFleetCpu(const FleetExperimentResult& result);
 
-// Issue 34 item 4: one point of the frontier an operator picks a download policy from, over
+// One point of the frontier an operator picks a download policy from, over
 // every fold: its share of copy's nodes (mean over downloads) and of copy's landmark bytes, and
 // its P(X > 10 m) and not-localised fraction against copy's on the same held-out frames
 // (Laplace-smoothed ratios). On the frontier when no other point needs no more nodes and fails
@@ -86,7 +86,7 @@ struct FleetAcceptance {
   bool all() const;  // every judged line passes
 };
 
-// Issue 19's rule over seeds: a judged line passes only when the mean over seeds meets its bound
+// The rule over seeds: a judged line passes only when the mean over seeds meets its bound
 // and no seed is worse than twice the bound (each value <= 2 bound). A seed somewhat over the
 // bound is the world's noise and the mean absorbs it; a seed beyond twice the bound is a failure
 // the other seeds must not average away. A line missing or NaN on any seed fails. Throws

@@ -1,4 +1,4 @@
-// A map that stops growing (issue 34 item 3): a fleet's forays merged day after day on the
+// A map that stops growing: a fleet's forays merged day after day on the
 // synthetic world, the way a depot runs for months.
 //
 // Each day, every foray of the day starts from the head as it was at the start of the day

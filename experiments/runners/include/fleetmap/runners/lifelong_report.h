@@ -1,6 +1,6 @@
 // What `fleetmap experiment lifelong` leaves behind: lifelong.csv (a row per day), lifelong.png
 // (nodes MERGE added per day and the map's size; the next day's P(X > 10 m) with copy and each
-// download) and summary.md with issue 34's lines judged.
+// download) and summary.md with the acceptance lines judged.
 #pragma once
 
 #include <filesystem>
@@ -13,7 +13,7 @@
 
 namespace fleetmap {
 
-// Issue 34's lines on one world seed. The early and late windows are days 1-10 and 21-30 of a
+// The acceptance lines on one world seed. The early and late windows are days 1-10 and 21-30 of a
 // run of 30 days or more; a shorter run compares its first and last thirds (and says so).
 struct LifelongVerdict {
   int early_first = 0, early_last = 0, late_first = 0, late_last = 0;  // 1-based days

@@ -9,7 +9,7 @@
 
 namespace fleetmap {
 
-// The acceptance comparison on P(X > 10 m) over all folds.
+// The acceptance comparison on P(X > 10 m) over all folds.
 struct RankingVerdict {
   double path_at_reference = 0.0;      // Γ(path), Np = reference_cores
   double distance_at_reference = 0.0;  // Γ(distance), Np = reference_cores

@@ -1,5 +1,5 @@
-// `fleetmap experiment real`: the EBN core on a real stereo drive (issues 7 and 18; seed 002 §III
-// on a EuRoC or KITTI sequence instead of the synthetic world). Every pair goes through
+// `fleetmap experiment real`: the EBN core on a real stereo drive (seed 002 §III on a
+// EuRoC or KITTI sequence instead of the synthetic world). Every pair goes through
 // rectification, the front end and visual odometry (stereo_pipeline.h); some pairs build an
 // experience map with the builder, the others are localised against it, localise-only:
 // - split "interleaved" (the default): the even pairs build the map, the odd ones, each between
@@ -85,7 +85,7 @@ struct NegativeControl {
   bool success = false;
 };
 
-// The issue's acceptance lines for a real drive, judged on one run. A line whose measure was not
+// The acceptance lines for a real drive, judged on one run. A line whose measure was not
 // made (no ground truth) is not judged.
 struct RealAcceptanceLine {
   std::string what;
@@ -120,7 +120,7 @@ struct RealExperimentResult {
   std::filesystem::path csv, png, summary;  // png empty when gnuplot could not draw it
 };
 
-// The acceptance of issue 18 on a drive with ground truth: >= 98 % of consecutive pairs tracked,
+// The acceptance lines on a drive with ground truth: >= 98 % of consecutive pairs tracked,
 // translational drift <= 3 %, rotational drift <= 0.03 deg/m, >= 95 % of the localised frames
 // localised with a median position error <= 0.3 m (no frame localised with ground truth fails
 // it). The drift lines need a ground-truth path of at least one 10 m sub-path; without ground

@@ -1,4 +1,4 @@
-// `fleetmap experiment real-fleet` (issue 37 item 3): the fleet loop of seed 004 on real
+// `fleetmap experiment real-fleet`: the fleet loop of seed 004 on real
 // images. Robots drive real drives at different hours, each foray under the condition of its
 // hour (fleetmap/conditions: the recorded daylight images re-rendered by the physics of image
 // formation), build with single-agent EBN on their own maps, push through real fleetmapd and
@@ -19,7 +19,7 @@
 //   does not localise), and syncs again with --wait-merge: the merge's revision says how many
 //   nodes MERGE added.
 //
-// Acceptance (issue 37), judged per drive in code (JudgeRealFleetDrive) and never failing the
+// Acceptance, judged per drive in code (JudgeRealFleetDrive) and never failing the
 // run: a same-hour revisit adds <= 10 % of its frames as new nodes; a condition under which the
 // map localises < 50 % of a foray's frames gets an experience (MERGE adds nodes), after which
 // the next robot at that hour localises >= 95 %; the download localises >= 0.95 x the frames
@@ -101,7 +101,7 @@ struct RealFleetResult {
   double seconds = 0;
 };
 
-// The issue's three lines over one drive's forays (in order). A line with nothing to judge (no
+// The three acceptance lines over one drive's forays (in order). A line with nothing to judge (no
 // revisit; a condition whose next foray at that hour is missing) fails: nothing measured
 // proves nothing. Ratios are compared as integers cross-multiplied.
 std::vector<AcceptanceLine> JudgeRealFleetDrive(const std::vector<RealFleetForay>& forays);

@@ -1,4 +1,4 @@
-// `fleetmap experiment real-merge` (issue 18 item 5): MERGE of two robots' maps of one real
+// `fleetmap experiment real-merge`: MERGE of two robots' maps of one real
 // stereo drive, through real fleetmapd and fleetmap-agent processes (seed 004 §V-A on real
 // images).
 //
@@ -24,7 +24,7 @@
 //   (first_T_p^-1 first_T_q)^-1 node_T_frame against ground truth: its translation in metres
 //   and its rotation angle in degrees. Without ground truth the errors are left out.
 //
-// Acceptance (issue 18): >= 80 % of B's overlap nodes omitted; head nodes <= 85 % of A + B;
+// Acceptance: >= 80 % of B's overlap nodes omitted; head nodes <= 85 % of A + B;
 // >= 95 % of odd pairs localised against the head (the builder's run). Judged in code
 // (JudgeRealMerge); the run never fails on them.
 //
@@ -70,11 +70,11 @@ struct RealMergeCounts {
 };
 
 struct AcceptanceLine {
-  std::string text;  // the issue's line, with the measured value
+  std::string text;  // the acceptance line, with the measured value
   bool pass = false;
 };
 
-// The issue's three lines. A line whose denominator is zero fails (nothing measured proves
+// The three acceptance lines. A line whose denominator is zero fails (nothing measured proves
 // nothing). Exact: percentages are compared as integers cross-multiplied.
 std::vector<AcceptanceLine> JudgeRealMerge(const RealMergeCounts& counts);
 

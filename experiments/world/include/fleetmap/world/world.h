@@ -135,7 +135,7 @@ class OutingFrames {
 // always gives the same schedule. Throws Error(kInvalidArgument) for an invalid config.
 std::vector<Outing> ScheduleOutings(const WorldConfig& config);
 
-// A lifelong schedule (issue 34): exactly `per_day` outings on each of days 0 .. days - 1, at
+// A lifelong schedule: exactly `per_day` outings on each of days 0 .. days - 1, at
 // start times uniform in the schedule's hours, robots taking turns, weather by the same spells
 // as ScheduleOutings. Sorted by day, then start time. Deterministic for a world. Throws
 // Error(kInvalidArgument) for days outside [1, 36500] or per_day outside [1, 1000].

@@ -2,8 +2,8 @@
 //
 // Policies compose, each narrowing the one before:
 //   copy    the whole map (Eq. 3);
-//   route   the map within radius_m of the route the robot will drive (download_route.h, issue
-//           38): its corridor is all the later parts may pick from, as if it were the map. tod,
+//   route   the map within radius_m of the route the robot will drive (download_route.h): its
+//           corridor is all the later parts may pick from, as if it were the map. tod,
 //           paths, cover and budget narrow within it: Algorithm 2 counts the corridor's nodes
 //           only (so P*, and a budget's path weights, are the paths' use along the route), and
 //           cover keeps each stretch's k experiences among the corridor's nodes. "route" alone is
@@ -15,7 +15,7 @@
 //   tod     nodes captured within T_w of the mission's start on the 24-hour clock (Eq. 4);
 //   paths   nodes on the best p % of the paths used in each epoch of the mission
 //           (Algorithms 2–3 over the path count / path weight matrices, Eq. 7);
-//   cover   the coverage guarantee (stretch_coverage.h, issue 19): every stretch of the map
+//   cover   the coverage guarantee (stretch_coverage.h): every stretch of the map
 //           keeps its k experiences most likely to localise at the mission's time, from inside
 //           the window or not; then what tod and paths allow fills each stretch up to a cap
 //           (none by default), best first, and the rest of it is left out as redundant. With
@@ -182,7 +182,7 @@ struct DownloadSelection {
 DownloadSelection SelectDownload(std::span<const Node> nodes, std::span<const Edge> edges,
                                  std::span<const Path> paths, const DownloadPolicy& policy);
 
-// Release channels (issue 38 item 1; server/repository channel_registry.h): which revision a
+// Release channels (server/repository channel_registry.h): which revision a
 // download is of. "head" always names the head; any other name is one the depot sets.
 inline constexpr std::string_view kHeadChannel = "head";
 // Throws Error(kInvalidArgument) unless `name` is 1 to 32 characters of [a-z0-9._-] ("head"

@@ -1,4 +1,4 @@
-// Route downloads (issue 38 item 3): DOWNLOAD limited to the map within R metres of the route
+// Route downloads: DOWNLOAD limited to the map within R metres of the route
 // a robot will drive, before the other parts of the policy choose (download_policy.h, "route").
 //
 // Nodes carry no absolute position, so the route lives in the map's layout (map_layout.h: each

@@ -13,8 +13,8 @@
 // 4. A segment that localises well enough is omitted: the server already covers it. Any other
 //    is added whole, with the robot's metric edges into it, and linked to the server map by a
 //    metric edge at its first and last frames that localised, and at each frame that did not,
-//    to the server node its replay placed it by (issue 34: experiences of one place beside each
-//    other, as single-agent EBN leaves them).
+//    to the server node its replay placed it by (experiences of one place beside each other,
+//    as single-agent EBN leaves them).
 //    Every omitted node that localised (or was placed through a localised neighbour) is
 //    reported with its stand-in (MergeResult::stand_ins), so the server can keep accounting
 //    for it and carry later edges to it.
@@ -44,7 +44,7 @@ struct MergeOptions {
   // A stretch is omitted when at least this share of its frames localise, in (0, 1].
   double omit_localised_fraction = 0.8;
   // An added stretch leaves out its frames at either end that localised (they stand in by
-  // where they localised); false adds the whole stretch, as before issue 37.
+  // where they localised); false adds the whole stretch, as MERGE did before.
   bool omit_localised_ends = true;
   // Each frame linked to the server map is registered against the server's experiences near
   // where its replay placed it (merge_links.h); false links at the placement itself.

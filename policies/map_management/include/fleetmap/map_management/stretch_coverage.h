@@ -1,5 +1,5 @@
 // Which experiences of each place a robot needs at a time of day: the coverage guarantee of
-// DOWNLOAD and the redundancy measure of MERGE (issue 19, building on seed 004 §V).
+// DOWNLOAD and the redundancy measure of MERGE (building on seed 004 §V).
 //
 // The paper's tod (Eq. 4) keeps a node by when it was *captured*. EBN captures a node only
 // where every experience held then failed, so a place driven well by a morning experience has

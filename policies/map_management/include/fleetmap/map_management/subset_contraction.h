@@ -1,4 +1,4 @@
-// What a subset of the map carries over the nodes it leaves out (issue 34; seed 002 §III-C,
+// What a subset of the map carries over the nodes it leaves out (seed 002 §III-C,
 // §IV–§V; seed 004 §V-B): a download that sends some nodes and not others must still give the
 // robot's localiser what the whole map gives it among the nodes sent.
 //
@@ -24,10 +24,10 @@
 // places near the position estimate (seed 002 §III-C). Two sent experiences of one place are
 // often joined only through experiences the subset leaves out (a night chain between two day
 // ones); without those the search reaches them by a long detour, or not within its radius, and
-// the robot is lost beside the node it needs (issue 34's diagnosis: most frames a download lost
-// where the whole map localised were of this kind). So the subset also carries metric edges
-// contracted over the nodes left out: between two sent nodes joined by a chain of left-out nodes
-// no longer than a reach (the search's own radius), the pose composed along the shortest such
+// the robot is lost beside the node it needs (the fleet experiment's diagnosis: most frames a
+// download lost where the whole map localised were of this kind). So the subset also carries metric
+// edges contracted over the nodes left out: between two sent nodes joined by a chain of left-out
+// nodes no longer than a reach (the search's own radius), the pose composed along the shortest such
 // chain.
 //
 // Ids. A contracted edge's UUID is name-based (version 5) on what it joins, so the same subset

@@ -23,7 +23,7 @@ struct RobotStatus {
   std::int64_t added_ns = 0;    // registration time
   std::uint64_t pushes = 0;     // pushes accepted since the server started
   std::uint64_t downloads = 0;  // downloads streamed since the server started
-  // What it runs (issue 38 item 2; channel_registry.h RobotRelease), as the store said at the
+  // What it runs (channel_registry.h RobotRelease), as the store said at the
   // last refresh (every few seconds while the status is read).
   std::string channel = "head";         // the channel it follows
   std::int64_t installed_revision = 0;  // as it reported; 0: none

@@ -1,4 +1,4 @@
-// fleetmapd's sync server (DESIGN.md "Sync protocol"; proto/fleetmap/sync.proto): robots
+// fleetmapd's sync server (docs/sync-protocol.md; proto/fleetmap/sync.proto): robots
 // connect over TCP (optionally TLS 1.2+), say Hello with their token, push submissions in
 // chunks, ask how their merge went, and download a policy's selection of the map.
 //
@@ -35,7 +35,7 @@ struct SyncServerOptions {
   std::string tls_cert_path;
   std::string tls_key_path;
   // Without TLS, a `listen` address other than loopback is refused unless this is set: robots'
-  // tokens and maps would cross the network in clear (issue 35 item 9). Set, it is allowed
+  // tokens and maps would cross the network in clear. Set, it is allowed
   // with a warning in the log (a depot network trusted as a cable).
   bool allow_plaintext = false;
   // Waiting for a frame's length, reading its body (the whole body, however it trickles in),
@@ -55,7 +55,7 @@ struct SyncServerOptions {
   std::size_t max_pending_hello_per_address = 32;
   std::size_t max_pending_hello = 128;
   // One robot, once authenticated, holds this many sessions at most, and this many bytes of
-  // frames announced and not yet handled across them (issue 35 item 8; robot_allowance.h).
+  // frames announced and not yet handled across them (robot_allowance.h).
   // Past either the newcomer, a session or a frame, is refused (BUSY) and the robot's other
   // sessions go on. An agent uses one session at a time; 2 frames of the 64 MiB cap in flight.
   std::size_t max_sessions_per_robot = 4;

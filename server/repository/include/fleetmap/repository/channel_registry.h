@@ -1,4 +1,4 @@
-// Release channels (issue 38 item 1): the depot decides which revision its robots run. A
+// Release channels: the depot decides which revision its robots run. A
 // channel is a name ("stable", "canary", ...) pointing at a revision; a robot follows one
 // (fleetmap-agent --channel) and its downloads are of that revision until an operator moves
 // the channel. "head" is not a stored channel: it always names the head (today's behaviour),
@@ -114,7 +114,7 @@ class ChannelRegistry {
   Repository& repository_;
 };
 
-// What a robot runs against what its channel names now (issue 38 item 2), for `fleetmap robot
+// What a robot runs against what its channel names now, for `fleetmap robot
 // list`, fleetmapd's /metrics and its status page alike.
 struct RobotRelease {
   // The channel it follows: as it last reported, else as it was last sent, else "head".

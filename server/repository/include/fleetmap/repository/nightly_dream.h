@@ -39,7 +39,7 @@ struct NightlyDreamOutcome {
 // Called with (steps done, steps in all) as the dream's merges progress.
 using NightlyDreamProgress = std::function<void(std::size_t, std::size_t)>;
 
-// A scheduled dream that did not run (issue 35 item 13 b): fleetmapd was down at its time, or
+// A scheduled dream that did not run: fleetmapd was down at its time, or
 // it was killed (or stopped) mid-dream.
 struct MissedDream {
   std::int64_t scheduled_ns = 0;  // the dream time that passed, UTC

@@ -1,4 +1,4 @@
-// The central repository of a fleet's experience map (seed 004 §IV–§V; DESIGN.md "Versions"),
+// The central repository of a fleet's experience map (seed 004 §IV–§V; docs/data-model.md),
 // on one GraphStore (SQLite or PostgreSQL) and its VersionStore:
 // - Push stores what a robot sends whole and immutable, as a submission (nothing is lost);
 // - Merge runs MERGE (policies/merge.h) of one submission against the map at the head and

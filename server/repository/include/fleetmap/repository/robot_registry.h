@@ -1,4 +1,4 @@
-// The robots allowed to sync with a fleet's repository (DESIGN.md "Sync protocol": the server
+// The robots allowed to sync with a fleet's repository (docs/sync-protocol.md: the server
 // rejects unknown robots and wrong tokens), kept in the repository's own store so that every
 // fleetmapd on it, and `fleetmap robot`, see the same list.
 //
@@ -9,7 +9,7 @@
 // its last sync is a setting of its own, "robot-sync/<uuid>", so recording it never rewrites
 // the credentials.
 //
-// What each robot runs (issue 38 item 2), kept the same way: "robot-sent/<uuid>", the last
+// What each robot runs, kept the same way: "robot-sent/<uuid>", the last
 // download the server sent it (channel, revision, the digest of the selection it makes,
 // core/map_chunks.h SelectionDigest); "robot-map/<uuid>", what the robot last said it has
 // installed (its agent reports at each hello and after each install); "robot-error/<uuid>",
