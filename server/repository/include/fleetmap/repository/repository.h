@@ -21,6 +21,7 @@
 #include <functional>
 #include <memory>
 #include <optional>
+#include <span>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -30,6 +31,7 @@
 #include "fleetmap/ebn/experience_map.h"
 #include "fleetmap/map_management/download_policy.h"
 #include "fleetmap/map_management/merge.h"
+#include "fleetmap/repository/download_plan.h"
 #include "fleetmap/store/graph_store.h"
 #include "fleetmap/store/version_store.h"
 
@@ -162,6 +164,16 @@ class Repository {
   // §V-B), integral (download_policy.h).
   Download SelectForDownload(const DownloadPolicy& policy,
                              std::optional<RevisionNumber> r = std::nullopt);
+  // The same selection at revision `r`, planned without reading a landmark (download_plan.h),
+  // for the changes since `base` when 0 < base <= r, else whole. A budget has to weigh every node
+  // by its landmarks, so with one the revision's landmarks are read for the selection and
+  // dropped before it returns: only that policy's memory grows with the map. Throws as
+  // SelectForDownload.
+  DownloadPlan PlanDownload(const DownloadPolicy& policy, RevisionNumber r,
+                            RevisionNumber base = 0);
+  // The nodes `ids` names, with their landmarks, in that order: what a plan sends, read a batch
+  // at a time. Throws Error(kNotFound) for an id the store does not hold.
+  std::vector<Node> ReadNodes(std::span<const Uuid> ids);
 
   // The vocabulary MERGE indexes this repository's map with: the one given in the options,
   // else the one stored with the repository; null before the first merge has trained one.
