@@ -215,9 +215,9 @@ void RunDownload(const DownloadArgs& args) {
   RequireNewStore(args.out, "--out");
   const Download download = repository->SelectForDownload(policy, args.revision);
   Bytes bytes;
-  bytes.map = repository->versions().StatsAt(download.revision).landmark_bytes;
+  bytes.map = repository->inspect().StatsAt(download.revision).landmark_bytes;
   bytes.download = WriteNewStore(args.out, "--out", download.map).landmark_bytes;
-  PrintReport(download, policy, args, repository->store().uri(), bytes);
+  PrintReport(download, policy, args, repository->uri(), bytes);
 }
 
 }  // namespace

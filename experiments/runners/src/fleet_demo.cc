@@ -15,6 +15,7 @@
 #include "fleetmap/core/error.h"
 #include "fleetmap/ebn/experience_builder.h"
 #include "fleetmap/ranking/distance_ranking.h"
+#include "fleetmap/repository/repository.h"
 #include "fleetmap/runners/gnuplot.h"
 #include "fleetmap/store/graph_store.h"
 #include "fleetmap/store/version_store.h"
@@ -216,9 +217,9 @@ FleetDemoResult RunFleetDemo(const FleetDemoOptions& options) {
     say("foray " + std::to_string(f + 1) + ": driven; docking and syncing");
     SyncAll(options, robots, server.address(), next_missions, logs, f + 1, report.robots);
     {
-      std::unique_ptr<GraphStore> central = GraphStore::Open(store_uri);
-      report.server_revision = central->versions().HeadRevision();
-      report.server_nodes = central->versions().StatsAt(report.server_revision).nodes;
+      const std::unique_ptr<Repository> central = Repository::Open(store_uri);
+      report.server_revision = central->Head();
+      report.server_nodes = central->inspect().StatsAt(report.server_revision).nodes;
     }
     if (options.foray_done) options.foray_done(report);
     result.forays.push_back(std::move(report));

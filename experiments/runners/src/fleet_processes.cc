@@ -7,8 +7,8 @@
 
 #include "fleetmap/core/clock.h"
 #include "fleetmap/core/error.h"
+#include "fleetmap/repository/repository.h"
 #include "fleetmap/repository/robot_registry.h"
-#include "fleetmap/store/graph_store.h"
 
 namespace fleetmap {
 
@@ -25,8 +25,8 @@ constexpr auto kDrainTimeout = milliseconds(20'000);
 std::vector<FleetRobot> RegisterFleetRobots(const std::string& store_uri,
                                             const std::vector<std::string>& names,
                                             const fs::path& robots_dir) {
-  std::unique_ptr<GraphStore> central = GraphStore::Open(store_uri);
-  RobotRegistry registry(central->versions());
+  const std::unique_ptr<Repository> central = Repository::Open(store_uri);
+  RobotRegistry registry(*central);
   std::vector<FleetRobot> robots;
   for (const std::string& name : names) {
     NewRobot added = registry.Add(name, WallClockNs());

@@ -14,6 +14,7 @@
 #include "fleetmap/core/error.h"
 #include "fleetmap/ebn/experience_map.h"
 #include "fleetmap/ranking/distance_ranking.h"
+#include "fleetmap/repository/repository.h"
 #include "fleetmap/stereo/stereo_sequence.h"
 #include "fleetmap/store/graph_store.h"
 #include "fleetmap/store/version_store.h"
@@ -235,16 +236,15 @@ RealFleetForay RunForay(const RealFleetOptions& options, const ConditionForayRen
 
 // What each foray's merge added and the head, from the server's store once it has stopped.
 void ReadMerges(const std::string& store_uri, RealFleetDrive& drive) {
-  std::unique_ptr<GraphStore> central = GraphStore::Open(store_uri);
-  VersionStore& versions = central->versions();
+  const std::unique_ptr<Repository> central = Repository::Open(store_uri);
+  const RepositoryInspection& inspect = central->inspect();
   for (RealFleetForay& row : drive.forays) {
     if (row.merge_revision <= 0) continue;
-    if (const std::optional<Revision> revision = versions.FindRevision(row.merge_revision)) {
+    if (const std::optional<Revision> revision = inspect.FindRevision(row.merge_revision)) {
       row.merge_added = revision->nodes_added;
     }
   }
-  drive.head_nodes =
-      static_cast<std::int64_t>(versions.NodesAt(versions.HeadRevision(), false).size());
+  drive.head_nodes = static_cast<std::int64_t>(inspect.NodesAt(central->Head(), false).size());
 }
 
 // A drive's sequence, refused when it is too short for the forays (before anything is written).

@@ -17,6 +17,7 @@
 #include "fleetmap/ebn/experience_map.h"
 #include "fleetmap/ebn/localiser.h"
 #include "fleetmap/ranking/distance_ranking.h"
+#include "fleetmap/repository/repository.h"
 #include "fleetmap/stereo/stereo_sequence.h"
 #include "fleetmap/store/graph_store.h"
 #include "fleetmap/store/version_store.h"
@@ -289,10 +290,10 @@ void PushThroughServer(const RealMergeOptions& options, const std::string& store
 std::unordered_map<Uuid, int> ReadCentralHead(const std::string& store_uri, const RobotMap& a_map,
                                               const RobotMap& b_map, RealMergeResult& result) {
   std::unordered_map<Uuid, int> head_pair;
-  std::unique_ptr<GraphStore> central = GraphStore::Open(store_uri);
-  VersionStore& versions = central->versions();
-  const RevisionNumber head = versions.HeadRevision();
-  for (const Node& node : versions.NodesAt(head, /*with_landmarks=*/false)) {
+  const std::unique_ptr<Repository> central = Repository::Open(store_uri);
+  const RepositoryInspection& inspect = central->inspect();
+  const RevisionNumber head = central->Head();
+  for (const Node& node : inspect.NodesAt(head, /*with_landmarks=*/false)) {
     const auto a = a_map.node_pair.find(node.id);
     const auto b = b_map.node_pair.find(node.id);
     head_pair.emplace(node.id, a != a_map.node_pair.end()   ? a->second
@@ -302,7 +303,7 @@ std::unordered_map<Uuid, int> ReadCentralHead(const std::string& store_uri, cons
   result.counts.head_nodes = static_cast<std::int64_t>(head_pair.size());
   for (const auto& [number, added] :
        {std::pair{result.a_revision, &result.a_added}, {result.b_revision, &result.b_added}}) {
-    if (const std::optional<Revision> revision = versions.FindRevision(number)) {
+    if (const std::optional<Revision> revision = inspect.FindRevision(number)) {
       *added = revision->nodes_added;
     }
   }
@@ -310,7 +311,7 @@ std::unordered_map<Uuid, int> ReadCentralHead(const std::string& store_uri, cons
     RealMergePair& row = result.rows[static_cast<std::size_t>(pair)];
     row.b_node = true;
     row.b_in_head = head_pair.contains(node);
-    row.b_stand_in = !*row.b_in_head && versions.FindStandIn(node).has_value();
+    row.b_stand_in = !*row.b_in_head && inspect.FindStandIn(node).has_value();
     result.b_stand_ins += row.b_stand_in ? 1 : 0;
     if (row.in_overlap) {
       ++result.counts.b_overlap_nodes;

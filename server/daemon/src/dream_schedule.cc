@@ -80,8 +80,7 @@ std::optional<MissedDream> DreamSchedule::FindMissed() const {
     RepositoryOptions repository_options;
     repository_options.store = store_options_;
     const std::unique_ptr<Repository> repository = Repository::Open(store_uri_, repository_options);
-    return FindMissedDream(repository->versions(), NsOf(std::chrono::system_clock::now()),
-                           minute_of_day_);
+    return FindMissedDream(*repository, NsOf(std::chrono::system_clock::now()), minute_of_day_);
   } catch (const std::exception& error) {
     // The schedule goes on: the next night's dream covers what this one would have.
     spdlog::warn("dream: cannot tell whether a dream was missed: {}", error.what());

@@ -11,14 +11,14 @@ namespace fleetmap::daemon {
 namespace {
 
 std::vector<RevisionRow> RecentRevisions(Repository& repository, RevisionNumber head) {
-  VersionStore& versions = repository.versions();
+  const RepositoryInspection& inspect = repository.inspect();
   std::map<Uuid, std::string> robot_names;
-  for (const RegisteredRobot& robot : RobotRegistry(versions).List()) {
+  for (const RegisteredRobot& robot : RobotRegistry(repository).List()) {
     robot_names[robot.id] = robot.name;
   }
   std::vector<RevisionRow> rows;
   for (RevisionNumber r = head; r >= 1 && rows.size() < FleetStatus::kRecentRevisions; --r) {
-    const std::optional<Revision> revision = versions.FindRevision(r);
+    const std::optional<Revision> revision = inspect.FindRevision(r);
     if (!revision) continue;
     RevisionRow row{r,
                     std::string(RevisionKindName(revision->kind)),
@@ -28,7 +28,7 @@ std::vector<RevisionRow> RecentRevisions(Repository& repository, RevisionNumber 
                     revision->nodes_added,
                     revision->nodes_hidden};
     if (revision->kind == RevisionKind::kMerge) {
-      if (const auto submission = versions.FindSubmission(revision->submission)) {
+      if (const auto submission = inspect.FindSubmission(revision->submission)) {
         const auto name = robot_names.find(submission->robot);
         row.robot = name != robot_names.end() ? name->second : submission->robot.ToString();
       }

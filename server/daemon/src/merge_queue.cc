@@ -7,6 +7,7 @@
 
 #include "fleetmap/core/clock.h"
 #include "fleetmap/core/error.h"
+#include "fleetmap/repository/merge_claims.h"
 
 namespace fleetmap::daemon {
 namespace {
@@ -69,7 +70,7 @@ void MergeQueue::BeforeCommit(const Uuid& submission) {
   CheckStillOurs();
   // The fence, in the merge's own transaction: the commit goes through only while this
   // instance holds the lease (renewed here, so it holds until well after the commit).
-  if (!repository_->versions().RenewClaim(submission, options_.instance, options_.lease)) {
+  if (!MergeClaims(*repository_).Renew(submission, options_.instance, options_.lease)) {
     throw LeaseLost{};
   }
 }
@@ -214,10 +215,9 @@ std::optional<Submission> MergeQueue::ClaimNext() {
   try {
     if (!repository_) ReopenIfBroken();
     if (!repository_) throw Error(ErrorCode::kBackend, "the store cannot be opened");
-    VersionStore& versions = repository_->versions();
     std::vector<Uuid> skip;
     for (auto it = deferred_.begin(); it != deferred_.end();) {
-      const std::optional<Submission> first = versions.FindSubmission(it->second);
+      const std::optional<Submission> first = repository_->inspect().FindSubmission(it->second);
       if (first && first->state == SubmissionState::kQueued) {
         skip.push_back(it->first);
         ++it;
@@ -226,7 +226,7 @@ std::optional<Submission> MergeQueue::ClaimNext() {
       }
     }
     std::optional<Submission> claimed =
-        versions.ClaimQueuedSubmission(options_.instance, options_.lease, skip);
+        MergeClaims(*repository_).ClaimNext(options_.instance, options_.lease, skip);
     std::lock_guard lock(mutex_);
     claim_failures_ = 0;
     if (claimed) kicked_ = true;  // there may be more: claim again right after this merge
@@ -252,7 +252,7 @@ std::optional<Submission> MergeQueue::ClaimNext() {
 
 void MergeQueue::ReleaseClaim(const Uuid& submission) {
   try {
-    if (repository_) repository_->versions().ReleaseClaim(submission, options_.instance);
+    if (repository_) MergeClaims(*repository_).Release(submission, options_.instance);
   } catch (const std::exception& error) {
     // Harmless: the lease ends by itself, and this instance may take it back before then.
     spdlog::warn("merge {}: releasing the claim failed: {}", submission.ToString(), error.what());
@@ -325,7 +325,7 @@ void MergeQueue::Finish(const Uuid& submission) {
 }
 
 void MergeQueue::Keep() {
-  std::unique_ptr<GraphStore> store;
+  std::unique_ptr<Repository> repository;  // the keeper's own connection
   const auto period = std::min(options_.poll, options_.lease / 3);
   for (;;) {
     {
@@ -333,17 +333,21 @@ void MergeQueue::Keep() {
       if (wake_.wait_for(lock, period, [&] { return stopping_; })) return;
     }
     try {
-      if (!store) store = GraphStore::Open(store_uri_, options_.store);
-      KeepOnce(*store);
+      if (!repository) {
+        RepositoryOptions repository_options;
+        repository_options.store = options_.store;
+        repository = Repository::Open(store_uri_, std::move(repository_options));
+      }
+      KeepOnce(*repository);
     } catch (const std::exception& error) {
       // The merge's own commit fence still guards the lease; try again next period.
       spdlog::warn("merge queue keeper: {}", error.what());
-      store.reset();
+      repository.reset();
     }
   }
 }
 
-void MergeQueue::KeepOnce(GraphStore& store) {
+void MergeQueue::KeepOnce(Repository& repository) {
   std::optional<Uuid> running;
   std::vector<Uuid> known;
   {
@@ -356,13 +360,12 @@ void MergeQueue::KeepOnce(GraphStore& store) {
       }
     }
   }
-  VersionStore& versions = store.versions();
   if (running && !lease_lost_ &&
-      !versions.RenewClaim(*running, options_.instance, options_.lease)) {
+      !MergeClaims(repository).Renew(*running, options_.instance, options_.lease)) {
     lease_lost_ = true;
   }
   for (const Uuid& submission : known) {
-    const std::optional<Submission> stored = versions.FindSubmission(submission);
+    const std::optional<Submission> stored = repository.inspect().FindSubmission(submission);
     if (stored && stored->state == SubmissionState::kQueued) continue;
     {
       std::lock_guard lock(mutex_);
@@ -396,10 +399,10 @@ void MergeQueue::AfterTransientFailure(MergeDone& done, const Uuid& robot) {
   // When the store cannot take even this, the queue in memory still holds the submission.
   if (repository_) {
     try {
-      repository_->versions().SetSubmissionState(
-          done.submission, SubmissionState::kQueued, 0,
-          "merge attempt " + std::to_string(done.attempts) + " failed (retrying in " +
-              std::to_string(done.retry_in.count()) + " ms): " + done.error);
+      MergeClaims(*repository_)
+          .RecordRetry(done.submission,
+                       "merge attempt " + std::to_string(done.attempts) + " failed (retrying in " +
+                           std::to_string(done.retry_in.count()) + " ms): " + done.error);
     } catch (const std::exception& again) {
       spdlog::warn("merge {}: recording the transient failure failed too: {}",
                    done.submission.ToString(), again.what());
@@ -441,7 +444,7 @@ MergeDone MergeQueue::MergeOne(const Uuid& submission) {
         wake_.wait_for(lock, options_.debug_pause, [&] { return stopping_; });
       }
       CheckStillOurs();
-      if (!repository_->versions().RenewClaim(submission, options_.instance, options_.lease)) {
+      if (!MergeClaims(*repository_).Renew(submission, options_.instance, options_.lease)) {
         throw LeaseLost{};
       }
     }
@@ -454,7 +457,7 @@ MergeDone MergeQueue::MergeOne(const Uuid& submission) {
       done.merged = true;
       done.revision = outcome.revision.number;
       done.nodes_added = outcome.revision.nodes_added;
-      done.head_stats = repository_->versions().StatsAt(repository_->Head());
+      done.head_stats = repository_->inspect().StatsAt(repository_->Head());
     }
   } catch (const MergeAbandoned&) {
     done.abandoned = true;
@@ -483,7 +486,7 @@ MergeDone MergeQueue::MergeOne(const Uuid& submission) {
 bool MergeQueue::StillQueued(const Uuid& submission) {
   try {
     if (!repository_) return true;
-    const std::optional<Submission> stored = repository_->versions().FindSubmission(submission);
+    const std::optional<Submission> stored = repository_->inspect().FindSubmission(submission);
     return stored && stored->state == SubmissionState::kQueued;
   } catch (const std::exception&) {
     return true;  // the store does not answer: retry, and learn then

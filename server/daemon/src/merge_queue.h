@@ -161,7 +161,7 @@ class MergeQueue {
   // The keeper thread: renews the running merge's lease, and learns which watched
   // submissions left the queue (merged by another instance).
   void Keep();
-  void KeepOnce(GraphStore& store);
+  void KeepOnce(Repository& repository);
   MergeDone MergeOne(const Uuid& submission);
   // After a transient failure: the backoff and requeue at the front; the repository reopened
   // when its connection no longer answers. Runs on the merge thread.

@@ -219,7 +219,7 @@ void SyncProtocolHandler::RecordSent(const v1::DownloadHeader& header, std::uint
   context_.store.Post([robot = robot_, sent, sent_digest, removed_digest,
                        base = header.base_revision()](Repository& repository) mutable {
     try {
-      RobotRegistry registry(repository.versions());
+      RobotRegistry registry(repository);
       if (base == 0) {
         sent.digest = sent_digest;
       } else if (const std::optional<RegisteredRobot> known = registry.Find(robot);

@@ -76,7 +76,7 @@ void RequireOwnContent(const std::string& chunk, std::uint32_t seq, const Uuid& 
 // Another robot's submission is answered as one never pushed: no robot reads or learns what
 // the others pushed.
 Submission OwnSubmission(Repository& repository, const Uuid& id, const Uuid& robot) {
-  const std::optional<Submission> s = repository.versions().FindSubmission(id);
+  const std::optional<Submission> s = repository.inspect().FindSubmission(id);
   if (!s || s->robot != robot) {
     throw Error(ErrorCode::kNotFound, "no submission " + id.ToString() + " is stored");
   }
@@ -155,7 +155,7 @@ void SyncProtocolHandler::SessionFailed(const std::string& error) {
   // (the reason for the error, perhaps) only loses the line.
   context_.store.Post([robot = robot_, error = PrintableText(error)](Repository& repository) {
     try {
-      RobotRegistry(repository.versions()).RecordError(robot, error, WallClockNs());
+      RobotRegistry(repository).RecordError(robot, error, WallClockNs());
     } catch (const std::exception&) {
     }
   });
@@ -176,7 +176,7 @@ void SyncProtocolHandler::OnHello(const v1::Hello& frame) {
   OnStore(
       [robot = hello.robot, token = hello.token,
        installed = hello.installed](Repository& repository) {
-        RobotRegistry registry(repository.versions());
+        RobotRegistry registry(repository);
         Result result{registry.Authenticate(robot, token), 0, {}};
         if (result.auth.outcome == RobotAuthentication::kAccepted) {
           result.head = repository.Head();
@@ -349,7 +349,7 @@ void SyncProtocolHandler::QueryMergeStatus(const Uuid& id, bool may_wait, std::u
         status.set_revision(s.revision);
         status.set_error(s.error);
         if (s.state == SubmissionState::kMerged) {
-          if (const std::optional<Revision> r = repository.versions().FindRevision(s.revision)) {
+          if (const std::optional<Revision> r = repository.inspect().FindRevision(s.revision)) {
             status.set_nodes_added(r->nodes_added);
           }
         }
@@ -393,7 +393,7 @@ void SyncProtocolHandler::OnOwnSubmissionsRequest(const v1::OwnSubmissionsReques
   OnStore(
       [robot = robot_, after = request.after_revision()](Repository& repository) {
         v1::OwnSubmissions listed;
-        for (const Submission& s : repository.versions().ListSubmissions()) {
+        for (const Submission& s : repository.Submissions()) {
           if (s.robot != robot || s.state == SubmissionState::kReceiving) continue;
           if (s.state == SubmissionState::kMerged && s.revision <= after) continue;
           if (listed.submissions_size() == kMaxOwnSubmissionsListed) {
@@ -434,7 +434,7 @@ void SyncProtocolHandler::OnSubmissionChunkRequest(const v1::SubmissionChunkRequ
         v1::SubmissionChunk chunk;
         chunk.set_submission_id(id.ToBytesString());
         chunk.set_seq(seq);
-        chunk.set_data(repository.versions().SubmissionChunk(id, seq));
+        chunk.set_data(repository.inspect().SubmissionChunk(id, seq));
         return chunk;
       },
       [this](v1::SubmissionChunk chunk) {

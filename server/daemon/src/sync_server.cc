@@ -260,10 +260,9 @@ class SyncServer::Impl {
     last_refresh_ns_ = WallClockNs();
     store_->Post([this](Repository& repository) {
       try {
-        activity_.SetRobots(RobotRegistry(repository.versions()).List(),
-                            ChannelRegistry(repository).List());
+        activity_.SetRobots(RobotRegistry(repository).List(), ChannelRegistry(repository).List());
         const RevisionNumber head = repository.Head();
-        const StoreStats stats = repository.versions().StatsAt(head);
+        const StoreStats stats = repository.inspect().StatsAt(head);
         activity_.SetHead(head, stats);
         WarmCopyPlan(repository, head, stats);
       } catch (const std::exception& error) {

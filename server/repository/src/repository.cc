@@ -71,6 +71,12 @@ std::uint64_t Fnv1a(std::string_view bytes) {
   return hash;
 }
 
+// The store a repository is made on; a repository needs one.
+GraphStore& StoreOf(const std::unique_ptr<GraphStore>& store) {
+  if (!store) throw Error(ErrorCode::kInvalidArgument, "repository: no store");
+  return *store;
+}
+
 MergeRegionOptions RegionOptions(const MergeOptions& merge) {
   // What the replaying localiser can reach (experience_builder.h): between two frames queried
   // by appearance it runs on for at most relocalise_after_m before it would relocalise, and
@@ -92,9 +98,10 @@ std::unique_ptr<Repository> Repository::Open(std::string_view uri, RepositoryOpt
 }
 
 Repository::Repository(std::unique_ptr<GraphStore> store, RepositoryOptions options)
-    : store_(std::move(store)), options_(std::move(options)), vocabulary_(options_.vocabulary) {
-  if (!store_) throw Error(ErrorCode::kInvalidArgument, "repository: no store");
-}
+    : store_(std::move(store)),
+      inspection_(StoreOf(store_)),
+      options_(std::move(options)),
+      vocabulary_(options_.vocabulary) {}
 
 Repository::~Repository() {
   appearance_.reset();
@@ -588,6 +595,14 @@ Revision Repository::Revert(RevisionNumber r, const std::string& author) {
   revision.reverted = r;
   revision.report = "revert of revision " + std::to_string(r);
   return versions().AppendRevert(revision);
+}
+
+Revision Repository::AppendUnmergedRevision(const Revision& revision, const GraphBatch& additions) {
+  GraphStore::Transaction transaction = store_->Begin();
+  Revision appended = versions().AppendRevision(revision, additions);
+  store_->Put(additions);
+  transaction.Commit();
+  return appended;
 }
 
 RevisionNumber Repository::Resolve(std::optional<RevisionNumber> r) {

@@ -32,6 +32,7 @@
 #include "fleetmap/map_management/download_policy.h"
 #include "fleetmap/map_management/merge.h"
 #include "fleetmap/repository/download_plan.h"
+#include "fleetmap/repository/repository_inspection.h"
 #include "fleetmap/store/graph_store.h"
 #include "fleetmap/store/version_store.h"
 
@@ -140,6 +141,10 @@ class Repository {
   std::vector<Revision> History();  // ascending
   // A new revision hiding what revision `r` added (VersionStore::AppendRevert).
   Revision Revert(RevisionNumber r, const std::string& author);
+  // Appends `revision` with `additions` as its content, as given, without MERGE, in one
+  // transaction: for a writer that generates its map (fleetmap bench scale), which calls
+  // UpdateAppearanceIndex after each. Throws as VersionStore::AppendRevision.
+  Revision AppendUnmergedRevision(const Revision& revision, const GraphBatch& additions);
 
   // ---- Dreams (nightly_dream.h, dream_candidates.h) ----
 
@@ -186,6 +191,16 @@ class Repository {
   void UpdateAppearanceIndex();
   const MergeOptions& merge_options() const { return options_.merge; }
 
+  // ---- Reading records ----
+
+  // The store's URI, password removed: for naming the repository in messages.
+  std::string uri() const { return store_->uri(); }
+  // Read-only queries of what the repository holds (repository_inspection.h).
+  const RepositoryInspection& inspect() const { return inspection_; }
+
+  // The raw stores, for the repository's own code (its registries: robot_registry.h, ...) and
+  // for tests. Anything else reads through inspect() and changes the repository through its
+  // verbs, so that what keeps the store consistent stays here.
   GraphStore& store() { return *store_; }
   VersionStore& versions() { return store_->versions(); }
 
@@ -213,6 +228,7 @@ class Repository {
   std::filesystem::path AppearanceDirectory();
 
   std::unique_ptr<GraphStore> store_;
+  RepositoryInspection inspection_;  // of *store_
   RepositoryOptions options_;
   std::shared_ptr<const AppearanceVocabulary> vocabulary_;
   std::unique_ptr<DiskAppearanceIndex> appearance_;
