@@ -228,10 +228,10 @@ void PrintResult(const SyncResult& r, bool as_json) {
   }
   if (r.held_nodes > 0) {
     std::printf(
-        "held %zu nodes (%.2f MiB) and %zu edges to them: each node is over the server's limits "
+        "held %zu nodes (%s) and %zu edges to them: each node is over the server's limits "
         "on its own; kept in this map, pushed once the server takes them (see `fleetmap-agent "
         "status`)\n",
-        r.held_nodes, static_cast<double>(r.held_bytes) / (1 << 20), r.held_edges);
+        r.held_nodes, BytesText(r.held_bytes).c_str(), r.held_edges);
   }
   std::printf(
       "%.2f s (push %.2f, merge wait %.2f, download %.2f, install %.2f); %llu bytes sent, "
@@ -457,14 +457,14 @@ int StatusCommand(const AgentArguments& args) {
                 static_cast<long long>(unsynced_paths));
     if (!state.held.empty()) {
       std::printf(
-          "HELD %zu nodes (%.2f MiB), each over the server's limit of %.2f MiB a submission on "
+          "HELD %zu nodes (%s), each over the server's limit of %s a submission on "
           "its own: kept in this map, not pushed; each sync tries them again, and they go once "
           "the server takes them (fleetmapd --max-submission-mib)\n",
-          state.held.size(), static_cast<double>(held_bytes) / (1 << 20),
-          static_cast<double>(state.server_limits.max_submission_bytes) / (1 << 20));
+          state.held.size(), BytesText(held_bytes).c_str(),
+          BytesText(state.server_limits.max_submission_bytes).c_str());
       for (const HeldNode& node : state.held) {
-        std::printf("  held node %s (%.2f MiB)\n", node.id.ToString().c_str(),
-                    static_cast<double>(node.bytes) / (1 << 20));
+        std::printf("  held node %s (%s)\n", node.id.ToString().c_str(),
+                    BytesText(node.bytes).c_str());
       }
     }
     if (state.submission) {

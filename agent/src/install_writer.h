@@ -2,17 +2,16 @@
 // own while the next chunks arrive, so the link and SQLite work at once.
 #pragma once
 
-#include <condition_variable>
 #include <cstddef>
 #include <cstdint>
 #include <deque>
 #include <exception>
-#include <mutex>
 #include <string>
 #include <string_view>
 #include <thread>
 
 #include "fleetmap/agent/local_map.h"
+#include "fleetmap/core/mutex.h"
 
 namespace fleetmap::agent_internal {
 
@@ -30,10 +29,10 @@ class InstallWriter {
       : installation_(installation), context_(std::move(context)), thread_([this] { Run(); }) {}
   ~InstallWriter() {
     {
-      std::lock_guard lock(mutex_);
+      MutexLock lock(mutex_);
       stopping_ = true;
     }
-    changed_.notify_all();
+    changed_.NotifyAll();
     thread_.join();
   }
   InstallWriter(const InstallWriter&) = delete;
@@ -50,17 +49,17 @@ class InstallWriter {
       throw Error(ErrorCode::kCorrupt,
                   context_ + ": chunk " + std::to_string(seq) + ": " + e.message());
     }
-    std::unique_lock lock(mutex_);
-    changed_.wait(lock, [&] { return error_ || queue_.size() < kQueuedChunks; });
+    MutexLock lock(mutex_);
+    while (!error_ && queue_.size() >= kQueuedChunks) changed_.Wait(mutex_);
     if (error_) std::rethrow_exception(error_);
     queue_.push_back(std::move(part));
-    changed_.notify_all();
+    changed_.NotifyAll();
   }
 
   // Waits until every queued chunk is written; throws the writer's error, if any.
   void Finish() {
-    std::unique_lock lock(mutex_);
-    changed_.wait(lock, [&] { return error_ || (queue_.empty() && !busy_); });
+    MutexLock lock(mutex_);
+    while (!error_ && (!queue_.empty() || busy_)) changed_.Wait(mutex_);
     if (error_) std::rethrow_exception(error_);
   }
 
@@ -69,36 +68,36 @@ class InstallWriter {
     for (;;) {
       MapInstallation::PreparedChunk part;
       {
-        std::unique_lock lock(mutex_);
-        changed_.wait(lock, [&] { return stopping_ || !queue_.empty(); });
+        MutexLock lock(mutex_);
+        while (!stopping_ && queue_.empty()) changed_.Wait(mutex_);
         if (stopping_ || error_) return;
         part = std::move(queue_.front());
         queue_.pop_front();
         busy_ = true;
       }
-      changed_.notify_all();  // room in the queue
+      changed_.NotifyAll();  // room in the queue
       try {
         installation_.Add(part);
       } catch (...) {
-        std::lock_guard lock(mutex_);
+        MutexLock lock(mutex_);
         error_ = std::current_exception();
       }
       {
-        std::lock_guard lock(mutex_);
+        MutexLock lock(mutex_);
         busy_ = false;
       }
-      changed_.notify_all();
+      changed_.NotifyAll();
     }
   }
 
   MapInstallation& installation_;
   std::string context_;
-  std::mutex mutex_;
-  std::condition_variable changed_;
-  std::deque<MapInstallation::PreparedChunk> queue_;  // guarded by mutex_
-  bool busy_ = false;                                 // guarded by mutex_
-  bool stopping_ = false;                             // guarded by mutex_
-  std::exception_ptr error_;                          // guarded by mutex_
+  Mutex mutex_;
+  CondVar changed_;
+  std::deque<MapInstallation::PreparedChunk> queue_ GUARDED_BY(mutex_);
+  bool busy_ GUARDED_BY(mutex_) = false;
+  bool stopping_ GUARDED_BY(mutex_) = false;
+  std::exception_ptr error_ GUARDED_BY(mutex_);
   std::thread thread_;                                // last: starts once the rest is constructed
 };
 

@@ -11,13 +11,13 @@
 #include <thread>
 #include <unordered_map>
 
-#include "fleet_processes.h"
 #include "fleetmap/core/clock.h"
 #include "fleetmap/core/error.h"
 #include "fleetmap/ebn/experience_map.h"
 #include "fleetmap/ebn/localiser.h"
 #include "fleetmap/ranking/distance_ranking.h"
 #include "fleetmap/repository/repository.h"
+#include "fleetmap/runners/fleet_processes.h"
 #include "fleetmap/stereo/stereo_sequence.h"
 #include "fleetmap/store/graph_store.h"
 #include "fleetmap/store/version_store.h"
@@ -74,7 +74,8 @@ RobotMap BuildRobotMap(const FleetRobot& robot, const ProcessedStereoSequence& s
   }
   const auto vocabulary =
       std::make_shared<const AppearanceVocabulary>(AppearanceVocabulary::Train(sample));
-  std::unique_ptr<GraphStore> store = GraphStore::Open("sqlite:" + (robot.dir / "map.db").string());
+  std::unique_ptr<GraphStore> store =
+      GraphStore::Open("sqlite:" + (robot.map_dir / "map.db").string());
   ExperienceMap map(vocabulary);
   DistanceRanking policy;
   BuilderOptions build = options;
@@ -263,8 +264,8 @@ void PushThroughServer(const RealMergeOptions& options, const std::string& store
   Say(options, "fleetmapd listening on " + server.address());
   const auto sync = [&](const FleetRobot& robot, std::int64_t& pushed, std::int64_t& revision) {
     const fs::path log = logs / ("agent-" + robot.name + ".log");
-    ChildProcess agent =
-        StartAgentSync(options.agent, robot, server.address(), {"--policy", "copy"}, log);
+    ChildProcess agent = StartAgentSync(options.agent, robot, server.address(),
+                                        {"--wait-merge", "--policy", "copy"}, log);
     const nlohmann::json json = FinishAgentSync(agent, robot, log, kSyncTimeout);
     pushed = json.value("pushed_nodes", std::int64_t{0});
     revision = json.value("merged_revision", std::int64_t{0});
@@ -341,7 +342,7 @@ struct PulledHead {
 PulledHead ReadPulledHead(const RealMergeOptions& options, const FleetRobot& robot_b,
                           const std::unordered_map<Uuid, int>& head_pair, RealMergeResult& result) {
   std::unique_ptr<GraphStore> pulled_store =
-      GraphStore::Open("sqlite:" + (robot_b.dir / "map.db").string());
+      GraphStore::Open("sqlite:" + (robot_b.map_dir / "map.db").string());
   const GraphBatch pulled = pulled_store->ReadMap();
   result.pulled_nodes = static_cast<std::int64_t>(pulled.nodes.size());
   if (result.pulled_nodes != result.counts.head_nodes) {

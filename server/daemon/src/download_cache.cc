@@ -11,7 +11,7 @@ std::string DownloadCache::Key(RevisionNumber revision, const DownloadAsk& ask,
 }
 
 DownloadCache::Entry DownloadCache::Find(const std::string& key) {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   for (auto entry = entries_.begin(); entry != entries_.end(); ++entry) {
     if (entry->key == key) {
       entries_.splice(entries_.begin(), entries_, entry);
@@ -30,7 +30,7 @@ std::uint64_t DownloadCache::BytesOf(const DownloadToSend& plan) {
 void DownloadCache::Put(const std::string& key, std::shared_ptr<const EncodedDownload> download) {
   if (download->frame_bytes > max_entry_bytes_) return;
   const std::uint64_t bytes = download->frame_bytes;
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   Keep(key, Entry{std::move(download), nullptr}, bytes);
 }
 
@@ -38,7 +38,7 @@ std::shared_ptr<const DownloadToSend> DownloadCache::PlanOnce(
     const std::string& key, const std::function<std::shared_ptr<const DownloadToSend>()>& make) {
   std::promise<std::shared_ptr<const DownloadToSend>> promise;
   {
-    std::unique_lock lock(mutex_);
+    MutexLock lock(mutex_);
     for (const Kept& kept : entries_) {
       if (kept.key == key && kept.entry.plan) return kept.entry.plan;
     }
@@ -46,7 +46,7 @@ std::shared_ptr<const DownloadToSend> DownloadCache::PlanOnce(
       // Waits on a selection that is already running on another thread, never on one that is
       // only queued: no store thread can wait for itself.
       std::shared_future<std::shared_ptr<const DownloadToSend>> plan = making->second;
-      lock.unlock();
+      lock.Unlock();
       return plan.get();
     }
     planning_.emplace(key, promise.get_future().share());
@@ -55,13 +55,13 @@ std::shared_ptr<const DownloadToSend> DownloadCache::PlanOnce(
   try {
     plan = make();
   } catch (...) {
-    std::lock_guard lock(mutex_);
+    MutexLock lock(mutex_);
     planning_.erase(key);
     promise.set_exception(std::current_exception());
     throw;
   }
   {
-    std::lock_guard lock(mutex_);
+    MutexLock lock(mutex_);
     planning_.erase(key);
     const std::uint64_t bytes = BytesOf(*plan);
     if (bytes <= max_entry_bytes_) Keep(key, Entry{nullptr, plan}, bytes);

@@ -24,12 +24,12 @@
 #include <list>
 #include <map>
 #include <memory>
-#include <mutex>
 #include <string>
 #include <utility>
 
 #include "download_stream.h"
 #include "fleetmap/protocol/download_exchange.h"
+#include "fleetmap/core/mutex.h"
 
 namespace fleetmap::daemon {
 
@@ -60,7 +60,7 @@ class DownloadCache {
   static std::uint64_t BytesOf(const DownloadToSend& plan);
 
  private:
-  void Keep(const std::string& key, Entry entry, std::uint64_t bytes);  // REQUIRES: mutex_
+  void Keep(const std::string& key, Entry entry, std::uint64_t bytes) REQUIRES(mutex_);
 
   struct Kept {
     std::string key;
@@ -69,10 +69,11 @@ class DownloadCache {
   };
   std::uint64_t max_bytes_;
   std::uint64_t max_entry_bytes_;
-  std::mutex mutex_;
-  std::list<Kept> entries_;  // most recently used first; guarded by mutex_
-  // Plans being made, by key; guarded by mutex_.
-  std::map<std::string, std::shared_future<std::shared_ptr<const DownloadToSend>>> planning_;
+  Mutex mutex_;
+  std::list<Kept> entries_ GUARDED_BY(mutex_);  // most recently used first
+  // Plans being made, by key.
+  std::map<std::string, std::shared_future<std::shared_ptr<const DownloadToSend>>> planning_
+      GUARDED_BY(mutex_);
 };
 
 }  // namespace fleetmap::daemon

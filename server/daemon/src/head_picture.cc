@@ -43,7 +43,7 @@ std::vector<RevisionRow> RecentRevisions(Repository& repository, RevisionNumber 
 void HeadPicture::Refresh(Repository& repository) {
   const RevisionNumber head = repository.Head();
   {
-    std::lock_guard lock(mutex_);
+    MutexLock lock(mutex_);
     if (drawing_ || head == drawn_) return;
     drawing_ = true;
   }
@@ -55,20 +55,20 @@ void HeadPicture::Refresh(Repository& repository) {
     picture.Draw(canvas);
     auto svg = std::make_shared<const std::string>(canvas.svg());
     std::vector<RevisionRow> history = RecentRevisions(repository, head);
-    std::lock_guard lock(mutex_);
+    MutexLock lock(mutex_);
     svg_ = std::move(svg);
     history_ = std::move(history);
     drawn_ = head;
     drawing_ = false;
   } catch (...) {
-    std::lock_guard lock(mutex_);
+    MutexLock lock(mutex_);
     drawing_ = false;
     throw;
   }
 }
 
 void HeadPicture::AddTo(FleetStatus& status) const {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   status.head_picture_svg = svg_;
   status.picture_revision = drawn_;
   status.recent_revisions = history_;

@@ -62,9 +62,9 @@ MergeQueue::MergeQueue(const std::string& store_uri, MergeQueueOptions options,
 
 void MergeQueue::BeforeCommit(const Uuid& submission) {
   {
-    std::unique_lock lock(mutex_);
+    MutexLock lock(mutex_);
     if (options_.debug_delay.count() > 0) {
-      wake_.wait_for(lock, options_.debug_delay, [&] { return stopping_; });
+      wake_.WaitFor(mutex_, options_.debug_delay, [&]() REQUIRES(mutex_) { return stopping_; });
     }
   }
   CheckStillOurs();
@@ -77,7 +77,7 @@ void MergeQueue::BeforeCommit(const Uuid& submission) {
 
 void MergeQueue::CheckStillOurs() {
   if (lease_lost_.load()) throw LeaseLost{};
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   if (stopping_) throw MergeAbandoned{};
 }
 
@@ -93,7 +93,7 @@ std::size_t MergeQueue::Start() {
     ++queued;
   }
   {
-    std::lock_guard lock(mutex_);
+    MutexLock lock(mutex_);
     kicked_ = true;
   }
   thread_ = std::thread([this] { Run(); });
@@ -104,7 +104,7 @@ std::size_t MergeQueue::Start() {
 std::uint32_t MergeQueue::Enqueue(const Uuid& submission, const Uuid& robot) {
   std::uint32_t position = 0;
   {
-    std::lock_guard lock(mutex_);
+    MutexLock lock(mutex_);
     kicked_ = true;
     const std::uint32_t running = merging_ ? 1 : 0;
     if (merging_ && merging_->submission == submission) return 0;
@@ -116,7 +116,7 @@ std::uint32_t MergeQueue::Enqueue(const Uuid& submission, const Uuid& robot) {
       waiting_.emplace_back(submission, robot);
     }
   }
-  wake_.notify_all();
+  wake_.NotifyAll();
   return position;
 }
 
@@ -127,7 +127,7 @@ std::deque<std::pair<Uuid, Uuid>>::const_iterator MergeQueue::FindWaiting(
 }
 
 std::optional<std::uint32_t> MergeQueue::Position(const Uuid& submission) const {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   if (merging_ && merging_->submission == submission) return 0;
   const auto found = FindWaiting(submission);
   if (found == waiting_.end()) return std::nullopt;
@@ -135,38 +135,38 @@ std::optional<std::uint32_t> MergeQueue::Position(const Uuid& submission) const 
 }
 
 bool MergeQueue::IsMerging(const Uuid& submission) const {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   return merging_ && merging_->submission == submission;
 }
 
 MergeQueue::Retries MergeQueue::RetriesOf(const Uuid& submission) const {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   const auto found = retries_.find(submission);
   return found == retries_.end() ? Retries{} : found->second;
 }
 
 std::uint64_t MergeQueue::retries_total() const {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   return retries_total_;
 }
 
 bool MergeQueue::backing_off() const {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   return std::chrono::steady_clock::now() < retry_at_;
 }
 
 std::size_t MergeQueue::Length() const {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   return waiting_.size();
 }
 
 std::optional<MergeQueue::Running> MergeQueue::Merging() const {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   return merging_;
 }
 
 bool MergeQueue::Watch(const Uuid& submission, std::function<void()> watcher) {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   const bool pending =
       (merging_ && merging_->submission == submission) || FindWaiting(submission) != waiting_.end();
   if (!pending || stopping_) return false;
@@ -177,15 +177,15 @@ bool MergeQueue::Watch(const Uuid& submission, std::function<void()> watcher) {
 void MergeQueue::Stop() {
   std::unordered_map<Uuid, std::vector<std::function<void()>>> watchers;
   {
-    std::lock_guard lock(mutex_);
+    MutexLock lock(mutex_);
     stopping_ = true;
     waiting_.clear();
   }
-  wake_.notify_all();
+  wake_.NotifyAll();
   if (thread_.joinable()) thread_.join();
   if (keeper_.joinable()) keeper_.join();
   {
-    std::lock_guard lock(mutex_);
+    MutexLock lock(mutex_);
     watchers.swap(watchers_);
   }
   for (auto& [submission, list] : watchers) {
@@ -194,18 +194,21 @@ void MergeQueue::Stop() {
 }
 
 bool MergeQueue::WaitForWork() {
-  std::unique_lock lock(mutex_);
+  MutexLock lock(mutex_);
   for (;;) {
     if (stopping_) return false;
     const auto now = std::chrono::steady_clock::now();
     if (now < retry_at_) {
-      wake_.wait_until(lock, retry_at_);
+      wake_.WaitUntil(mutex_, retry_at_);
       continue;
     }
     if (kicked_) break;
     // Nothing received here: look in the store after a poll period all the same (pushed to
     // another instance, or left by one that died).
-    if (!wake_.wait_for(lock, options_.poll, [&] { return stopping_ || kicked_; })) break;
+    if (!wake_.WaitFor(mutex_, options_.poll,
+                       [&]() REQUIRES(mutex_) { return stopping_ || kicked_; })) {
+      break;
+    }
   }
   kicked_ = false;
   return true;
@@ -227,7 +230,7 @@ std::optional<Submission> MergeQueue::ClaimNext() {
     }
     std::optional<Submission> claimed =
         MergeClaims(*repository_).ClaimNext(options_.instance, options_.lease, skip);
-    std::lock_guard lock(mutex_);
+    MutexLock lock(mutex_);
     claim_failures_ = 0;
     if (claimed) kicked_ = true;  // there may be more: claim again right after this merge
     return claimed;
@@ -235,7 +238,7 @@ std::optional<Submission> MergeQueue::ClaimNext() {
     std::chrono::milliseconds retry_in{0};
     std::uint32_t attempt = 0;
     {
-      std::lock_guard lock(mutex_);
+      MutexLock lock(mutex_);
       attempt = ++claim_failures_;
       retry_in = Backoff(options_, attempt);
       ++retries_total_;
@@ -266,7 +269,7 @@ void MergeQueue::Run() {
     const Uuid submission = claimed->id, robot = claimed->robot;
     lease_lost_ = false;
     {
-      std::lock_guard lock(mutex_);
+      MutexLock lock(mutex_);
       merging_ = Running{submission, robot, WallClockNs()};
       if (const auto found = FindWaiting(submission); found != waiting_.end()) {
         waiting_.erase(found);
@@ -278,7 +281,7 @@ void MergeQueue::Run() {
       // Another instance holds it now: it merges it; the keeper tells our watchers when.
       spdlog::warn("merge {}: the lease ended mid-merge; rolled back, left to its new holder",
                    submission.ToString());
-      std::lock_guard lock(mutex_);
+      MutexLock lock(mutex_);
       merging_.reset();
       if (FindWaiting(submission) == waiting_.end()) waiting_.emplace_front(submission, robot);
       continue;
@@ -289,7 +292,7 @@ void MergeQueue::Run() {
       // An edge reaches a node of an earlier submission still queued: that one goes first
       // (claimed next when free; another instance may hold it), this one after it.
       deferred_[submission] = *done.waits_for;
-      std::lock_guard lock(mutex_);
+      MutexLock lock(mutex_);
       merging_.reset();
       kicked_ = true;
       if (FindWaiting(submission) == waiting_.end()) waiting_.emplace_front(submission, robot);
@@ -299,7 +302,7 @@ void MergeQueue::Run() {
     }
     if (on_done_) on_done_(done);
     if (done.transient) {
-      std::lock_guard lock(mutex_);
+      MutexLock lock(mutex_);
       merging_.reset();  // still queued; its watchers keep waiting
       continue;
     }
@@ -311,7 +314,7 @@ void MergeQueue::Run() {
 void MergeQueue::Finish(const Uuid& submission) {
   std::vector<std::function<void()>> watchers;
   {
-    std::lock_guard lock(mutex_);
+    MutexLock lock(mutex_);
     if (merging_ && merging_->submission == submission) merging_.reset();
     if (const auto found = FindWaiting(submission); found != waiting_.end()) {
       waiting_.erase(found);
@@ -329,8 +332,8 @@ void MergeQueue::Keep() {
   const auto period = std::min(options_.poll, options_.lease / 3);
   for (;;) {
     {
-      std::unique_lock lock(mutex_);
-      if (wake_.wait_for(lock, period, [&] { return stopping_; })) return;
+      MutexLock lock(mutex_);
+      if (wake_.WaitFor(mutex_, period, [&]() REQUIRES(mutex_) { return stopping_; })) return;
     }
     try {
       if (!repository) {
@@ -351,7 +354,7 @@ void MergeQueue::KeepOnce(Repository& repository) {
   std::optional<Uuid> running;
   std::vector<Uuid> known;
   {
-    std::lock_guard lock(mutex_);
+    MutexLock lock(mutex_);
     if (merging_) running = merging_->submission;
     for (const auto& [submission, robot] : waiting_) known.push_back(submission);
     for (const auto& [submission, list] : watchers_) {
@@ -368,7 +371,7 @@ void MergeQueue::KeepOnce(Repository& repository) {
     const std::optional<Submission> stored = repository.inspect().FindSubmission(submission);
     if (stored && stored->state == SubmissionState::kQueued) continue;
     {
-      std::lock_guard lock(mutex_);
+      MutexLock lock(mutex_);
       if (merging_ && merging_->submission == submission) continue;  // ours, just finishing
     }
     Finish(submission);  // merged or failed by another instance (or gone)
@@ -377,7 +380,7 @@ void MergeQueue::KeepOnce(Repository& repository) {
 
 void MergeQueue::AfterTransientFailure(MergeDone& done, const Uuid& robot) {
   {
-    std::lock_guard lock(mutex_);
+    MutexLock lock(mutex_);
     Retries& retries = retries_[done.submission];
     ++retries.attempts;
     retries.last_error = done.error;
@@ -440,8 +443,8 @@ MergeDone MergeQueue::MergeOne(const Uuid& submission) {
     if (!repository_) throw Error(ErrorCode::kBackend, "the store cannot be opened");
     if (options_.debug_pause.count() > 0) {
       {
-        std::unique_lock lock(mutex_);
-        wake_.wait_for(lock, options_.debug_pause, [&] { return stopping_; });
+        MutexLock lock(mutex_);
+        wake_.WaitFor(mutex_, options_.debug_pause, [&]() REQUIRES(mutex_) { return stopping_; });
       }
       CheckStillOurs();
       if (!MergeClaims(*repository_).Renew(submission, options_.instance, options_.lease)) {
@@ -476,7 +479,7 @@ MergeDone MergeQueue::MergeOne(const Uuid& submission) {
     done.transient = true;  // not MERGE's verdict on the content (e.g. out of memory)
   }
   if (done.merged || (!done.transient && !done.abandoned && !done.lease_lost && !done.waits_for)) {
-    std::lock_guard lock(mutex_);
+    MutexLock lock(mutex_);
     retries_.erase(submission);
   }
   done.seconds = SecondsSince(start);
