@@ -130,32 +130,39 @@ AgentSyncOptions SyncOptionsOf(const AgentArguments& args, const std::atomic<boo
 
   DownloadParams& download = options.download;
   download.mission_start_min = ParseTimeOfDay(args.mission_start, "--mission-start");
+  const auto non_negative = [](double value, const char* flag) {
+    if (!(value >= 0)) {
+      throw Error(ErrorCode::kInvalidArgument, std::string(flag) +
+                                                   " must be >= 0 (0: the "
+                                                   "server's default), not " +
+                                                   std::to_string(value));
+    }
+  };
+  non_negative(args.window_min, "--window-min");
+  non_negative(args.percent, "--percent");
+  non_negative(static_cast<double>(args.budget_bytes), "--budget-bytes");
+  non_negative(args.epoch_min, "--epoch-min");
+  download.policy = args.policy;
   download.window_min = args.window_min;
   download.best_percent = args.percent;
   download.budget_bytes = args.budget_bytes;
   download.epoch_min = args.epoch_min;
   for (const std::string& node : args.include_nodes)
     download.include_nodes.push_back(Uuid::Parse(node));
-  ValidateChannelName(args.channel);
   download.channel = args.channel;
-  // Refuse a policy the server would refuse, before dialling; the request carries the
-  // canonical name so equal policies compare equal for an incremental download.
-  DownloadPolicy policy = ParseDownloadPolicy(args.policy);
-  policy.mission_start_min = download.mission_start_min;
-  if (download.window_min != 0.0) policy.window_min = download.window_min;
-  if (download.best_percent != 0.0) policy.best_percent = download.best_percent;
-  if (download.epoch_min != 0.0) policy.epoch_min = download.epoch_min;
-  if (download.budget_bytes != 0) policy.budget_bytes = download.budget_bytes;
   if (!args.route.empty()) {
-    policy.route = RouteOfArgument(args.route, args.route_radius_m);
-    download.route_outing = policy.route->outing;
-    download.route_anchor = policy.route->anchor;
-    for (const Eigen::Vector3d& p : policy.route->anchor_p_m) {
-      download.route_xyz.insert(download.route_xyz.end(), {p.x(), p.y(), p.z()});
-    }
-    download.route_radius_m = args.route_radius_m;
+    SetRequestRoute(download, RouteOfArgument(args.route, args.route_radius_m),
+                    args.route_radius_m);
   }
-  ValidateDownloadPolicy(policy);
+  // Refuse a request the server would refuse, before dialling (the server reads it through the
+  // same PolicyOfRequest); the request carries the canonical name, so equal policies compare
+  // equal for an incremental download.
+  const DownloadPolicy policy = PolicyOfRequest(download);
+  if (args.budget_bytes > 0 && !policy.budget_bytes) {
+    throw Error(ErrorCode::kInvalidArgument,
+                "--budget-bytes needs a policy with \"budget\" (e.g. tod+budget), not \"" +
+                    policy.Name() + "\"");
+  }
   download.policy = policy.Name();
   if (!args.quiet) options.progress = Say;
   return options;
@@ -221,10 +228,10 @@ void PrintResult(const SyncResult& r, bool as_json) {
   }
   if (r.held_nodes > 0) {
     std::printf(
-        "held %zu nodes (%.2f MiB) and %zu edges to them: each node is over the server's limits "
+        "held %zu nodes (%s) and %zu edges to them: each node is over the server's limits "
         "on its own; kept in this map, pushed once the server takes them (see `fleetmap-agent "
         "status`)\n",
-        r.held_nodes, static_cast<double>(r.held_bytes) / (1 << 20), r.held_edges);
+        r.held_nodes, BytesText(r.held_bytes).c_str(), r.held_edges);
   }
   std::printf(
       "%.2f s (push %.2f, merge wait %.2f, download %.2f, install %.2f); %llu bytes sent, "
@@ -450,14 +457,14 @@ int StatusCommand(const AgentArguments& args) {
                 static_cast<long long>(unsynced_paths));
     if (!state.held.empty()) {
       std::printf(
-          "HELD %zu nodes (%.2f MiB), each over the server's limit of %.2f MiB a submission on "
+          "HELD %zu nodes (%s), each over the server's limit of %s a submission on "
           "its own: kept in this map, not pushed; each sync tries them again, and they go once "
           "the server takes them (fleetmapd --max-submission-mib)\n",
-          state.held.size(), static_cast<double>(held_bytes) / (1 << 20),
-          static_cast<double>(state.server_limits.max_submission_bytes) / (1 << 20));
+          state.held.size(), BytesText(held_bytes).c_str(),
+          BytesText(state.server_limits.max_submission_bytes).c_str());
       for (const HeldNode& node : state.held) {
-        std::printf("  held node %s (%.2f MiB)\n", node.id.ToString().c_str(),
-                    static_cast<double>(node.bytes) / (1 << 20));
+        std::printf("  held node %s (%s)\n", node.id.ToString().c_str(),
+                    BytesText(node.bytes).c_str());
       }
     }
     if (state.submission) {

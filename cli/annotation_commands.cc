@@ -58,8 +58,8 @@ void RunBox(const BoxArgs& args) {
     box.annotation.parent = ParseUuidArgument(args.parent, "--parent");
   }
   box.box = args.box;
-  std::unique_ptr<Repository> repository = OpenRepository(args.store);
-  repository->store().annotations().PutBox(box);
+  const std::unique_ptr<GraphStore> store = OpenRepositoryStore(args.store);
+  store->annotations().PutBox(box);
   if (args.json) {
     nlohmann::ordered_json json;
     json["annotation"] = box.annotation.id.ToString();
@@ -78,8 +78,8 @@ void RunBox(const BoxArgs& args) {
 
 void RunRemove(const RemoveArgs& args) {
   const Uuid id = ParseUuidArgument(args.id, "annotation");
-  std::unique_ptr<Repository> repository = OpenRepository(args.store);
-  const std::int64_t deleted = repository->store().annotations().Delete(id);
+  const std::unique_ptr<GraphStore> store = OpenRepositoryStore(args.store);
+  const std::int64_t deleted = store->annotations().Delete(id);
   if (args.json) {
     nlohmann::ordered_json json;
     json["annotation"] = id.ToString();
@@ -111,10 +111,9 @@ void RunQuery(const AnnotatedQueryArgs& args) {
   query.filter = ParseLabelFilter(args.filter);
   query.from_ns = args.from_ns;
   query.to_ns = args.to_ns;
-  std::unique_ptr<Repository> repository = OpenRepository(args.store);
-  GraphStore& store = repository->store();
-  query.platform = ResolvePlatform(store, args.platform);
-  const std::vector<AnnotatedDatum> data = store.annotations().FindAnnotatedData(query);
+  const std::unique_ptr<GraphStore> store = OpenRepositoryStore(args.store);
+  query.platform = ResolvePlatform(*store, args.platform);
+  const std::vector<AnnotatedDatum> data = store->annotations().FindAnnotatedData(query);
   if (args.json) {
     nlohmann::ordered_json list = nlohmann::ordered_json::array();
     for (const AnnotatedDatum& d : data) {

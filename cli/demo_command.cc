@@ -4,6 +4,7 @@
 // summary table, a CSV and a plot.
 #include <unistd.h>
 
+#include <cstdint>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
@@ -11,6 +12,7 @@
 
 #include "commands.h"
 #include "fleetmap/core/error.h"
+#include "fleetmap/core/printable_text.h"
 #include "fleetmap/core/uuid.h"
 #include "fleetmap/runners/fleet_demo.h"
 
@@ -39,16 +41,6 @@ double Percent(int part, int whole) {
   return whole ? 100.0 * part / whole : 0.0;
 }
 
-std::string Bytes(std::int64_t bytes) {
-  char text[32];
-  if (bytes >= (1 << 20)) {
-    std::snprintf(text, sizeof text, "%.1f MiB", static_cast<double>(bytes) / (1 << 20));
-  } else {
-    std::snprintf(text, sizeof text, "%.1f KiB", static_cast<double>(bytes) / 1024.0);
-  }
-  return text;
-}
-
 void PrintForay(const ForayReport& foray) {
   std::printf("foray %d (missions from %s UTC)\n", foray.foray, foray.mission_start.c_str());
   for (const RobotForay& r : foray.robots) {
@@ -58,7 +50,8 @@ void PrintForay(const ForayReport& foray) {
         r.robot.c_str(), Percent(r.localised, r.frames), r.frames,
         static_cast<long long>(r.nodes_after_drive), static_cast<long long>(r.pushed_nodes),
         static_cast<long long>(r.nodes_held), r.incremental ? "incremental" : "full",
-        Bytes(r.bytes_sent).c_str(), Bytes(r.bytes_received).c_str(), r.sync_seconds);
+        BytesText(static_cast<std::uint64_t>(r.bytes_sent)).c_str(),
+        BytesText(static_cast<std::uint64_t>(r.bytes_received)).c_str(), r.sync_seconds);
   }
   std::printf("  server   revision %lld, %lld nodes\n",
               static_cast<long long>(foray.server_revision),
@@ -80,7 +73,8 @@ void PrintSummary(const FleetDemoResult& result) {
     }
     std::printf("| %d | %.1f %% | %lld | %lld | %lld | %s |\n", f.foray, Percent(localised, frames),
                 static_cast<long long>(held), static_cast<long long>(f.server_revision),
-                static_cast<long long>(f.server_nodes), Bytes(moved).c_str());
+                static_cast<long long>(f.server_nodes),
+                BytesText(static_cast<std::uint64_t>(moved)).c_str());
   }
   std::printf("\ncsv:  %s\n", result.csv.string().c_str());
   for (const fs::path& plot : result.plots) std::printf("plot: %s\n", plot.string().c_str());

@@ -36,21 +36,10 @@ struct DownloadArgs {
   bool json = false;
 };
 
-// The policy and its parameters, each checked against the option that set it.
+// The policy and its parameters, each checked against the option that set it, then read as a
+// robot's request is (PolicyOfRequest: the same defaults), plus what only a local selection
+// takes: the mission's end and the coverage's stretches.
 DownloadPolicy PolicyOf(const DownloadArgs& args) {
-  DownloadPolicy policy = ParseDownloadPolicy(args.policy);
-  if (!args.route.empty()) policy.route = RouteOfArgument(args.route, args.route_radius_m);
-  const bool copy = !policy.time_of_day && !policy.paths && !policy.cover && !policy.budget_bytes;
-  if (!args.mission_start.empty()) {
-    policy.mission_start_min = ParseTimeOfDay(args.mission_start, "--mission-start");
-  } else if (!copy) {
-    throw Error(ErrorCode::kInvalidArgument, "--mission-start HH:MM is required for policy \"" +
-                                                 policy.Name() +
-                                                 "\" (only \"copy\" ignores the mission time)");
-  }
-  if (!args.mission_end.empty()) {
-    policy.mission_end_min = ParseTimeOfDay(args.mission_end, "--mission-end");
-  }
   const auto fail = [](const std::string& message) {
     throw Error(ErrorCode::kInvalidArgument, message);
   };
@@ -67,20 +56,35 @@ DownloadPolicy PolicyOf(const DownloadArgs& args) {
   if (!(args.percent > 0 && args.percent <= 100)) {
     fail("--percent (p of Algorithm 3) must be in (0, 100], not " + std::to_string(args.percent));
   }
-  if (args.window_min > 0) policy.window_min = args.window_min;
-  policy.epoch_min = args.epoch_min;
-  policy.coverage = args.coverage;
-  policy.best_percent = args.percent;
-  if (args.budget_bytes) {
-    if (!policy.budget_bytes) {
-      fail("--budget-bytes needs a policy with \"budget\" (e.g. tod+budget), not \"" +
-           policy.Name() + "\"");
-    }
-    if (*args.budget_bytes <= 0) {
-      fail("--budget-bytes must be > 0, not " + std::to_string(*args.budget_bytes));
-    }
-    policy.budget_bytes = args.budget_bytes;
+  if (args.budget_bytes && *args.budget_bytes <= 0) {
+    fail("--budget-bytes must be > 0, not " + std::to_string(*args.budget_bytes));
   }
+  DownloadParams params;
+  params.policy = args.policy;
+  if (!args.mission_start.empty()) {
+    params.mission_start_min = ParseTimeOfDay(args.mission_start, "--mission-start");
+  }
+  params.window_min = args.window_min;
+  params.epoch_min = args.epoch_min;
+  params.best_percent = args.percent;
+  params.budget_bytes = args.budget_bytes.value_or(0);
+  if (!args.route.empty()) {
+    SetRequestRoute(params, RouteOfArgument(args.route, args.route_radius_m), args.route_radius_m);
+  }
+  DownloadPolicy policy = PolicyOfRequest(params);
+  const bool copy = !policy.time_of_day && !policy.paths && !policy.cover && !policy.budget_bytes;
+  if (args.mission_start.empty() && !copy) {
+    fail("--mission-start HH:MM is required for policy \"" + policy.Name() +
+         "\" (only \"copy\" ignores the mission time)");
+  }
+  if (args.budget_bytes && !policy.budget_bytes) {
+    fail("--budget-bytes needs a policy with \"budget\" (e.g. tod+budget), not \"" + policy.Name() +
+         "\"");
+  }
+  if (!args.mission_end.empty()) {
+    policy.mission_end_min = ParseTimeOfDay(args.mission_end, "--mission-end");
+  }
+  policy.coverage = args.coverage;
   ValidateDownloadPolicy(policy);
   return policy;
 }
@@ -211,9 +215,9 @@ void RunDownload(const DownloadArgs& args) {
   RequireNewStore(args.out, "--out");
   const Download download = repository->SelectForDownload(policy, args.revision);
   Bytes bytes;
-  bytes.map = repository->versions().StatsAt(download.revision).landmark_bytes;
+  bytes.map = repository->inspect().StatsAt(download.revision).landmark_bytes;
   bytes.download = WriteNewStore(args.out, "--out", download.map).landmark_bytes;
-  PrintReport(download, policy, args, repository->store().uri(), bytes);
+  PrintReport(download, policy, args, repository->uri(), bytes);
 }
 
 }  // namespace

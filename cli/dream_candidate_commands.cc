@@ -86,7 +86,7 @@ struct CandidatesArgs {
 
 void RunCandidates(const CandidatesArgs& args) {
   const std::unique_ptr<Repository> repository = OpenExistingRepository(args.store);
-  const std::vector<DreamCandidateRecord> records = DreamCandidates(repository->versions()).List();
+  const std::vector<DreamCandidateRecord> records = DreamCandidates(*repository).List();
   if (args.json) {
     nlohmann::json list = nlohmann::json::array();
     for (const DreamCandidateRecord& c : records) {

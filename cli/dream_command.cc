@@ -223,7 +223,7 @@ void RunDream(const DreamArgs& args) {
     try {
       return repository->ReadSubmission(id);
     } catch (const Error& error) {
-      throw InContext(error, option + " (in " + repository->store().uri() + ")");
+      throw InContext(error, option + " (in " + repository->uri() + ")");
     }
   };
   for (const Uuid& id : d.ids.groups) d.groups.push_back(read(id, "--groups"));
@@ -231,7 +231,7 @@ void RunDream(const DreamArgs& args) {
   d.held_out = HeldOutOutings(held_out_map);
   const DreamWords words = DreamVocabulary(*repository, d.groups);
   if (words.trained) {
-    std::cerr << "dream: " << repository->store().uri()
+    std::cerr << "dream: " << repository->uri()
               << " has no appearance vocabulary yet; trained one from the groups\n";
   }
 

@@ -17,7 +17,6 @@
 #include "fleetmap/runners/lifelong_experiment.h"
 #include "fleetmap/runners/lifelong_report.h"
 #include "fleetmap/runners/ranking_experiment.h"
-#include "fleetmap/runners/ranking_report.h"
 #include "fleetmap/world/world_config.h"
 #include "progress_bar.h"
 

@@ -56,8 +56,7 @@ void RunRender(const RenderArgs& args) {
   const std::unique_ptr<Repository> repository = OpenExistingRepository(args.store);
   const RevisionNumber revision = args.revision.value_or(repository->Head());
   RequireRevision(*repository, revision);
-  const std::string where =
-      "revision " + std::to_string(revision) + " of " + repository->store().uri();
+  const std::string where = "revision " + std::to_string(revision) + " of " + repository->uri();
   // Opened before the map is read, so an --out that cannot be written fails at once.
   StagedOutputFile file(args.out);
   const MapPicture picture = ComposeRevisionPicture(*repository, revision, colouring, where);

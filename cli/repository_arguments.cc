@@ -24,15 +24,29 @@ std::string SqlitePath(std::string_view uri) {
   return std::string(path);
 }
 
-std::unique_ptr<Repository> OpenRepository(const std::string& uri, bool create) {
+namespace {
+
+// Refuses an SQLite repository file that does not exist (OpenRepository).
+void RequireRepositoryFile(const std::string& uri) {
   const std::string path = SqlitePath(uri);
-  if (!create && !path.empty() && !std::filesystem::exists(path)) {
+  if (!path.empty() && !std::filesystem::exists(path)) {
     throw Error(ErrorCode::kNotFound, "no repository at " + uri + " (" + path +
                                           " does not exist); create one with `fleetmap init "
                                           "--store " +
                                           uri + "`");
   }
+}
+
+}  // namespace
+
+std::unique_ptr<Repository> OpenRepository(const std::string& uri, bool create) {
+  if (!create) RequireRepositoryFile(uri);
   return Repository::Open(uri);
+}
+
+std::unique_ptr<GraphStore> OpenRepositoryStore(const std::string& uri) {
+  RequireRepositoryFile(uri);
+  return GraphStore::Open(uri);
 }
 
 std::unique_ptr<Repository> OpenExistingRepository(const std::string& uri) {
@@ -63,7 +77,7 @@ void RequireRevision(Repository& repository, RevisionNumber r) {
   const RevisionNumber head = repository.Head();
   if (r < 0 || r > head) {
     throw Error(ErrorCode::kNotFound, "no revision " + std::to_string(r) + " in " +
-                                          repository.store().uri() +
+                                          repository.uri() +
                                           ": its revisions run from 0 (the empty map) to " +
                                           std::to_string(head) + " (the head)");
   }

@@ -14,6 +14,7 @@
 #include "fleetmap/core/error.h"
 #include "fleetmap/core/uuid.h"
 #include "fleetmap/repository/repository.h"
+#include "fleetmap/store/graph_store.h"
 #include "fleetmap/store/version_store.h"
 
 namespace fleetmap::cli {
@@ -27,6 +28,10 @@ void AddStoreOption(CLI::App& command, std::string& uri);
 // refused with Error(kNotFound) pointing at `fleetmap init`, so a mistyped path does not
 // quietly become an empty repository. (A PostgreSQL database has to exist to be connected to.)
 std::unique_ptr<Repository> OpenRepository(const std::string& uri, bool create = false);
+
+// The store of the repository at `uri`, refused as OpenRepository refuses it, for commands on
+// what the store keeps beside the repository's history: raw sensor data and its annotations.
+std::unique_ptr<GraphStore> OpenRepositoryStore(const std::string& uri);
 
 // The repository at `uri`, which must exist already, for a command that only reads (`export`,
 // `render`): an empty file or another program's database is refused as it is ("--store URI is

@@ -26,10 +26,9 @@ struct InitArgs {
 
 void RunInit(const InitArgs& args) {
   const std::unique_ptr<Repository> repository = OpenRepository(args.store, /*create=*/true);
-  GraphStore& store = repository->store();
-  std::printf("repository %s\n", store.uri().c_str());
-  std::printf("  schema version %d (this fleetmap writes %d)\n", store.schema_version(),
-              GraphStore::LatestSchemaVersion());
+  std::printf("repository %s\n", repository->uri().c_str());
+  std::printf("  schema version %d (this fleetmap writes %d)\n",
+              repository->inspect().SchemaVersion(), GraphStore::LatestSchemaVersion());
   std::printf("  head revision  %lld\n", static_cast<long long>(repository->Head()));
   std::printf("  submissions    %zu\n", repository->Submissions().size());
 }
@@ -87,7 +86,7 @@ void RunLog(const LogArgs& args) {
   }
   if (history.empty()) {
     std::printf("no revisions in %s yet: the map is empty (push, then `fleetmap merge`)\n",
-                repository->store().uri().c_str());
+                repository->uri().c_str());
     return;
   }
   // Authors are outside text: escaped to one line each, so none can forge a row or drive the
@@ -127,7 +126,7 @@ void RunCheckout(const CheckoutArgs& args) {
   const GraphBatch map = repository->Checkout(revision);
   const StoreStats written = WriteNewStore(args.out, "--out", map);
   std::printf("checked out revision %lld of %s into %s\n", static_cast<long long>(revision),
-              repository->store().uri().c_str(), args.out.c_str());
+              repository->uri().c_str(), args.out.c_str());
   std::printf("  %s, %s, %s, %lld landmark bytes\n", Count(written.nodes, "node").c_str(),
               Count(written.edges, "edge").c_str(), Count(written.paths, "path").c_str(),
               static_cast<long long>(written.landmark_bytes));

@@ -32,7 +32,7 @@ void RunRobotAdd(const RobotAddArgs& args) {
   const std::unique_ptr<Repository> repository = OpenRepository(args.store, /*create=*/true);
   NewRobot added;
   try {
-    added = RobotRegistry(repository->versions()).Add(args.name, WallClockNs());
+    added = RobotRegistry(*repository).Add(args.name, WallClockNs());
   } catch (const Error& error) {
     throw InContext(error, "robot add " + args.name);
   }
@@ -45,7 +45,7 @@ void RunRobotAdd(const RobotAddArgs& args) {
     return;
   }
   std::printf("robot %s registered in %s\n", PrintableText(added.robot.name).c_str(),
-              repository->store().uri().c_str());
+              repository->uri().c_str());
   std::printf("  robot id  %s\n", added.robot.id.ToString().c_str());
   std::printf("  token     %s\n", added.token.c_str());
   std::printf(
@@ -55,7 +55,7 @@ void RunRobotAdd(const RobotAddArgs& args) {
 
 void RunRobotList(const RobotListArgs& args) {
   const std::unique_ptr<Repository> repository = OpenRepository(args.store);
-  const std::vector<RegisteredRobot> robots = RobotRegistry(repository->versions()).List();
+  const std::vector<RegisteredRobot> robots = RobotRegistry(*repository).List();
   const std::vector<Channel> channels = ChannelRegistry(*repository).List();
   const RevisionNumber head = repository->Head();
   if (args.json) {
@@ -91,7 +91,7 @@ void RunRobotList(const RobotListArgs& args) {
   }
   if (robots.empty()) {
     std::printf("no robots registered in %s (`fleetmap robot add NAME` registers one)\n",
-                repository->store().uri().c_str());
+                repository->uri().c_str());
     return;
   }
   int name_width = 4;

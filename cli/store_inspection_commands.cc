@@ -3,6 +3,7 @@
 // so neither can change what they look at.
 #include <CLI/CLI.hpp>
 #include <chrono>
+#include <cstdint>
 #include <cstdio>
 #include <iostream>
 #include <memory>
@@ -46,19 +47,6 @@ std::unique_ptr<GraphStore> OpenForReading(const std::string& text) {
   }
 }
 
-std::string Bytes(std::int64_t bytes) {
-  char text[32];
-  const double b = static_cast<double>(bytes);
-  if (b >= 1e9) {
-    std::snprintf(text, sizeof text, "%.2f GB", b / 1e9);
-  } else if (b >= 1e6) {
-    std::snprintf(text, sizeof text, "%.1f MB", b / 1e6);
-  } else {
-    std::snprintf(text, sizeof text, "%.1f kB", b / 1e3);
-  }
-  return text;
-}
-
 void RunInfo(const InspectArgs& args) {
   const std::unique_ptr<GraphStore> store = OpenForReading(args.store);
   const StoreFacts f = DescribeStore(*store);
@@ -99,11 +87,12 @@ void RunInfo(const InspectArgs& args) {
   }
   std::printf("store         %s\n", f.uri.c_str());
   std::printf("engine        %s, schema version %d\n", f.engine.c_str(), f.schema_version);
-  std::printf("on disk       %s\n", Bytes(f.bytes_on_disk).c_str());
-  std::printf(
-      "stored        %s, %s, %s, %s; %s of landmarks\n", Count(f.stored.nodes, "node").c_str(),
-      Count(f.stored.edges, "edge").c_str(), Count(f.stored.paths, "path").c_str(),
-      Count(f.stored.annotations, "annotation").c_str(), Bytes(f.stored.landmark_bytes).c_str());
+  std::printf("on disk       %s\n", BytesText(static_cast<std::uint64_t>(f.bytes_on_disk)).c_str());
+  std::printf("stored        %s, %s, %s, %s; %s of landmarks\n",
+              Count(f.stored.nodes, "node").c_str(), Count(f.stored.edges, "edge").c_str(),
+              Count(f.stored.paths, "path").c_str(),
+              Count(f.stored.annotations, "annotation").c_str(),
+              BytesText(static_cast<std::uint64_t>(f.stored.landmark_bytes)).c_str());
   if (f.last_revision) {
     std::printf("head          revision %lld (%s by %s): %s, %s, %s\n",
                 static_cast<long long>(f.head), FormatUtc(f.last_revision->created_ns).c_str(),

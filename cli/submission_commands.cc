@@ -64,7 +64,7 @@ void RunPush(const PushArgs& args) {
   const Uuid id = args.id.empty() ? Uuid::GenerateRandom() : ParseUuidArgument(args.id, "--id");
   const GraphBatch map = ReadRobotMap(args.map);
   const std::unique_ptr<Repository> repository = OpenRepository(args.store);
-  const bool stored_before = repository->versions().FindSubmission(id).has_value();
+  const bool stored_before = repository->inspect().FindSubmission(id).has_value();
   const std::string author = args.author.empty() ? robot.ToString() : args.author;
   Submission submission;
   try {
@@ -107,7 +107,7 @@ struct SubmissionsArgs {
 // store), when its lease has not ended by this host's clock.
 std::optional<SubmissionClaim> QueuedClaim(Repository& repository, const Submission& s) {
   if (s.state != SubmissionState::kQueued) return std::nullopt;
-  std::optional<SubmissionClaim> claim = repository.versions().FindClaim(s.id);
+  std::optional<SubmissionClaim> claim = repository.inspect().FindClaim(s.id);
   const std::int64_t now_ns = WallClockNs();
   if (!claim || claim->lease_until_ns <= now_ns) return std::nullopt;
   return claim;
@@ -142,7 +142,7 @@ void RunSubmissions(const SubmissionsArgs& args) {
   }
   if (submissions.empty()) {
     std::printf("no submissions in %s (robots add theirs with `fleetmap push`)\n",
-                repository->store().uri().c_str());
+                repository->uri().c_str());
     return;
   }
   // Authors, errors and instance names are outside text: escaped to one line each, so none can
@@ -217,9 +217,9 @@ void RunMerge(const MergeArgs& args) {
   }
   const std::unique_ptr<Repository> repository = OpenRepository(args.store);
   for (const Uuid& id : ids) {
-    if (!repository->versions().FindSubmission(id)) {
+    if (!repository->inspect().FindSubmission(id)) {
       throw Error(ErrorCode::kNotFound, "no submission " + id.ToString() + " in " +
-                                            repository->store().uri() +
+                                            repository->uri() +
                                             " (see `fleetmap submissions`); nothing merged");
     }
   }
@@ -228,8 +228,7 @@ void RunMerge(const MergeArgs& args) {
       if (s.state == SubmissionState::kQueued) ids.push_back(s.id);
     }
     if (ids.empty()) {
-      std::printf("nothing to merge: no queued submissions in %s\n",
-                  repository->store().uri().c_str());
+      std::printf("nothing to merge: no queued submissions in %s\n", repository->uri().c_str());
       return;
     }
   }

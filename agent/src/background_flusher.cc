@@ -12,10 +12,10 @@ BackgroundFlusher::BackgroundFlusher(std::filesystem::path path, std::chrono::mi
 
 BackgroundFlusher::~BackgroundFlusher() {
   {
-    std::lock_guard lock(mutex_);
+    MutexLock lock(mutex_);
     stopping_ = true;
   }
-  stop_requested_.notify_all();
+  stop_requested_.NotifyAll();
   thread_.join();
 }
 
@@ -23,11 +23,12 @@ void BackgroundFlusher::Run() {
   // Its own descriptor: fdatasync flushes the file's pages whoever wrote them.
   const int fd = ::open(path_.c_str(), O_RDONLY | O_CLOEXEC);
   if (fd < 0) return;
-  std::unique_lock lock(mutex_);
-  while (!stop_requested_.wait_for(lock, period_, [this] { return stopping_; })) {
-    lock.unlock();
+  MutexLock lock(mutex_);
+  while (
+      !stop_requested_.WaitFor(mutex_, period_, [this]() REQUIRES(mutex_) { return stopping_; })) {
+    lock.Unlock();
     ::fdatasync(fd);
-    lock.lock();
+    lock.Lock();
   }
   ::close(fd);
 }

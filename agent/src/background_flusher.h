@@ -9,10 +9,10 @@
 #pragma once
 
 #include <chrono>
-#include <condition_variable>
 #include <filesystem>
-#include <mutex>
 #include <thread>
+
+#include "fleetmap/core/mutex.h"
 
 namespace fleetmap::agent_internal {
 
@@ -28,10 +28,10 @@ class BackgroundFlusher {
 
   const std::filesystem::path path_;
   const std::chrono::milliseconds period_;
-  std::mutex mutex_;
-  std::condition_variable stop_requested_;
-  bool stopping_ = false;  // guarded by mutex_
-  std::thread thread_;     // last: starts once the rest is constructed
+  Mutex mutex_;
+  CondVar stop_requested_;
+  bool stopping_ GUARDED_BY(mutex_) = false;
+  std::thread thread_;  // last: starts once the rest is constructed
 };
 
 }  // namespace fleetmap::agent_internal

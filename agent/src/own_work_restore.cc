@@ -5,6 +5,7 @@
 
 #include "fleetmap/core/error.h"
 #include "fleetmap/core/map_chunks.h"
+#include "fleetmap/protocol/own_work_exchange.h"
 
 namespace fleetmap::agent_internal {
 
@@ -17,10 +18,7 @@ GraphBatch FetchSubmission(SyncClient& client, const v1::OwnSubmission& listed,
   std::vector<std::string> chunks;
   MapContentDigest digest;
   for (std::uint32_t seq = 0; seq < listed.chunk_count(); ++seq) {
-    v1::SyncFrame request;
-    request.mutable_submission_chunk_request()->set_submission_id(listed.submission_id());
-    request.mutable_submission_chunk_request()->set_seq(seq);
-    client.Send(request);
+    client.Send(SubmissionChunkRequestFrame({Uuid::FromBytes(listed.submission_id()), seq}));
     v1::SyncFrame reply = client.Expect(v1::SyncFrame::kSubmissionChunk, during);
     v1::SubmissionChunk& chunk = *reply.mutable_submission_chunk();
     if (chunk.seq() != seq || chunk.submission_id() != listed.submission_id()) {
@@ -49,9 +47,7 @@ OwnWorkRestored RestoreOwnWork(SyncClient& client, LocalMap& map,
   const auto say = [&](const std::string& line) {
     if (progress) progress(line);
   };
-  v1::SyncFrame request;
-  request.mutable_own_submissions_request()->set_after_revision(map.state().revision);
-  client.Send(request);
+  client.Send(OwnSubmissionsRequestFrame(map.state().revision));
   const v1::SyncFrame reply = client.Expect(v1::SyncFrame::kOwnSubmissions, "own_submissions");
   const v1::OwnSubmissions& listed = reply.own_submissions();
   OwnWorkRestored restored;

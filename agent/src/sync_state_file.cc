@@ -9,6 +9,7 @@
 #include "fleetmap/core/error.h"
 #include "fleetmap/core/printable_text.h"
 #include "fleetmap/core/staged_file.h"
+#include "fleetmap/protocol/download_request.h"
 
 namespace fleetmap::agent_internal {
 
@@ -56,49 +57,6 @@ ElementIds ElementsFromJson(const json& object) {
   return ids;
 }
 
-json RequestToJson(const DownloadParams& request) {
-  json include = json::array();
-  for (const Uuid& id : request.include_nodes) include.push_back(id.ToString());
-  json object = {{"policy", request.policy},
-                 {"mission_start_min", request.mission_start_min},
-                 {"window_min", request.window_min},
-                 {"best_percent", request.best_percent},
-                 {"budget_bytes", request.budget_bytes},
-                 {"epoch_min", request.epoch_min},
-                 {"include_nodes", include},
-                 {"channel", request.channel},
-                 {"route_xyz", request.route_xyz},
-                 {"route_radius_m", request.route_radius_m}};
-  if (request.route_outing) object["route_outing"] = request.route_outing->ToString();
-  if (request.route_anchor) object["route_anchor"] = request.route_anchor->ToString();
-  return object;
-}
-
-DownloadParams RequestFromJson(const json& object) {
-  DownloadParams request;
-  request.policy = object.at("policy").get<std::string>();
-  request.mission_start_min = object.at("mission_start_min").get<double>();
-  request.window_min = object.at("window_min").get<double>();
-  request.best_percent = object.at("best_percent").get<double>();
-  request.budget_bytes = object.at("budget_bytes").get<std::int64_t>();
-  request.epoch_min = object.at("epoch_min").get<double>();
-  for (const json& item : object.at("include_nodes")) {
-    request.include_nodes.push_back(Uuid::Parse(item.get<std::string>()));
-  }
-  // Channels and routes; files written before them have none of these (the head, no route).
-  request.channel = object.value("channel", std::string("head"));
-  if (object.contains("route_xyz"))
-    request.route_xyz = object["route_xyz"].get<std::vector<double>>();
-  request.route_radius_m = object.value("route_radius_m", 0.0);
-  if (object.contains("route_outing")) {
-    request.route_outing = Uuid::Parse(object["route_outing"].get<std::string>());
-  }
-  if (object.contains("route_anchor")) {
-    request.route_anchor = Uuid::Parse(object["route_anchor"].get<std::string>());
-  }
-  return request;
-}
-
 [[noreturn]] void ThrowIo(const std::string& what, const std::filesystem::path& path) {
   throw Error(ErrorCode::kBackend, what + " " + path.string() + ": " + std::strerror(errno));
 }
@@ -127,7 +85,7 @@ std::string SyncStateToJson(const SyncState& state) {
   key("revision");
   out += std::to_string(state.revision) + ",\n";
   key("request");
-  out += JsonText(state.request ? RequestToJson(*state.request) : json(nullptr)) + ",\n";
+  out += JsonText(state.request ? DownloadParamsToJson(*state.request) : json(nullptr)) + ",\n";
   key("installed");
   AppendElements(out, state.installed);
   out += ",\n";
@@ -193,7 +151,7 @@ SyncState SyncStateFromJson(const std::string& text, const std::string& source) 
     SyncState state;
     if (!root.at("robot").is_null()) state.robot = Uuid::Parse(root["robot"].get<std::string>());
     state.revision = root.at("revision").get<std::int64_t>();
-    if (!root.at("request").is_null()) state.request = RequestFromJson(root["request"]);
+    if (!root.at("request").is_null()) state.request = DownloadParamsFromJson(root["request"]);
     state.installed = ElementsFromJson(root.at("installed"));
     state.pushed = ElementsFromJson(root.at("pushed"));
     if (!root.at("submission").is_null()) {

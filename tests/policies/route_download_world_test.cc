@@ -37,7 +37,7 @@
 #include <utility>
 #include <vector>
 
-#include "fleetmap/core/graph_io.h"
+#include "fleetmap/core/graph.h"
 #include "fleetmap/ebn/experience_builder.h"
 #include "fleetmap/ebn/experience_map.h"
 #include "fleetmap/map_management/download_policy.h"

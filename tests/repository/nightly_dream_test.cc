@@ -428,10 +428,9 @@ int MinuteOfDay(std::int64_t ns) {
 // (here abandoned from its progress callback, as a kill leaves it) until one finishes.
 TYPED_TEST(NightlyDreamTest, AMissedDreamIsToldFromTheStore) {
   Repository& repository = *this->repository_;
-  VersionStore& versions = repository.versions();
   constexpr std::int64_t kHourNs = 3'600'000'000'000;
   const std::int64_t now = WallNs();
-  EXPECT_FALSE(FindMissedDream(versions, now, MinuteOfDay(now + 2 * kHourNs)));
+  EXPECT_FALSE(FindMissedDream(repository, now, MinuteOfDay(now + 2 * kHourNs)));
   this->PushAndMerge(0, 0.0);
   this->PushAndMerge(1, 0.0);
   NightlyDreamOptions options;
@@ -441,8 +440,8 @@ TYPED_TEST(NightlyDreamTest, AMissedDreamIsToldFromTheStore) {
   // Scheduled two hours ahead: yesterday's time passed before the dream, nothing missed; three
   // hours on, today's time has passed since it.
   const int later = MinuteOfDay(done + 2 * kHourNs);
-  EXPECT_FALSE(FindMissedDream(versions, done, later));
-  const std::optional<MissedDream> missed = FindMissedDream(versions, done + 3 * kHourNs, later);
+  EXPECT_FALSE(FindMissedDream(repository, done, later));
+  const std::optional<MissedDream> missed = FindMissedDream(repository, done + 3 * kHourNs, later);
   ASSERT_TRUE(missed);
   EXPECT_GT(missed->scheduled_ns, done);
   EXPECT_LE(missed->scheduled_ns, done + 3 * kHourNs);
@@ -454,12 +453,12 @@ TYPED_TEST(NightlyDreamTest, AMissedDreamIsToldFromTheStore) {
       repository, options, [](std::size_t, std::size_t) { throw std::runtime_error("killed"); }));
   const std::int64_t cut = WallNs();
   for (const int minute : {later, MinuteOfDay(cut), MinuteOfDay(cut + kHourNs)}) {
-    const std::optional<MissedDream> again = FindMissedDream(versions, cut, minute);
+    const std::optional<MissedDream> again = FindMissedDream(repository, cut, minute);
     ASSERT_TRUE(again) << minute;
     EXPECT_NE(again->why.find("did not finish"), std::string::npos) << again->why;
   }
   ASSERT_TRUE(RunNightlyDream(repository, options).candidate);
-  EXPECT_FALSE(FindMissedDream(versions, WallNs(), later));
+  EXPECT_FALSE(FindMissedDream(repository, WallNs(), later));
 }
 
 }  // namespace

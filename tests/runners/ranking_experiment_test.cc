@@ -11,7 +11,6 @@
 
 #include "fleetmap/core/error.h"
 #include "fleetmap/core/uuid.h"
-#include "fleetmap/runners/ranking_report.h"
 #include "scratch_dir.h"
 
 namespace fleetmap {

@@ -120,6 +120,23 @@ class RawSyncClient {
     }
   }
 
+  // The next frame exactly as it came, its 4-byte prefix and its body, not parsed; nullopt at
+  // the end of the stream, on a timeout or on a prefix over the cap. For tests that compare the
+  // server's bytes themselves.
+  std::optional<std::string> ReceiveRaw() {
+    std::string prefix;
+    if (!ReadExactly(kSyncFrameLengthBytes, prefix)) return std::nullopt;
+    std::uint32_t length = 0;
+    try {
+      length = DecodeSyncFrameLength(prefix);
+    } catch (const std::exception&) {
+      return std::nullopt;
+    }
+    std::string body;
+    if (!ReadExactly(length, body)) return std::nullopt;
+    return prefix + body;
+  }
+
   // True when the server closed the connection (end of stream, or reset) within the timeout.
   bool ClosedByServer() {
     char byte = 0;

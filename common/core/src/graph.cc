@@ -231,4 +231,8 @@ Landmarks DecodeLandmarks(const std::string& blob) {
   return landmarks;
 }
 
+// Out of line, so each interface's vtable has one home.
+GraphReader::~GraphReader() = default;
+GraphWriter::~GraphWriter() = default;
+
 }  // namespace fleetmap

@@ -10,32 +10,6 @@ void AppendNumber(std::string& out, double value) {
   out.append(text, result.ptr);
 }
 
-void AppendXmlEscaped(std::string& out, std::string_view text) {
-  for (const char c : text) {
-    switch (c) {
-      case '&':
-        out += "&amp;";
-        break;
-      case '<':
-        out += "&lt;";
-        break;
-      case '>':
-        out += "&gt;";
-        break;
-      case '"':
-        out += "&quot;";
-        break;
-      case '\'':
-        out += "&apos;";
-        break;
-      default:
-        const bool allowed =
-            static_cast<unsigned char>(c) >= 0x20 || c == '\t' || c == '\n' || c == '\r';
-        out += allowed ? c : ' ';
-    }
-  }
-}
-
 std::string OneLine(std::string_view text) {
   std::string line(text);
   for (char& c : line) {

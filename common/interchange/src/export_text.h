@@ -10,11 +10,6 @@ namespace fleetmap::interchange_internal {
 // precision is lost on the way out, and no digits are spent beyond that.
 void AppendNumber(std::string& out, double value);
 
-// `text` as XML character data or an attribute value (GraphML, SVG): the five special
-// characters become entities; the control characters XML 1.0 does not allow at all (not even
-// as references) become spaces.
-void AppendXmlEscaped(std::string& out, std::string_view text);
-
 // `text` on one line: each line break (CR or LF) becomes a space, so free text cannot end a
 // comment line early and start a line the format would read as data.
 std::string OneLine(std::string_view text);

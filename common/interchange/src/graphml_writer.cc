@@ -6,12 +6,12 @@
 
 #include "export_inputs.h"
 #include "export_text.h"
+#include "fleetmap/core/printable_text.h"
 
 namespace fleetmap {
 namespace {
 
 using interchange_internal::AppendNumber;
-using interchange_internal::AppendXmlEscaped;
 
 struct KeyDeclaration {
   const char* domain;  // GraphML's `for`: node or edge
@@ -33,7 +33,7 @@ void AppendData(std::string& out, std::string_view key, std::string_view value) 
   out += "      <data key=\"";
   out += key;
   out += "\">";
-  AppendXmlEscaped(out, value);
+  AppendMarkupEscaped(out, value);
   out += "</data>\n";
 }
 
@@ -70,7 +70,7 @@ void WriteGraphMl(const GraphBatch& map, const GraphLayout& layout, std::string_
   text += "  <graph id=\"map\" edgedefault=\"directed\">\n";
   if (!description.empty()) {
     text += "    <desc>";
-    AppendXmlEscaped(text, description);
+    AppendMarkupEscaped(text, description);
     text += "</desc>\n";
   }
   out << text;

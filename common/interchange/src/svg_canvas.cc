@@ -3,12 +3,10 @@
 #include <cmath>
 #include <cstdio>
 
-#include "export_text.h"
+#include "fleetmap/core/printable_text.h"
 
 namespace fleetmap {
 namespace {
-
-using interchange_internal::AppendXmlEscaped;
 
 // A coordinate or length to 0.1 px, without a trailing ".0".
 void AppendPixels(std::string& out, double value) {
@@ -46,14 +44,14 @@ void SvgCanvas::Begin(int width_px, int height_px, Rgb background) {
   AppendAttribute(svg_, "height", height_px);
   svg_ += " viewBox=\"0 0 " + std::to_string(width_px) + " " + std::to_string(height_px) +
           "\" font-family=\"DejaVu Sans, Arial, sans-serif\">\n<title>";
-  AppendXmlEscaped(svg_, title_);
+  AppendMarkupEscaped(svg_, title_);
   svg_ += "</title>\n<rect x=\"0\" y=\"0\" width=\"100%\" height=\"100%\" fill=\"" +
           Hex(background) + "\"/>\n";
 }
 
 void SvgCanvas::BeginGroup(std::string_view name) {
   svg_ += "<g id=\"";
-  AppendXmlEscaped(svg_, name);
+  AppendMarkupEscaped(svg_, name);
   svg_ += "\">\n";
 }
 
@@ -103,7 +101,7 @@ void SvgCanvas::Text(CanvasPoint baseline, std::string_view text, double height_
   if (anchor == TextAnchor::kMiddle) svg_ += " text-anchor=\"middle\"";
   if (anchor == TextAnchor::kEnd) svg_ += " text-anchor=\"end\"";
   svg_ += '>';
-  AppendXmlEscaped(svg_, text);
+  AppendMarkupEscaped(svg_, text);
   svg_ += "</text>\n";
 }
 

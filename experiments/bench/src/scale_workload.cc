@@ -84,7 +84,7 @@ void WriteScaleMap(Repository& repository, const ScaleMapSpec& spec,
                    const std::function<void(std::size_t, std::size_t)>& progress) {
   if (repository.Head() != 0) {
     throw Error(ErrorCode::kConflict, "bench scale writes its map into an empty repository; " +
-                                          repository.store().uri() + " has revisions");
+                                          repository.uri() + " has revisions");
   }
   // A handful of robots, as a fleet would have.
   std::vector<Uuid> robots;
@@ -97,10 +97,7 @@ void WriteScaleMap(Repository& repository, const ScaleMapSpec& spec,
     revision.author = "fleetmap bench scale";
     revision.kind = RevisionKind::kMerge;
     revision.report = "generated outing " + std::to_string(outing);
-    GraphStore::Transaction transaction = repository.store().Begin();
-    repository.versions().AppendRevision(revision, map);
-    repository.store().Put(map);
-    transaction.Commit();
+    repository.AppendUnmergedRevision(revision, map);
     // As fleetmapd keeps it after each merge: the next merge indexes only what is new.
     repository.UpdateAppearanceIndex();
     if (progress) progress(outing + 1, spec.outings());

@@ -10,11 +10,12 @@
 #include <optional>
 #include <sstream>
 
-#include "fleet_processes.h"
 #include "fleetmap/core/clock.h"
 #include "fleetmap/core/error.h"
 #include "fleetmap/ebn/experience_builder.h"
 #include "fleetmap/ranking/distance_ranking.h"
+#include "fleetmap/repository/repository.h"
+#include "fleetmap/runners/fleet_processes.h"
 #include "fleetmap/runners/gnuplot.h"
 #include "fleetmap/store/graph_store.h"
 #include "fleetmap/store/version_store.h"
@@ -46,7 +47,8 @@ struct Drive {
 // the agent syncs (seed 002 §III; the robot is not docked, so the agent is not running).
 Drive DriveOuting(const World& world, Outing outing, const FleetRobot& robot,
                   const std::shared_ptr<const AppearanceVocabulary>& vocabulary) {
-  std::unique_ptr<GraphStore> store = GraphStore::Open("sqlite:" + (robot.dir / "map.db").string());
+  std::unique_ptr<GraphStore> store =
+      GraphStore::Open("sqlite:" + (robot.map_dir / "map.db").string());
   const GraphBatch held = store->ReadMap();
   ExperienceMap map = ExperienceMap::FromGraph(held.nodes, held.edges, vocabulary);
   DistanceRanking policy;
@@ -78,7 +80,8 @@ void SyncAll(const FleetDemoOptions& options, const std::vector<FleetRobot>& rob
                          ("agent-" + robots[r].name + "-foray-" + std::to_string(foray) + ".log"));
     agents.push_back(StartAgentSync(
         options.agent, robots[r], server,
-        {"--policy", options.policy, "--mission-start", next_missions[r]}, agent_logs.back()));
+        {"--wait-merge", "--policy", options.policy, "--mission-start", next_missions[r]},
+        agent_logs.back()));
   }
   for (std::size_t r = 0; r < robots.size(); ++r) {
     const nlohmann::json result =
@@ -216,9 +219,9 @@ FleetDemoResult RunFleetDemo(const FleetDemoOptions& options) {
     say("foray " + std::to_string(f + 1) + ": driven; docking and syncing");
     SyncAll(options, robots, server.address(), next_missions, logs, f + 1, report.robots);
     {
-      std::unique_ptr<GraphStore> central = GraphStore::Open(store_uri);
-      report.server_revision = central->versions().HeadRevision();
-      report.server_nodes = central->versions().StatsAt(report.server_revision).nodes;
+      const std::unique_ptr<Repository> central = Repository::Open(store_uri);
+      report.server_revision = central->Head();
+      report.server_nodes = central->inspect().StatsAt(report.server_revision).nodes;
     }
     if (options.foray_done) options.foray_done(report);
     result.forays.push_back(std::move(report));

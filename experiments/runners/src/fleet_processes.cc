@@ -1,4 +1,4 @@
-#include "fleet_processes.h"
+#include "fleetmap/runners/fleet_processes.h"
 
 #include <signal.h>
 
@@ -7,8 +7,8 @@
 
 #include "fleetmap/core/clock.h"
 #include "fleetmap/core/error.h"
+#include "fleetmap/repository/repository.h"
 #include "fleetmap/repository/robot_registry.h"
-#include "fleetmap/store/graph_store.h"
 
 namespace fleetmap {
 
@@ -19,21 +19,32 @@ using std::chrono::milliseconds;
 
 constexpr auto kServerStartTimeout = milliseconds(30'000);
 constexpr auto kDrainTimeout = milliseconds(20'000);
+// For an agent to exit once its output has ended.
+constexpr auto kExitTimeout = milliseconds(10'000);
+
+FleetRobot Register(RobotRegistry& registry, const std::string& name, const fs::path& map_dir) {
+  NewRobot added = registry.Add(name, WallClockNs());
+  fs::create_directories(map_dir);
+  return {name, added.robot.id, added.token, map_dir};
+}
 
 }  // namespace
+
+FleetRobot RegisterFleetRobot(const std::string& store_uri, const std::string& name,
+                              const fs::path& map_dir) {
+  std::unique_ptr<GraphStore> central = GraphStore::Open(store_uri);
+  RobotRegistry registry(central->versions());
+  return Register(registry, name, map_dir);
+}
 
 std::vector<FleetRobot> RegisterFleetRobots(const std::string& store_uri,
                                             const std::vector<std::string>& names,
                                             const fs::path& robots_dir) {
-  std::unique_ptr<GraphStore> central = GraphStore::Open(store_uri);
-  RobotRegistry registry(central->versions());
+  const std::unique_ptr<Repository> central = Repository::Open(store_uri);
+  RobotRegistry registry(*central);
   std::vector<FleetRobot> robots;
-  for (const std::string& name : names) {
-    NewRobot added = registry.Add(name, WallClockNs());
-    const fs::path dir = robots_dir / name;
-    fs::create_directories(dir);
-    robots.push_back({name, added.robot.id, added.token, dir});
-  }
+  for (const std::string& name : names)
+    robots.push_back(Register(registry, name, robots_dir / name));
   return robots;
 }
 
@@ -91,30 +102,44 @@ std::optional<int> FleetServerProcess::Stop() {
 ChildProcess StartAgentSync(const fs::path& agent, const FleetRobot& robot,
                             const std::string& server, const std::vector<std::string>& extra,
                             const fs::path& log) {
-  std::vector<std::string> argv{
-      agent.string(),      "sync",      "--server",         server,         "--robot",
-      robot.id.ToString(), "--map-dir", robot.dir.string(), "--wait-merge", "--json"};
+  std::vector<std::string> argv{agent.string(), "sync",
+                                "--server",     server,
+                                "--robot",      robot.id.ToString(),
+                                "--map-dir",    robot.map_dir.string(),
+                                "--json"};
   argv.insert(argv.end(), extra.begin(), extra.end());
   return ChildProcess(argv, ChildProcessOptions{.stderr_file = log,
                                                 .environment = {{"FLEETMAP_TOKEN", robot.token}}});
 }
 
+AgentSyncEnd WaitAgentSync(ChildProcess& sync, milliseconds timeout) {
+  AgentSyncEnd end;
+  end.out = sync.ReadRest(timeout);
+  end.exit = sync.Wait(kExitTimeout);
+  if (!end.out.empty()) {
+    try {
+      end.result = nlohmann::json::parse(end.out);
+    } catch (const nlohmann::json::exception& e) {
+      end.json_error = e.what();
+    }
+  }
+  return end;
+}
+
 nlohmann::json FinishAgentSync(ChildProcess& sync, const FleetRobot& robot, const fs::path& log,
                                milliseconds timeout) {
-  const std::string out = sync.ReadRest(timeout);
-  const std::optional<int> status = sync.Wait(milliseconds(5000));
-  if (status != 0) {
+  AgentSyncEnd end = WaitAgentSync(sync, timeout);
+  if (end.exit != 0) {
     throw Error(ErrorCode::kBackend, "fleetmap-agent of " + robot.name + " failed (exit " +
-                                         (status ? std::to_string(*status) : "timeout") + ", log " +
-                                         log.string() + "):" + LogTail(log, 8));
+                                         (end.exit ? std::to_string(*end.exit) : "timeout") +
+                                         ", log " + log.string() + "):" + LogTail(log, 8));
   }
-  try {
-    return nlohmann::json::parse(out);
-  } catch (const nlohmann::json::exception& e) {
-    throw Error(ErrorCode::kBackend, "fleetmap-agent of " + robot.name +
-                                         " printed no JSON result (log " + log.string() +
-                                         "): " + e.what());
+  if (end.result.is_null()) {
+    throw Error(ErrorCode::kBackend,
+                "fleetmap-agent of " + robot.name + " printed no JSON result (log " + log.string() +
+                    "): " + (end.json_error.empty() ? "nothing" : end.json_error));
   }
+  return std::move(end.result);
 }
 
 }  // namespace fleetmap

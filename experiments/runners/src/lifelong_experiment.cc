@@ -144,7 +144,7 @@ class LifelongRun {
       const MergeOutcome outcome = repository_->Merge(submission);
       row.nodes_added += outcome.report.nodes_added;
     }
-    const StoreStats stats = repository_->versions().StatsAt(repository_->Head());
+    const StoreStats stats = repository_->inspect().StatsAt(repository_->Head());
     row.map_nodes = static_cast<std::size_t>(stats.nodes);
     row.map_bytes = stats.landmark_bytes;
     return row;

@@ -7,7 +7,6 @@
 #include <vector>
 
 #include "fleetmap/core/graph.h"
-#include "fleetmap/core/graph_io.h"
 #include "fleetmap/ebn/experience_builder.h"
 #include "fleetmap/ebn/experience_map.h"
 #include "fleetmap/ebn/ranking_policy.h"

@@ -1,5 +1,3 @@
-#include "fleetmap/runners/ranking_report.h"
-
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -12,6 +10,7 @@
 
 #include "fleetmap/core/error.h"
 #include "fleetmap/runners/gnuplot.h"
+#include "fleetmap/runners/ranking_experiment.h"
 #include "report_text.h"
 
 namespace fleetmap {

@@ -9,11 +9,12 @@
 #include <set>
 
 #include "condition_forays.h"
-#include "fleet_processes.h"
 #include "fleetmap/core/clock.h"
 #include "fleetmap/core/error.h"
 #include "fleetmap/ebn/experience_map.h"
 #include "fleetmap/ranking/distance_ranking.h"
+#include "fleetmap/repository/repository.h"
+#include "fleetmap/runners/fleet_processes.h"
 #include "fleetmap/stereo/stereo_sequence.h"
 #include "fleetmap/store/graph_store.h"
 #include "fleetmap/store/version_store.h"
@@ -111,7 +112,7 @@ int LocaliseAgainst(const RealFleetOptions& options, const fs::path& dir,
 // written to the map its agent syncs: the experiences created.
 std::int64_t BuildOnRobotMap(const RealFleetOptions& options, const FleetRobot& robot,
                              const std::vector<Frame>& frames) {
-  HeldMap held = OpenHeldMap(robot.dir, frames);
+  HeldMap held = OpenHeldMap(robot.map_dir, frames);
   DistanceRanking policy;
   BuilderOptions build = options.builder;
   build.localise_only = false;
@@ -151,12 +152,12 @@ class DriveFleet {
   nlohmann::json Sync(const FleetRobot& robot, const fs::path& dir, const std::string& policy,
                       double hour_h, const std::string& log_name) {
     FleetRobot at = robot;
-    at.dir = dir;
+    at.map_dir = dir;
     fs::create_directories(dir);
     const fs::path log = logs_ / (log_name + ".log");
-    ChildProcess agent =
-        StartAgentSync(options_.agent, at, server_->address(),
-                       {"--policy", policy, "--mission-start", MissionStart(hour_h)}, log);
+    ChildProcess agent = StartAgentSync(
+        options_.agent, at, server_->address(),
+        {"--wait-merge", "--policy", policy, "--mission-start", MissionStart(hour_h)}, log);
     return FinishAgentSync(agent, at, log, kSyncTimeout);
   }
 
@@ -217,11 +218,11 @@ RealFleetForay RunForay(const RealFleetOptions& options, const ConditionForayRen
   row.localised_copy = LocaliseAgainst(options, copy, foray.frames);
   row.localised_download = LocaliseAgainst(options, download, foray.frames);
 
-  fleet.Sync(robot, robot.dir, options.download_policy, row.hour_h,
+  fleet.Sync(robot, robot.map_dir, options.download_policy, row.hour_h,
              robot.name + "-pull-" + std::to_string(k));
   row.built_nodes = BuildOnRobotMap(options, robot, foray.frames);
-  const nlohmann::json pushed = fleet.Sync(robot, robot.dir, options.download_policy, row.hour_h,
-                                           robot.name + "-push-" + std::to_string(k));
+  const nlohmann::json pushed = fleet.Sync(robot, robot.map_dir, options.download_policy,
+                                           row.hour_h, robot.name + "-push-" + std::to_string(k));
   row.pushed_nodes = pushed.value("pushed_nodes", std::int64_t{0});
   row.merge_revision = pushed.value("merged_revision", std::int64_t{0});
   Say(options, "foray " + std::to_string(k) + " at " + MissionStart(row.hour_h) + " (" +
@@ -235,16 +236,15 @@ RealFleetForay RunForay(const RealFleetOptions& options, const ConditionForayRen
 
 // What each foray's merge added and the head, from the server's store once it has stopped.
 void ReadMerges(const std::string& store_uri, RealFleetDrive& drive) {
-  std::unique_ptr<GraphStore> central = GraphStore::Open(store_uri);
-  VersionStore& versions = central->versions();
+  const std::unique_ptr<Repository> central = Repository::Open(store_uri);
+  const RepositoryInspection& inspect = central->inspect();
   for (RealFleetForay& row : drive.forays) {
     if (row.merge_revision <= 0) continue;
-    if (const std::optional<Revision> revision = versions.FindRevision(row.merge_revision)) {
+    if (const std::optional<Revision> revision = inspect.FindRevision(row.merge_revision)) {
       row.merge_added = revision->nodes_added;
     }
   }
-  drive.head_nodes =
-      static_cast<std::int64_t>(versions.NodesAt(versions.HeadRevision(), false).size());
+  drive.head_nodes = static_cast<std::int64_t>(inspect.NodesAt(central->Head(), false).size());
 }
 
 // A drive's sequence, refused when it is too short for the forays (before anything is written).

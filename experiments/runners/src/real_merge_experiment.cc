@@ -11,12 +11,13 @@
 #include <thread>
 #include <unordered_map>
 
-#include "fleet_processes.h"
 #include "fleetmap/core/clock.h"
 #include "fleetmap/core/error.h"
 #include "fleetmap/ebn/experience_map.h"
 #include "fleetmap/ebn/localiser.h"
 #include "fleetmap/ranking/distance_ranking.h"
+#include "fleetmap/repository/repository.h"
+#include "fleetmap/runners/fleet_processes.h"
 #include "fleetmap/stereo/stereo_sequence.h"
 #include "fleetmap/store/graph_store.h"
 #include "fleetmap/store/version_store.h"
@@ -73,7 +74,8 @@ RobotMap BuildRobotMap(const FleetRobot& robot, const ProcessedStereoSequence& s
   }
   const auto vocabulary =
       std::make_shared<const AppearanceVocabulary>(AppearanceVocabulary::Train(sample));
-  std::unique_ptr<GraphStore> store = GraphStore::Open("sqlite:" + (robot.dir / "map.db").string());
+  std::unique_ptr<GraphStore> store =
+      GraphStore::Open("sqlite:" + (robot.map_dir / "map.db").string());
   ExperienceMap map(vocabulary);
   DistanceRanking policy;
   BuilderOptions build = options;
@@ -262,8 +264,8 @@ void PushThroughServer(const RealMergeOptions& options, const std::string& store
   Say(options, "fleetmapd listening on " + server.address());
   const auto sync = [&](const FleetRobot& robot, std::int64_t& pushed, std::int64_t& revision) {
     const fs::path log = logs / ("agent-" + robot.name + ".log");
-    ChildProcess agent =
-        StartAgentSync(options.agent, robot, server.address(), {"--policy", "copy"}, log);
+    ChildProcess agent = StartAgentSync(options.agent, robot, server.address(),
+                                        {"--wait-merge", "--policy", "copy"}, log);
     const nlohmann::json json = FinishAgentSync(agent, robot, log, kSyncTimeout);
     pushed = json.value("pushed_nodes", std::int64_t{0});
     revision = json.value("merged_revision", std::int64_t{0});
@@ -289,10 +291,10 @@ void PushThroughServer(const RealMergeOptions& options, const std::string& store
 std::unordered_map<Uuid, int> ReadCentralHead(const std::string& store_uri, const RobotMap& a_map,
                                               const RobotMap& b_map, RealMergeResult& result) {
   std::unordered_map<Uuid, int> head_pair;
-  std::unique_ptr<GraphStore> central = GraphStore::Open(store_uri);
-  VersionStore& versions = central->versions();
-  const RevisionNumber head = versions.HeadRevision();
-  for (const Node& node : versions.NodesAt(head, /*with_landmarks=*/false)) {
+  const std::unique_ptr<Repository> central = Repository::Open(store_uri);
+  const RepositoryInspection& inspect = central->inspect();
+  const RevisionNumber head = central->Head();
+  for (const Node& node : inspect.NodesAt(head, /*with_landmarks=*/false)) {
     const auto a = a_map.node_pair.find(node.id);
     const auto b = b_map.node_pair.find(node.id);
     head_pair.emplace(node.id, a != a_map.node_pair.end()   ? a->second
@@ -302,7 +304,7 @@ std::unordered_map<Uuid, int> ReadCentralHead(const std::string& store_uri, cons
   result.counts.head_nodes = static_cast<std::int64_t>(head_pair.size());
   for (const auto& [number, added] :
        {std::pair{result.a_revision, &result.a_added}, {result.b_revision, &result.b_added}}) {
-    if (const std::optional<Revision> revision = versions.FindRevision(number)) {
+    if (const std::optional<Revision> revision = inspect.FindRevision(number)) {
       *added = revision->nodes_added;
     }
   }
@@ -310,7 +312,7 @@ std::unordered_map<Uuid, int> ReadCentralHead(const std::string& store_uri, cons
     RealMergePair& row = result.rows[static_cast<std::size_t>(pair)];
     row.b_node = true;
     row.b_in_head = head_pair.contains(node);
-    row.b_stand_in = !*row.b_in_head && versions.FindStandIn(node).has_value();
+    row.b_stand_in = !*row.b_in_head && inspect.FindStandIn(node).has_value();
     result.b_stand_ins += row.b_stand_in ? 1 : 0;
     if (row.in_overlap) {
       ++result.counts.b_overlap_nodes;
@@ -340,7 +342,7 @@ struct PulledHead {
 PulledHead ReadPulledHead(const RealMergeOptions& options, const FleetRobot& robot_b,
                           const std::unordered_map<Uuid, int>& head_pair, RealMergeResult& result) {
   std::unique_ptr<GraphStore> pulled_store =
-      GraphStore::Open("sqlite:" + (robot_b.dir / "map.db").string());
+      GraphStore::Open("sqlite:" + (robot_b.map_dir / "map.db").string());
   const GraphBatch pulled = pulled_store->ReadMap();
   result.pulled_nodes = static_cast<std::int64_t>(pulled.nodes.size());
   if (result.pulled_nodes != result.counts.head_nodes) {

@@ -459,20 +459,112 @@ void ValidateDownloadPolicy(const DownloadPolicy& policy) {
   }
 }
 
+namespace {
+
+// A budget weighs nodes by their landmarks: refuses nodes that came without them.
+void RequireLandmarksForBudget(std::span<const Node> nodes, const DownloadPolicy& policy) {
+  if (!policy.budget_bytes) return;
+  for (const Node& node : nodes) {
+    if (node.landmarks_blob.empty()) {
+      throw Error(ErrorCode::kInvalidArgument, "download: a budget weighs landmarks, but node " +
+                                                   node.id.ToString() +
+                                                   " came without them (empty landmarks_blob)");
+    }
+  }
+}
+
+// The paths a policy weighs (Algorithms 2 and 3) and the epochs it walks.
+struct PathChoice {
+  std::vector<PathWeights::PathIndex> weighed_paths;  // the paths a budget considers
+  std::vector<int> walk;                              // the epochs Algorithm 3 walks
+  std::optional<PathWeights> weights;
+};
+
+// With "paths" or a budget: the path weights over the map (or the corridor), and with "paths"
+// the best paths, narrowing `allowed` to their nodes.
+PathChoice ChoosePaths(const DenseMap& map, std::span<const Node> nodes,
+                       std::span<const Path> paths, const DownloadPolicy& policy,
+                       std::span<const char> in_corridor, std::vector<char>& allowed,
+                       DownloadReport& report) {
+  PathChoice choice;
+  if (!policy.paths && !policy.budget_bytes) return choice;
+  const std::size_t node_count = map.nodes.size();
+  const bool corridor = !in_corridor.empty();
+  // With a route, Algorithm 2 counts the corridor's nodes only, so that paths are weighed, and
+  // P* chosen, by how they serve the route, not by what they did elsewhere in the map.
+  std::vector<Node> counted;
+  if (corridor) {
+    for (std::size_t i = 0; i < node_count; ++i) {
+      if (!in_corridor[i]) continue;
+      const Node& node = *map.nodes[i];
+      counted.push_back(Node{node.id, node.stamp_ns, node.robot, node.outing, {}});
+    }
+  }
+  choice.weights = PathWeights::Count(map.memory, corridor ? std::span<const Node>(counted) : nodes,
+                                      policy.epoch_min);
+  const auto [k_start, k_end] = MissionEpochs(policy, *choice.weights);
+  choice.walk = WalkedEpochs(*choice.weights, k_start, k_end);
+  if (!choice.walk.empty()) {
+    report.epoch_start = choice.walk.front();
+    report.epoch_end = choice.walk.back();
+  }
+  if (!policy.paths) {
+    for (PathWeights::PathIndex path = 0; path < map.memory.path_count(); ++path) {
+      choice.weighed_paths.push_back(path);
+    }
+    return choice;
+  }
+  choice.weighed_paths =
+      policy.cover
+          ? BestPathsUsedInWindow(map, paths, policy, in_corridor, *choice.weights, choice.walk)
+          : choice.weights->BestPaths(k_start, k_end, policy.best_percent);
+  report.paths_chosen = choice.weighed_paths.size();
+  std::vector<char> on_best(node_count, 0);
+  for (const PathWeights::PathIndex path : choice.weighed_paths) {
+    for (const DenseNode node : map.path_nodes[path]) on_best[node] = 1;
+  }
+  report.nodes_on_chosen_paths =
+      static_cast<std::size_t>(std::count(on_best.begin(), on_best.end(), 1));
+  for (std::size_t i = 0; i < node_count; ++i) allowed[i] = allowed[i] && on_best[i];
+  return choice;
+}
+
+// The picks (what `allowed` and the included nodes say, or what a budget fills) joined into an
+// integral selection (within the corridor when there is one).
+IntegralSelection PickAndJoin(const DenseMap& map, std::span<const Edge> edges,
+                              const DownloadPolicy& policy, std::span<const char> in_corridor,
+                              std::vector<char>& allowed, const PathChoice& choice,
+                              DownloadReport& report) {
+  const std::vector<DenseNode> included = IncludedNodes(map, policy);
+  std::vector<Uuid> map_ids;
+  map_ids.reserve(map.nodes.size());
+  for (const Node* node : map.nodes) map_ids.push_back(node->id);
+  if (policy.budget_bytes) {
+    internal::BudgetDownload fill = FillDownloadBudget(
+        map, edges, policy, included, allowed, choice.weighed_paths, *choice.weights, choice.walk);
+    report.picked_nodes = fill.picked;
+    return std::move(fill.integral);
+  }
+  std::vector<Uuid> picked;
+  for (const DenseNode node : included) allowed[node] = 1;
+  for (std::size_t i = 0; i < map.nodes.size(); ++i) {
+    if (allowed[i]) picked.push_back(map_ids[i]);
+  }
+  report.picked_nodes = picked.size();
+  if (!in_corridor.empty()) {
+    return JoinWithinCorridor(map, edges, map_ids, in_corridor, included, picked);
+  }
+  return MakeIntegral(map_ids, edges, picked);
+}
+
+}  // namespace
+
 DownloadSelection SelectDownload(std::span<const Node> nodes, std::span<const Edge> edges,
                                  std::span<const Path> paths, const DownloadPolicy& policy) {
   ValidateDownloadPolicy(policy);
   const DenseMap map = IndexMap(nodes, edges, paths,
                                 policy.paths || policy.cover || policy.budget_bytes.has_value());
-  if (policy.budget_bytes) {
-    for (const Node& node : nodes) {
-      if (node.landmarks_blob.empty()) {
-        throw Error(ErrorCode::kInvalidArgument, "download: a budget weighs landmarks, but node " +
-                                                     node.id.ToString() +
-                                                     " came without them (empty landmarks_blob)");
-      }
-    }
-  }
+  RequireLandmarksForBudget(nodes, policy);
   const std::size_t node_count = map.nodes.size();
 
   DownloadSelection selection;
@@ -506,73 +598,10 @@ DownloadSelection SelectDownload(std::span<const Node> nodes, std::span<const Ed
     }
     if (policy.cover) AllowUsedWithinWindow(map, paths, policy, in_corridor, allowed);
   }
-  std::vector<PathWeights::PathIndex> weighed_paths;  // the paths a budget considers
-  std::vector<int> walk;                              // the epochs Algorithm 3 walks
-  std::optional<PathWeights> weights;
-  if (policy.paths || policy.budget_bytes) {
-    // With a route, Algorithm 2 counts the corridor's nodes only, so that paths are weighed, and
-    // P* chosen, by how they serve the route, not by what they did elsewhere in the map.
-    std::vector<Node> counted;
-    if (corridor) {
-      for (std::size_t i = 0; i < node_count; ++i) {
-        if (!in_corridor[i]) continue;
-        const Node& node = *map.nodes[i];
-        counted.push_back(Node{node.id, node.stamp_ns, node.robot, node.outing, {}});
-      }
-    }
-    weights = PathWeights::Count(map.memory, corridor ? std::span<const Node>(counted) : nodes,
-                                 policy.epoch_min);  // Algorithm 2
-    const auto [k_start, k_end] = MissionEpochs(policy, *weights);
-    walk = WalkedEpochs(*weights, k_start, k_end);
-    if (!walk.empty()) {
-      report.epoch_start = walk.front();
-      report.epoch_end = walk.back();
-    }
-    if (policy.paths) {
-      weighed_paths = policy.cover
-                          ? BestPathsUsedInWindow(map, paths, policy, in_corridor, *weights, walk)
-                          : weights->BestPaths(k_start, k_end, policy.best_percent);
-      report.paths_chosen = weighed_paths.size();
-      std::vector<char> on_best(node_count, 0);
-      for (const PathWeights::PathIndex path : weighed_paths) {
-        for (const DenseNode node : map.path_nodes[path]) on_best[node] = 1;
-      }
-      report.nodes_on_chosen_paths =
-          static_cast<std::size_t>(std::count(on_best.begin(), on_best.end(), 1));
-      for (std::size_t i = 0; i < node_count; ++i) allowed[i] = allowed[i] && on_best[i];
-    } else {
-      for (PathWeights::PathIndex path = 0; path < map.memory.path_count(); ++path) {
-        weighed_paths.push_back(path);
-      }
-    }
-  }
-
+  const PathChoice choice = ChoosePaths(map, nodes, paths, policy, in_corridor, allowed, report);
   if (policy.cover) Cover(map, *layout, paths, policy, in_corridor, allowed, report);
-
-  const std::vector<DenseNode> included = IncludedNodes(map, policy);
-
-  std::vector<Uuid> map_ids;
-  map_ids.reserve(node_count);
-  for (const Node* node : map.nodes) map_ids.push_back(node->id);
-  IntegralSelection integral;
-  if (policy.budget_bytes) {
-    internal::BudgetDownload fill =
-        FillDownloadBudget(map, edges, policy, included, allowed, weighed_paths, *weights, walk);
-    report.picked_nodes = fill.picked;
-    integral = std::move(fill.integral);
-  } else {
-    std::vector<Uuid> picked;
-    for (const DenseNode node : included) allowed[node] = 1;
-    for (std::size_t i = 0; i < node_count; ++i) {
-      if (allowed[i]) picked.push_back(map_ids[i]);
-    }
-    report.picked_nodes = picked.size();
-    if (corridor) {
-      integral = JoinWithinCorridor(map, edges, map_ids, in_corridor, included, picked);
-    } else {
-      integral = MakeIntegral(map_ids, edges, picked);
-    }
-  }
+  IntegralSelection integral =
+      PickAndJoin(map, edges, policy, in_corridor, allowed, choice, report);
   report.integrity = integral.report;
 
   std::vector<char> sent(node_count, 0);

@@ -13,7 +13,7 @@ ConnectionAdmission::ConnectionAdmission(AdmissionLimits limits) : limits_(limit
 
 AdmissionDecision ConnectionAdmission::Admit(const std::string& address,
                                              std::weak_ptr<SessionControl> session) {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   AdmissionDecision decision;
   if (counted_.size() >= limits_.sessions) {
     if (pending_.empty()) return decision;  // full of robots past their hello: refused
@@ -44,24 +44,24 @@ AdmissionDecision ConnectionAdmission::Admit(const std::string& address,
 }
 
 void ConnectionAdmission::HelloReceived(std::uint64_t ticket) {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   if (const auto it = pending_.find(ticket); it != pending_.end()) ForgetPendingLocked(it);
 }
 
 void ConnectionAdmission::Release(std::uint64_t ticket) {
   if (ticket == 0) return;
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   if (const auto it = pending_.find(ticket); it != pending_.end()) ForgetPendingLocked(it);
   counted_.erase(ticket);
 }
 
 std::size_t ConnectionAdmission::counted() const {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   return counted_.size();
 }
 
 std::size_t ConnectionAdmission::pending_hello() const {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   return pending_.size();
 }
 

@@ -25,7 +25,6 @@
 #include <cstdint>
 #include <map>
 #include <memory>
-#include <mutex>
 #include <set>
 #include <string>
 #include <unordered_map>
@@ -33,6 +32,7 @@
 #include <utility>
 #include <vector>
 
+#include "fleetmap/core/mutex.h"
 #include "session_tracker.h"
 
 namespace fleetmap::daemon {
@@ -74,16 +74,17 @@ class ConnectionAdmission {
   using PendingMap = std::map<std::uint64_t, Pending>;
 
   // Takes the pending connection `it` out, uncounts it and adds it to `decision`'s evictions.
-  // REQUIRES: mutex_ held.
-  void EvictLocked(PendingMap::iterator it, const std::string& why, AdmissionDecision& decision);
-  void ForgetPendingLocked(PendingMap::iterator it);
+  void EvictLocked(PendingMap::iterator it, const std::string& why, AdmissionDecision& decision)
+      REQUIRES(mutex_);
+  void ForgetPendingLocked(PendingMap::iterator it) REQUIRES(mutex_);
 
   const AdmissionLimits limits_;
-  mutable std::mutex mutex_;
-  std::uint64_t next_ticket_ = 1;              // guarded by mutex_
-  std::unordered_set<std::uint64_t> counted_;  // guarded by mutex_
-  PendingMap pending_;                         // guarded by mutex_; by ticket: oldest first
-  std::unordered_map<std::string, std::set<std::uint64_t>> pending_by_address_;  // the same
+  mutable Mutex mutex_;
+  std::uint64_t next_ticket_ GUARDED_BY(mutex_) = 1;
+  std::unordered_set<std::uint64_t> counted_ GUARDED_BY(mutex_);
+  PendingMap pending_ GUARDED_BY(mutex_);  // by ticket: oldest first
+  std::unordered_map<std::string, std::set<std::uint64_t>> pending_by_address_
+      GUARDED_BY(mutex_);  // the same tickets, by address
 };
 
 }  // namespace fleetmap::daemon

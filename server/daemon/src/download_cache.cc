@@ -2,15 +2,16 @@
 
 namespace fleetmap::daemon {
 
-std::string DownloadCache::Key(RevisionNumber revision, const v1::DownloadRequest& request,
+std::string DownloadCache::Key(RevisionNumber revision, const DownloadAsk& ask,
                                std::uint32_t protocol_version) {
   std::string key = std::to_string(revision) + "/v" + std::to_string(protocol_version) + "/";
-  request.AppendToString(&key);
+  // The request as its parameters say it, whoever wrote its bytes.
+  DownloadRequestOf(ask.params, ask.base_revision).AppendToString(&key);
   return key;
 }
 
 DownloadCache::Entry DownloadCache::Find(const std::string& key) {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   for (auto entry = entries_.begin(); entry != entries_.end(); ++entry) {
     if (entry->key == key) {
       entries_.splice(entries_.begin(), entries_, entry);
@@ -20,46 +21,47 @@ DownloadCache::Entry DownloadCache::Find(const std::string& key) {
   return {};
 }
 
-std::uint64_t DownloadCache::BytesOf(const DownloadPlan& plan) {
-  return sizeof(DownloadPlan) + plan.header.ByteSizeLong() + plan.nodes.size() * sizeof(Uuid) +
-         plan.edges.size() * sizeof(Edge) + plan.paths.size() * sizeof(Path);
+std::uint64_t DownloadCache::BytesOf(const DownloadToSend& plan) {
+  return sizeof(DownloadToSend) + plan.header.ByteSizeLong() +
+         plan.plan.nodes.size() * sizeof(Uuid) + plan.plan.edges.size() * sizeof(Edge) +
+         plan.plan.paths.size() * sizeof(Path);
 }
 
 void DownloadCache::Put(const std::string& key, std::shared_ptr<const EncodedDownload> download) {
   if (download->frame_bytes > max_entry_bytes_) return;
   const std::uint64_t bytes = download->frame_bytes;
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   Keep(key, Entry{std::move(download), nullptr}, bytes);
 }
 
-std::shared_ptr<const DownloadPlan> DownloadCache::PlanOnce(
-    const std::string& key, const std::function<std::shared_ptr<const DownloadPlan>()>& make) {
-  std::promise<std::shared_ptr<const DownloadPlan>> promise;
+std::shared_ptr<const DownloadToSend> DownloadCache::PlanOnce(
+    const std::string& key, const std::function<std::shared_ptr<const DownloadToSend>()>& make) {
+  std::promise<std::shared_ptr<const DownloadToSend>> promise;
   {
-    std::unique_lock lock(mutex_);
+    MutexLock lock(mutex_);
     for (const Kept& kept : entries_) {
       if (kept.key == key && kept.entry.plan) return kept.entry.plan;
     }
     if (const auto making = planning_.find(key); making != planning_.end()) {
       // Waits on a selection that is already running on another thread, never on one that is
       // only queued: no store thread can wait for itself.
-      std::shared_future<std::shared_ptr<const DownloadPlan>> plan = making->second;
-      lock.unlock();
+      std::shared_future<std::shared_ptr<const DownloadToSend>> plan = making->second;
+      lock.Unlock();
       return plan.get();
     }
     planning_.emplace(key, promise.get_future().share());
   }
-  std::shared_ptr<const DownloadPlan> plan;
+  std::shared_ptr<const DownloadToSend> plan;
   try {
     plan = make();
   } catch (...) {
-    std::lock_guard lock(mutex_);
+    MutexLock lock(mutex_);
     planning_.erase(key);
     promise.set_exception(std::current_exception());
     throw;
   }
   {
-    std::lock_guard lock(mutex_);
+    MutexLock lock(mutex_);
     planning_.erase(key);
     const std::uint64_t bytes = BytesOf(*plan);
     if (bytes <= max_entry_bytes_) Keep(key, Entry{nullptr, plan}, bytes);

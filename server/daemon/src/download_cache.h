@@ -5,7 +5,7 @@
 //
 // The rule: a download is kept encoded only when its frames add up to at most
 // `max_entry_bytes`. Of a bigger one only its plan is kept (the bare selection: ids and the
-// small elements, DownloadPlan), when that is at most `max_entry_bytes`: asked again, it is
+// small elements, DownloadToSend), when that is at most `max_entry_bytes`: asked again, it is
 // streamed from the store without selecting again, and a large map never sits whole in the
 // server's memory. Entries are dropped, least recently used first, while the kept ones pass
 // `max_bytes` together.
@@ -24,11 +24,12 @@
 #include <list>
 #include <map>
 #include <memory>
-#include <mutex>
 #include <string>
 #include <utility>
 
 #include "download_stream.h"
+#include "fleetmap/protocol/download_exchange.h"
+#include "fleetmap/core/mutex.h"
 
 namespace fleetmap::daemon {
 
@@ -37,14 +38,14 @@ class DownloadCache {
   DownloadCache(std::uint64_t max_bytes, std::uint64_t max_entry_bytes)
       : max_bytes_(max_bytes), max_entry_bytes_(std::min(max_entry_bytes, max_bytes)) {}
 
-  static std::string Key(RevisionNumber revision, const v1::DownloadRequest& request,
+  static std::string Key(RevisionNumber revision, const DownloadAsk& ask,
                          std::uint32_t protocol_version);
 
   // What is kept under `key`: the encoded download, or the plan of a big one; both null when
   // nothing is.
   struct Entry {
     std::shared_ptr<const EncodedDownload> encoded;
-    std::shared_ptr<const DownloadPlan> plan;
+    std::shared_ptr<const DownloadToSend> plan;
   };
   Entry Find(const std::string& key);
   // Keeps `download` under `key` when it is small enough (see the rule above); else nothing.
@@ -52,14 +53,14 @@ class DownloadCache {
   // The plan under `key`: the kept one, else the one another thread is making (waited for),
   // else made here by `make` and kept when it is at most `max_entry_bytes`. Throws what `make`
   // threw, also to the threads that waited for it.
-  std::shared_ptr<const DownloadPlan> PlanOnce(
-      const std::string& key, const std::function<std::shared_ptr<const DownloadPlan>()>& make);
+  std::shared_ptr<const DownloadToSend> PlanOnce(
+      const std::string& key, const std::function<std::shared_ptr<const DownloadToSend>()>& make);
 
   // About the memory a plan holds.
-  static std::uint64_t BytesOf(const DownloadPlan& plan);
+  static std::uint64_t BytesOf(const DownloadToSend& plan);
 
  private:
-  void Keep(const std::string& key, Entry entry, std::uint64_t bytes);  // REQUIRES: mutex_
+  void Keep(const std::string& key, Entry entry, std::uint64_t bytes) REQUIRES(mutex_);
 
   struct Kept {
     std::string key;
@@ -68,10 +69,11 @@ class DownloadCache {
   };
   std::uint64_t max_bytes_;
   std::uint64_t max_entry_bytes_;
-  std::mutex mutex_;
-  std::list<Kept> entries_;  // most recently used first; guarded by mutex_
-  // Plans being made, by key; guarded by mutex_.
-  std::map<std::string, std::shared_future<std::shared_ptr<const DownloadPlan>>> planning_;
+  Mutex mutex_;
+  std::list<Kept> entries_ GUARDED_BY(mutex_);  // most recently used first
+  // Plans being made, by key.
+  std::map<std::string, std::shared_future<std::shared_ptr<const DownloadToSend>>> planning_
+      GUARDED_BY(mutex_);
 };
 
 }  // namespace fleetmap::daemon

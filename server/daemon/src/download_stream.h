@@ -21,6 +21,7 @@
 
 #include "fleetmap/core/map_chunks.h"
 #include "fleetmap/map_management/download_policy.h"
+#include "fleetmap/repository/download_plan.h"
 #include "fleetmap/repository/repository.h"
 #include "fleetmap/sync.pb.h"
 
@@ -31,18 +32,12 @@ namespace fleetmap::daemon {
 // written, the next being read) are noise beside the server's footprint.
 inline constexpr std::size_t kDownloadBatchBytes = std::size_t{4} << 20;
 
-// What a download sends, chosen without reading a landmark (but see PlanDownload for a budget).
-// Immutable once made, but for the memo of its sent digest; shared by the sessions sending it.
-struct DownloadPlan {
+// A download as fleetmapd sends it: the repository's plan (download_plan.h) with the header it
+// goes out under. Immutable once made, but for the memo of its sent digest; shared by the
+// sessions sending it.
+struct DownloadToSend {
   v1::DownloadHeader header;  // version 3's: no chunk_count, total_bytes, digest
-  DownloadReport report;      // of the selection at the head; bytes counted as they are sent
-  std::vector<Path> paths;    // to send, by start then id
-  std::vector<Uuid> nodes;    // to send, by stamp then id (the order of VersionStore::NodesAt)
-  std::vector<Edge> edges;    // to send, by id
-  std::int64_t mean_node_bytes = 0;  // landmark bytes per node in the map, to size batches
-  // Incremental: SelectionDigest (map_chunks.h) of what the base's selection held and this one
-  // does not (the header's removed lists); 0 for a full download.
-  std::uint64_t removed_digest = 0;
+  DownloadPlan plan;          // report: of the selection; bytes counted as they are sent
   // SelectionDigest of all the plan sends, kept by the first encoder that sent it all: a plan's
   // elements are those of one revision and a stored element never changes, so the encoders after
   // it take this instead of digesting every landmark byte again (a tenth of a download's CPU).
@@ -51,26 +46,15 @@ struct DownloadPlan {
   mutable std::atomic<bool> whole_sent_digest_known{false};  // stored after the value
 };
 
-// The policy a request names: ParseDownloadPolicy(policy), then its parameters where the
-// request sets them (> 0; the mission start always), the nodes to include, its route;
-// validated, and its channel's name checked. Throws Error(kInvalidArgument) naming what is
-// wrong.
-DownloadPolicy PolicyOfRequest(const v1::DownloadRequest& request);
-
-// The channel a request follows: its own, "head" when it names none.
-std::string ChannelOfRequest(const v1::DownloadRequest& request);
-
-// The plan of the download `request` asks for at revision `head` (the revision its channel
-// names, read by the caller: the repository's head for "head") for a robot of `protocol_version`:
-// Repository::SelectForDownload's selection, made on bare nodes, contracted from version 4 on. A
-// budget has to weigh every node by its landmarks (SelectDownload reads a node's bytes off its
-// blob), so with "budget" the map's landmarks are read for the selection and dropped before it
-// returns: only that policy's memory still grows with the map. Throws as PolicyOfRequest and the
-// store.
-std::shared_ptr<const DownloadPlan> PlanDownload(Repository& repository,
-                                                 const v1::DownloadRequest& request,
-                                                 RevisionNumber head,
-                                                 std::uint32_t protocol_version);
+// The download `policy` (PolicyOfRequest of the request, read once by the session's handler)
+// selects at revision `head` (the revision its channel names), for the changes since `base`
+// (0: whole), under `channel`'s name, for a robot of `protocol_version` (contracted from
+// version 4 on). Throws as Repository::PlanDownload.
+std::shared_ptr<const DownloadToSend> PlanDownloadToSend(Repository& repository,
+                                                         DownloadPolicy policy,
+                                                         const std::string& channel,
+                                                         RevisionNumber head, RevisionNumber base,
+                                                         std::uint32_t protocol_version);
 
 // Encodes a plan into DownloadChunk frames a batch at a time: paths, nodes (their landmarks
 // read from the store per batch), edges, as EncodeMapChunks orders a map; an empty download
@@ -79,7 +63,7 @@ std::shared_ptr<const DownloadPlan> PlanDownload(Repository& repository,
 // Threading: one thread at a time (a store worker; the session hands it from job to job).
 class DownloadEncoder {
  public:
-  explicit DownloadEncoder(std::shared_ptr<const DownloadPlan> plan,
+  explicit DownloadEncoder(std::shared_ptr<const DownloadToSend> download,
                            std::size_t batch_bytes = kDownloadBatchBytes);
 
   // The next batch of frames, each with its length prefix, about batch_bytes together; empty
@@ -94,16 +78,17 @@ class DownloadEncoder {
   std::int64_t landmark_bytes() const { return landmark_bytes_; }
   // SelectionDigest (map_chunks.h) of what the chunks carry once done(): of the whole selection
   // for a full download, of what it adds for an incremental one. Before done(), of the elements
-  // encoded so far, or already the whole value when the plan knew it (DownloadPlan).
+  // encoded so far, or already the whole value when the plan knew it (DownloadToSend).
   std::uint64_t sent_digest() const;
-  const DownloadPlan& plan() const { return *plan_; }
-  const std::shared_ptr<const DownloadPlan>& shared_plan() const { return plan_; }
+  const DownloadToSend& download() const { return *download_; }
 
  private:
   // Turns `map` into chunk frames appended to `frames` (its landmarks moved into them).
   void Encode(GraphBatch map, std::vector<std::string>& frames);
+  // The next batch of the plan's nodes, their landmarks read through `repository`.
+  void EncodeNodes(Repository& repository, std::vector<std::string>& frames);
 
-  std::shared_ptr<const DownloadPlan> plan_;
+  std::shared_ptr<const DownloadToSend> download_;
   std::size_t batch_bytes_;
   std::size_t nodes_per_batch_;
   enum class Stage { kPaths, kNodes, kEdges, kDone } stage_ = Stage::kPaths;
@@ -130,14 +115,10 @@ struct EncodedDownload {
   std::uint64_t removed_digest = 0;  // DownloadPlan::removed_digest
 };
 
-// The whole download in `protocol_version`'s frames (2 or 3). Memory: all of it.
-std::shared_ptr<const EncodedDownload> EncodeDownload(Repository& repository,
-                                                      const v1::DownloadRequest& request,
-                                                      RevisionNumber head,
-                                                      std::uint32_t protocol_version);
-
-// The framed DownloadHeader and DownloadEnd of a plan in version 3.
-std::string HeaderFrame(const v1::DownloadHeader& header);
-std::string EndFrame(const v1::DownloadEnd& end);
+// The whole download, in the frames of the version it was planned for (2: the totals in the
+// header; 3 and later: in the end). Memory: all of it.
+std::shared_ptr<const EncodedDownload> EncodeDownload(
+    Repository& repository, std::shared_ptr<const DownloadToSend> download,
+    std::uint32_t protocol_version);
 
 }  // namespace fleetmap::daemon

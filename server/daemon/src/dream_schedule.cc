@@ -53,25 +53,27 @@ DreamSchedule::~DreamSchedule() {
 }
 
 void DreamSchedule::Start() {
+  std::string at;
   {
-    std::lock_guard lock(mutex_);
+    MutexLock lock(mutex_);
     status_.next_ns = NsOf(NextDreamTime(std::chrono::system_clock::now(), minute_of_day_));
+    at = status_.at;
   }
-  spdlog::info("dream: scheduled daily at {} UTC", status_.at);
+  spdlog::info("dream: scheduled daily at {} UTC", at);
   thread_ = std::thread([this] { Run(); });
 }
 
 void DreamSchedule::Stop() {
   {
-    std::lock_guard lock(mutex_);
+    MutexLock lock(mutex_);
     stopping_ = true;
   }
-  wake_.notify_all();
+  wake_.NotifyAll();
   if (thread_.joinable()) thread_.join();
 }
 
 DreamStatus DreamSchedule::Status() const {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   return status_;
 }
 
@@ -80,8 +82,7 @@ std::optional<MissedDream> DreamSchedule::FindMissed() const {
     RepositoryOptions repository_options;
     repository_options.store = store_options_;
     const std::unique_ptr<Repository> repository = Repository::Open(store_uri_, repository_options);
-    return FindMissedDream(repository->versions(), NsOf(std::chrono::system_clock::now()),
-                           minute_of_day_);
+    return FindMissedDream(*repository, NsOf(std::chrono::system_clock::now()), minute_of_day_);
   } catch (const std::exception& error) {
     // The schedule goes on: the next night's dream covers what this one would have.
     spdlog::warn("dream: cannot tell whether a dream was missed: {}", error.what());
@@ -102,22 +103,22 @@ void DreamSchedule::Run() {
                  ClockText(minute_of_day_), day, missed->why);
     RunOnce();
   }
-  std::unique_lock lock(mutex_);
+  MutexLock lock(mutex_);
   while (!stopping_) {
     const auto next = NextDreamTime(std::chrono::system_clock::now(), minute_of_day_);
     status_.next_ns = NsOf(next);
     // Woken early only to stop; a spurious or clock-change wake-up re-checks the time.
-    if (wake_.wait_until(lock, next, [&] { return stopping_; })) break;
+    if (wake_.WaitUntil(mutex_, next, [&]() REQUIRES(mutex_) { return stopping_; })) break;
     if (std::chrono::system_clock::now() < next) continue;
-    lock.unlock();
+    lock.Unlock();
     RunOnce();
-    lock.lock();
+    lock.Lock();
   }
 }
 
 void DreamSchedule::RunOnce() {
   {
-    std::lock_guard lock(mutex_);
+    MutexLock lock(mutex_);
     status_.running = true;
     status_.steps_done = status_.steps_all = 0;
   }
@@ -132,7 +133,7 @@ void DreamSchedule::RunOnce() {
     const std::unique_ptr<Repository> repository = Repository::Open(store_uri_, repository_options);
     const NightlyDreamOutcome outcome =
         RunNightlyDream(*repository, options_, [this](std::size_t done, std::size_t all) {
-          std::lock_guard lock(mutex_);
+          MutexLock lock(mutex_);
           if (stopping_) throw DreamAbandoned{};
           status_.steps_done = done;
           status_.steps_all = all;
@@ -163,7 +164,7 @@ void DreamSchedule::RunOnce() {
   } else {
     spdlog::info("dream: {}", result);
   }
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   status_.running = false;
   status_.last_finished_ns = NsOf(std::chrono::system_clock::now());
   status_.last_seconds = seconds;

@@ -7,14 +7,13 @@
 #pragma once
 
 #include <chrono>
-#include <condition_variable>
 #include <cstdint>
-#include <mutex>
 #include <optional>
 #include <string>
 #include <string_view>
 #include <thread>
 
+#include "fleetmap/core/mutex.h"
 #include "fleetmap/daemon/fleet_status.h"
 #include "fleetmap/repository/nightly_dream.h"
 #include "fleetmap/store/graph_store.h"
@@ -52,10 +51,10 @@ class DreamSchedule {
   const int minute_of_day_;
   const NightlyDreamOptions options_;
 
-  mutable std::mutex mutex_;
-  std::condition_variable wake_;
-  bool stopping_ = false;
-  DreamStatus status_;
+  mutable Mutex mutex_;
+  CondVar wake_;
+  bool stopping_ GUARDED_BY(mutex_) = false;
+  DreamStatus status_ GUARDED_BY(mutex_);
   std::thread thread_;
 };
 

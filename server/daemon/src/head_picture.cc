@@ -11,14 +11,14 @@ namespace fleetmap::daemon {
 namespace {
 
 std::vector<RevisionRow> RecentRevisions(Repository& repository, RevisionNumber head) {
-  VersionStore& versions = repository.versions();
+  const RepositoryInspection& inspect = repository.inspect();
   std::map<Uuid, std::string> robot_names;
-  for (const RegisteredRobot& robot : RobotRegistry(versions).List()) {
+  for (const RegisteredRobot& robot : RobotRegistry(repository).List()) {
     robot_names[robot.id] = robot.name;
   }
   std::vector<RevisionRow> rows;
   for (RevisionNumber r = head; r >= 1 && rows.size() < FleetStatus::kRecentRevisions; --r) {
-    const std::optional<Revision> revision = versions.FindRevision(r);
+    const std::optional<Revision> revision = inspect.FindRevision(r);
     if (!revision) continue;
     RevisionRow row{r,
                     std::string(RevisionKindName(revision->kind)),
@@ -28,7 +28,7 @@ std::vector<RevisionRow> RecentRevisions(Repository& repository, RevisionNumber 
                     revision->nodes_added,
                     revision->nodes_hidden};
     if (revision->kind == RevisionKind::kMerge) {
-      if (const auto submission = versions.FindSubmission(revision->submission)) {
+      if (const auto submission = inspect.FindSubmission(revision->submission)) {
         const auto name = robot_names.find(submission->robot);
         row.robot = name != robot_names.end() ? name->second : submission->robot.ToString();
       }
@@ -43,7 +43,7 @@ std::vector<RevisionRow> RecentRevisions(Repository& repository, RevisionNumber 
 void HeadPicture::Refresh(Repository& repository) {
   const RevisionNumber head = repository.Head();
   {
-    std::lock_guard lock(mutex_);
+    MutexLock lock(mutex_);
     if (drawing_ || head == drawn_) return;
     drawing_ = true;
   }
@@ -55,20 +55,20 @@ void HeadPicture::Refresh(Repository& repository) {
     picture.Draw(canvas);
     auto svg = std::make_shared<const std::string>(canvas.svg());
     std::vector<RevisionRow> history = RecentRevisions(repository, head);
-    std::lock_guard lock(mutex_);
+    MutexLock lock(mutex_);
     svg_ = std::move(svg);
     history_ = std::move(history);
     drawn_ = head;
     drawing_ = false;
   } catch (...) {
-    std::lock_guard lock(mutex_);
+    MutexLock lock(mutex_);
     drawing_ = false;
     throw;
   }
 }
 
 void HeadPicture::AddTo(FleetStatus& status) const {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   status.head_picture_svg = svg_;
   status.picture_revision = drawn_;
   status.recent_revisions = history_;

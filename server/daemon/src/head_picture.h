@@ -13,10 +13,10 @@
 #pragma once
 
 #include <memory>
-#include <mutex>
 #include <string>
 #include <vector>
 
+#include "fleetmap/core/mutex.h"
 #include "fleetmap/daemon/fleet_status.h"
 #include "fleetmap/repository/repository.h"
 
@@ -31,11 +31,11 @@ class HeadPicture {
   void AddTo(FleetStatus& status) const;
 
  private:
-  mutable std::mutex mutex_;
-  bool drawing_ = false;                    // guarded by mutex_
-  std::int64_t drawn_ = -1;                 // guarded by mutex_
-  std::shared_ptr<const std::string> svg_;  // guarded by mutex_
-  std::vector<RevisionRow> history_;        // guarded by mutex_
+  mutable Mutex mutex_;
+  bool drawing_ GUARDED_BY(mutex_) = false;
+  std::int64_t drawn_ GUARDED_BY(mutex_) = -1;
+  std::shared_ptr<const std::string> svg_ GUARDED_BY(mutex_);
+  std::vector<RevisionRow> history_ GUARDED_BY(mutex_);
 };
 
 }  // namespace fleetmap::daemon

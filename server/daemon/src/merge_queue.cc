@@ -7,6 +7,7 @@
 
 #include "fleetmap/core/clock.h"
 #include "fleetmap/core/error.h"
+#include "fleetmap/repository/merge_claims.h"
 
 namespace fleetmap::daemon {
 namespace {
@@ -61,22 +62,22 @@ MergeQueue::MergeQueue(const std::string& store_uri, MergeQueueOptions options,
 
 void MergeQueue::BeforeCommit(const Uuid& submission) {
   {
-    std::unique_lock lock(mutex_);
+    MutexLock lock(mutex_);
     if (options_.debug_delay.count() > 0) {
-      wake_.wait_for(lock, options_.debug_delay, [&] { return stopping_; });
+      wake_.WaitFor(mutex_, options_.debug_delay, [&]() REQUIRES(mutex_) { return stopping_; });
     }
   }
   CheckStillOurs();
   // The fence, in the merge's own transaction: the commit goes through only while this
   // instance holds the lease (renewed here, so it holds until well after the commit).
-  if (!repository_->versions().RenewClaim(submission, options_.instance, options_.lease)) {
+  if (!MergeClaims(*repository_).Renew(submission, options_.instance, options_.lease)) {
     throw LeaseLost{};
   }
 }
 
 void MergeQueue::CheckStillOurs() {
   if (lease_lost_.load()) throw LeaseLost{};
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   if (stopping_) throw MergeAbandoned{};
 }
 
@@ -92,7 +93,7 @@ std::size_t MergeQueue::Start() {
     ++queued;
   }
   {
-    std::lock_guard lock(mutex_);
+    MutexLock lock(mutex_);
     kicked_ = true;
   }
   thread_ = std::thread([this] { Run(); });
@@ -103,7 +104,7 @@ std::size_t MergeQueue::Start() {
 std::uint32_t MergeQueue::Enqueue(const Uuid& submission, const Uuid& robot) {
   std::uint32_t position = 0;
   {
-    std::lock_guard lock(mutex_);
+    MutexLock lock(mutex_);
     kicked_ = true;
     const std::uint32_t running = merging_ ? 1 : 0;
     if (merging_ && merging_->submission == submission) return 0;
@@ -115,7 +116,7 @@ std::uint32_t MergeQueue::Enqueue(const Uuid& submission, const Uuid& robot) {
       waiting_.emplace_back(submission, robot);
     }
   }
-  wake_.notify_all();
+  wake_.NotifyAll();
   return position;
 }
 
@@ -126,7 +127,7 @@ std::deque<std::pair<Uuid, Uuid>>::const_iterator MergeQueue::FindWaiting(
 }
 
 std::optional<std::uint32_t> MergeQueue::Position(const Uuid& submission) const {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   if (merging_ && merging_->submission == submission) return 0;
   const auto found = FindWaiting(submission);
   if (found == waiting_.end()) return std::nullopt;
@@ -134,38 +135,38 @@ std::optional<std::uint32_t> MergeQueue::Position(const Uuid& submission) const 
 }
 
 bool MergeQueue::IsMerging(const Uuid& submission) const {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   return merging_ && merging_->submission == submission;
 }
 
 MergeQueue::Retries MergeQueue::RetriesOf(const Uuid& submission) const {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   const auto found = retries_.find(submission);
   return found == retries_.end() ? Retries{} : found->second;
 }
 
 std::uint64_t MergeQueue::retries_total() const {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   return retries_total_;
 }
 
 bool MergeQueue::backing_off() const {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   return std::chrono::steady_clock::now() < retry_at_;
 }
 
 std::size_t MergeQueue::Length() const {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   return waiting_.size();
 }
 
 std::optional<MergeQueue::Running> MergeQueue::Merging() const {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   return merging_;
 }
 
 bool MergeQueue::Watch(const Uuid& submission, std::function<void()> watcher) {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   const bool pending =
       (merging_ && merging_->submission == submission) || FindWaiting(submission) != waiting_.end();
   if (!pending || stopping_) return false;
@@ -176,15 +177,15 @@ bool MergeQueue::Watch(const Uuid& submission, std::function<void()> watcher) {
 void MergeQueue::Stop() {
   std::unordered_map<Uuid, std::vector<std::function<void()>>> watchers;
   {
-    std::lock_guard lock(mutex_);
+    MutexLock lock(mutex_);
     stopping_ = true;
     waiting_.clear();
   }
-  wake_.notify_all();
+  wake_.NotifyAll();
   if (thread_.joinable()) thread_.join();
   if (keeper_.joinable()) keeper_.join();
   {
-    std::lock_guard lock(mutex_);
+    MutexLock lock(mutex_);
     watchers.swap(watchers_);
   }
   for (auto& [submission, list] : watchers) {
@@ -193,18 +194,21 @@ void MergeQueue::Stop() {
 }
 
 bool MergeQueue::WaitForWork() {
-  std::unique_lock lock(mutex_);
+  MutexLock lock(mutex_);
   for (;;) {
     if (stopping_) return false;
     const auto now = std::chrono::steady_clock::now();
     if (now < retry_at_) {
-      wake_.wait_until(lock, retry_at_);
+      wake_.WaitUntil(mutex_, retry_at_);
       continue;
     }
     if (kicked_) break;
     // Nothing received here: look in the store after a poll period all the same (pushed to
     // another instance, or left by one that died).
-    if (!wake_.wait_for(lock, options_.poll, [&] { return stopping_ || kicked_; })) break;
+    if (!wake_.WaitFor(mutex_, options_.poll,
+                       [&]() REQUIRES(mutex_) { return stopping_ || kicked_; })) {
+      break;
+    }
   }
   kicked_ = false;
   return true;
@@ -214,10 +218,9 @@ std::optional<Submission> MergeQueue::ClaimNext() {
   try {
     if (!repository_) ReopenIfBroken();
     if (!repository_) throw Error(ErrorCode::kBackend, "the store cannot be opened");
-    VersionStore& versions = repository_->versions();
     std::vector<Uuid> skip;
     for (auto it = deferred_.begin(); it != deferred_.end();) {
-      const std::optional<Submission> first = versions.FindSubmission(it->second);
+      const std::optional<Submission> first = repository_->inspect().FindSubmission(it->second);
       if (first && first->state == SubmissionState::kQueued) {
         skip.push_back(it->first);
         ++it;
@@ -226,8 +229,8 @@ std::optional<Submission> MergeQueue::ClaimNext() {
       }
     }
     std::optional<Submission> claimed =
-        versions.ClaimQueuedSubmission(options_.instance, options_.lease, skip);
-    std::lock_guard lock(mutex_);
+        MergeClaims(*repository_).ClaimNext(options_.instance, options_.lease, skip);
+    MutexLock lock(mutex_);
     claim_failures_ = 0;
     if (claimed) kicked_ = true;  // there may be more: claim again right after this merge
     return claimed;
@@ -235,7 +238,7 @@ std::optional<Submission> MergeQueue::ClaimNext() {
     std::chrono::milliseconds retry_in{0};
     std::uint32_t attempt = 0;
     {
-      std::lock_guard lock(mutex_);
+      MutexLock lock(mutex_);
       attempt = ++claim_failures_;
       retry_in = Backoff(options_, attempt);
       ++retries_total_;
@@ -252,7 +255,7 @@ std::optional<Submission> MergeQueue::ClaimNext() {
 
 void MergeQueue::ReleaseClaim(const Uuid& submission) {
   try {
-    if (repository_) repository_->versions().ReleaseClaim(submission, options_.instance);
+    if (repository_) MergeClaims(*repository_).Release(submission, options_.instance);
   } catch (const std::exception& error) {
     // Harmless: the lease ends by itself, and this instance may take it back before then.
     spdlog::warn("merge {}: releasing the claim failed: {}", submission.ToString(), error.what());
@@ -266,7 +269,7 @@ void MergeQueue::Run() {
     const Uuid submission = claimed->id, robot = claimed->robot;
     lease_lost_ = false;
     {
-      std::lock_guard lock(mutex_);
+      MutexLock lock(mutex_);
       merging_ = Running{submission, robot, WallClockNs()};
       if (const auto found = FindWaiting(submission); found != waiting_.end()) {
         waiting_.erase(found);
@@ -278,7 +281,7 @@ void MergeQueue::Run() {
       // Another instance holds it now: it merges it; the keeper tells our watchers when.
       spdlog::warn("merge {}: the lease ended mid-merge; rolled back, left to its new holder",
                    submission.ToString());
-      std::lock_guard lock(mutex_);
+      MutexLock lock(mutex_);
       merging_.reset();
       if (FindWaiting(submission) == waiting_.end()) waiting_.emplace_front(submission, robot);
       continue;
@@ -289,7 +292,7 @@ void MergeQueue::Run() {
       // An edge reaches a node of an earlier submission still queued: that one goes first
       // (claimed next when free; another instance may hold it), this one after it.
       deferred_[submission] = *done.waits_for;
-      std::lock_guard lock(mutex_);
+      MutexLock lock(mutex_);
       merging_.reset();
       kicked_ = true;
       if (FindWaiting(submission) == waiting_.end()) waiting_.emplace_front(submission, robot);
@@ -299,7 +302,7 @@ void MergeQueue::Run() {
     }
     if (on_done_) on_done_(done);
     if (done.transient) {
-      std::lock_guard lock(mutex_);
+      MutexLock lock(mutex_);
       merging_.reset();  // still queued; its watchers keep waiting
       continue;
     }
@@ -311,7 +314,7 @@ void MergeQueue::Run() {
 void MergeQueue::Finish(const Uuid& submission) {
   std::vector<std::function<void()>> watchers;
   {
-    std::lock_guard lock(mutex_);
+    MutexLock lock(mutex_);
     if (merging_ && merging_->submission == submission) merging_.reset();
     if (const auto found = FindWaiting(submission); found != waiting_.end()) {
       waiting_.erase(found);
@@ -325,29 +328,33 @@ void MergeQueue::Finish(const Uuid& submission) {
 }
 
 void MergeQueue::Keep() {
-  std::unique_ptr<GraphStore> store;
+  std::unique_ptr<Repository> repository;  // the keeper's own connection
   const auto period = std::min(options_.poll, options_.lease / 3);
   for (;;) {
     {
-      std::unique_lock lock(mutex_);
-      if (wake_.wait_for(lock, period, [&] { return stopping_; })) return;
+      MutexLock lock(mutex_);
+      if (wake_.WaitFor(mutex_, period, [&]() REQUIRES(mutex_) { return stopping_; })) return;
     }
     try {
-      if (!store) store = GraphStore::Open(store_uri_, options_.store);
-      KeepOnce(*store);
+      if (!repository) {
+        RepositoryOptions repository_options;
+        repository_options.store = options_.store;
+        repository = Repository::Open(store_uri_, std::move(repository_options));
+      }
+      KeepOnce(*repository);
     } catch (const std::exception& error) {
       // The merge's own commit fence still guards the lease; try again next period.
       spdlog::warn("merge queue keeper: {}", error.what());
-      store.reset();
+      repository.reset();
     }
   }
 }
 
-void MergeQueue::KeepOnce(GraphStore& store) {
+void MergeQueue::KeepOnce(Repository& repository) {
   std::optional<Uuid> running;
   std::vector<Uuid> known;
   {
-    std::lock_guard lock(mutex_);
+    MutexLock lock(mutex_);
     if (merging_) running = merging_->submission;
     for (const auto& [submission, robot] : waiting_) known.push_back(submission);
     for (const auto& [submission, list] : watchers_) {
@@ -356,16 +363,15 @@ void MergeQueue::KeepOnce(GraphStore& store) {
       }
     }
   }
-  VersionStore& versions = store.versions();
   if (running && !lease_lost_ &&
-      !versions.RenewClaim(*running, options_.instance, options_.lease)) {
+      !MergeClaims(repository).Renew(*running, options_.instance, options_.lease)) {
     lease_lost_ = true;
   }
   for (const Uuid& submission : known) {
-    const std::optional<Submission> stored = versions.FindSubmission(submission);
+    const std::optional<Submission> stored = repository.inspect().FindSubmission(submission);
     if (stored && stored->state == SubmissionState::kQueued) continue;
     {
-      std::lock_guard lock(mutex_);
+      MutexLock lock(mutex_);
       if (merging_ && merging_->submission == submission) continue;  // ours, just finishing
     }
     Finish(submission);  // merged or failed by another instance (or gone)
@@ -374,7 +380,7 @@ void MergeQueue::KeepOnce(GraphStore& store) {
 
 void MergeQueue::AfterTransientFailure(MergeDone& done, const Uuid& robot) {
   {
-    std::lock_guard lock(mutex_);
+    MutexLock lock(mutex_);
     Retries& retries = retries_[done.submission];
     ++retries.attempts;
     retries.last_error = done.error;
@@ -396,10 +402,10 @@ void MergeQueue::AfterTransientFailure(MergeDone& done, const Uuid& robot) {
   // When the store cannot take even this, the queue in memory still holds the submission.
   if (repository_) {
     try {
-      repository_->versions().SetSubmissionState(
-          done.submission, SubmissionState::kQueued, 0,
-          "merge attempt " + std::to_string(done.attempts) + " failed (retrying in " +
-              std::to_string(done.retry_in.count()) + " ms): " + done.error);
+      MergeClaims(*repository_)
+          .RecordRetry(done.submission,
+                       "merge attempt " + std::to_string(done.attempts) + " failed (retrying in " +
+                           std::to_string(done.retry_in.count()) + " ms): " + done.error);
     } catch (const std::exception& again) {
       spdlog::warn("merge {}: recording the transient failure failed too: {}",
                    done.submission.ToString(), again.what());
@@ -437,11 +443,11 @@ MergeDone MergeQueue::MergeOne(const Uuid& submission) {
     if (!repository_) throw Error(ErrorCode::kBackend, "the store cannot be opened");
     if (options_.debug_pause.count() > 0) {
       {
-        std::unique_lock lock(mutex_);
-        wake_.wait_for(lock, options_.debug_pause, [&] { return stopping_; });
+        MutexLock lock(mutex_);
+        wake_.WaitFor(mutex_, options_.debug_pause, [&]() REQUIRES(mutex_) { return stopping_; });
       }
       CheckStillOurs();
-      if (!repository_->versions().RenewClaim(submission, options_.instance, options_.lease)) {
+      if (!MergeClaims(*repository_).Renew(submission, options_.instance, options_.lease)) {
         throw LeaseLost{};
       }
     }
@@ -454,7 +460,7 @@ MergeDone MergeQueue::MergeOne(const Uuid& submission) {
       done.merged = true;
       done.revision = outcome.revision.number;
       done.nodes_added = outcome.revision.nodes_added;
-      done.head_stats = repository_->versions().StatsAt(repository_->Head());
+      done.head_stats = repository_->inspect().StatsAt(repository_->Head());
     }
   } catch (const MergeAbandoned&) {
     done.abandoned = true;
@@ -473,7 +479,7 @@ MergeDone MergeQueue::MergeOne(const Uuid& submission) {
     done.transient = true;  // not MERGE's verdict on the content (e.g. out of memory)
   }
   if (done.merged || (!done.transient && !done.abandoned && !done.lease_lost && !done.waits_for)) {
-    std::lock_guard lock(mutex_);
+    MutexLock lock(mutex_);
     retries_.erase(submission);
   }
   done.seconds = SecondsSince(start);
@@ -483,7 +489,7 @@ MergeDone MergeQueue::MergeOne(const Uuid& submission) {
 bool MergeQueue::StillQueued(const Uuid& submission) {
   try {
     if (!repository_) return true;
-    const std::optional<Submission> stored = repository_->versions().FindSubmission(submission);
+    const std::optional<Submission> stored = repository_->inspect().FindSubmission(submission);
     return stored && stored->state == SubmissionState::kQueued;
   } catch (const std::exception&) {
     return true;  // the store does not answer: retry, and learn then

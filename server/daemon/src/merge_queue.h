@@ -37,18 +37,17 @@
 
 #include <atomic>
 #include <chrono>
-#include <condition_variable>
 #include <cstdint>
 #include <deque>
 #include <functional>
 #include <memory>
-#include <mutex>
 #include <optional>
 #include <string>
 #include <thread>
 #include <unordered_map>
 #include <vector>
 
+#include "fleetmap/core/mutex.h"
 #include "fleetmap/core/uuid.h"
 #include "fleetmap/repository/repository.h"
 
@@ -161,7 +160,7 @@ class MergeQueue {
   // The keeper thread: renews the running merge's lease, and learns which watched
   // submissions left the queue (merged by another instance).
   void Keep();
-  void KeepOnce(GraphStore& store);
+  void KeepOnce(Repository& repository);
   MergeDone MergeOne(const Uuid& submission);
   // After a transient failure: the backoff and requeue at the front; the repository reopened
   // when its connection no longer answers. Runs on the merge thread.
@@ -177,25 +176,25 @@ class MergeQueue {
   void CheckStillOurs();
   // Drops `submission` from this instance's view and calls its watchers.
   void Finish(const Uuid& submission);
-  // REQUIRES: mutex_ held.
-  std::deque<std::pair<Uuid, Uuid>>::const_iterator FindWaiting(const Uuid& submission) const;
+  std::deque<std::pair<Uuid, Uuid>>::const_iterator FindWaiting(const Uuid& submission) const
+      REQUIRES(mutex_);
 
   MergeQueueOptions options_;
   DoneCallback on_done_;
 
-  mutable std::mutex mutex_;
-  std::condition_variable wake_;
-  // (submission, robot), oldest first; guarded by mutex_.
-  std::deque<std::pair<Uuid, Uuid>> waiting_;
-  std::optional<Running> merging_;                                         // guarded by mutex_
-  std::unordered_map<Uuid, std::vector<std::function<void()>>> watchers_;  // guarded by mutex_
-  bool stopping_ = false;                                                  // guarded by mutex_
-  bool kicked_ = false;                        // Enqueue since the last claim; guarded by mutex_
-  std::unordered_map<Uuid, Retries> retries_;  // guarded by mutex_
-  std::uint64_t retries_total_ = 0;            // guarded by mutex_
+  mutable Mutex mutex_;
+  CondVar wake_;
+  // (submission, robot), oldest first.
+  std::deque<std::pair<Uuid, Uuid>> waiting_ GUARDED_BY(mutex_);
+  std::optional<Running> merging_ GUARDED_BY(mutex_);
+  std::unordered_map<Uuid, std::vector<std::function<void()>>> watchers_ GUARDED_BY(mutex_);
+  bool stopping_ GUARDED_BY(mutex_) = false;
+  bool kicked_ GUARDED_BY(mutex_) = false;  // Enqueue since the last claim
+  std::unordered_map<Uuid, Retries> retries_ GUARDED_BY(mutex_);
+  std::uint64_t retries_total_ GUARDED_BY(mutex_) = 0;
   // The head of the queue is not tried before this (a transient failure's backoff).
-  std::chrono::steady_clock::time_point retry_at_{};  // guarded by mutex_
-  std::uint32_t claim_failures_ = 0;                  // in a row; guarded by mutex_
+  std::chrono::steady_clock::time_point retry_at_ GUARDED_BY(mutex_) = {};
+  std::uint32_t claim_failures_ GUARDED_BY(mutex_) = 0;  // in a row
   // Set by the keeper when renewing the running merge's lease found it ended.
   std::atomic<bool> lease_lost_{false};
   // Submissions passed over until the one they wait for leaves the queue (merge thread only).

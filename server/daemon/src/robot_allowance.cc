@@ -15,7 +15,7 @@ RobotAllowance::RobotAllowance(RobotLimits limits) : limits_(limits) {
 }
 
 bool RobotAllowance::JoinSession(const Uuid& robot) {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   Usage& usage = usage_[robot];
   if (usage.sessions >= limits_.sessions) return false;
   ++usage.sessions;
@@ -23,7 +23,7 @@ bool RobotAllowance::JoinSession(const Uuid& robot) {
 }
 
 void RobotAllowance::LeaveSession(const Uuid& robot) {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   const auto it = usage_.find(robot);
   if (it == usage_.end() || it->second.sessions == 0) return;
   --it->second.sessions;
@@ -32,7 +32,7 @@ void RobotAllowance::LeaveSession(const Uuid& robot) {
 
 bool RobotAllowance::ReserveFrame(const Uuid& robot, std::uint64_t bytes,
                                   std::uint64_t& in_flight) {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   Usage& usage = usage_[robot];
   in_flight = usage.frame_bytes;
   if (bytes > limits_.frame_bytes - std::min(usage.frame_bytes, limits_.frame_bytes)) {
@@ -43,7 +43,7 @@ bool RobotAllowance::ReserveFrame(const Uuid& robot, std::uint64_t bytes,
 }
 
 void RobotAllowance::ReleaseFrame(const Uuid& robot, std::uint64_t bytes) {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   const auto it = usage_.find(robot);
   if (it == usage_.end()) return;
   it->second.frame_bytes -= std::min(bytes, it->second.frame_bytes);
@@ -51,7 +51,7 @@ void RobotAllowance::ReleaseFrame(const Uuid& robot, std::uint64_t bytes) {
 }
 
 bool RobotAllowance::ReserveRoutePlan(const Uuid& robot) {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   Usage& usage = usage_[robot];
   if (usage.route_plans >= limits_.route_plans) return false;
   ++usage.route_plans;
@@ -59,7 +59,7 @@ bool RobotAllowance::ReserveRoutePlan(const Uuid& robot) {
 }
 
 void RobotAllowance::ReleaseRoutePlan(const Uuid& robot) {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   const auto it = usage_.find(robot);
   if (it == usage_.end() || it->second.route_plans == 0) return;
   --it->second.route_plans;

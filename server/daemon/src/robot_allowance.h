@@ -20,9 +20,9 @@
 
 #include <cstddef>
 #include <cstdint>
-#include <mutex>
 #include <unordered_map>
 
+#include "fleetmap/core/mutex.h"
 #include "fleetmap/core/uuid.h"
 
 namespace fleetmap::daemon {
@@ -65,12 +65,12 @@ class RobotAllowance {
     std::uint64_t frame_bytes = 0;
     std::size_t route_plans = 0;
   };
-  // Forgets a robot that holds nothing. REQUIRES: mutex_ held.
-  void ForgetIfIdleLocked(std::unordered_map<Uuid, Usage>::iterator it);
+  // Forgets a robot that holds nothing.
+  void ForgetIfIdleLocked(std::unordered_map<Uuid, Usage>::iterator it) REQUIRES(mutex_);
 
   const RobotLimits limits_;
-  std::mutex mutex_;
-  std::unordered_map<Uuid, Usage> usage_;  // guarded by mutex_; robots holding something
+  Mutex mutex_;
+  std::unordered_map<Uuid, Usage> usage_ GUARDED_BY(mutex_);  // robots holding something
 };
 
 // A route plan reserved (RobotAllowance::ReserveRoutePlan), released when this is destroyed.

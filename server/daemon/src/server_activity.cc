@@ -5,79 +5,79 @@
 namespace fleetmap::daemon {
 
 void ServerActivity::SessionOpened() {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   ++totals_.sessions_open;
   ++totals_.sessions_total;
 }
 
 void ServerActivity::SessionClosed() {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   --totals_.sessions_open;
 }
 
 std::uint64_t ServerActivity::sessions_open() const {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   return totals_.sessions_open;
 }
 
 void ServerActivity::BytesReceived(std::uint64_t n) {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   totals_.bytes_received += n;
 }
 
 void ServerActivity::BytesSent(std::uint64_t n) {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   totals_.bytes_sent += n;
 }
 
 void ServerActivity::ErrorSent(const std::string& code_name) {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   ++totals_.errors_by_code[code_name];
 }
 
 void ServerActivity::PushAccepted(const Uuid& robot) {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   ++totals_.pushes;
   ++robots_[robot].pushes;
 }
 
 void ServerActivity::DownloadSent(const Uuid& robot) {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   ++totals_.downloads;
   ++robots_[robot].downloads;
 }
 
 void ServerActivity::MergeFinished(bool merged) {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   ++(merged ? totals_.merges : totals_.merges_failed);
 }
 
 void ServerActivity::MergeRan(const Uuid& submission, RevisionNumber revision, double seconds,
                               std::int64_t finished_ns) {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   std::vector<MergeRun>& recent = totals_.recent_merges;
   if (recent.size() == FleetStatus::kRecentMerges) recent.erase(recent.begin());
   recent.push_back(MergeRun{submission.ToString(), revision, seconds, finished_ns});
 }
 
 void ServerActivity::SetInstance(const std::string& instance) {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   totals_.instance = instance;
 }
 
 void ServerActivity::MergeRetried() {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   ++totals_.merge_retries;
 }
 
 void ServerActivity::LastSyncNotRecorded() {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   ++totals_.last_sync_write_failures;
 }
 
 void ServerActivity::SetRobots(const std::vector<RegisteredRobot>& robots,
                                std::vector<Channel> channels) {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   channels_ = std::move(channels);
   std::map<Uuid, RobotActivity> listed;
   for (const RegisteredRobot& robot : robots) {
@@ -91,7 +91,7 @@ void ServerActivity::SetRobots(const std::vector<RegisteredRobot>& robots,
 }
 
 void ServerActivity::RobotSynced(const RegisteredRobot& robot, std::int64_t now_ns) {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   RobotActivity& activity = robots_[robot.id];
   // The registration and the time; what it runs comes with the next read of the store.
   activity.robot.id = robot.id;
@@ -101,14 +101,14 @@ void ServerActivity::RobotSynced(const RegisteredRobot& robot, std::int64_t now_
 }
 
 std::string ServerActivity::RobotName(const Uuid& robot) const {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   const auto found = robots_.find(robot);
   if (found == robots_.end() || found->second.robot.name.empty()) return robot.ToString();
   return found->second.robot.name;
 }
 
 void ServerActivity::SetHead(RevisionNumber head, const StoreStats& stats) {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   totals_.head_revision = head;
   totals_.map_nodes = static_cast<std::uint64_t>(stats.nodes);
   totals_.map_edges = static_cast<std::uint64_t>(stats.edges);
@@ -117,7 +117,7 @@ void ServerActivity::SetHead(RevisionNumber head, const StoreStats& stats) {
 }
 
 FleetStatus ServerActivity::Snapshot() const {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   FleetStatus status = totals_;
   for (const Channel& channel : channels_) status.channels[channel.name] = channel.revision;
   for (const auto& [id, activity] : robots_) {

@@ -7,11 +7,11 @@
 
 #include <cstdint>
 #include <map>
-#include <mutex>
 #include <optional>
 #include <string>
 #include <vector>
 
+#include "fleetmap/core/mutex.h"
 #include "fleetmap/core/uuid.h"
 #include "fleetmap/daemon/fleet_status.h"
 #include "fleetmap/repository/channel_registry.h"
@@ -59,10 +59,10 @@ class ServerActivity {
     std::uint64_t pushes = 0, downloads = 0;
   };
 
-  mutable std::mutex mutex_;
-  FleetStatus totals_;                    // guarded by mutex_
-  std::map<Uuid, RobotActivity> robots_;  // guarded by mutex_
-  std::vector<Channel> channels_;         // guarded by mutex_
+  mutable Mutex mutex_;
+  FleetStatus totals_ GUARDED_BY(mutex_);
+  std::map<Uuid, RobotActivity> robots_ GUARDED_BY(mutex_);
+  std::vector<Channel> channels_ GUARDED_BY(mutex_);
 };
 
 }  // namespace fleetmap::daemon

@@ -5,7 +5,7 @@
 namespace fleetmap::daemon {
 
 void SessionTracker::Opened(std::weak_ptr<SessionControl> session) {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   ++open_;
   // Forget the sessions gone since, so the list stays as long as the live ones.
   std::erase_if(sessions_, [](const auto& s) { return s.expired(); });
@@ -14,16 +14,16 @@ void SessionTracker::Opened(std::weak_ptr<SessionControl> session) {
 
 void SessionTracker::Closed() {
   {
-    std::lock_guard lock(mutex_);
+    MutexLock lock(mutex_);
     --open_;
   }
-  closed_.notify_all();
+  closed_.NotifyAll();
 }
 
 void SessionTracker::ShutdownAll() {
   std::vector<std::shared_ptr<SessionControl>> live;
   {
-    std::lock_guard lock(mutex_);
+    MutexLock lock(mutex_);
     for (const auto& session : sessions_) {
       if (auto s = session.lock()) live.push_back(std::move(s));
     }
@@ -32,8 +32,8 @@ void SessionTracker::ShutdownAll() {
 }
 
 bool SessionTracker::WaitAllClosed(std::chrono::milliseconds deadline) {
-  std::unique_lock lock(mutex_);
-  return closed_.wait_for(lock, deadline, [&] { return open_ == 0; });
+  MutexLock lock(mutex_);
+  return closed_.WaitFor(mutex_, deadline, [&]() REQUIRES(mutex_) { return open_ == 0; });
 }
 
 }  // namespace fleetmap::daemon

@@ -5,12 +5,12 @@
 #pragma once
 
 #include <chrono>
-#include <condition_variable>
 #include <cstddef>
 #include <memory>
-#include <mutex>
 #include <string>
 #include <vector>
+
+#include "fleetmap/core/mutex.h"
 
 namespace fleetmap::daemon {
 
@@ -36,10 +36,10 @@ class SessionTracker {
   bool WaitAllClosed(std::chrono::milliseconds deadline);
 
  private:
-  std::mutex mutex_;
-  std::condition_variable closed_;
-  std::vector<std::weak_ptr<SessionControl>> sessions_;  // guarded by mutex_
-  std::size_t open_ = 0;                                 // guarded by mutex_
+  Mutex mutex_;
+  CondVar closed_;
+  std::vector<std::weak_ptr<SessionControl>> sessions_ GUARDED_BY(mutex_);
+  std::size_t open_ GUARDED_BY(mutex_) = 0;
 };
 
 }  // namespace fleetmap::daemon

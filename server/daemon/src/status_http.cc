@@ -22,9 +22,7 @@
 #include <boost/beast/http/read.hpp>
 #include <boost/beast/http/write.hpp>
 #include <chrono>
-#include <condition_variable>
 #include <cstddef>
-#include <mutex>
 #include <optional>
 #include <thread>
 #include <unordered_map>
@@ -32,6 +30,7 @@
 #include <vector>
 
 #include "fleetmap/core/error.h"
+#include "fleetmap/core/mutex.h"
 #include "status_access.h"
 #include "status_routes.h"
 
@@ -74,20 +73,20 @@ class SessionRegistry {
   bool Add(const std::shared_ptr<HttpSession>& session);
   // The session waits for a request (true) or handles one (false).
   void SetWaiting(const HttpSession* session, bool waiting) {
-    std::lock_guard lock(mutex_);
+    MutexLock lock(mutex_);
     if (const auto it = live_.find(session); it != live_.end()) {
       it->second.waiting_since =
           waiting ? std::optional(std::chrono::steady_clock::now()) : std::nullopt;
     }
   }
   void Remove(const HttpSession* session) {
-    std::lock_guard lock(mutex_);
+    MutexLock lock(mutex_);
     live_.erase(session);
-    if (live_.empty()) drained_.notify_all();
+    if (live_.empty()) drained_.NotifyAll();
   }
   // Refuses new sessions from now on; returns the live ones.
   std::vector<std::shared_ptr<HttpSession>> BeginStop() {
-    std::lock_guard lock(mutex_);
+    MutexLock lock(mutex_);
     stopping_ = true;
     std::vector<std::shared_ptr<HttpSession>> sessions;
     for (const auto& [key, entry] : live_) {
@@ -96,8 +95,8 @@ class SessionRegistry {
     return sessions;
   }
   bool WaitDrained(std::chrono::steady_clock::duration timeout) {
-    std::unique_lock lock(mutex_);
-    return drained_.wait_for(lock, timeout, [this] { return live_.empty(); });
+    MutexLock lock(mutex_);
+    return drained_.WaitFor(mutex_, timeout, [this]() REQUIRES(mutex_) { return live_.empty(); });
   }
 
  private:
@@ -107,10 +106,10 @@ class SessionRegistry {
     std::optional<std::chrono::steady_clock::time_point> waiting_since;
   };
 
-  std::mutex mutex_;
-  std::condition_variable drained_;
-  std::unordered_map<const HttpSession*, Entry> live_;  // guarded by mutex_
-  bool stopping_ = false;                               // guarded by mutex_
+  Mutex mutex_;
+  CondVar drained_;
+  std::unordered_map<const HttpSession*, Entry> live_ GUARDED_BY(mutex_);
+  bool stopping_ GUARDED_BY(mutex_) = false;
 };
 
 // One connection: read a request, write its response, again while keep-alive, on its strand.
@@ -240,7 +239,7 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
 bool SessionRegistry::Add(const std::shared_ptr<HttpSession>& session) {
   std::shared_ptr<HttpSession> pushed_out;
   {
-    std::lock_guard lock(mutex_);
+    MutexLock lock(mutex_);
     if (stopping_) return false;
     if (live_.size() >= kMaxSessions) {
       auto oldest = live_.end();
@@ -380,8 +379,8 @@ struct StatusHttpServer::Impl {
   std::shared_ptr<HttpListener> listener;
   tcp::endpoint bound;
   std::thread thread;
-  std::mutex stop_mutex;
-  bool stopped = false;
+  Mutex stop_mutex;
+  bool stopped GUARDED_BY(stop_mutex) = false;
 };
 
 StatusHttpServer::StatusHttpServer(const std::string& address, StatusSource status_source,
@@ -429,7 +428,7 @@ std::string StatusHttpServer::address() const {
 }
 
 void StatusHttpServer::Stop() {
-  std::lock_guard lock(impl_->stop_mutex);
+  MutexLock lock(impl_->stop_mutex);
   if (impl_->stopped) return;
   impl_->stopped = true;
   impl_->listener->Close();

@@ -1,6 +1,5 @@
 #include "status_page.h"
 
-#include <cstdio>
 #include <ctime>
 #include <string>
 
@@ -47,23 +46,6 @@ figure.map { margin: 0; background: #fff; border: 1px solid #dde3ea; border-radi
 figure.map img { display: block; max-width: 100%; max-height: 70vh; width: auto; height: auto; }
 figure.map figcaption { font-size: 13px; color: #5b6b7c; margin-top: 4px; }
 )css";
-
-std::string Bytes(std::int64_t bytes) {
-  const char* units[] = {"B", "KiB", "MiB", "GiB", "TiB"};
-  double value = static_cast<double>(bytes);
-  int unit = 0;
-  while (value >= 1024.0 && unit < 4) {
-    value /= 1024.0;
-    ++unit;
-  }
-  char text[64];
-  if (unit == 0) {
-    std::snprintf(text, sizeof text, "%lld B", static_cast<long long>(bytes));
-  } else {
-    std::snprintf(text, sizeof text, "%.1f %s", value, units[unit]);
-  }
-  return text;
-}
 
 void Card(std::string& html, std::string_view label, std::string_view value,
           std::string_view note = {}) {
@@ -213,31 +195,9 @@ void HistoryTable(std::string& html, const FleetStatus& status) {
 }  // namespace
 
 std::string EscapeHtml(std::string_view raw) {
-  // Controls and bidirectional overrides shown as escapes (printable_text.h), then HTML's own.
-  const std::string text = PrintableText(raw);
+  // Controls and bidirectional overrides shown as escapes, then markup's own.
   std::string out;
-  out.reserve(text.size());
-  for (char c : text) {
-    switch (c) {
-      case '&':
-        out += "&amp;";
-        break;
-      case '<':
-        out += "&lt;";
-        break;
-      case '>':
-        out += "&gt;";
-        break;
-      case '"':
-        out += "&quot;";
-        break;
-      case '\'':
-        out += "&#39;";
-        break;
-      default:
-        out += c;
-    }
-  }
+  AppendMarkupEscaped(out, PrintableText(raw));
   return out;
 }
 
@@ -289,7 +249,7 @@ std::string FleetStatusPage(const FleetStatus& status) {
   Card(html, "Map nodes", std::to_string(status.map_nodes));
   Card(html, "Map edges", std::to_string(status.map_edges),
        std::to_string(status.map_paths) + " paths");
-  Card(html, "Landmark bytes", Bytes(status.map_landmark_bytes),
+  Card(html, "Landmark bytes", BytesText(static_cast<std::uint64_t>(status.map_landmark_bytes)),
        std::to_string(status.map_landmark_bytes) + " bytes");
   Card(html, "Merge queue", std::to_string(status.queue_length),
        status.merging ? "merging " + status.merging->submission + " from " + status.merging->robot
@@ -325,8 +285,8 @@ std::string FleetStatusPage(const FleetStatus& status) {
     Total(html, "Merges run here (latest)", runs);
   }
   Total(html, "Merges failed", std::to_string(status.merges_failed));
-  Total(html, "Bytes received", Bytes(static_cast<std::int64_t>(status.bytes_received)));
-  Total(html, "Bytes sent", Bytes(static_cast<std::int64_t>(status.bytes_sent)));
+  Total(html, "Bytes received", BytesText(status.bytes_received));
+  Total(html, "Bytes sent", BytesText(status.bytes_sent));
   if (status.errors_by_code.empty()) {
     Total(html, "Errors sent", "none");
   } else {

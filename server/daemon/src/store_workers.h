@@ -7,15 +7,14 @@
 // worker), in the order posted. A job must not throw (it reports errors to its session).
 #pragma once
 
-#include <condition_variable>
 #include <deque>
 #include <functional>
 #include <memory>
-#include <mutex>
 #include <string>
 #include <thread>
 #include <vector>
 
+#include "fleetmap/core/mutex.h"
 #include "fleetmap/repository/repository.h"
 
 namespace fleetmap::daemon {
@@ -40,10 +39,10 @@ class StoreWorkers {
   void Run(Repository& repository);
 
   std::vector<std::unique_ptr<Repository>> repositories_;
-  std::mutex mutex_;
-  std::condition_variable wake_;
-  std::deque<Job> jobs_;   // guarded by mutex_
-  bool stopping_ = false;  // guarded by mutex_
+  Mutex mutex_;
+  CondVar wake_;
+  std::deque<Job> jobs_ GUARDED_BY(mutex_);
+  bool stopping_ GUARDED_BY(mutex_) = false;
   std::vector<std::thread> threads_;
 };
 

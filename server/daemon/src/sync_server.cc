@@ -260,10 +260,9 @@ class SyncServer::Impl {
     last_refresh_ns_ = WallClockNs();
     store_->Post([this](Repository& repository) {
       try {
-        activity_.SetRobots(RobotRegistry(repository.versions()).List(),
-                            ChannelRegistry(repository).List());
+        activity_.SetRobots(RobotRegistry(repository).List(), ChannelRegistry(repository).List());
         const RevisionNumber head = repository.Head();
-        const StoreStats stats = repository.versions().StatsAt(head);
+        const StoreStats stats = repository.inspect().StatsAt(head);
         activity_.SetHead(head, stats);
         WarmCopyPlan(repository, head, stats);
       } catch (const std::exception& error) {
@@ -284,17 +283,18 @@ class SyncServer::Impl {
                                      static_cast<std::uint64_t>(stats.edges) * sizeof(Edge) +
                                      static_cast<std::uint64_t>(stats.paths) * sizeof(Path);
     if (plan_bytes > options_.download_cache_entry_bytes) return;
-    v1::DownloadRequest copy;
-    copy.set_policy("copy");
+    DownloadAsk copy;  // the parameters' defaults: a copy of the head
     const std::string key = daemon::DownloadCache::Key(head, copy, kSyncProtocolVersion);
     const daemon::DownloadCache::Entry kept = cache_.Find(key);
     if (kept.plan || kept.encoded) return;
     const auto start = std::chrono::steady_clock::now();
     try {
-      const std::shared_ptr<const daemon::DownloadPlan> plan = cache_.PlanOnce(
-          key, [&] { return daemon::PlanDownload(repository, copy, head, kSyncProtocolVersion); });
+      const std::shared_ptr<const daemon::DownloadToSend> plan = cache_.PlanOnce(key, [&] {
+        return daemon::PlanDownloadToSend(repository, PolicyOfRequest(copy.params),
+                                          copy.params.channel, head, 0, kSyncProtocolVersion);
+      });
       spdlog::info("planned a copy of revision {} ahead of downloads: {} nodes, {} edges, {:.3f} s",
-                   head, plan->nodes.size(), plan->edges.size(), SecondsSince(start));
+                   head, plan->plan.nodes.size(), plan->plan.edges.size(), SecondsSince(start));
     } catch (const std::exception& error) {
       // Only a head start lost: the download that asks plans (and reports) for itself.
       spdlog::warn("planning a copy of revision {} ahead of downloads: {}", head, error.what());

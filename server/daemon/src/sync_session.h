@@ -1,22 +1,25 @@
-// One robot's connection to fleetmapd (sync.proto): reads frames one at a time, answers each
-// exchange, and closes with an ErrorFrame on anything wrong — its own connection only.
+// One robot's connection to fleetmapd: the transport under the sync protocol. It does the TLS
+// handshake, reads frames (a 4-byte length, then the body, checked against the caps before a
+// byte of it is buffered), writes frames, keeps a deadline on every read and write, and holds
+// the connection's place in the server's admission (connection_admission.h) and its robot's
+// allowance (robot_allowance.h). Each decoded frame goes to the connection's protocol handler
+// (sync_protocol_handler.h), which answers through the SessionLink this class implements.
 //
 // Beast's server layout: the session lives in shared_ptrs held by its pending handlers (it
 // frees itself when the last completes); every handler runs on the session's strand, so the
 // session needs no mutex; do_x starts an operation, on_x handles its completion and checks the
-// error first. Every read and write has a deadline. Store calls run on the StoreWorkers and
-// post their result back to the strand, so an io thread never waits on the store.
+// error first.
 //
 // Until its hello is accepted a connection is a stranger: its frames are at most 4 KiB, the
 // hello deadline (from the accept) bounds its handshake and reads, it lingers only briefly
-// after an ErrorFrame, and the server may push it out to make room (Evict;
-// connection_admission.h). A frame's body is read a piece at a time into a buffer that grows
-// as the bytes arrive, so an announced length costs nothing until its bytes come.
+// after an ErrorFrame, and the server may push it out to make room (Evict). A frame's body is
+// read a piece at a time into a buffer that grows as the bytes arrive, so an announced length
+// costs nothing until its bytes come.
 //
 // Stream is a TCP socket or a TLS stream over one (explicitly instantiated in the .cc).
 #pragma once
 
-#include <atomic>
+#include <array>
 #include <boost/asio/ip/tcp.hpp>
 #include <boost/asio/ssl/stream.hpp>
 #include <boost/asio/steady_timer.hpp>
@@ -29,36 +32,18 @@
 #include <utility>
 #include <vector>
 
-#include "connection_admission.h"
-#include "download_cache.h"
 #include "fleetmap/core/error.h"
 #include "fleetmap/core/uuid.h"
-#include "fleetmap/daemon/sync_server.h"
 #include "fleetmap/sync.pb.h"
-#include "fleetmap/wire/sync_frame.h"
-#include "merge_queue.h"
-#include "robot_allowance.h"
-#include "server_activity.h"
+#include "session_link.h"
 #include "session_tracker.h"
-#include "store_workers.h"
+#include "sync_protocol_handler.h"
 
 namespace fleetmap::daemon {
 
-// What every session of one server shares; owned by the server, outlives its sessions.
-struct SessionContext {
-  const SyncServerOptions& options;
-  StoreWorkers& store;
-  MergeQueue& merges;
-  DownloadCache& downloads;
-  ServerActivity& activity;
-  SessionTracker& tracker;
-  ConnectionAdmission& admission;
-  RobotAllowance& robots;
-  const std::atomic<bool>& draining;
-};
-
 template <typename Stream>
 class SyncSession : public SessionControl,
+                    public SessionLink,
                     public std::enable_shared_from_this<SyncSession<Stream>> {
  public:
   // `stream`'s executor must be a strand.
@@ -72,18 +57,27 @@ class SyncSession : public SessionControl,
   void Shutdown() override;
   void Evict(const std::string& why) override;
 
- private:
-  enum class Phase { kHello, kReady, kPushing, kClosing };
-  using ErrorCodeV1 = v1::ErrorFrame::Code;
+  // SessionLink
+  void Reply(const v1::SyncFrame& frame) override;
+  void Fail(v1::ErrorFrame::Code code, const std::string& text) override;
+  void CloseAfterBye() override;
+  void HelloArrived() override;
+  bool JoinRobot(const Uuid& robot, const std::string& name) override;
+  void SendFrames(std::shared_ptr<const std::vector<std::string>> frames,
+                  std::function<void(std::uint64_t bytes)> written) override;
+  void StreamFrames(std::vector<std::string> first, std::shared_ptr<FrameSource> source) override;
+  std::shared_ptr<void> KeepAlive() override { return this->shared_from_this(); }
+  boost::asio::any_io_executor executor() const override { return executor_; }
+  std::string Who() const override;
+  bool shutting_down() const override { return shutting_down_; }
 
-  struct Push {
-    Uuid submission;
-    std::uint32_t chunk_count = 0;  // announced
-    std::uint64_t digest = 0;       // announced
-    std::uint64_t total_bytes = 0;  // announced
-    std::uint32_t next_seq = 0;     // chunks [0, next_seq) are stored
-    std::uint64_t bytes = 0;        // of chunks [0, next_seq)
-    bool complete = false;          // stored whole before this session
+ private:
+  // Who is on the other end: one state, moving forward only.
+  enum class Peer {
+    kHandshaking,     // the TLS handshake is under way
+    kStranger,        // no hello yet: small frames, the hello deadline, may be evicted
+    kAuthenticating,  // its hello arrived whole and is being checked: no longer evictable
+    kRobot,           // welcomed: a robot's frames and deadlines, counted among its sessions
   };
 
   boost::asio::ip::tcp::socket& Socket();
@@ -92,31 +86,26 @@ class SyncSession : public SessionControl,
   void on_handshake(const boost::system::error_code& ec);
   void do_read_prefix();
   void on_read_prefix(const boost::system::error_code& ec, std::size_t bytes);
+  // Whether the announced frame may be read: the caps and the robot's allowance; else fails.
+  bool AdmitFrame(std::uint32_t length);
   void do_read_body(std::uint32_t length);
   void do_read_body_piece();
   void on_read_body_piece(const boost::system::error_code& ec, std::size_t had, std::size_t bytes);
   void on_read_body(const boost::system::error_code& ec);
   void do_write(std::shared_ptr<const std::string> frame, std::function<void()> next);
   void on_write(const boost::system::error_code& ec, std::size_t bytes);
-  void do_write_download(std::size_t index);
-  // A streamed download (protocol version 3; see the .cc).
-  void StartStreaming(std::shared_ptr<const DownloadPlan> plan, std::string key, bool plan_cached);
+  void do_write_frames(std::size_t index);
+  // A stream of frames (StreamFrames): its pump, a read on a store worker beside a write.
   void PumpStream();
   void ReadStreamBatch();
   void WriteStreamBatch(std::vector<std::string> frames);
   void on_stream_write(const boost::system::error_code& ec, std::size_t bytes);
-  void FinishStreaming();
-  // The per-download log line and metric.
-  void LogDownload(const DownloadReport& report, const v1::DownloadHeader& header,
-                   std::uint32_t chunks, std::uint64_t frame_bytes, std::uint64_t sent_digest,
-                   std::uint64_t removed_digest, const char* how);
-  // Records the download sent (RobotRegistry::RecordSent) on a store worker, without waiting.
-  void RecordSent(const v1::DownloadHeader& header, std::uint64_t sent_digest,
-                  std::uint64_t removed_digest);
   void do_close();
   void CloseSocket();
   void do_drain();
   void on_drain(const boost::system::error_code& ec, std::size_t bytes);
+  // The write of a download frame failed: closes.
+  void DownloadWriteFailed(const boost::system::error_code& ec);
 
   // Deadline for the next operation: on expiry the socket's operations are cancelled and the
   // session knows it timed out.
@@ -126,66 +115,33 @@ class SyncSession : public SessionControl,
   // deadline (counted from the accept).
   std::chrono::milliseconds ReadDeadline() const;
   // The session starts closing: it no longer counts against the server's limits, nor against
-  // its robot's (robot_allowance.h).
+  // its robot's.
   void LeaveAdmission();
   // The session is done with the frame it reserved room for (robot_allowance.h): released.
   void ReleaseFrame();
-
-  void Handle(const v1::SyncFrame& frame);
-  void OnHello(const v1::Hello& hello);
-  void OnPushBegin(const v1::PushBegin& begin);
-  void OnPushChunk(v1::PushChunk chunk);
-  void OnPushEnd();
-  void OnMergeStatusRequest(const v1::MergeStatusRequest& request);
-  void QueryMergeStatus(const Uuid& submission, bool may_wait, std::uint32_t wait_ms);
-  // A robot restoring its own work (lost map or state): what of it a revision lacks, and its
-  // chunks as pushed. Only its own submissions, complete ones only.
-  void OnOwnSubmissionsRequest(const v1::OwnSubmissionsRequest& request);
-  void OnSubmissionChunkRequest(const v1::SubmissionChunkRequest& request);
-  void OnDownloadRequest(const v1::DownloadRequest& request);
-  // Records `error` as the robot's last (RobotRegistry::RecordError) on a store worker, without
-  // waiting: the session is closing anyway.
-  void RecordRobotError(const std::string& error);
-
-  // Sends `frame` then reads the next one (or closes when shutting down).
-  void Reply(const v1::SyncFrame& frame);
-  // Sends an ErrorFrame, logs it, and closes.
-  void Fail(ErrorCodeV1 code, const std::string& text);
   // Fail with BUSY: admission refused this connection, the server holds max_sessions.
   void FailFull();
-  // A store call failed: the ErrorFrame for its Error code.
-  void FailStore(ErrorCode code, const std::string& text);
-  // Runs `work(Repository&)` on a store thread; `done(result)` on the strand after. An Error
-  // it throws closes the session via FailStore.
-  template <typename Work, typename Done>
-  void OnStore(Work work, Done done);
-
-  std::string Who() const;
+  bool welcomed() const { return peer_state_ == Peer::kRobot; }
 
   Stream stream_;
   boost::asio::any_io_executor executor_;  // the session's strand
   SessionContext& context_;
   std::string peer_;
+  SyncProtocolHandler handler_;
+  Peer peer_state_;
   std::uint64_t admission_ticket_ = 0;  // 0: not counted (refused, or released)
-  bool refused_ = false;                // the server was full at the accept
-  bool hello_received_ = false;         // a hello frame arrived whole
-  bool evicted_ = false;                // Evict() came before the hello arrived whole
-  std::string evicted_why_;
+  std::optional<std::string> evicted_;  // Evict()'s reason, before the hello arrived whole
   std::chrono::steady_clock::time_point hello_by_;  // the hello deadline
   boost::asio::steady_timer deadline_;
   std::uint64_t deadline_generation_ = 0;
-  bool timed_out_ = false;
-  boost::asio::steady_timer merge_wait_;
-  bool shutting_down_ = false;
-  bool idle_ = false;  // waiting for the first byte of a frame
-
-  Phase phase_ = Phase::kHello;
-  bool welcomed_ = false;  // past the hello: a robot, authenticated
-  Uuid robot_;
+  bool timed_out_ = false;            // the last deadline expired
+  bool shutting_down_ = false;        // Shutdown() came
+  bool idle_ = false;                 // waiting for the first byte of a frame
+  bool closing_ = false;              // an ErrorFrame or a bye: nothing more is handled
+  Uuid robot_;                        // when welcomed
+  std::optional<Uuid> joined_robot_;  // the robot whose sessions this one counts among
   std::string robot_name_;
-  bool robot_joined_ = false;         // counted among robot_'s sessions (robot_allowance.h)
   std::uint64_t frame_reserved_ = 0;  // bytes of the frame being read or handled, reserved
-  std::optional<Push> push_;
 
   std::array<char, 4> prefix_{};
   // The frame being read. It grows as the bytes arrive, a piece at a time, never to the length
@@ -194,29 +150,20 @@ class SyncSession : public SessionControl,
   std::size_t body_length_ = 0;  // announced
   std::shared_ptr<const std::string> out_;
   std::function<void()> after_write_;
-  std::uint32_t protocol_version_ = kSyncProtocolVersion;  // the hello's, once accepted
-  std::shared_ptr<const EncodedDownload> download_;
-  // A download being streamed: touched on the strand only (the encoder on a store worker, one
-  // batch at a time, handed over through the job queue and the strand).
+  // Frames sent whole (SendFrames).
+  std::shared_ptr<const std::vector<std::string>> frames_out_;
+  std::function<void(std::uint64_t)> frames_written_;
+  std::uint64_t frames_out_bytes_ = 0;
+  // A stream being written (StreamFrames): touched on the strand only, the source's batches
+  // read on a store worker one at a time and handed over through the job queue and the strand.
   struct Streaming {
-    std::shared_ptr<DownloadEncoder> encoder;
-    std::string cache_key;
-    std::vector<std::string> frames;                // being written
+    std::shared_ptr<FrameSource> source;
+    std::vector<std::string> writing;               // being written
     std::optional<std::vector<std::string>> ready;  // read, waiting for the write to end
-    bool writing = false;
-    bool reading = false;   // a batch is being read on a store worker
-    bool read_all = false;  // the encoder is done
-    bool end_sent = false;  // DownloadEnd is written or being written
+    enum class Read { kIdle, kReading, kAllRead } read = Read::kIdle;
     std::optional<std::pair<ErrorCode, std::string>> failed;  // a read failed: say so, close
-    std::uint64_t frame_bytes = 0;                            // written so far
-    bool keep_all = true;           // small so far: the frames are kept for the cache
-    bool plan_cached = false;       // the plan came from the cache
-    std::vector<std::string> kept;  // written frames, while keep_all
   };
   std::optional<Streaming> streaming_;
-  std::chrono::steady_clock::time_point download_start_;
-  std::string download_channel_;  // of the download in progress
-  bool download_cached_ = false;
   std::array<char, 16 * 1024> drain_buffer_{};
   std::size_t drained_ = 0;
   std::string close_reason_ = "closed by the robot";

@@ -85,8 +85,9 @@ GraphBatch Without(const GraphBatch& content, const GraphBatch& base) {
 
 }  // namespace
 
-std::optional<MissedDream> FindMissedDream(VersionStore& versions, std::int64_t now_ns,
+std::optional<MissedDream> FindMissedDream(Repository& repository, std::int64_t now_ns,
                                            int minute_of_day) {
+  VersionStore& versions = repository.versions();
   std::int64_t scheduled = now_ns - now_ns % kDayNs + minute_of_day * kMinuteNs;
   if (scheduled > now_ns) scheduled -= kDayNs;
   const std::optional<std::int64_t> started = NsSetting(versions, kStartedKey);

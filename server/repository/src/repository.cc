@@ -71,6 +71,12 @@ std::uint64_t Fnv1a(std::string_view bytes) {
   return hash;
 }
 
+// The store a repository is made on; a repository needs one.
+GraphStore& StoreOf(const std::unique_ptr<GraphStore>& store) {
+  if (!store) throw Error(ErrorCode::kInvalidArgument, "repository: no store");
+  return *store;
+}
+
 MergeRegionOptions RegionOptions(const MergeOptions& merge) {
   // What the replaying localiser can reach (experience_builder.h): between two frames queried
   // by appearance it runs on for at most relocalise_after_m before it would relocalise, and
@@ -92,9 +98,10 @@ std::unique_ptr<Repository> Repository::Open(std::string_view uri, RepositoryOpt
 }
 
 Repository::Repository(std::unique_ptr<GraphStore> store, RepositoryOptions options)
-    : store_(std::move(store)), options_(std::move(options)), vocabulary_(options_.vocabulary) {
-  if (!store_) throw Error(ErrorCode::kInvalidArgument, "repository: no store");
-}
+    : store_(std::move(store)),
+      inspection_(StoreOf(store_)),
+      options_(std::move(options)),
+      vocabulary_(options_.vocabulary) {}
 
 Repository::~Repository() {
   appearance_.reset();
@@ -590,6 +597,14 @@ Revision Repository::Revert(RevisionNumber r, const std::string& author) {
   return versions().AppendRevert(revision);
 }
 
+Revision Repository::AppendUnmergedRevision(const Revision& revision, const GraphBatch& additions) {
+  GraphStore::Transaction transaction = store_->Begin();
+  Revision appended = versions().AppendRevision(revision, additions);
+  store_->Put(additions);
+  transaction.Commit();
+  return appended;
+}
+
 RevisionNumber Repository::Resolve(std::optional<RevisionNumber> r) {
   return r ? *r : versions().HeadRevision();
 }
@@ -605,60 +620,6 @@ GraphBatch Repository::Checkout(std::optional<RevisionNumber> r) {
 
 RevisionChanges Repository::Diff(RevisionNumber from, RevisionNumber to) {
   return versions().Changes(from, to);
-}
-
-Download Repository::SelectForDownload(const DownloadPolicy& policy,
-                                       std::optional<RevisionNumber> r) {
-  ValidateDownloadPolicy(policy);
-  Download download;
-  download.revision = Resolve(r);
-  // Landmarks are read only for what is sent, unless a budget has to weigh every node.
-  const bool weigh = policy.budget_bytes.has_value();
-  std::vector<Node> nodes = versions().NodesAt(download.revision, weigh);
-  const std::vector<Edge> edges = versions().EdgesAt(download.revision);
-  const std::vector<Path> paths = versions().PathsAt(download.revision);
-  const DownloadSelection selection = SelectDownload(nodes, edges, paths, policy);
-  download.report = selection.report;
-
-  const std::unordered_set<Uuid> keep(selection.nodes.begin(), selection.nodes.end());
-  const auto take_selected = [&](std::vector<Node>& from) {
-    for (Node& node : from) {
-      if (keep.contains(node.id)) download.map.nodes.push_back(std::move(node));
-    }
-  };
-  if (weigh) {
-    take_selected(nodes);
-  } else if (selection.nodes.size() * 2 >= nodes.size()) {
-    // Most of the map goes (a copy): one scan of the revision's nodes reads their landmarks
-    // about twice as fast as looking each one up by id (60,000 nodes of 9 KB: 0.9 s vs 1.8 s).
-    std::vector<Node> all = versions().NodesAt(download.revision, true);
-    take_selected(all);
-  } else {
-    // The selection was made on bare nodes: read the landmarks of what is sent.
-    download.map.nodes = store_->GetNodes(selection.nodes);
-    std::sort(download.map.nodes.begin(), download.map.nodes.end(),
-              [](const Node& a, const Node& b) {
-                return std::pair(a.stamp_ns, a.id) < std::pair(b.stamp_ns, b.id);
-              });
-  }
-  if (!weigh) {
-    download.report.bytes = 0;
-    for (const Node& node : download.map.nodes) {
-      download.report.bytes += static_cast<std::int64_t>(node.landmarks_blob.size());
-    }
-    download.report.map_bytes = versions().StatsAt(download.revision).landmark_bytes;
-  }
-  const std::unordered_set<Uuid> keep_edges(selection.edges.begin(), selection.edges.end());
-  for (const Edge& edge : edges) {
-    if (keep_edges.contains(edge.id)) download.map.edges.push_back(edge);
-  }
-  download.map.edges.insert(download.map.edges.end(), selection.derived_edges.begin(),
-                            selection.derived_edges.end());
-  const std::unordered_set<Uuid> keep_paths(selection.paths.begin(), selection.paths.end());
-  for (const Path& path : paths) {
-    if (keep_paths.contains(path.id)) download.map.paths.push_back(path);
-  }
-  return download;
 }
 
 }  // namespace fleetmap

@@ -41,33 +41,13 @@
 
 #include "fleetmap/core/graph.h"
 #include "fleetmap/core/uuid.h"
+#include "fleetmap/protocol/download_request.h"
 
 namespace fleetmap {
 
 // What a download was asked for (sync.proto DownloadRequest). An incremental download is only
 // asked for with parameters identical to those of the installed one: the server computes the
 // change against the selection these parameters made at the installed revision.
-struct DownloadParams {
-  std::string policy = "copy";  // download_policy.h names
-  double mission_start_min = 0.0;
-  double window_min = 0.0;          // 0: the server's default
-  double best_percent = 0.0;        // 0: the server's default
-  std::int64_t budget_bytes = 0;    // 0: the server's default
-  double epoch_min = 0.0;           // 0: the server's default
-  std::vector<Uuid> include_nodes;  // nodes every download keeps (where the robot is docked)
-  // The release channel followed: "head" (the head), or a channel the depot
-  // sets with `fleetmap channel set`.
-  std::string channel = "head";
-  // A route: the map within route_radius_m (0: the server's default) of an
-  // earlier outing, or of positions (x y z metres, flattened) in an anchor node's frame.
-  std::optional<Uuid> route_outing;
-  std::optional<Uuid> route_anchor;
-  std::vector<double> route_xyz;
-  double route_radius_m = 0.0;
-
-  friend bool operator==(const DownloadParams&, const DownloadParams&) = default;
-};
-
 // UUIDs of nodes, edges and paths.
 struct ElementIds {
   std::set<Uuid> nodes;

@@ -1,10 +1,12 @@
 // Text from outside (a robot's name, an author, an agent's error string, a channel, a file's
 // field) made safe where it is received and where it is shown: cut on a character boundary
-// and valid UTF-8 when stored, one line of printable characters when shown, and JSON that a
-// stray byte cannot break.
+// and valid UTF-8 when stored, one line of printable characters when shown, JSON that a stray
+// byte cannot break, and markup (HTML, SVG, GraphML) that it cannot open or close. Beside them,
+// the one way every program shows a number of bytes to a person.
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 #include <string>
 #include <string_view>
 
@@ -41,5 +43,17 @@ template <typename Json>
 std::string JsonText(const Json& json, int indent = -1) {
   return EscapeHiddenInJson(json.dump(indent, ' ', false, Json::error_handler_t::replace));
 }
+
+// Appends `text` as XML or HTML character data or as an attribute value (quoted with " or '):
+// &, <, >, " and ' as &amp; &lt; &gt; &quot; &#39; (references that XML 1.0, HTML 4 and HTML5
+// all read), and the control characters XML 1.0 does not allow at all (C0 but tab, LF and CR;
+// not even as references) as spaces. Bytes are otherwise copied: for text shown to a person,
+// pass it through PrintableText first.
+void AppendMarkupEscaped(std::string& out, std::string_view text);
+
+// `bytes` for a person, in binary (IEC) units: below 1 KiB the exact count ("512 B"), else one
+// decimal in the largest unit of KiB, MiB, GiB and TiB (1024 times the one before) that keeps
+// the number at 1 or more ("1.5 KiB", "2.4 MiB", "1.0 GiB"; past that, TiB: "2048.0 TiB").
+std::string BytesText(std::uint64_t bytes);
 
 }  // namespace fleetmap

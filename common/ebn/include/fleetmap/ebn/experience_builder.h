@@ -14,7 +14,7 @@
 #include <optional>
 #include <vector>
 
-#include "fleetmap/core/graph_io.h"
+#include "fleetmap/core/graph.h"
 #include "fleetmap/ebn/experience_map.h"
 #include "fleetmap/ebn/frame.h"
 #include "fleetmap/ebn/localiser.h"

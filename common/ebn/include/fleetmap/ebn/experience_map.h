@@ -1,6 +1,6 @@
 // The experience graph as the localiser works on it (seed 002 §III-B): every node's landmarks
 // decoded, metric edges as an adjacency list, and the appearance index for relocalisation.
-// The store (a GraphReader, graph_io.h) is the durable copy; this is the in-memory working set the
+// The store (a GraphReader, graph.h) is the durable copy; this is the in-memory working set the
 // builder reads per frame (a store round trip per candidate would cost more than the localisation
 // itself).
 //
@@ -16,7 +16,6 @@
 #include <vector>
 
 #include "fleetmap/core/graph.h"
-#include "fleetmap/core/graph_io.h"
 #include "fleetmap/core/se3.h"
 #include "fleetmap/ebn/appearance_index.h"
 

@@ -32,7 +32,6 @@
 #include <vector>
 
 #include "fleetmap/core/graph.h"
-#include "fleetmap/core/graph_io.h"
 
 namespace fleetmap {
 

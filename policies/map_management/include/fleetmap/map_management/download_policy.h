@@ -71,6 +71,7 @@
 #include "fleetmap/map_management/download_route.h"
 #include "fleetmap/map_management/integral_selection.h"
 #include "fleetmap/map_management/stretch_coverage.h"
+#include "fleetmap/protocol/download_request.h"
 
 namespace fleetmap {
 
@@ -181,6 +182,17 @@ struct DownloadSelection {
 // is not in `paths`.
 DownloadSelection SelectDownload(std::span<const Node> nodes, std::span<const Edge> edges,
                                  std::span<const Path> paths, const DownloadPolicy& policy);
+
+// The policy a download request states (protocol/download_request.h), the one place that says
+// what "the server's default" is: ParseDownloadPolicy of its name (each policy's defaults), its
+// mission start, each of window, percent and epoch where the request gives one > 0, its budget
+// where it gives one > 0 and the policy has "budget", the nodes to include, and its route (its
+// radius where > 0); validated, and its channel's name checked. The agent (before dialling), the
+// CLI and fleetmapd all read a request through it. Throws Error(kInvalidArgument) naming what is
+// wrong.
+DownloadPolicy PolicyOfRequest(const DownloadParams& params);
+// `route` into `params`, as a request carries it, with `radius_m` as asked (0: the default).
+void SetRequestRoute(DownloadParams& params, const DownloadRoute& route, double radius_m);
 
 // Release channels (server/repository channel_registry.h): which revision a
 // download is of. "head" always names the head; any other name is one the depot sets.

@@ -21,6 +21,7 @@
 
 #include "fleetmap/core/graph.h"
 #include "fleetmap/core/uuid.h"
+#include "fleetmap/repository/repository.h"
 #include "fleetmap/store/version_store.h"
 
 namespace fleetmap {
@@ -70,6 +71,10 @@ void RequireNotPromoted(const DreamCandidateRecord& record);
 
 class DreamCandidates {
  public:
+  // The candidates of `repository`, which must outlive them.
+  explicit DreamCandidates(Repository& repository) : DreamCandidates(repository.versions()) {}
+  // The candidates kept in `versions` (a repository's, or a test's store), which must outlive
+  // them.
   explicit DreamCandidates(VersionStore& versions) : versions_(versions) {}
 
   // Stores `content` as candidate record.id (generated when nil) with its record; counts and

@@ -51,8 +51,8 @@ struct MissedDream {
 // dream finished before the latest scheduled time at or before `now_ns`. RunNightlyDream
 // records when it starts and finishes (a skipped dream finishes too); a store from before
 // those records counts its newest candidate as the last dream finished. A store where no dream
-// ever started has missed none. Reads `versions` only.
-std::optional<MissedDream> FindMissedDream(VersionStore& versions, std::int64_t now_ns,
+// ever started has missed none. Reads `repository` only.
+std::optional<MissedDream> FindMissedDream(Repository& repository, std::int64_t now_ns,
                                            int minute_of_day);
 
 // Runs one nightly dream on `repository` (which it reads, and writes only the candidate, the

@@ -21,6 +21,7 @@
 #include <functional>
 #include <memory>
 #include <optional>
+#include <span>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -30,6 +31,8 @@
 #include "fleetmap/ebn/experience_map.h"
 #include "fleetmap/map_management/download_policy.h"
 #include "fleetmap/map_management/merge.h"
+#include "fleetmap/repository/download_plan.h"
+#include "fleetmap/repository/repository_inspection.h"
 #include "fleetmap/store/graph_store.h"
 #include "fleetmap/store/version_store.h"
 
@@ -138,6 +141,10 @@ class Repository {
   std::vector<Revision> History();  // ascending
   // A new revision hiding what revision `r` added (VersionStore::AppendRevert).
   Revision Revert(RevisionNumber r, const std::string& author);
+  // Appends `revision` with `additions` as its content, as given, without MERGE, in one
+  // transaction: for a writer that generates its map (fleetmap bench scale), which calls
+  // UpdateAppearanceIndex after each. Throws as VersionStore::AppendRevision.
+  Revision AppendUnmergedRevision(const Revision& revision, const GraphBatch& additions);
 
   // ---- Dreams (nightly_dream.h, dream_candidates.h) ----
 
@@ -162,6 +169,16 @@ class Repository {
   // §V-B), integral (download_policy.h).
   Download SelectForDownload(const DownloadPolicy& policy,
                              std::optional<RevisionNumber> r = std::nullopt);
+  // The same selection at revision `r`, planned without reading a landmark (download_plan.h),
+  // for the changes since `base` when 0 < base <= r, else whole. A budget has to weigh every node
+  // by its landmarks, so with one the revision's landmarks are read for the selection and
+  // dropped before it returns: only that policy's memory grows with the map. Throws as
+  // SelectForDownload.
+  DownloadPlan PlanDownload(const DownloadPolicy& policy, RevisionNumber r,
+                            RevisionNumber base = 0);
+  // The nodes `ids` names, with their landmarks, in that order: what a plan sends, read a batch
+  // at a time. Throws Error(kNotFound) for an id the store does not hold.
+  std::vector<Node> ReadNodes(std::span<const Uuid> ids);
 
   // The vocabulary MERGE indexes this repository's map with: the one given in the options,
   // else the one stored with the repository; null before the first merge has trained one.
@@ -174,6 +191,16 @@ class Repository {
   void UpdateAppearanceIndex();
   const MergeOptions& merge_options() const { return options_.merge; }
 
+  // ---- Reading records ----
+
+  // The store's URI, password removed: for naming the repository in messages.
+  std::string uri() const { return store_->uri(); }
+  // Read-only queries of what the repository holds (repository_inspection.h).
+  const RepositoryInspection& inspect() const { return inspection_; }
+
+  // The raw stores, for the repository's own code (its registries: robot_registry.h, ...) and
+  // for tests. Anything else reads through inspect() and changes the repository through its
+  // verbs, so that what keeps the store consistent stays here.
   GraphStore& store() { return *store_; }
   VersionStore& versions() { return store_->versions(); }
 
@@ -201,6 +228,7 @@ class Repository {
   std::filesystem::path AppearanceDirectory();
 
   std::unique_ptr<GraphStore> store_;
+  RepositoryInspection inspection_;  // of *store_
   RepositoryOptions options_;
   std::shared_ptr<const AppearanceVocabulary> vocabulary_;
   std::unique_ptr<DiskAppearanceIndex> appearance_;

@@ -26,6 +26,7 @@
 #include <vector>
 
 #include "fleetmap/core/uuid.h"
+#include "fleetmap/repository/repository.h"
 #include "fleetmap/store/version_store.h"
 
 namespace fleetmap {
@@ -82,7 +83,10 @@ struct RobotAuthenticationResult {
 
 class RobotRegistry {
  public:
-  // `versions` must outlive the registry.
+  // The registry of `repository`, which must outlive it.
+  explicit RobotRegistry(Repository& repository) : RobotRegistry(repository.versions()) {}
+  // The registry kept in `versions` (a repository's, or a test's store). `versions` must
+  // outlive the registry.
   explicit RobotRegistry(VersionStore& versions) : versions_(versions) {}
 
   // Registers a robot named `name` (1 to 64 printable characters, no leading or trailing

@@ -1,7 +1,9 @@
 // fleetmapd and fleetmap-agent as real processes on loopback, for the experiments that go
-// through the fleet's real sync path (the fleet demo, real-merge): robots registered in the
-// central store before the server opens it, fleetmapd started and stopped with a drain, and
-// `fleetmap-agent sync` run for a robot whose map directory its EBN builder wrote.
+// through the fleet's real sync path (the fleet demo, real-merge, the real fleet loop) and for
+// the tests that run them (tests/support/fleet_processes.h wraps these for GoogleTest): robots
+// registered in the central store before the server opens it, fleetmapd started and stopped
+// with a drain, and `fleetmap-agent sync --json` run for a robot whose map directory holds its
+// map.
 //
 // Every process ends with its owner (ChildProcess SIGKILLs what is left), also on a throw.
 // One thread at a time per object.
@@ -21,17 +23,20 @@
 namespace fleetmap {
 
 // A robot as the server knows it, with the map directory `fleetmap-agent` syncs
-// (DIR/map.db is the robot's map, local_map.h).
+// (MAP_DIR/map.db is the robot's map, local_map.h).
 struct FleetRobot {
   std::string name;
   Uuid id;
   std::string token;
-  std::filesystem::path dir;
+  std::filesystem::path map_dir;
 };
 
-// Registers each of `names` in the store at `store_uri` (before fleetmapd opens it) with the
-// map directory robots_dir/NAME, created empty. Throws what GraphStore::Open and the registry
-// throw.
+// Registers `name` in the store at `store_uri` (before fleetmapd opens it, or beside it) with
+// the map directory `map_dir`, created if missing. Throws what GraphStore::Open and the
+// registry throw.
+FleetRobot RegisterFleetRobot(const std::string& store_uri, const std::string& name,
+                              const std::filesystem::path& map_dir);
+// Each of `names` so, with the map directory robots_dir/NAME.
 std::vector<FleetRobot> RegisterFleetRobots(const std::string& store_uri,
                                             const std::vector<std::string>& names,
                                             const std::filesystem::path& robots_dir);
@@ -70,8 +75,8 @@ class FleetServerProcess {
   std::optional<int> status_;
 };
 
-// `fleetmap-agent sync --server SERVER --robot ID --map-dir DIR --wait-merge --json EXTRA...`
-// for `robot` (its token in the environment), started, not waited for; stderr to `log`.
+// `AGENT sync --server SERVER --robot ID --map-dir MAP_DIR --json EXTRA...` for `robot` (its
+// token in the environment), started, not waited for; stderr to `log`.
 ChildProcess StartAgentSync(const std::filesystem::path& agent, const FleetRobot& robot,
                             const std::string& server, const std::vector<std::string>& extra,
                             const std::filesystem::path& log);
@@ -80,9 +85,19 @@ ChildProcess StartAgentSync(const std::filesystem::path& agent, const FleetRobot
 // behind the other robots' on a 2-core machine, with room to spare.
 constexpr std::chrono::milliseconds kSyncTimeout{150'000};
 
-// Waits up to `timeout` for a sync StartAgentSync started and returns its --json result.
-// Throws Error(kBackend) naming the robot, the exit status and the log's tail when it failed
-// or did not finish.
+// How a sync StartAgentSync started ended.
+struct AgentSyncEnd {
+  std::optional<int> exit;  // nullopt: still running after the wait (then killed with it)
+  std::string out;          // what it printed on stdout
+  nlohmann::json result;    // `out` parsed: the --json result; null when `out` is empty or not JSON
+  std::string json_error;   // why a non-empty `out` is not JSON; else empty
+};
+// Reads the agent's output for up to `timeout`, then waits (10 s at most) for it to exit.
+AgentSyncEnd WaitAgentSync(ChildProcess& sync, std::chrono::milliseconds timeout);
+
+// WaitAgentSync, then its --json result. Throws Error(kBackend) naming the robot, the exit
+// status and the log's tail when it failed or did not finish, and naming the log when it
+// printed no JSON.
 nlohmann::json FinishAgentSync(ChildProcess& sync, const FleetRobot& robot,
                                const std::filesystem::path& log, std::chrono::milliseconds timeout);
 
