@@ -275,21 +275,8 @@ void RunLifelong(const LifelongArgs& args) {
   std::cout << WriteLifelongReport(runs, options, args.out_dir, std::cerr);
 }
 
-}  // namespace
-
-void AddExperimentCommand(CLI::App& app) {
-  CLI::App* experiment = app.add_subcommand(
-      "experiment",
-      "Reproduce the papers' experiments on the synthetic appearance-change world, and run the "
-      "EBN core on real stereo images");
-  experiment->require_subcommand(1);
-
-  experiment
-      ->add_subcommand("world-defaults",
-                       "Print the default world file (JSON): every parameter of the synthetic "
-                       "world with its default, to copy and edit for --world")
-      ->callback([] { std::cout << FormatWorldConfig(WorldConfig{}); });
-
+// `fleetmap experiment ranking`.
+void AddRankingCommand(CLI::App* experiment) {
   auto args = std::make_shared<RankingArgs>();
   CLI::App* ranking = experiment->add_subcommand(
       "ranking",
@@ -312,7 +299,10 @@ void AddExperimentCommand(CLI::App& app) {
   ranking->add_option("--seed", args->seed, "Override the world file's seed")
       ->check(CLI::NonNegativeNumber);
   ranking->callback([args] { RunRanking(*args); });
+}
 
+// `fleetmap experiment fleet`.
+void AddFleetCommand(CLI::App* experiment) {
   auto fleet_args = std::make_shared<FleetArgs>();
   CLI::App* fleet = experiment->add_subcommand(
       "fleet",
@@ -381,7 +371,10 @@ void AddExperimentCommand(CLI::App& app) {
                     "N - 1 after it) or a comma list such as 1,2,7. Default: the world's seed "
                     "alone. Each seed's CSVs go to --out/seed-<seed>/");
   fleet->callback([fleet_args] { RunFleet(*fleet_args); });
+}
 
+// `fleetmap experiment lifelong`.
+void AddLifelongCommand(CLI::App* experiment) {
   auto lifelong_args = std::make_shared<LifelongArgs>();
   CLI::App* lifelong = experiment->add_subcommand(
       "lifelong",
@@ -420,7 +413,26 @@ void AddExperimentCommand(CLI::App& app) {
                        "World seeds: a count N (the world's seed and the N - 1 after it) or a "
                        "comma list; each seed's files go to --out/seed-<seed>/");
   lifelong->callback([lifelong_args] { RunLifelong(*lifelong_args); });
+}
 
+}  // namespace
+
+void AddExperimentCommand(CLI::App& app) {
+  CLI::App* experiment = app.add_subcommand(
+      "experiment",
+      "Reproduce the papers' experiments on the synthetic appearance-change world, and run the "
+      "EBN core on real stereo images");
+  experiment->require_subcommand(1);
+
+  experiment
+      ->add_subcommand("world-defaults",
+                       "Print the default world file (JSON): every parameter of the synthetic "
+                       "world with its default, to copy and edit for --world")
+      ->callback([] { std::cout << FormatWorldConfig(WorldConfig{}); });
+
+  AddRankingCommand(experiment);
+  AddFleetCommand(experiment);
+  AddLifelongCommand(experiment);
   AddRealExperimentCommand(*experiment);
   AddConditionsExperimentCommand(*experiment);
 }

@@ -24,6 +24,14 @@ namespace {
 // nanoseconds of work per posting.
 constexpr std::size_t kPrefetchAhead = 16;
 
+// One word of a query, weighed (Query's score, in the header).
+struct QueryTerm {
+  std::uint32_t word = 0;
+  double idf = 0.0;
+  double share = 0.0;         // n_qi / D_q
+  std::uint64_t holders = 0;  // postings of the word over all segments
+};
+
 namespace fs = std::filesystem;
 
 // Segment file, native little-endian (the index is a local cache, never shipped):
@@ -245,6 +253,17 @@ class DiskAppearanceIndex::Segment {
     ReadAt(fd_.get(), path_, out.data(), out.size() * sizeof(std::uint32_t),
            postings_at_ + offsets_[word] * sizeof(std::uint32_t));
   }
+
+  // Adds each of `terms`' share of every node's score into `scores` (by node number), and
+  // the nodes it first touches to `touched`; `postings` is scratch.
+  void AddScores(std::span<const QueryTerm> terms, std::vector<float>& scores,
+                 std::vector<std::uint32_t>& touched, std::vector<std::uint32_t>& postings) const;
+
+  // Appends to `best` the segment's best k of the `touched` nodes by `scores`, each score a
+  // share of `mass`; `ranked` is scratch.
+  void AddBest(const std::vector<float>& scores, const std::vector<std::uint32_t>& touched, int k,
+               double mass, std::vector<std::pair<float, std::uint32_t>>& ranked,
+               std::vector<AppearanceMatch>& best) const;
 
  private:
   Segment() = default;
@@ -477,6 +496,116 @@ void DiskAppearanceIndex::Reset(const DiskIndexMark& mark) {
   }
 }
 
+namespace {
+
+// The words of `bag` worth reading, weighed by idf over the `n` nodes indexed (`holders`: each
+// word's postings over all segments), and the best score's denominator: sum_i idf_i n_qi / D_q.
+// No words when nothing can score.
+struct WeighedQuery {
+  std::vector<QueryTerm> terms;
+  double mass = 0.0;
+  std::uint64_t all_postings = 0;
+};
+
+WeighedQuery WeighTerms(std::span<const WordCount> bag, std::span<const std::uint64_t> holders,
+                        std::size_t n) {
+  double descriptors = 0.0;
+  for (const WordCount& wc : bag) descriptors += wc.count;
+  const double log_n = std::log(static_cast<double>(n));
+  WeighedQuery query;
+  for (std::size_t i = 0; i < bag.size(); ++i) {
+    const WordCount& wc = bag[i];
+    const double idf = holders[i] == 0 ? log_n : log_n - std::log(static_cast<double>(holders[i]));
+    const double share = wc.count / descriptors;
+    query.mass += idf * share;
+    if (holders[i] > 0 && idf > 0.0) {
+      query.terms.push_back({static_cast<std::uint32_t>(wc.word), idf, share, holders[i]});
+      query.all_postings += holders[i];
+    }
+  }
+  return query;
+}
+
+// Over either bound, the heaviest words first; then as many as fit both bounds (the first
+// always does). Scores are then shares of what the queried words can give, so a node holding
+// the whole query still scores 1.
+void KeepHeaviestTerms(WeighedQuery& query, int max_query_words, std::uint64_t max_postings) {
+  std::vector<QueryTerm>& terms = query.terms;
+  if (terms.size() <= static_cast<std::size_t>(max_query_words) &&
+      query.all_postings <= max_postings) {
+    return;
+  }
+  std::sort(terms.begin(), terms.end(), [](const QueryTerm& a, const QueryTerm& b) {
+    return std::pair(a.idf * a.share, b.word) > std::pair(b.idf * b.share, a.word);
+  });
+  std::vector<QueryTerm> chosen;
+  std::uint64_t postings = 0;
+  for (const QueryTerm& term : terms) {
+    if (chosen.size() == static_cast<std::size_t>(max_query_words)) break;
+    if (!chosen.empty() && postings + term.holders > max_postings) continue;
+    chosen.push_back(term);
+    postings += term.holders;
+  }
+  terms = std::move(chosen);
+  query.mass = 0.0;
+  for (const QueryTerm& term : terms) query.mass += term.idf * term.share;
+}
+
+}  // namespace
+
+void DiskAppearanceIndex::Segment::AddScores(std::span<const QueryTerm> terms,
+                                             std::vector<float>& scores,
+                                             std::vector<std::uint32_t>& touched,
+                                             std::vector<std::uint32_t>& postings) const {
+  for (const QueryTerm& term : terms) {
+    ReadPostings(term.word, postings);
+    for (std::size_t p = 0; p < postings.size(); ++p) {
+      // A word's postings are spread over the whole segment, so each reaches a cache line of
+      // its own in `scores` and in the descriptor counts: fetched a few postings ahead, the
+      // waits overlap instead of adding up (half of a query's time at 10^6 nodes).
+      if (p + kPrefetchAhead < postings.size()) {
+        const std::uint32_t ahead = postings[p + kPrefetchAhead] >> 8;
+        if (ahead < node_count()) {
+          __builtin_prefetch(&scores[ahead], 1);
+          PrefetchDescriptors(ahead);
+        }
+      }
+      const std::uint32_t posting = postings[p];
+      const std::uint32_t node = posting >> 8;
+      if (node >= node_count()) {
+        throw Error(ErrorCode::kCorrupt,
+                    "appearance index: " + path().string() + " has a posting out of range");
+      }
+      const double share =
+          static_cast<double>(posting & 0xFF) / std::max<std::uint32_t>(1, descriptors(node));
+      if (scores[node] == 0.0f) touched.push_back(node);
+      scores[node] += static_cast<float>(term.idf * std::min(term.share, share));
+    }
+  }
+}
+
+void DiskAppearanceIndex::Segment::AddBest(const std::vector<float>& scores,
+                                           const std::vector<std::uint32_t>& touched, int k,
+                                           double mass,
+                                           std::vector<std::pair<float, std::uint32_t>>& ranked,
+                                           std::vector<AppearanceMatch>& best) const {
+  // Chosen on (score, node number) pairs: a query at a million nodes touches a hundred
+  // thousand of them, and only k become matches.
+  ranked.clear();
+  for (const std::uint32_t node : touched) ranked.emplace_back(scores[node], node);
+  const auto better_here = [&](const std::pair<float, std::uint32_t>& a,
+                               const std::pair<float, std::uint32_t>& b) {
+    return a.first != b.first ? a.first > b.first : this->node(a.second) < this->node(b.second);
+  };
+  const std::size_t winners = std::min(ranked.size(), static_cast<std::size_t>(k));
+  if (winners == 0) return;
+  std::nth_element(ranked.begin(), ranked.begin() + static_cast<std::ptrdiff_t>(winners) - 1,
+                   ranked.end(), better_here);
+  for (std::size_t i = 0; i < winners; ++i) {
+    best.push_back({node(ranked[i].second), ranked[i].first / mass});
+  }
+}
+
 std::vector<AppearanceMatch> DiskAppearanceIndex::Query(std::span<const WordCount> bag, int k,
                                                         int max_query_words,
                                                         std::uint64_t max_postings) const {
@@ -485,51 +614,15 @@ std::vector<AppearanceMatch> DiskAppearanceIndex::Query(std::span<const WordCoun
   }
   const std::size_t n = size();
   if (n == 0 || k == 0 || bag.empty()) return {};
-  double descriptors = 0.0;
-  for (const WordCount& wc : bag) descriptors += wc.count;
-  const double log_n = std::log(static_cast<double>(n));
-  struct Term {
-    std::uint32_t word = 0;
-    double idf = 0.0;
-    double share = 0.0;         // n_qi / D_q
-    std::uint64_t holders = 0;  // postings of the word over all segments
-  };
-  std::vector<Term> terms;
-  double mass = 0.0;  // sum_i idf_i n_qi / D_q, the best score's denominator
-  std::uint64_t all_postings = 0;
-  for (const WordCount& wc : bag) {
-    std::uint64_t holders = 0;
+  std::vector<std::uint64_t> holders(bag.size(), 0);
+  for (std::size_t i = 0; i < bag.size(); ++i) {
     for (const auto& segment : segments_) {
-      holders += segment->PostingCount(static_cast<std::uint32_t>(wc.word));
-    }
-    const double idf = holders == 0 ? log_n : log_n - std::log(static_cast<double>(holders));
-    const double share = wc.count / descriptors;
-    mass += idf * share;
-    if (holders > 0 && idf > 0.0) {
-      terms.push_back({static_cast<std::uint32_t>(wc.word), idf, share, holders});
-      all_postings += holders;
+      holders[i] += segment->PostingCount(static_cast<std::uint32_t>(bag[i].word));
     }
   }
-  if (terms.empty() || mass <= 0.0) return {};
-  if (terms.size() > static_cast<std::size_t>(max_query_words) || all_postings > max_postings) {
-    // The heaviest words first; then as many as fit both limits (the first always does).
-    std::sort(terms.begin(), terms.end(), [](const Term& a, const Term& b) {
-      return std::pair(a.idf * a.share, b.word) > std::pair(b.idf * b.share, a.word);
-    });
-    std::vector<Term> chosen;
-    std::uint64_t postings = 0;
-    for (const Term& term : terms) {
-      if (chosen.size() == static_cast<std::size_t>(max_query_words)) break;
-      if (!chosen.empty() && postings + term.holders > max_postings) continue;
-      chosen.push_back(term);
-      postings += term.holders;
-    }
-    terms = std::move(chosen);
-    // Scores are shares of what the queried words can give, so a node holding the whole
-    // query still scores 1.
-    mass = 0.0;
-    for (const Term& term : terms) mass += term.idf * term.share;
-  }
+  WeighedQuery query = WeighTerms(bag, holders, n);
+  if (query.terms.empty() || query.mass <= 0.0) return {};
+  KeepHeaviestTerms(query, max_query_words, max_postings);
 
   std::vector<AppearanceMatch> best;
   // Scores by node number in a segment. Kept zero between uses and reset entry by entry after
@@ -554,47 +647,8 @@ std::vector<AppearanceMatch> DiskAppearanceIndex::Query(std::span<const WordCoun
         for (const std::uint32_t node : touched) scores[node] = 0.0f;
       }
     } rezero{scores, touched};
-    for (const Term& term : terms) {
-      segment->ReadPostings(term.word, postings);
-      for (std::size_t p = 0; p < postings.size(); ++p) {
-        // A word's postings are spread over the whole segment, so each reaches a cache line of
-        // its own in `scores` and in the descriptor counts: fetched a few postings ahead, the
-        // waits overlap instead of adding up (half of a query's time at 10^6 nodes).
-        if (p + kPrefetchAhead < postings.size()) {
-          const std::uint32_t ahead = postings[p + kPrefetchAhead] >> 8;
-          if (ahead < segment->node_count()) {
-            __builtin_prefetch(&scores[ahead], 1);
-            segment->PrefetchDescriptors(ahead);
-          }
-        }
-        const std::uint32_t posting = postings[p];
-        const std::uint32_t node = posting >> 8;
-        if (node >= segment->node_count()) {
-          throw Error(ErrorCode::kCorrupt, "appearance index: " + segment->path().string() +
-                                               " has a posting out of range");
-        }
-        const double share = static_cast<double>(posting & 0xFF) /
-                             std::max<std::uint32_t>(1, segment->descriptors(node));
-        if (scores[node] == 0.0f) touched.push_back(node);
-        scores[node] += static_cast<float>(term.idf * std::min(term.share, share));
-      }
-    }
-    // The segment's best k, chosen on (score, node number) pairs: a query at a million nodes
-    // touches a hundred thousand of them, and only k become matches.
-    ranked.clear();
-    for (const std::uint32_t node : touched) ranked.emplace_back(scores[node], node);
-    const auto better_here = [&](const std::pair<float, std::uint32_t>& a,
-                                 const std::pair<float, std::uint32_t>& b) {
-      return a.first != b.first ? a.first > b.first
-                                : segment->node(a.second) < segment->node(b.second);
-    };
-    const std::size_t winners = std::min(ranked.size(), static_cast<std::size_t>(k));
-    if (winners == 0) continue;
-    std::nth_element(ranked.begin(), ranked.begin() + static_cast<std::ptrdiff_t>(winners) - 1,
-                     ranked.end(), better_here);
-    for (std::size_t i = 0; i < winners; ++i) {
-      best.push_back({segment->node(ranked[i].second), ranked[i].first / mass});
-    }
+    segment->AddScores(query.terms, scores, touched, postings);
+    segment->AddBest(scores, touched, k, query.mass, ranked, best);
   }
   const std::size_t keep = std::min(best.size(), static_cast<std::size_t>(k));
   std::partial_sort(best.begin(), best.begin() + static_cast<std::ptrdiff_t>(keep), best.end(),

@@ -140,22 +140,12 @@ Rgb RevisionColour(double t) {
              mix(kAnchors[i].b, kAnchors[i + 1].b)};
 }
 
-MapPicture MapPicture::Compose(const GraphLayout& layout, const std::vector<Edge>& edges,
-                               const MapPictureOptions& options) {
-  MapPicture picture;
-  picture.title_ = options.title.empty() ? "experience map" : options.title;
-  picture.colouring_ = options.colouring;
-  const std::vector<LaidOutNode>& laid_out = layout.nodes();
-  if (laid_out.empty()) {
-    picture.subtitle_ = "no nodes: nothing to draw";
-    picture.width_px_ = 640;
-    picture.height_px_ = 140;
-    return picture;
-  }
+namespace {
 
-  // Each component's extent on the plane (u = x, v = z; see the header).
+// Each component's extent on the plane (u = x, v = z; see the header).
+std::vector<Extent> ComponentExtents(const GraphLayout& layout) {
   std::vector<Extent> extents(layout.component_count());
-  for (const LaidOutNode& node : laid_out) {
+  for (const LaidOutNode& node : layout.nodes()) {
     const Eigen::Vector3d p = node.layout_T_node.translation();
     Extent& e = extents[static_cast<std::size_t>(node.component)];
     e.min_u = std::min(e.min_u, p.x());
@@ -163,11 +153,20 @@ MapPicture MapPicture::Compose(const GraphLayout& layout, const std::vector<Edge
     e.min_v = std::min(e.min_v, p.z());
     e.max_v = std::max(e.max_v, p.z());
   }
+  return extents;
+}
 
-  // The scale: as large as kMaxPixelsPerMetre allows with the widest component within the
-  // width, then smaller until the rows fit the height. Frames and gaps are in pixels, so a map
-  // of many small components may never fit: then it stops shrinking once that no longer helps
-  // and the picture grows taller instead.
+// The scale the components are drawn at, and their boxes packed at it.
+struct Fit {
+  double pixels_per_metre;
+  Packing packing;
+};
+
+// The scale: as large as kMaxPixelsPerMetre allows with the widest component within the
+// width, then smaller until the rows fit the height. Frames and gaps are in pixels, so a map
+// of many small components may never fit: then it stops shrinking once that no longer helps
+// and the picture grows taller instead.
+Fit FitToSize(const std::vector<Extent>& extents, const MapPictureOptions& options) {
   const double max_width = std::max(options.max_map_width_px, 100);
   const double max_height = std::max(options.max_map_height_px, 100);
   double ppm = kMaxPixelsPerMetre;
@@ -182,6 +181,64 @@ MapPicture MapPicture::Compose(const GraphLayout& layout, const std::vector<Edge
     ppm *= 0.85;
     packing = smaller;
   }
+  return Fit{ppm, std::move(packing)};
+}
+
+// Each node's colour: by the revision that added it (setting `first_revision` and
+// `last_revision` to the range seen) or by its time of day.
+std::vector<Rgb> NodeColours(const std::vector<LaidOutNode>& laid_out,
+                             const MapPictureOptions& options, std::int64_t& first_revision,
+                             std::int64_t& last_revision) {
+  std::vector<Rgb> colours;
+  if (options.colouring == NodeColouring::kRevision) {
+    first_revision = std::numeric_limits<std::int64_t>::max();
+    last_revision = std::numeric_limits<std::int64_t>::min();
+  }
+  std::vector<std::int64_t> revision(laid_out.size(), 0);
+  for (std::size_t i = 0; i < laid_out.size(); ++i) {
+    if (options.colouring == NodeColouring::kRevision) {
+      const auto found = options.node_revision.find(laid_out[i].id);
+      revision[i] = found == options.node_revision.end() ? 0 : found->second;
+      first_revision = std::min(first_revision, revision[i]);
+      last_revision = std::max(last_revision, revision[i]);
+    }
+  }
+  for (std::size_t i = 0; i < laid_out.size(); ++i) {
+    if (options.colouring == NodeColouring::kRevision) {
+      const std::int64_t span = last_revision - first_revision;
+      colours.push_back(RevisionColour(span == 0
+                                           ? 0.5
+                                           : static_cast<double>(revision[i] - first_revision) /
+                                                 static_cast<double>(span)));
+    } else {
+      // Floor division, so a stamp before 1970 still has its hour of the day.
+      const std::int64_t day_ns = 24 * static_cast<std::int64_t>(kNsPerHour);
+      const std::int64_t of_day = ((laid_out[i].stamp_ns % day_ns) + day_ns) % day_ns;
+      colours.push_back(TimeOfDayColour(static_cast<double>(of_day) / kNsPerHour));
+    }
+  }
+  return colours;
+}
+
+}  // namespace
+
+MapPicture MapPicture::Compose(const GraphLayout& layout, const std::vector<Edge>& edges,
+                               const MapPictureOptions& options) {
+  MapPicture picture;
+  picture.title_ = options.title.empty() ? "experience map" : options.title;
+  picture.colouring_ = options.colouring;
+  const std::vector<LaidOutNode>& laid_out = layout.nodes();
+  if (laid_out.empty()) {
+    picture.subtitle_ = "no nodes: nothing to draw";
+    picture.width_px_ = 640;
+    picture.height_px_ = 140;
+    return picture;
+  }
+
+  const std::vector<Extent> extents = ComponentExtents(layout);
+  const Fit fit = FitToSize(extents, options);
+  const double ppm = fit.pixels_per_metre;
+  const Packing& packing = fit.packing;
   picture.pixels_per_metre_ = ppm;
 
   const double map_left = kMargin, map_top = kHeaderHeight;
@@ -195,40 +252,16 @@ MapPicture MapPicture::Compose(const GraphLayout& layout, const std::vector<Edge
   picture.height_px_ = static_cast<int>(std::ceil(picture.footer_top_ + kFooterHeight));
 
   // Nodes: positions and colours.
-  if (options.colouring == NodeColouring::kRevision) {
-    picture.first_revision_ = std::numeric_limits<std::int64_t>::max();
-    picture.last_revision_ = std::numeric_limits<std::int64_t>::min();
-  }
-  std::vector<std::int64_t> revision(laid_out.size(), 0);
-  for (std::size_t i = 0; i < laid_out.size(); ++i) {
-    const LaidOutNode& node = laid_out[i];
+  for (const LaidOutNode& node : laid_out) {
     const auto c = static_cast<std::size_t>(node.component);
     const Extent& e = extents[c];
     const PictureBox& box = picture.component_box_[c];
     const Eigen::Vector3d p = node.layout_T_node.translation();
     picture.node_xy_.push_back(CanvasPoint{box.left + kBoxPadding + (p.x() - e.min_u) * ppm,
                                            box.top + kBoxPadding + (e.max_v - p.z()) * ppm});
-    if (options.colouring == NodeColouring::kRevision) {
-      const auto found = options.node_revision.find(node.id);
-      revision[i] = found == options.node_revision.end() ? 0 : found->second;
-      picture.first_revision_ = std::min(picture.first_revision_, revision[i]);
-      picture.last_revision_ = std::max(picture.last_revision_, revision[i]);
-    }
   }
-  for (std::size_t i = 0; i < laid_out.size(); ++i) {
-    if (options.colouring == NodeColouring::kRevision) {
-      const std::int64_t span = picture.last_revision_ - picture.first_revision_;
-      picture.node_colour_.push_back(
-          RevisionColour(span == 0 ? 0.5
-                                   : static_cast<double>(revision[i] - picture.first_revision_) /
-                                         static_cast<double>(span)));
-    } else {
-      // Floor division, so a stamp before 1970 still has its hour of the day.
-      const std::int64_t day_ns = 24 * static_cast<std::int64_t>(kNsPerHour);
-      const std::int64_t of_day = ((laid_out[i].stamp_ns % day_ns) + day_ns) % day_ns;
-      picture.node_colour_.push_back(TimeOfDayColour(static_cast<double>(of_day) / kNsPerHour));
-    }
-  }
+  picture.node_colour_ =
+      NodeColours(laid_out, options, picture.first_revision_, picture.last_revision_);
 
   // Edges. A path edge between two nodes a metric edge joins would lie hidden under it.
   std::set<std::pair<std::size_t, std::size_t>> joined;

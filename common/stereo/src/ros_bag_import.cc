@@ -391,6 +391,37 @@ void PublishAndIndex(const std::vector<StagedRecordFile*>& all_logs, GraphStore&
   txn.Commit();
 }
 
+// One camera's image message as a frame: a PNG, stamped by its header (or, without one, its
+// receive time, counted in `stamped_by_receive_time`); `camera_info` bounds the image.
+StereoFrame DecodeStereoFrame(const RecordingReader& reader, const RecordingMessage& m,
+                              const RosCameraInfo* camera_info,
+                              std::int64_t& stamped_by_receive_time) {
+  if (m.connection->sensor_type == SensorMsgType::kCompressedImage) {
+    const RosCompressedImage image = reader.DecodeCompressedImage(m.data);
+    internal::DecodedRosImage decoded = internal::RosCompressedImageToPng(image, camera_info);
+    return StereoFrame{StampOf(image.header, m, stamped_by_receive_time), std::move(decoded.png),
+                       decoded.width_px, decoded.height_px};
+  }
+  const RosImage image = reader.DecodeImage(m.data);
+  return StereoFrame{StampOf(image.header, m, stamped_by_receive_time),
+                     internal::RosImageToPng(image, camera_info), image.width, image.height};
+}
+
+// What the import made: stereo pairs and what stayed unpaired, IMU samples, GPS fixes, and
+// each topic's use.
+void CountImported(const internal::StereoStampPairing& pairing, const StagedRecordFile& imu_log,
+                   const StagedRecordFile& gps_log, const Topics& topics,
+                   RosBagImportResult& result) {
+  result.pairs = pairing.pairs();
+  result.unmatched_left = pairing.unmatched_left();
+  result.unmatched_right = pairing.unmatched_right();
+  result.imu_samples = imu_log.records();
+  result.gps_fixes = gps_log.records();
+  for (const auto& [topic, t] : topics) {
+    result.topics.push_back(RosBagTopicUse{topic, t.type, t.messages, RoleName(t.role)});
+  }
+}
+
 }  // namespace
 
 RosBagImportResult ImportRosBag(
@@ -438,23 +469,11 @@ RosBagImportResult ImportRosBag(
           switch (role) {
             case Role::kLeft:
             case Role::kRight: {
-              StereoFrame frame;
               // Its camera's CameraInfo bounds the image when it came first.
               const std::optional<RosCameraInfo>& info =
                   role == Role::kLeft ? left_info : right_info;
-              const RosCameraInfo* camera_info = info ? &*info : nullptr;
-              if (m.connection->sensor_type == SensorMsgType::kCompressedImage) {
-                const RosCompressedImage image = reader.DecodeCompressedImage(m.data);
-                internal::DecodedRosImage decoded =
-                    internal::RosCompressedImageToPng(image, camera_info);
-                frame = StereoFrame{StampOf(image.header, m, result.stamped_by_receive_time),
-                                    std::move(decoded.png), decoded.width_px, decoded.height_px};
-              } else {
-                const RosImage image = reader.DecodeImage(m.data);
-                frame = StereoFrame{StampOf(image.header, m, result.stamped_by_receive_time),
-                                    internal::RosImageToPng(image, camera_info), image.width,
-                                    image.height};
-              }
+              StereoFrame frame = DecodeStereoFrame(reader, m, info ? &*info : nullptr,
+                                                    result.stamped_by_receive_time);
               role == Role::kLeft ? pairing.AddLeft(std::move(frame))
                                   : pairing.AddRight(std::move(frame));
               break;
@@ -483,14 +502,7 @@ RosBagImportResult ImportRosBag(
       },
       progress);
   pairing.Finish();
-  result.pairs = pairing.pairs();
-  result.unmatched_left = pairing.unmatched_left();
-  result.unmatched_right = pairing.unmatched_right();
-  result.imu_samples = imu_log.records();
-  result.gps_fixes = gps_log.records();
-  for (const auto& [topic, t] : topics) {
-    result.topics.push_back(RosBagTopicUse{topic, t.type, t.messages, RoleName(t.role)});
-  }
+  CountImported(pairing, imu_log, gps_log, topics, result);
   RequireSomethingImported(result, topics, o, source);
   if (result.pairs > 0) {
     StoreCalibration(left_info, right_info, *stereo_writer.image_size(), o, stereo_log, written,

@@ -299,6 +299,91 @@ class CandidateRule {
   RowIndex left_rows_, right_rows_;
 };
 
+// Matches left keypoints along their rows (stereo_matcher.h): each to its nearest allowed right
+// keypoint by Hamming distance, refused when too far, not distinct enough, not the right
+// keypoint's own best (the left-right check) or, refined, out of range.
+class RowMatcher {
+ public:
+  RowMatcher(const std::vector<cv::KeyPoint>& left_keypoints,
+             const std::vector<Descriptor256>& left,
+             const std::vector<cv::KeyPoint>& right_keypoints,
+             const std::vector<Descriptor256>& right, const CandidateRule& rule,
+             const cv::Mat& left_image, const cv::Mat& right_image, bool refine,
+             const StereoMatchOptions& options)
+      : left_keypoints_(left_keypoints),
+        left_(left),
+        right_keypoints_(right_keypoints),
+        right_(right),
+        rule_(rule),
+        left_image_(left_image),
+        right_image_(right_image),
+        refine_(refine),
+        options_(options) {}
+
+  // Left keypoints first, first + step, ... matched into `out`, counting what is refused in `n`.
+  void MatchEvery(int first, int step, std::vector<StereoMatch>& out, StereoMatchCounts& n) const {
+    for (int i = first; i < static_cast<int>(left_keypoints_.size()); i += step) {
+      const cv::KeyPoint& lk = left_keypoints_[static_cast<std::size_t>(i)];
+      Best best;
+      rule_.RightOf(i, [&](int j, std::int64_t order) {
+        best.Offer(j, order,
+                   HammingDistance(left_[static_cast<std::size_t>(i)],
+                                   right_[static_cast<std::size_t>(j)]));
+      });
+      if (best.index < 0) {
+        ++n.no_candidate;
+        continue;
+      }
+      if (best.distance > options_.max_distance ||
+          (options_.ratio < 1 && best.second != INT_MAX &&
+           best.distance >= options_.ratio * best.second)) {
+        ++n.rejected_distance;
+        continue;
+      }
+      if (options_.left_right_check && BestLeftFor(best.index) != i) {
+        ++n.rejected_left_right;
+        continue;
+      }
+      const cv::KeyPoint& rk = right_keypoints_[static_cast<std::size_t>(best.index)];
+      StereoMatch m;
+      m.left_index = i;
+      m.right_index = best.index;
+      m.distance = best.distance;
+      m.u_left_px = lk.pt.x;
+      m.v_px = lk.pt.y;
+      m.disparity_px = lk.pt.x - rk.pt.x;
+      if (refine_ && (!Refine(left_image_, right_image_, lk, rk, options_, m) ||
+                      !rule_.InRange(m.disparity_px))) {
+        ++n.rejected_refinement;
+        continue;
+      }
+      out.push_back(m);
+    }
+  }
+
+ private:
+  // The right keypoint's own best left keypoint.
+  int BestLeftFor(int j) const {
+    Best best;
+    rule_.LeftOf(j, [&](int i, std::int64_t order) {
+      best.Offer(
+          i, order,
+          HammingDistance(left_[static_cast<std::size_t>(i)], right_[static_cast<std::size_t>(j)]));
+    });
+    return best.index;
+  }
+
+  const std::vector<cv::KeyPoint>& left_keypoints_;
+  const std::vector<Descriptor256>& left_;
+  const std::vector<cv::KeyPoint>& right_keypoints_;
+  const std::vector<Descriptor256>& right_;
+  const CandidateRule& rule_;
+  const cv::Mat& left_image_;
+  const cv::Mat& right_image_;
+  const bool refine_;
+  const StereoMatchOptions& options_;
+};
+
 // Below this many left keypoints a second thread costs more than it saves.
 constexpr int kParallelFrom = 256;
 
@@ -342,57 +427,8 @@ std::vector<StereoMatch> MatchStereoRows(const std::vector<cv::KeyPoint>& left_k
       left_keypoints, right_keypoints,
       RowsSpanned(left_keypoints, right_keypoints, left_image.empty() ? 0 : left_image.rows),
       options);
-  // The right keypoint's own best left keypoint.
-  const auto best_left_for = [&](int j) {
-    Best best;
-    rule.LeftOf(j, [&](int i, std::int64_t order) {
-      best.Offer(
-          i, order,
-          HammingDistance(left[static_cast<std::size_t>(i)], right[static_cast<std::size_t>(j)]));
-    });
-    return best.index;
-  };
-
-  // Left keypoints first, first + step, ... matched into `out`, counting what is refused in `n`.
-  const auto match_every = [&](int first, int step, std::vector<StereoMatch>& out,
-                               StereoMatchCounts& n) {
-    for (int i = first; i < static_cast<int>(left_keypoints.size()); i += step) {
-      const cv::KeyPoint& lk = left_keypoints[static_cast<std::size_t>(i)];
-      Best best;
-      rule.RightOf(i, [&](int j, std::int64_t order) {
-        best.Offer(
-            j, order,
-            HammingDistance(left[static_cast<std::size_t>(i)], right[static_cast<std::size_t>(j)]));
-      });
-      if (best.index < 0) {
-        ++n.no_candidate;
-        continue;
-      }
-      if (best.distance > options.max_distance || (options.ratio < 1 && best.second != INT_MAX &&
-                                                   best.distance >= options.ratio * best.second)) {
-        ++n.rejected_distance;
-        continue;
-      }
-      if (options.left_right_check && best_left_for(best.index) != i) {
-        ++n.rejected_left_right;
-        continue;
-      }
-      const cv::KeyPoint& rk = right_keypoints[static_cast<std::size_t>(best.index)];
-      StereoMatch m;
-      m.left_index = i;
-      m.right_index = best.index;
-      m.distance = best.distance;
-      m.u_left_px = lk.pt.x;
-      m.v_px = lk.pt.y;
-      m.disparity_px = lk.pt.x - rk.pt.x;
-      if (refine &&
-          (!Refine(left_image, right_image, lk, rk, options, m) || !rule.InRange(m.disparity_px))) {
-        ++n.rejected_refinement;
-        continue;
-      }
-      out.push_back(m);
-    }
-  };
+  const RowMatcher matcher(left_keypoints, left, right_keypoints, right, rule, left_image,
+                           right_image, refine, options);
 
   // Each left keypoint is matched on its own, so the two threads of the robot's two cores (seed
   // 002 §VII) take every other one and their matches are merged by left index: the same matches
@@ -404,9 +440,9 @@ std::vector<StereoMatch> MatchStereoRows(const std::vector<cv::KeyPoint>& left_k
   StereoMatchCounts second_counts;
   std::future<void> second;
   if (step == 2) {
-    second = std::async(std::launch::async, [&] { match_every(1, 2, odd, second_counts); });
+    second = std::async(std::launch::async, [&] { matcher.MatchEvery(1, 2, odd, second_counts); });
   }
-  match_every(0, step, even, c);
+  matcher.MatchEvery(0, step, even, c);
   if (second.valid()) second.get();
   std::vector<StereoMatch> matches;
   matches.reserve(even.size() + odd.size());

@@ -58,26 +58,23 @@ double MedianUs(std::vector<double>& us) {
   return us[us.size() / 2];
 }
 
-Figures RunOne(const std::string& backend, const std::string& uri, const IndexBenchOptions& o) {
-  Figures f;
-  f.backend = backend;
-  StoreOptions store_options;
-  if (backend == "sqlite" && o.sqlite_buffered) store_options.durability = Durability::kBuffered;
-  auto store = GraphStore::Open(uri, store_options);
-  SensorIndex& index = store->sensors();
-  if (index.CountData() != 0) {
-    throw Error(ErrorCode::kConflict,
-                "bench index needs an empty index; " + store->uri() + " already holds data");
-  }
-  const BenchPlatform bench_platform = AddBenchPlatform(index);
+// What the load left: the ids it was given, and its last capture time.
+struct Loaded {
+  DataId first_id = 0, last_id = 0;
+  std::int64_t end_ns = 0;
+};
+
+// Inserts o.records rows in batches of kBatchRows, timing only InsertData.
+Loaded InsertRows(SensorIndex& index, const BenchPlatform& bench_platform,
+                  const IndexBenchOptions& o, const std::string& backend, Figures& f) {
   const PlatformId platform = bench_platform.platform;
   const std::vector<SensorId>& sensors = bench_platform.sensors;
-
-  // Insert.
   RowSource source(platform, sensors, o.records);
   Clock::duration insert_time{};
   std::int64_t loaded = 0;
-  DataId first_id = 0, last_id = 0;
+  Loaded load;
+  DataId& first_id = load.first_id;
+  DataId& last_id = load.last_id;
   int last_percent = -1;
   while (true) {
     std::vector<Datum> rows = source.Next(kBatchRows);
@@ -98,15 +95,18 @@ Figures RunOne(const std::string& backend, const std::string& uri, const IndexBe
   }
   f.rows = loaded;
   f.insert_per_s = static_cast<double>(loaded) / Seconds(insert_time);
-  const std::int64_t end_ns = source.last_ns();
-  if (backend == "postgresql") {
-    // What autovacuum would do after a bulk load; not timed.
-    pqxx::connection c(uri);
-    pqxx::nontransaction t(c);
-    t.exec("ANALYZE data");
-  }
+  load.end_ns = source.last_ns();
+  return load;
+}
 
-  std::mt19937_64 rng(42);
+// Select by id, nearest and temporal join, each the median of its samples, after warming the
+// caches; `rng` draws the ids and times.
+void TimeLookups(SensorIndex& index, const BenchPlatform& bench_platform,
+                 const IndexBenchOptions& o, const std::string& backend, const Loaded& load,
+                 std::mt19937_64& rng, Figures& f) {
+  const PlatformId platform = bench_platform.platform;
+  const std::vector<SensorId>& sensors = bench_platform.sensors;
+  const std::int64_t end_ns = load.end_ns;
   auto random_t = [&] { return std::uniform_int_distribution<std::int64_t>(kStart, end_ns)(rng); };
   std::vector<double> us;
   auto time_us = [&](auto&& call) {
@@ -118,7 +118,7 @@ Figures RunOne(const std::string& backend, const std::string& uri, const IndexBe
   for (int i = 0; i < 1000; ++i) index.Nearest(platform, sensors[i % kSensors], random_t());
 
   us.clear();
-  std::uniform_int_distribution<DataId> random_id(first_id, last_id);
+  std::uniform_int_distribution<DataId> random_id(load.first_id, load.last_id);
   std::int64_t found = 0;
   for (int i = 0; i < o.samples; ++i) {
     const DataId id = random_id(rng);
@@ -150,8 +150,15 @@ Figures RunOne(const std::string& backend, const std::string& uri, const IndexBe
                                          " data, expected " + std::to_string(kSensors) +
                                          " per call on " + backend);
   }
+}
 
-  // Batch join over one hour (or all there is, if less), from a random start.
+// Batch join over one hour (or all there is, if less), from a random start.
+void TimeBatchJoin(SensorIndex& index, const BenchPlatform& bench_platform,
+                   const std::string& backend, const Loaded& load, std::mt19937_64& rng,
+                   Figures& f) {
+  const PlatformId platform = bench_platform.platform;
+  const std::vector<SensorId>& sensors = bench_platform.sensors;
+  const std::int64_t end_ns = load.end_ns;
   const std::int64_t span = std::min<std::int64_t>(kHour, end_ns - kStart);
   const std::int64_t t0 = std::uniform_int_distribution<std::int64_t>(kStart, end_ns - span)(rng);
   const auto b0 = Clock::now();
@@ -170,6 +177,30 @@ Figures RunOne(const std::string& backend, const std::string& uri, const IndexBe
   }
   std::cerr << "[" << backend << "] batch join: " << f.batch_rows << " camera rows over "
             << static_cast<double>(span) / kHour << " h\n";
+}
+
+Figures RunOne(const std::string& backend, const std::string& uri, const IndexBenchOptions& o) {
+  Figures f;
+  f.backend = backend;
+  StoreOptions store_options;
+  if (backend == "sqlite" && o.sqlite_buffered) store_options.durability = Durability::kBuffered;
+  auto store = GraphStore::Open(uri, store_options);
+  SensorIndex& index = store->sensors();
+  if (index.CountData() != 0) {
+    throw Error(ErrorCode::kConflict,
+                "bench index needs an empty index; " + store->uri() + " already holds data");
+  }
+  const BenchPlatform bench_platform = AddBenchPlatform(index);
+  const Loaded load = InsertRows(index, bench_platform, o, backend, f);
+  if (backend == "postgresql") {
+    // What autovacuum would do after a bulk load; not timed.
+    pqxx::connection c(uri);
+    pqxx::nontransaction t(c);
+    t.exec("ANALYZE data");
+  }
+  std::mt19937_64 rng(42);
+  TimeLookups(index, bench_platform, o, backend, load, rng, f);
+  TimeBatchJoin(index, bench_platform, backend, load, rng, f);
   return f;
 }
 

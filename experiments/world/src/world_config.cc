@@ -317,87 +317,102 @@ class Validator {
   std::string prefix_;
 };
 
-// Checks between fields, after every field is in its own range.
-void ValidateRelations(const WorldConfig& c) {
-  const auto require = [](bool ok, const std::string& key, const std::string& what) {
-    if (!ok) Reject(key, what);
-  };
+// Reject(key, what) unless `ok`.
+void Require(bool ok, const std::string& key, const std::string& what) {
+  if (!ok) Reject(key, what);
+}
 
+// The route's corners, the camera's depth range and where landmarks stand beside the road.
+void ValidateGeometry(const WorldConfig& c) {
   // Two corners must fit on the short side: with outer box W x H = aspect * H x H and corner
   // radius r, the loop is 2(W + H) - (8 - 2 pi) r long.
   const RouteConfig& route = c.route;
   const double w_plus_h =
       (route.length_m + (8.0 - 2.0 * std::numbers::pi) * route.corner_radius_m) / 2;
-  require(w_plus_h / (1.0 + route.aspect_ratio) >= 2.0 * route.corner_radius_m,
+  Require(w_plus_h / (1.0 + route.aspect_ratio) >= 2.0 * route.corner_radius_m,
           "route.corner_radius_m", "is too large for route.length_m and route.aspect_ratio");
 
-  require(c.camera.min_depth_m < c.camera.max_depth_m, "camera.max_depth_m",
+  Require(c.camera.min_depth_m < c.camera.max_depth_m, "camera.max_depth_m",
           "must exceed camera.min_depth_m");
 
   const LandmarkConfig& lm = c.landmarks;
-  require(lm.lateral_min_m < lm.lateral_max_m, "landmarks.lateral_max_m",
+  Require(lm.lateral_min_m < lm.lateral_max_m, "landmarks.lateral_max_m",
           "must exceed landmarks.lateral_min_m");
   // A landmark beyond the corner's centre would sit on the wrong side of the road.
-  require(lm.lateral_max_m < route.corner_radius_m, "landmarks.lateral_max_m",
+  Require(lm.lateral_max_m < route.corner_radius_m, "landmarks.lateral_max_m",
           "must be below route.corner_radius_m");
-  require(lm.height_min_m < lm.height_max_m, "landmarks.height_max_m",
+  Require(lm.height_min_m < lm.height_max_m, "landmarks.height_max_m",
           "must exceed landmarks.height_min_m");
+}
 
+// The class mix, the lighting bands and their jitter, and the appearance's ranges.
+void ValidateAppearance(const WorldConfig& c) {
+  const RouteConfig& route = c.route;
   const AppearanceConfig& ap = c.appearance;
   const ClassFractions& f = ap.classes;
   const double sum =
       f.stable + f.lighting + f.weather + f.lighting_weather + f.structural + f.parked_car;
-  require(std::abs(sum - 1.0) <= 1e-6, "appearance.classes",
+  Require(std::abs(sum - 1.0) <= 1e-6, "appearance.classes",
           "must sum to 1 (sum " + Show(sum) + ")");
-  require(ap.dawn_start_h < ap.day_start_h, "appearance.day_start_h",
+  Require(ap.dawn_start_h < ap.day_start_h, "appearance.day_start_h",
           "must be after appearance.dawn_start_h");
-  require(ap.day_start_h < ap.dusk_start_h, "appearance.dusk_start_h",
+  Require(ap.day_start_h < ap.dusk_start_h, "appearance.dusk_start_h",
           "must be after appearance.day_start_h");
-  require(ap.dusk_start_h < ap.night_start_h, "appearance.night_start_h",
+  Require(ap.dusk_start_h < ap.night_start_h, "appearance.night_start_h",
           "must be after appearance.dusk_start_h");
   // Jittered boundaries must keep their order, or a landmark could skip a band.
   const double min_gap =
       std::min({ap.day_start_h - ap.dawn_start_h, ap.dusk_start_h - ap.day_start_h,
                 ap.night_start_h - ap.dusk_start_h, 24.0 - ap.night_start_h + ap.dawn_start_h});
-  require(2.0 * ap.boundary_jitter_h < min_gap, "appearance.boundary_jitter_h",
+  Require(2.0 * ap.boundary_jitter_h < min_gap, "appearance.boundary_jitter_h",
           "must be below half the shortest lighting band");
-  require(ap.structural_period_min_days <= ap.structural_period_max_days,
+  Require(ap.structural_period_min_days <= ap.structural_period_max_days,
           "appearance.structural_period_max_days",
           "must be at least appearance.structural_period_min_days");
-  require(ap.car_lateral_min_m < ap.car_lateral_max_m, "appearance.car_lateral_max_m",
+  Require(ap.car_lateral_min_m < ap.car_lateral_max_m, "appearance.car_lateral_max_m",
           "must exceed appearance.car_lateral_min_m");
-  require(ap.car_lateral_max_m < route.corner_radius_m, "appearance.car_lateral_max_m",
+  Require(ap.car_lateral_max_m < route.corner_radius_m, "appearance.car_lateral_max_m",
           "must be below route.corner_radius_m");
+}
 
+// Detection and bit-flip probabilities in every condition, and the occluders' ranges.
+void ValidateObservation(const WorldConfig& c) {
   const ObservationConfig& ob = c.observation;
   const double max_detection =
       std::max({ob.detection.night, ob.detection.dawn, ob.detection.day, ob.detection.dusk});
   const double max_factor =
       std::max({ob.detection_weather_factor.sun, ob.detection_weather_factor.overcast,
                 ob.detection_weather_factor.rain});
-  require(max_detection * max_factor <= 1.0, "observation.detection_weather_factor",
+  Require(max_detection * max_factor <= 1.0, "observation.detection_weather_factor",
           "times observation.detection must stay within [0, 1]");
   const double max_flip =
       std::max({ob.bit_flip.night, ob.bit_flip.dawn, ob.bit_flip.day, ob.bit_flip.dusk});
   const double max_extra =
       std::max({ob.bit_flip_weather_extra.sun, ob.bit_flip_weather_extra.overcast,
                 ob.bit_flip_weather_extra.rain});
-  require(max_flip + max_extra <= 0.5, "observation.bit_flip_weather_extra",
+  Require(max_flip + max_extra <= 0.5, "observation.bit_flip_weather_extra",
           "plus observation.bit_flip must stay within [0, 0.5]");
-  require(ob.occlusion_min_frames <= ob.occlusion_max_frames, "observation.occlusion_max_frames",
+  Require(ob.occlusion_min_frames <= ob.occlusion_max_frames, "observation.occlusion_max_frames",
           "must be at least observation.occlusion_min_frames");
-  require(ob.occlusion_min_width_deg <= ob.occlusion_max_width_deg,
+  Require(ob.occlusion_min_width_deg <= ob.occlusion_max_width_deg,
           "observation.occlusion_max_width_deg",
           "must be at least observation.occlusion_min_width_deg");
+}
 
+// Values that are each in range but together would overflow or run away: shadow phases,
+// landmarks (memory) and frames (memory and time).
+void ValidateBounds(const WorldConfig& c) {
+  const RouteConfig& route = c.route;
+  const AppearanceConfig& ap = c.appearance;
+  const LandmarkConfig& lm = c.landmarks;
   // 0 turns shadow phases off; a tiny positive phase would count phases past an int.
-  require(ap.sun_shadow_phase_h == 0.0 || ap.sun_shadow_phase_h >= 0.1,
+  Require(ap.sun_shadow_phase_h == 0.0 || ap.sun_shadow_phase_h >= 0.1,
           "appearance.sun_shadow_phase_h",
           "= " + Show(ap.sun_shadow_phase_h) + " must be 0 (no shadow phases) or in [0.1, 24)");
 
   // Every landmark is built up front (World::Impl), so their number bounds a world's memory.
   const double landmarks = lm.per_metre * route.length_m;
-  require(landmarks <= kMaxWorldLandmarks, "landmarks.per_metre",
+  Require(landmarks <= kMaxWorldLandmarks, "landmarks.per_metre",
           "= " + Show(lm.per_metre) + " on route.length_m " + Show(route.length_m) + " m gives " +
               Show(landmarks) + " landmarks, but a world may hold at most " +
               Show(kMaxWorldLandmarks) + "; lower landmarks.per_metre or route.length_m");
@@ -406,7 +421,7 @@ void ValidateRelations(const WorldConfig& c) {
   // Each field of the product is in range, yet together they may ask for frames without
   // bound (memory and time of every run over the schedule).
   const double frames = sc.outings * sc.laps * route.length_m / c.odometry.frame_spacing_m;
-  require(frames <= kMaxWorldFrames, "schedule",
+  Require(frames <= kMaxWorldFrames, "schedule",
           "would generate " + Show(frames) + " frames (schedule.outings " +
               std::to_string(sc.outings) + " x schedule.laps " + Show(sc.laps) +
               " x route.length_m " + Show(route.length_m) + " m / odometry.frame_spacing_m " +
@@ -414,13 +429,27 @@ void ValidateRelations(const WorldConfig& c) {
               Show(kMaxWorldFrames) +
               "; lower schedule.outings, schedule.laps or route.length_m, or raise "
               "odometry.frame_spacing_m");
-  require(sc.first_start_h <= sc.last_start_h, "schedule.last_start_h",
+}
+
+// The schedule's start times, weather probabilities and speeds.
+void ValidateSchedule(const ScheduleConfig& sc) {
+  Require(sc.first_start_h <= sc.last_start_h, "schedule.last_start_h",
           "must be at least schedule.first_start_h");
   const PerWeather& p = sc.weather_probability;
-  require(std::abs(p.sun + p.overcast + p.rain - 1.0) <= 1e-6, "schedule.weather_probability",
+  Require(std::abs(p.sun + p.overcast + p.rain - 1.0) <= 1e-6, "schedule.weather_probability",
           "must sum to 1");
-  require(sc.speed_min_mps <= sc.speed_max_mps, "schedule.speed_max_mps",
+  Require(sc.speed_min_mps <= sc.speed_max_mps, "schedule.speed_max_mps",
           "must be at least schedule.speed_min_mps");
+}
+
+// Checks between fields, after every field is in its own range, in this order (the first
+// failure is the one reported).
+void ValidateRelations(const WorldConfig& c) {
+  ValidateGeometry(c);
+  ValidateAppearance(c);
+  ValidateObservation(c);
+  ValidateBounds(c);
+  ValidateSchedule(c.schedule);
 }
 
 }  // namespace

@@ -34,11 +34,8 @@ void Counter(PrometheusTextWriter& out, const char* name, const char* help, std:
   out.Sample(name, value);
 }
 
-}  // namespace
-
-std::string FleetMetricsText(const FleetStatus& status) {
-  PrometheusTextWriter out;
-
+// The map at the head revision.
+void MapMetrics(PrometheusTextWriter& out, const FleetStatus& status) {
   out.Family("fleetmap_revision", kGauge, "Head revision of the fleet map.");
   out.Sample("fleetmap_revision", status.head_revision);
   Gauge(out, "fleetmap_map_nodes", "Nodes in the map at the head revision.", status.map_nodes);
@@ -47,7 +44,10 @@ std::string FleetMetricsText(const FleetStatus& status) {
   out.Family("fleetmap_map_landmark_bytes", kGauge,
              "Bytes of landmarks in the map at the head revision.");
   out.Sample("fleetmap_map_landmark_bytes", status.map_landmark_bytes);
+}
 
+// The robots, and when each last synced, pushed and downloaded.
+void RobotSyncMetrics(PrometheusTextWriter& out, const FleetStatus& status) {
   Gauge(out, "fleetmap_robots", "Registered robots.", status.robots.size());
   out.Family("fleetmap_robot_last_sync_timestamp_seconds", kGauge,
              "Unix time of the robot's last successful hello (0: never).");
@@ -67,9 +67,13 @@ std::string FleetMetricsText(const FleetStatus& status) {
     out.Sample("fleetmap_robot_downloads_total", robot.downloads,
                {{"robot", robot.name}, {"robot_id", robot.uuid}});
   }
+}
 
-  // What each robot runs. The channel is a label of the installed revision,
-  // so a robot that changes channel shows as a new series.
+// What each robot runs: the revision it installed and was sent, how far behind its
+// channel it is, whether its map differs, its last error; and what each channel names.
+void RobotMapMetrics(PrometheusTextWriter& out, const FleetStatus& status) {
+  // The channel is a label of the installed revision, so a robot that changes channel shows as
+  // a new series.
   out.Family("fleetmap_robot_installed_revision", kGauge,
              "Revision the robot last reported installed (0: none).");
   for (const RobotStatus& robot : status.robots) {
@@ -106,7 +110,10 @@ std::string FleetMetricsText(const FleetStatus& status) {
   for (const auto& [channel, revision] : status.channels) {
     out.Sample("fleetmap_channel_revision", revision, {{"channel", channel}});
   }
+}
 
+// The merge queue, the merges and their failures, and the error frames sent.
+void MergeMetrics(PrometheusTextWriter& out, const FleetStatus& status) {
   Gauge(out, "fleetmap_merge_queue_length", "Submissions waiting for MERGE (not the running one).",
         status.queue_length);
   Gauge(out, "fleetmap_merge_running", "1 while a MERGE runs, else 0.",
@@ -140,7 +147,10 @@ std::string FleetMetricsText(const FleetStatus& status) {
     const std::string label = Lowercase(code);
     out.Sample("fleetmap_errors_total", count, {{"code", label}});
   }
+}
 
+// The sync sessions and their bytes.
+void SessionMetrics(PrometheusTextWriter& out, const FleetStatus& status) {
   Gauge(out, "fleetmap_sessions_open", "Sync sessions open now.", status.sessions_open);
   Counter(out, "fleetmap_sessions_total", "Sync sessions accepted since the server started.",
           status.sessions_total);
@@ -150,6 +160,10 @@ std::string FleetMetricsText(const FleetStatus& status) {
   Counter(out, "fleetmap_last_sync_write_failures_total",
           "Hellos whose last-sync time the store would not take (kept in memory only).",
           status.last_sync_write_failures);
+}
+
+// The nightly dream, when one is scheduled.
+void DreamMetrics(PrometheusTextWriter& out, const FleetStatus& status) {
   if (status.dream.scheduled) {
     const DreamStatus& dream = status.dream;
     out.Family("fleetmap_dream_next_time_seconds", kGauge,
@@ -177,11 +191,28 @@ std::string FleetMetricsText(const FleetStatus& status) {
                  {{"candidate", dream.last_candidate}});
     }
   }
+}
+
+// This server among those sharing its store, and when it started.
+void InstanceMetrics(PrometheusTextWriter& out, const FleetStatus& status) {
   out.Family("fleetmap_instance_info", kGauge,
              "1, labelled with this server's name among the servers sharing its store.");
   out.Sample("fleetmap_instance_info", std::uint64_t{1}, {{"instance", status.instance}});
   out.Family("fleetmap_start_time_seconds", kGauge, "Unix time the server started.");
   out.Sample("fleetmap_start_time_seconds", UnixSeconds(status.started_ns));
+}
+
+}  // namespace
+
+std::string FleetMetricsText(const FleetStatus& status) {
+  PrometheusTextWriter out;
+  MapMetrics(out, status);
+  RobotSyncMetrics(out, status);
+  RobotMapMetrics(out, status);
+  MergeMetrics(out, status);
+  SessionMetrics(out, status);
+  DreamMetrics(out, status);
+  InstanceMetrics(out, status);
   return out.text();
 }
 

@@ -54,16 +54,13 @@ std::vector<const Node*> FramesToQuery(const GraphBatch& submission,
   return frames;
 }
 
-}  // namespace
-
-MergeRegion LoadMergeRegion(GraphStore& store, RevisionNumber head, const GraphBatch& submission,
-                            const std::unordered_set<Uuid>& named,
-                            const DiskAppearanceIndex& appearance,
-                            const AppearanceVocabulary& index_vocabulary,
-                            std::shared_ptr<const AppearanceVocabulary> vocabulary,
-                            const MergeRegionOptions& options) {
-  VersionStore& versions = store.versions();
-  MergeRegion region{ExperienceMap(vocabulary), {}, 0, 0, false};
+// The nodes MERGE of `submission` must see: the stored nodes it names that are visible at
+// `head` (those hidden by a revert go to `region.hidden`). Sets `stored` to the submission's
+// own nodes the server holds.
+std::unordered_set<Uuid> NamedSeeds(VersionStore& versions, RevisionNumber head,
+                                    const GraphBatch& submission,
+                                    const std::unordered_set<Uuid>& named, MergeRegion& region,
+                                    std::unordered_set<Uuid>& stored) {
   std::unordered_set<Uuid> seeds;
   const auto consider = [&](const Uuid& node) {
     const std::optional<ElementVersion> version = versions.VersionOf(node);
@@ -75,13 +72,21 @@ MergeRegion LoadMergeRegion(GraphStore& store, RevisionNumber head, const GraphB
     }
     return true;
   };
-  std::unordered_set<Uuid> stored;  // the submission's nodes the server holds
   for (const Node& node : submission.nodes) {
     if (consider(node.id)) stored.insert(node.id);
   }
   for (const Uuid& node : named) consider(node);
+  return seeds;
+}
 
-  // Where the submission's frames look like the map.
+// Adds to `seeds` where the submission's frames look like the map: each sampled frame's
+// distinct best appearance matches visible at `head`. Counts the queries in `region`.
+void AddAppearanceSeeds(VersionStore& versions, RevisionNumber head, const GraphBatch& submission,
+                        const std::unordered_set<Uuid>& stored,
+                        const DiskAppearanceIndex& appearance,
+                        const AppearanceVocabulary& index_vocabulary,
+                        const MergeRegionOptions& options, MergeRegion& region,
+                        std::unordered_set<Uuid>& seeds) {
   for (const Node* frame : FramesToQuery(submission, stored, options.sample_every_m)) {
     const Landmarks landmarks = DecodeLandmarks(frame->landmarks_blob);
     const std::vector<WordCount> bag = BagOfWords(index_vocabulary, landmarks.descriptors);
@@ -110,13 +115,24 @@ MergeRegion LoadMergeRegion(GraphStore& store, RevisionNumber head, const GraphB
       }
     }
   }
-  region.seeds = seeds.size();
+}
 
-  // Multi-source shortest paths along visible metric edges, settled in waves so that each
-  // wave's edges come in one store round trip. A node reached later by a shorter route is
-  // relaxed again from the edges already read.
+// What the search around the seeds reached: each node's distance along visible metric edges,
+// and the visible metric edges it read.
+struct Reached {
   std::unordered_map<Uuid, double> distance_m;
-  std::unordered_map<Uuid, Edge> edges;  // visible metric edges read
+  std::unordered_map<Uuid, Edge> edges;
+};
+
+// Multi-source shortest paths along visible metric edges, settled in waves so that each
+// wave's edges come in one store round trip. A node reached later by a shorter route is
+// relaxed again from the edges already read. Sets region.truncated when max_nodes stops it.
+Reached SearchAroundSeeds(GraphStore& store, VersionStore& versions, RevisionNumber head,
+                          const std::unordered_set<Uuid>& seeds, const MergeRegionOptions& options,
+                          MergeRegion& region) {
+  Reached reached;
+  std::unordered_map<Uuid, double>& distance_m = reached.distance_m;
+  std::unordered_map<Uuid, Edge>& edges = reached.edges;  // visible metric edges read
   std::unordered_map<Uuid, std::vector<const Edge*>> adjacent;
   std::unordered_set<Uuid> read, edge_checked;
   using Entry = std::pair<double, Uuid>;
@@ -162,9 +178,14 @@ MergeRegion LoadMergeRegion(GraphStore& store, RevisionNumber head, const GraphB
       }
     }
   }
+  return reached;
+}
 
-  // Nodes in the order the whole map lists them (by stamp, then id) and edges by id, so that
-  // a region holding the whole map is the map MERGE worked on before regions.
+// The reached nodes into `map`, in the order the whole map lists them (by stamp, then id),
+// and the edges among them by id, so that a region holding the whole map is the map MERGE
+// worked on before regions.
+void AddReached(GraphStore& store, const Reached& reached, ExperienceMap& map) {
+  const std::unordered_map<Uuid, double>& distance_m = reached.distance_m;
   std::vector<Uuid> ids;
   ids.reserve(distance_m.size());
   for (const auto& [node, d] : distance_m) ids.push_back(node);
@@ -187,23 +208,42 @@ MergeRegion LoadMergeRegion(GraphStore& store, RevisionNumber head, const GraphB
                                            ": landmarks do not decode: " + error.message());
     }
     node.landmarks_blob.clear();
-    region.map.AddNode(node, std::move(landmarks));
+    map.AddNode(node, std::move(landmarks));
   }
   std::vector<const Edge*> inside;
-  for (const auto& [id, edge] : edges) {
+  for (const auto& [id, edge] : reached.edges) {
     if (distance_m.contains(edge.from) && distance_m.contains(edge.to)) inside.push_back(&edge);
   }
   std::sort(inside.begin(), inside.end(),
             [](const Edge* a, const Edge* b) { return a->id < b->id; });
   for (const Edge* edge : inside) {
     // As ExperienceMap::FromGraph: one relative pose per pair of nodes.
-    const ExperienceMap::NodeIndex from = *region.map.Find(edge->from);
-    const ExperienceMap::NodeIndex to = *region.map.Find(edge->to);
+    const ExperienceMap::NodeIndex from = *map.Find(edge->from);
+    const ExperienceMap::NodeIndex to = *map.Find(edge->to);
     bool linked = false;
-    for (const ExperienceMap::MetricLink& link : region.map.at(from).links) linked |= link.to == to;
+    for (const ExperienceMap::MetricLink& link : map.at(from).links) linked |= link.to == to;
     if (!linked)
-      region.map.AddMetricEdge(edge->from, edge->to, edge->from_T_to, edge->covariance.optional());
+      map.AddMetricEdge(edge->from, edge->to, edge->from_T_to, edge->covariance.optional());
   }
+}
+
+}  // namespace
+
+MergeRegion LoadMergeRegion(GraphStore& store, RevisionNumber head, const GraphBatch& submission,
+                            const std::unordered_set<Uuid>& named,
+                            const DiskAppearanceIndex& appearance,
+                            const AppearanceVocabulary& index_vocabulary,
+                            std::shared_ptr<const AppearanceVocabulary> vocabulary,
+                            const MergeRegionOptions& options) {
+  VersionStore& versions = store.versions();
+  MergeRegion region{ExperienceMap(vocabulary), {}, 0, 0, false};
+  std::unordered_set<Uuid> stored;  // the submission's nodes the server holds
+  std::unordered_set<Uuid> seeds = NamedSeeds(versions, head, submission, named, region, stored);
+  AddAppearanceSeeds(versions, head, submission, stored, appearance, index_vocabulary, options,
+                     region, seeds);
+  region.seeds = seeds.size();
+  const Reached reached = SearchAroundSeeds(store, versions, head, seeds, options, region);
+  AddReached(store, reached, region.map);
   return region;
 }
 

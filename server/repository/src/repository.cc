@@ -433,6 +433,101 @@ void Repository::UpdateAppearanceIndex() {
   }
 }
 
+namespace {
+
+// What the ends of a submission's edges outside it are, when the map does not show them.
+struct EdgeEnds {
+  std::unordered_map<Uuid, NodeStandIn> stand_ins;  // where an end is stood in for
+  std::unordered_set<Uuid> seen_elsewhere;          // only in other submissions
+  std::unordered_set<Uuid> hidden_ends;             // hidden, with nothing visible near
+  std::optional<Uuid> waits_for;                    // a queued submission to merge first
+};
+
+// Edge ends outside the submission that the map does not hold: omitted by an earlier merge
+// (a stand-in), hidden since, or only in other submissions. One still queued merges first.
+// Each end is looked up once; MERGE asks again only through these answers. An end the head
+// hides, or whose stand-in it hides (a revert or a promotion since the robot's download),
+// hangs from the nearest visible node instead (hidden_anchor.h).
+EdgeEnds LookUpEdgeEnds(GraphStore& store, VersionStore& versions, RevisionNumber head,
+                        const Uuid& id, const GraphBatch& content) {
+  std::unordered_set<Uuid> looked_up;
+  for (const Node& node : content.nodes) looked_up.insert(node.id);
+  EdgeEnds ends;
+  std::unordered_map<Uuid, NodeStandIn>& stand_ins = ends.stand_ins;
+  const auto visible = [&](const Uuid& node) {
+    const std::optional<ElementVersion> version = versions.VersionOf(node);
+    return version && version->added <= head && (!version->hidden || *version->hidden > head);
+  };
+  for (const Edge& edge : content.edges) {
+    for (const Uuid& end : {edge.from, edge.to}) {
+      if (!looked_up.insert(end).second) continue;
+      if (versions.VersionOf(end)) {
+        if (visible(end)) continue;
+        if (std::optional<NodeStandIn> anchor = AnchorThroughHidden(store, head, end)) {
+          stand_ins.emplace(end, std::move(*anchor));
+        } else {
+          ends.hidden_ends.insert(end);
+        }
+        continue;
+      }
+      if (std::optional<NodeStandIn> stand_in = versions.FindStandIn(end)) {
+        if (!visible(stand_in->stand_in)) {
+          const std::optional<NodeStandIn> anchor =
+              AnchorThroughHidden(store, head, stand_in->stand_in);
+          if (!anchor) {
+            ends.hidden_ends.insert(end);
+            continue;
+          }
+          stand_in->stand_in = anchor->stand_in;
+          stand_in->stand_in_T_node = anchor->stand_in_T_node * stand_in->stand_in_T_node;
+        }
+        stand_ins.emplace(end, std::move(*stand_in));
+        continue;
+      }
+      for (const Submission& other : versions.SubmissionsWithNode(end)) {
+        if (other.id != id && other.state == SubmissionState::kQueued) {
+          ends.waits_for = other.id;
+          return ends;
+        }
+      }
+      ends.seen_elsewhere.insert(end);
+    }
+  }
+  return ends;
+}
+
+// The stored nodes the submission names beyond its own: its edges' ends and their stand-ins.
+std::unordered_set<Uuid> NamedNodes(const GraphBatch& content, const EdgeEnds& ends) {
+  std::unordered_set<Uuid> named;
+  for (const Edge& edge : content.edges) {
+    for (const Uuid& end : {edge.from, edge.to}) named.insert(end);
+  }
+  for (const auto& [node, stand_in] : ends.stand_ins) named.insert(stand_in.stand_in);
+  return named;
+}
+
+// What MERGE asks of the server beyond the region: answered from the versions, the region's
+// hidden nodes and the edge ends looked up. Holds references to all three.
+ServerCatalogue CatalogueFor(VersionStore& versions, const MergeRegion& region,
+                             const EdgeEnds& ends) {
+  ServerCatalogue catalogue{[&](const Uuid& edge) { return versions.VersionOf(edge).has_value(); },
+                            [&](const Uuid& path) { return versions.VersionOf(path).has_value(); },
+                            // Stored but hidden at the head, with nothing visible near.
+                            [&](const Uuid& node) {
+                              return region.hidden.contains(node) ||
+                                     ends.hidden_ends.contains(node);
+                            }};
+  catalogue.stand_in = [&](const Uuid& node) -> std::optional<NodeStandIn> {
+    const auto found = ends.stand_ins.find(node);
+    if (found == ends.stand_ins.end()) return std::nullopt;
+    return found->second;
+  };
+  catalogue.seen_elsewhere = [&](const Uuid& node) { return ends.seen_elsewhere.contains(node); };
+  return catalogue;
+}
+
+}  // namespace
+
 MergeOutcome Repository::Merge(const Uuid& id, const MergeProgress& progress) {
   const auto start = std::chrono::steady_clock::now();
   const std::optional<Submission> submission = versions().FindSubmission(id);
@@ -470,54 +565,11 @@ MergeOutcome Repository::Merge(const Uuid& id, const MergeProgress& progress) {
     fail(error);
     throw;
   }
-  // Edge ends outside the submission that the map does not hold: omitted by an earlier merge
-  // (a stand-in), hidden since, or only in other submissions. One still queued merges first.
-  // Each end is looked up once; MERGE asks again only through these answers. An end the head
-  // hides, or whose stand-in it hides (a revert or a promotion since the robot's download),
-  // hangs from the nearest visible node instead (hidden_anchor.h).
-  std::unordered_set<Uuid> looked_up;
-  for (const Node& node : content.nodes) looked_up.insert(node.id);
-  std::unordered_map<Uuid, NodeStandIn> stand_ins;
-  std::unordered_set<Uuid> seen_elsewhere, hidden_ends;
-  const auto visible = [&](const Uuid& node) {
-    const std::optional<ElementVersion> version = versions.VersionOf(node);
-    return version && version->added <= head && (!version->hidden || *version->hidden > head);
-  };
-  for (const Edge& edge : content.edges) {
-    for (const Uuid& end : {edge.from, edge.to}) {
-      if (!looked_up.insert(end).second) continue;
-      if (versions.VersionOf(end)) {
-        if (visible(end)) continue;
-        if (std::optional<NodeStandIn> anchor = AnchorThroughHidden(*store_, head, end)) {
-          stand_ins.emplace(end, std::move(*anchor));
-        } else {
-          hidden_ends.insert(end);
-        }
-        continue;
-      }
-      if (std::optional<NodeStandIn> stand_in = versions.FindStandIn(end)) {
-        if (!visible(stand_in->stand_in)) {
-          const std::optional<NodeStandIn> anchor =
-              AnchorThroughHidden(*store_, head, stand_in->stand_in);
-          if (!anchor) {
-            hidden_ends.insert(end);
-            continue;
-          }
-          stand_in->stand_in = anchor->stand_in;
-          stand_in->stand_in_T_node = anchor->stand_in_T_node * stand_in->stand_in_T_node;
-        }
-        stand_ins.emplace(end, std::move(*stand_in));
-        continue;
-      }
-      for (const Submission& other : versions.SubmissionsWithNode(end)) {
-        if (other.id != id && other.state == SubmissionState::kQueued) {
-          outcome.waits_for = other.id;
-          outcome.seconds = SecondsSince(start);
-          return outcome;
-        }
-      }
-      seen_elsewhere.insert(end);
-    }
+  EdgeEnds ends = LookUpEdgeEnds(*store_, versions, head, id, content);
+  if (ends.waits_for) {
+    outcome.waits_for = ends.waits_for;
+    outcome.seconds = SecondsSince(start);
+    return outcome;
   }
   // The region of the head this submission can reach, not the whole map (merge_region.h).
   std::shared_ptr<const AppearanceVocabulary> vocabulary = Vocabulary(&content);
@@ -528,26 +580,11 @@ MergeOutcome Repository::Merge(const Uuid& id, const MergeProgress& progress) {
   }
   const std::shared_ptr<const AppearanceVocabulary> index_vocabulary = IndexVocabulary(&content);
   UpdateAppearanceIndex();
-  std::unordered_set<Uuid> named;
-  for (const Edge& edge : content.edges) {
-    for (const Uuid& end : {edge.from, edge.to}) named.insert(end);
-  }
-  for (const auto& [node, stand_in] : stand_ins) named.insert(stand_in.stand_in);
   MergeRegion region =
-      LoadMergeRegion(*store_, head, content, named, *appearance_, *index_vocabulary, vocabulary,
-                      RegionOptions(options_.merge));
+      LoadMergeRegion(*store_, head, content, NamedNodes(content, ends), *appearance_,
+                      *index_vocabulary, vocabulary, RegionOptions(options_.merge));
   outcome.region_nodes = region.map.size();
-  ServerCatalogue catalogue{
-      [&](const Uuid& edge) { return versions.VersionOf(edge).has_value(); },
-      [&](const Uuid& path) { return versions.VersionOf(path).has_value(); },
-      // Stored but hidden at the head, with nothing visible near.
-      [&](const Uuid& node) { return region.hidden.contains(node) || hidden_ends.contains(node); }};
-  catalogue.stand_in = [&](const Uuid& node) -> std::optional<NodeStandIn> {
-    const auto found = stand_ins.find(node);
-    if (found == stand_ins.end()) return std::nullopt;
-    return found->second;
-  };
-  catalogue.seen_elsewhere = [&](const Uuid& node) { return seen_elsewhere.contains(node); };
+  const ServerCatalogue catalogue = CatalogueFor(versions, region, ends);
   MergeResult result;
   try {
     result = fleetmap::Merge(region.map, content, catalogue, options_.merge, progress);

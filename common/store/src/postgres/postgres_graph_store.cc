@@ -510,145 +510,154 @@ class PostgresGraphStore final : public GraphStore {
     t.exec(
         "DELETE FROM stage_paths; DELETE FROM stage_nodes; DELETE FROM stage_edges;"
         " DELETE FROM stage_annotations");
-    if (!batch.paths.empty()) {
-      {
-        pqxx::stream_to s(t, "stage_paths",
-                          std::vector<std::string>{"id", "robot", "outing", "start_ns", "end_ns"});
-        for (const Path& p : batch.paths) {
-          s << std::make_tuple(p.id.ToString(), p.robot.ToString(), p.outing.ToString(), p.start_ns,
-                               p.end_ns);
-        }
-        s.complete();
+    if (!batch.paths.empty()) PutPaths(t, batch.paths);
+    if (!batch.nodes.empty()) PutNodes(t, batch.nodes);
+    if (!batch.edges.empty()) PutEdges(t, batch.edges);
+    if (!batch.annotations.empty()) PutAnnotations(t, batch.annotations);
+  }
+
+  // Each kind of a batch: streamed into its staging table, checked against what is stored,
+  // inserted where new; an element stored with other content, or a reference to what is not
+  // stored, fails the batch.
+  static void PutPaths(pqxx::transaction_base& t, const std::vector<Path>& paths) {
+    {
+      pqxx::stream_to s(t, "stage_paths",
+                        std::vector<std::string>{"id", "robot", "outing", "start_ns", "end_ns"});
+      for (const Path& p : paths) {
+        s << std::make_tuple(p.id.ToString(), p.robot.ToString(), p.outing.ToString(), p.start_ns,
+                             p.end_ns);
       }
-      t.exec("INSERT INTO paths SELECT * FROM stage_paths ON CONFLICT (id) DO NOTHING");
-      Refuse(t, ErrorCode::kConflict,
-             "SELECT s.id FROM stage_paths s JOIN paths p ON p.id = s.id WHERE"
-             " (p.robot, p.outing, p.start_ns, p.end_ns) IS DISTINCT FROM"
-             " (s.robot, s.outing, s.start_ns, s.end_ns) LIMIT 1",
-             [](const pqxx::row& r) {
-               return Cat({"path ", r[0].c_str(), " is already stored with different content"});
-             });
+      s.complete();
     }
-    if (!batch.nodes.empty()) {
-      {
-        pqxx::stream_to s(
-            t, "stage_nodes",
-            std::vector<std::string>{"id", "stamp_ns", "robot", "outing", "landmarks"});
-        for (const Node& n : batch.nodes) {
-          s << std::make_tuple(n.id.ToString(), n.stamp_ns, n.robot.ToString(), n.outing.ToString(),
-                               ByteaHex(n.landmarks_blob));
-        }
-        s.complete();
+    t.exec("INSERT INTO paths SELECT * FROM stage_paths ON CONFLICT (id) DO NOTHING");
+    Refuse(t, ErrorCode::kConflict,
+           "SELECT s.id FROM stage_paths s JOIN paths p ON p.id = s.id WHERE"
+           " (p.robot, p.outing, p.start_ns, p.end_ns) IS DISTINCT FROM"
+           " (s.robot, s.outing, s.start_ns, s.end_ns) LIMIT 1",
+           [](const pqxx::row& r) {
+             return Cat({"path ", r[0].c_str(), " is already stored with different content"});
+           });
+  }
+
+  static void PutNodes(pqxx::transaction_base& t, const std::vector<Node>& nodes) {
+    {
+      pqxx::stream_to s(t, "stage_nodes",
+                        std::vector<std::string>{"id", "stamp_ns", "robot", "outing", "landmarks"});
+      for (const Node& n : nodes) {
+        s << std::make_tuple(n.id.ToString(), n.stamp_ns, n.robot.ToString(), n.outing.ToString(),
+                             ByteaHex(n.landmarks_blob));
       }
-      t.exec("INSERT INTO nodes SELECT * FROM stage_nodes ON CONFLICT (id) DO NOTHING");
-      Refuse(t, ErrorCode::kConflict,
-             "SELECT s.id FROM stage_nodes s JOIN nodes n ON n.id = s.id WHERE"
-             " (n.stamp_ns, n.robot, n.outing, n.landmarks) IS DISTINCT FROM"
-             " (s.stamp_ns, s.robot, s.outing, s.landmarks) LIMIT 1",
-             [](const pqxx::row& r) {
-               return Cat({"node ", r[0].c_str(), " is already stored with different content"});
-             });
+      s.complete();
     }
-    if (!batch.edges.empty()) {
-      {
-        pqxx::stream_to s(
-            t, "stage_edges",
-            std::vector<std::string>{"id", "from_id", "to_id", "kind", "tx", "ty", "tz", "qw", "qx",
-                                     "qy", "qz", "path_id", "covariance"});
-        for (const Edge& e : batch.edges) {
-          const Eigen::Quaterniond q = RotationQuaternion(e.from_T_to);
-          const Eigen::Vector3d& p = e.from_T_to.translation();
-          const std::string path = e.path.ToString();
-          const std::string covariance = CovarianceText(e);
-          s << std::make_tuple(e.id.ToString(), e.from.ToString(), e.to.ToString(),
-                               static_cast<int>(e.kind), Text(p.x()), Text(p.y()), Text(p.z()),
-                               Text(q.w()), Text(q.x()), Text(q.y()), Text(q.z()),
-                               e.path.IsNil() ? nullptr : path.c_str(),
-                               e.covariance ? covariance.c_str() : nullptr);
-        }
-        s.complete();
+    t.exec("INSERT INTO nodes SELECT * FROM stage_nodes ON CONFLICT (id) DO NOTHING");
+    Refuse(t, ErrorCode::kConflict,
+           "SELECT s.id FROM stage_nodes s JOIN nodes n ON n.id = s.id WHERE"
+           " (n.stamp_ns, n.robot, n.outing, n.landmarks) IS DISTINCT FROM"
+           " (s.stamp_ns, s.robot, s.outing, s.landmarks) LIMIT 1",
+           [](const pqxx::row& r) {
+             return Cat({"node ", r[0].c_str(), " is already stored with different content"});
+           });
+  }
+
+  static void PutEdges(pqxx::transaction_base& t, const std::vector<Edge>& edges) {
+    {
+      pqxx::stream_to s(t, "stage_edges",
+                        std::vector<std::string>{"id", "from_id", "to_id", "kind", "tx", "ty", "tz",
+                                                 "qw", "qx", "qy", "qz", "path_id", "covariance"});
+      for (const Edge& e : edges) {
+        const Eigen::Quaterniond q = RotationQuaternion(e.from_T_to);
+        const Eigen::Vector3d& p = e.from_T_to.translation();
+        const std::string path = e.path.ToString();
+        const std::string covariance = CovarianceText(e);
+        s << std::make_tuple(e.id.ToString(), e.from.ToString(), e.to.ToString(),
+                             static_cast<int>(e.kind), Text(p.x()), Text(p.y()), Text(p.z()),
+                             Text(q.w()), Text(q.x()), Text(q.y()), Text(q.z()),
+                             e.path.IsNil() ? nullptr : path.c_str(),
+                             e.covariance ? covariance.c_str() : nullptr);
       }
-      // Name the first missing reference before the foreign keys fail without a UUID.
-      for (const auto& [column, table, what] :
-           {std::tuple{"from_id", "nodes", "from-node"}, std::tuple{"to_id", "nodes", "to-node"},
-            std::tuple{"path_id", "paths", "path"}}) {
-        Refuse(t, ErrorCode::kIntegrity,
-               Cat({"SELECT s.id, s.", column, " FROM stage_edges s LEFT JOIN ", table,
-                    " x ON x.id = s.", column, " WHERE s.", column, " IS NOT NULL AND x.id IS NULL",
-                    " LIMIT 1"}),
-               [&](const pqxx::row& r) {
-                 return Cat({"edge ", r[0].c_str(), " refused: ", what, " ", r[1].c_str(),
-                             " is not stored"});
-               });
-      }
-      t.exec("INSERT INTO edges SELECT * FROM stage_edges ON CONFLICT (id) DO NOTHING");
-      // Poses within 1e-9 count as equal, as SameEdgeContent does for single edges.
-      Refuse(t, ErrorCode::kConflict,
-             "SELECT s.id FROM stage_edges s JOIN edges e ON e.id = s.id WHERE"
-             " (e.from_id, e.to_id, e.kind, e.path_id) IS DISTINCT FROM"
-             " (s.from_id, s.to_id, s.kind, s.path_id) OR abs(e.tx - s.tx) > 1e-9 OR"
-             " abs(e.ty - s.ty) > 1e-9 OR abs(e.tz - s.tz) > 1e-9 OR abs(e.qw - s.qw) > 1e-9 OR"
-             " abs(e.qx - s.qx) > 1e-9 OR abs(e.qy - s.qy) > 1e-9 OR abs(e.qz - s.qz) > 1e-9"
-             " OR (e.covariance IS NULL) <> (s.covariance IS NULL) LIMIT 1",
-             [](const pqxx::row& r) {
-               return Cat({"edge ", r[0].c_str(), " is already stored with different content"});
-             });
-      RefuseDifferentCovariances(t);
+      s.complete();
     }
-    if (!batch.annotations.empty()) {
-      {
-        pqxx::stream_to s(t, "stage_annotations",
-                          std::vector<std::string>{"id", "node_id", "edge_id", "parent_id", "type",
-                                                   "payload", "data_id"});
-        for (const Annotation& a : batch.annotations) {
-          const std::string target = a.target.ToString(), parent = a.parent.ToString();
-          const char* node = a.target_kind == AnnotationTarget::kNode ? target.c_str() : nullptr;
-          const char* edge = a.target_kind == AnnotationTarget::kEdge ? target.c_str() : nullptr;
-          const std::string datum = std::to_string(a.data_id);
-          s << std::make_tuple(a.id.ToString(), node, edge,
-                               a.parent.IsNil() ? nullptr : parent.c_str(), a.type,
-                               ByteaHex(a.payload),
-                               a.target_kind == AnnotationTarget::kDatum ? datum.c_str() : nullptr);
-        }
-        s.complete();
-      }
-      for (const auto& [column, table, what] :
-           {std::tuple{"node_id", "nodes", "node"}, std::tuple{"edge_id", "edges", "edge"}}) {
-        Refuse(t, ErrorCode::kIntegrity,
-               Cat({"SELECT s.id, s.", column, " FROM stage_annotations s LEFT JOIN ", table,
-                    " x ON x.id = s.", column, " WHERE s.", column, " IS NOT NULL AND x.id IS NULL",
-                    " LIMIT 1"}),
-               [&](const pqxx::row& r) {
-                 return Cat({"annotation ", r[0].c_str(), " refused: ", what, " ", r[1].c_str(),
-                             " is not stored"});
-               });
-      }
+    // Name the first missing reference before the foreign keys fail without a UUID.
+    for (const auto& [column, table, what] :
+         {std::tuple{"from_id", "nodes", "from-node"}, std::tuple{"to_id", "nodes", "to-node"},
+          std::tuple{"path_id", "paths", "path"}}) {
       Refuse(t, ErrorCode::kIntegrity,
-             "SELECT s.id, s.data_id FROM stage_annotations s WHERE s.data_id IS NOT NULL"
-             " AND NOT EXISTS (SELECT 1 FROM data d WHERE d.data_id = s.data_id) LIMIT 1",
-             [](const pqxx::row& r) {
-               return Cat({"annotation ", r[0].c_str(), " refused: datum ", r[1].c_str(),
-                           " is not in the sensor index"});
+             Cat({"SELECT s.id, s.", column, " FROM stage_edges s LEFT JOIN ", table,
+                  " x ON x.id = s.", column, " WHERE s.", column, " IS NOT NULL AND x.id IS NULL",
+                  " LIMIT 1"}),
+             [&](const pqxx::row& r) {
+               return Cat({"edge ", r[0].c_str(), " refused: ", what, " ", r[1].c_str(),
+                           " is not stored"});
              });
-      Refuse(t, ErrorCode::kIntegrity,
-             "SELECT s.id, s.parent_id FROM stage_annotations s WHERE s.parent_id IS NOT NULL"
-             " AND NOT EXISTS (SELECT 1 FROM annotations a WHERE a.id = s.parent_id)"
-             " AND NOT EXISTS (SELECT 1 FROM stage_annotations b WHERE b.id = s.parent_id)"
-             " LIMIT 1",
-             [](const pqxx::row& r) {
-               return Cat({"annotation ", r[0].c_str(), " refused: parent annotation ",
-                           r[1].c_str(), " is not stored"});
-             });
-      t.exec("INSERT INTO annotations SELECT * FROM stage_annotations ON CONFLICT (id) DO NOTHING");
-      Refuse(
-          t, ErrorCode::kConflict,
-          "SELECT s.id FROM stage_annotations s JOIN annotations a ON a.id = s.id WHERE"
-          " (a.node_id, a.edge_id, a.parent_id, a.type, a.payload, a.data_id) IS DISTINCT FROM"
-          " (s.node_id, s.edge_id, s.parent_id, s.type, s.payload, s.data_id) LIMIT 1",
-          [](const pqxx::row& r) {
-            return Cat({"annotation ", r[0].c_str(), " is already stored with different content"});
-          });
     }
+    t.exec("INSERT INTO edges SELECT * FROM stage_edges ON CONFLICT (id) DO NOTHING");
+    // Poses within 1e-9 count as equal, as SameEdgeContent does for single edges.
+    Refuse(t, ErrorCode::kConflict,
+           "SELECT s.id FROM stage_edges s JOIN edges e ON e.id = s.id WHERE"
+           " (e.from_id, e.to_id, e.kind, e.path_id) IS DISTINCT FROM"
+           " (s.from_id, s.to_id, s.kind, s.path_id) OR abs(e.tx - s.tx) > 1e-9 OR"
+           " abs(e.ty - s.ty) > 1e-9 OR abs(e.tz - s.tz) > 1e-9 OR abs(e.qw - s.qw) > 1e-9 OR"
+           " abs(e.qx - s.qx) > 1e-9 OR abs(e.qy - s.qy) > 1e-9 OR abs(e.qz - s.qz) > 1e-9"
+           " OR (e.covariance IS NULL) <> (s.covariance IS NULL) LIMIT 1",
+           [](const pqxx::row& r) {
+             return Cat({"edge ", r[0].c_str(), " is already stored with different content"});
+           });
+    RefuseDifferentCovariances(t);
+  }
+
+  static void PutAnnotations(pqxx::transaction_base& t,
+                             const std::vector<Annotation>& annotations) {
+    {
+      pqxx::stream_to s(t, "stage_annotations",
+                        std::vector<std::string>{"id", "node_id", "edge_id", "parent_id", "type",
+                                                 "payload", "data_id"});
+      for (const Annotation& a : annotations) {
+        const std::string target = a.target.ToString(), parent = a.parent.ToString();
+        const char* node = a.target_kind == AnnotationTarget::kNode ? target.c_str() : nullptr;
+        const char* edge = a.target_kind == AnnotationTarget::kEdge ? target.c_str() : nullptr;
+        const std::string datum = std::to_string(a.data_id);
+        s << std::make_tuple(a.id.ToString(), node, edge,
+                             a.parent.IsNil() ? nullptr : parent.c_str(), a.type,
+                             ByteaHex(a.payload),
+                             a.target_kind == AnnotationTarget::kDatum ? datum.c_str() : nullptr);
+      }
+      s.complete();
+    }
+    for (const auto& [column, table, what] :
+         {std::tuple{"node_id", "nodes", "node"}, std::tuple{"edge_id", "edges", "edge"}}) {
+      Refuse(t, ErrorCode::kIntegrity,
+             Cat({"SELECT s.id, s.", column, " FROM stage_annotations s LEFT JOIN ", table,
+                  " x ON x.id = s.", column, " WHERE s.", column, " IS NOT NULL AND x.id IS NULL",
+                  " LIMIT 1"}),
+             [&](const pqxx::row& r) {
+               return Cat({"annotation ", r[0].c_str(), " refused: ", what, " ", r[1].c_str(),
+                           " is not stored"});
+             });
+    }
+    Refuse(t, ErrorCode::kIntegrity,
+           "SELECT s.id, s.data_id FROM stage_annotations s WHERE s.data_id IS NOT NULL"
+           " AND NOT EXISTS (SELECT 1 FROM data d WHERE d.data_id = s.data_id) LIMIT 1",
+           [](const pqxx::row& r) {
+             return Cat({"annotation ", r[0].c_str(), " refused: datum ", r[1].c_str(),
+                         " is not in the sensor index"});
+           });
+    Refuse(t, ErrorCode::kIntegrity,
+           "SELECT s.id, s.parent_id FROM stage_annotations s WHERE s.parent_id IS NOT NULL"
+           " AND NOT EXISTS (SELECT 1 FROM annotations a WHERE a.id = s.parent_id)"
+           " AND NOT EXISTS (SELECT 1 FROM stage_annotations b WHERE b.id = s.parent_id)"
+           " LIMIT 1",
+           [](const pqxx::row& r) {
+             return Cat({"annotation ", r[0].c_str(), " refused: parent annotation ", r[1].c_str(),
+                         " is not stored"});
+           });
+    t.exec("INSERT INTO annotations SELECT * FROM stage_annotations ON CONFLICT (id) DO NOTHING");
+    Refuse(t, ErrorCode::kConflict,
+           "SELECT s.id FROM stage_annotations s JOIN annotations a ON a.id = s.id WHERE"
+           " (a.node_id, a.edge_id, a.parent_id, a.type, a.payload, a.data_id) IS DISTINCT FROM"
+           " (s.node_id, s.edge_id, s.parent_id, s.type, s.payload, s.data_id) LIMIT 1",
+           [](const pqxx::row& r) {
+             return Cat({"annotation ", r[0].c_str(), " is already stored with different content"});
+           });
   }
 
   // Stored and staged covariances whose bytes differ are judged as SameEdgeContent judges them

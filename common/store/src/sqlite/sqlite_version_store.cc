@@ -5,8 +5,9 @@
 // - A write of more than one statement runs under a savepoint inside a Transaction, else in
 //   a BEGIN IMMEDIATE transaction of its own: it holds the write lock from its checks to its
 //   commit, so no other writer can slip in between (SQLite serialises writers).
-// - Statements are prepared once. Additions are checked and versioned kChunk elements to a
-//   statement (see AppendRevision).
+// - Statements are prepared once (sqlite_version_statements.cc holds their SQL). Additions
+//   are checked and versioned kElementsPerStatement elements to a statement (see
+//   AppendRevision).
 #include "sqlite/sqlite_version_store.h"
 
 #include <algorithm>
@@ -19,109 +20,13 @@
 #include "fleetmap/core/clock.h"
 #include "fleetmap/core/error.h"
 #include "sqlite/element_rows.h"
+#include "sqlite/sqlite_version_statements.h"
 #include "sqlite/statement.h"
 #include "version_rules.h"
 
 namespace fleetmap::internal {
 
 namespace {
-
-// Elements per statement in AppendRevision: SQLite sets up a statement (a cursor on every
-// index it touches) each time it runs, and 32 elements pay that once instead of 32 times
-// (as the graph store's batch inserts do); AppendRevision of 10^5 elements takes about as
-// long as their Put.
-constexpr int kChunk = 32;
-
-// "(?first, ?first+1, ..., ?first+n-1)".
-std::string ParameterList(int first, int n) {
-  std::string list = "(";
-  for (int i = 0; i < n; ++i) list += (i ? ", ?" : "?") + std::to_string(first + i);
-  return list + ")";
-}
-
-// The kind and id of one of the ?1 ... ?n that is stored already, as any kind of element.
-// Unbound parameters are NULL and match nothing, so a short last chunk reuses the statement.
-std::string StoredAmongSql(int n) {
-  const std::string in = ParameterList(1, n);
-  return "SELECT 1, id FROM nodes WHERE id IN " + in + " UNION ALL SELECT 2, id FROM edges" +
-         " WHERE id IN " + in + " UNION ALL SELECT 3, id FROM paths WHERE id IN " + in + " LIMIT 1";
-}
-
-// Versions n elements as added by revision ?1: id and kind are ?2, ?3, then ?4, ?5, ... A row
-// left by a revision whose elements were never Put (they are not stored: AppendRevision
-// checks that first) is replaced.
-std::string AddElementsSql(int n) {
-  std::string sql = "INSERT INTO element_versions (id, kind, added_rev) VALUES ";
-  for (int i = 0; i < n; ++i) {
-    sql += (i ? ", (?" : "(?") + std::to_string(2 + 2 * i) + ", ?" + std::to_string(3 + 2 * i) +
-           ", ?1)";
-  }
-  return sql +
-         " ON CONFLICT (id) DO UPDATE SET kind = excluded.kind, added_rev = excluded.added_rev,"
-         " hidden_rev = NULL";
-}
-
-constexpr const char* kSubmissionColumns =
-    "id, robot, author, received_ns, chunk_count, bytes, digest, state, revision, error";
-constexpr const char* kRevisionColumns =
-    "number, created_ns, author, kind, submission, coalesce(reverted, 0), nodes_added,"
-    " edges_added, paths_added, nodes_hidden, edges_hidden, paths_hidden, report";
-
-// The visibility rule of 0002_versions.sql for alias v of a LEFT JOIN on element_versions
-// (no row: revision 0, never hidden), at revision ?1.
-constexpr const char* kVisibleAtParam1 =
-    "coalesce(v.added_rev, 0) <= ?1 AND (v.hidden_rev IS NULL OR v.hidden_rev > ?1)";
-
-// True when the element of element_versions row v is stored (a row whose element the
-// caller never Put stays invisible).
-constexpr const char* kElementStored =
-    "CASE v.kind WHEN 1 THEN EXISTS (SELECT 1 FROM nodes x WHERE x.id = v.id)"
-    " WHEN 2 THEN EXISTS (SELECT 1 FROM edges x WHERE x.id = v.id)"
-    " ELSE EXISTS (SELECT 1 FROM paths x WHERE x.id = v.id) END";
-
-// Edges with an end among the nodes, or on a path, that revision ?1 hid.
-constexpr const char* kEdgesTouchingHiddenAt1 =
-    "WITH hidden AS (SELECT id, kind FROM element_versions WHERE hidden_rev = ?1 AND kind <> 2),"
-    " touching AS (SELECT e.id FROM hidden h JOIN edges e ON e.from_id = h.id WHERE h.kind = 1"
-    " UNION SELECT e.id FROM hidden h JOIN edges e ON e.to_id = h.id WHERE h.kind = 1"
-    " UNION SELECT e.id FROM hidden h JOIN edges e ON e.path_id = h.id WHERE h.kind = 3) ";
-
-constexpr const char* kVisibleNodes =
-    " FROM nodes n LEFT JOIN element_versions v ON v.id = n.id WHERE coalesce(v.added_rev, 0)"
-    " <= ?1 AND (v.hidden_rev IS NULL OR v.hidden_rev > ?1)";
-
-Submission ReadSubmission(const Statement& s) {
-  Submission v;
-  v.id = s.UuidAt(0);
-  v.robot = s.UuidAt(1);
-  v.author = s.Text(2);
-  v.received_ns = s.Int64(3);
-  v.chunk_count = s.Int64(4);
-  v.bytes = s.Int64(5);
-  v.digest = std::bit_cast<std::uint64_t>(s.Int64(6));
-  v.state = static_cast<SubmissionState>(s.Int64(7));
-  v.revision = s.Int64(8);
-  v.error = s.Text(9);
-  return v;
-}
-
-Revision ReadRevision(const Statement& s) {
-  Revision v;
-  v.number = s.Int64(0);
-  v.created_ns = s.Int64(1);
-  v.author = s.Text(2);
-  v.kind = static_cast<RevisionKind>(s.Int64(3));
-  v.submission = s.UuidAt(4);
-  v.reverted = s.Int64(5);
-  v.nodes_added = s.Int64(6);
-  v.edges_added = s.Int64(7);
-  v.paths_added = s.Int64(8);
-  v.nodes_hidden = s.Int64(9);
-  v.edges_hidden = s.Int64(10);
-  v.paths_hidden = s.Int64(11);
-  v.report = s.Text(12);
-  return v;
-}
 
 class SqliteVersionStore final : public VersionStore {
  public:
@@ -519,159 +424,6 @@ class SqliteVersionStore final : public VersionStore {
   }
 
  private:
-  struct Statements {
-    explicit Statements(sqlite3* db)
-        : begin_submission(db,
-                           "INSERT INTO submissions (id, robot, author, received_ns)"
-                           " VALUES (?1, ?2, ?3, ?4) ON CONFLICT (id) DO NOTHING"),
-          find_submission(
-              db, Sql({"SELECT ", kSubmissionColumns, " FROM submissions WHERE id = ?1"}).c_str()),
-          list_submissions(
-              db, Sql({"SELECT ", kSubmissionColumns, " FROM submissions ORDER BY received_ns, id"})
-                      .c_str()),
-          chunk_equals(db,
-                       "SELECT data = ?3 FROM submission_chunks WHERE submission = ?1"
-                       " AND seq = ?2"),
-          insert_chunk(db,
-                       "INSERT INTO submission_chunks (submission, seq, data)"
-                       " VALUES (?1, ?2, ?3)"),
-          count_chunk(db,
-                      "UPDATE submissions SET chunk_count = chunk_count + 1,"
-                      " bytes = bytes + ?2 WHERE id = ?1"),
-          chunk(db, "SELECT data FROM submission_chunks WHERE submission = ?1 AND seq = ?2"),
-          complete_submission(db, "UPDATE submissions SET state = 1, digest = ?2 WHERE id = ?1"),
-          set_submission_state(db,
-                               "UPDATE submissions SET state = ?2, revision = ?3, error = ?4"
-                               " WHERE id = ?1"),
-          head(db, "SELECT coalesce(max(number), 0) FROM revisions"),
-          find_revision(
-              db, Sql({"SELECT ", kRevisionColumns, " FROM revisions WHERE number = ?1"}).c_str()),
-          list_revisions(
-              db, Sql({"SELECT ", kRevisionColumns, " FROM revisions ORDER BY number"}).c_str()),
-          reverted_by(db, "SELECT number FROM revisions WHERE reverted = ?1"),
-          insert_revision(db,
-                          "INSERT INTO revisions (number, created_ns, author, kind, submission,"
-                          " reverted, nodes_added, edges_added, paths_added, nodes_hidden,"
-                          " edges_hidden, paths_hidden, report) VALUES (?1, ?2, ?3, ?4, ?5,"
-                          " NULLIF(?6, 0), ?7, ?8, ?9, ?10, ?11, ?12, ?13)"),
-          set_hidden_counts(db,
-                            "UPDATE revisions SET nodes_hidden = ?2, edges_hidden = ?3,"
-                            " paths_hidden = ?4 WHERE number = ?1"),
-          stored_among(db, StoredAmongSql(kChunk).c_str()),
-          add_elements(db, AddElementsSql(kChunk).c_str()),
-          add_element(db, AddElementsSql(1).c_str()),
-          hide_added(db, Sql({"UPDATE element_versions AS v SET hidden_rev = ?1"
-                              " WHERE v.added_rev = ?2 AND v.hidden_rev IS NULL AND ",
-                              kElementStored})
-                             .c_str()),
-          hide_node(db,
-                    "UPDATE element_versions SET hidden_rev = ?1"
-                    " WHERE id = ?2 AND kind = 1 AND hidden_rev IS NULL"),
-          hide_touching_versioned(db, Sql({kEdgesTouchingHiddenAt1,
-                                           "UPDATE element_versions SET hidden_rev = ?1"
-                                           " WHERE hidden_rev IS NULL"
-                                           " AND id IN (SELECT id FROM touching)"})
-                                          .c_str()),
-          // Edges from outside version control (revision 0) get their row when first hidden.
-          hide_touching_unversioned(
-              db, Sql({kEdgesTouchingHiddenAt1,
-                       "INSERT INTO element_versions (id, kind, added_rev, hidden_rev)"
-                       " SELECT t.id, 2, 0, ?1 FROM touching t WHERE NOT EXISTS"
-                       " (SELECT 1 FROM element_versions v WHERE v.id = t.id)"})
-                      .c_str()),
-          hidden_counts(db,
-                        "SELECT kind, count(*) FROM element_versions WHERE hidden_rev = ?1"
-                        " GROUP BY kind"),
-          nodes_at(db,
-                   Sql({"SELECT n.id, n.stamp_ns, n.robot, n.outing, n.landmarks", kVisibleNodes})
-                       .c_str()),
-          nodes_at_bare(
-              db, Sql({"SELECT n.id, n.stamp_ns, n.robot, n.outing, NULL", kVisibleNodes}).c_str()),
-          edges_at(db, Sql({"SELECT ", kEdgeColumnsOfE,
-                            " FROM edges e LEFT JOIN element_versions v ON v.id = e.id WHERE ",
-                            kVisibleAtParam1, " ORDER BY e.id"})
-                           .c_str()),
-          paths_at(db, Sql({"SELECT p.id, p.robot, p.outing, p.start_ns, p.end_ns FROM paths p"
-                            " LEFT JOIN element_versions v ON v.id = p.id WHERE ",
-                            kVisibleAtParam1, " ORDER BY p.start_ns, p.id"})
-                           .c_str()),
-          stats_at(db, Sql({"SELECT count(*), coalesce(sum(length(n.landmarks)), 0),"
-                            " (SELECT count(*) FROM edges e LEFT JOIN element_versions v"
-                            " ON v.id = e.id WHERE ",
-                            kVisibleAtParam1,
-                            "), (SELECT count(*) FROM paths p LEFT JOIN element_versions v"
-                            " ON v.id = p.id WHERE ",
-                            kVisibleAtParam1, ")", kVisibleNodes})
-                           .c_str()),
-          // Only elements some revision in (?1, ?2] added or hid can differ between them.
-          changed_between(db, Sql({"SELECT v.id, v.kind, v.added_rev, v.hidden_rev"
-                                   " FROM element_versions v WHERE ((v.added_rev > ?1"
-                                   " AND v.added_rev <= ?2) OR (v.hidden_rev > ?1"
-                                   " AND v.hidden_rev <= ?2)) AND ",
-                                   kElementStored, " ORDER BY v.id"})
-                                  .c_str()),
-          version_of(db,
-                     "SELECT coalesce(v.added_rev, 0), v.hidden_rev FROM (SELECT id FROM nodes"
-                     " WHERE id = ?1 UNION ALL SELECT id FROM edges WHERE id = ?1 UNION ALL"
-                     " SELECT id FROM paths WHERE id = ?1) s LEFT JOIN element_versions v"
-                     " ON v.id = s.id LIMIT 1"),
-          find_setting(db, "SELECT value FROM settings WHERE key = ?1"),
-          put_setting(db,
-                      "INSERT INTO settings (key, value) VALUES (?1, ?2)"
-                      " ON CONFLICT (key) DO UPDATE SET value = excluded.value"),
-          insert_setting_if_absent(db,
-                                   "INSERT INTO settings (key, value) VALUES (?1, ?2)"
-                                   " ON CONFLICT (key) DO NOTHING"),
-          replace_setting(db, "UPDATE settings SET value = ?3 WHERE key = ?1 AND value = ?2"),
-          // Compared as bytes (not LIKE, whose '%' and '_' a prefix may hold) and ordered as
-          // bytes, like PostgreSQL's COLLATE "C" below.
-          list_settings(db,
-                        "SELECT key, value FROM settings WHERE substr(CAST(key AS BLOB), 1,"
-                        " length(?1)) = ?1 ORDER BY CAST(key AS BLOB)"),
-          put_submission_node(db,
-                              "INSERT INTO submission_nodes (node, submission) VALUES (?1, ?2)"
-                              " ON CONFLICT DO NOTHING"),
-          submissions_with_node(
-              db, Sql({"SELECT ", kSubmissionColumns,
-                       " FROM submissions WHERE id IN (SELECT submission FROM submission_nodes"
-                       " WHERE node = ?1) ORDER BY received_ns, id"})
-                      .c_str()),
-          put_stand_in(db,
-                       "INSERT INTO stand_ins (node, stand_in, tx, ty, tz, qw, qx, qy, qz,"
-                       " revision) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10)"
-                       " ON CONFLICT (node) DO NOTHING"),
-          find_stand_in(db,
-                        "SELECT stand_in, tx, ty, tz, qw, qx, qy, qz, revision FROM stand_ins"
-                        " WHERE node = ?1"),
-          first_claimable(db,
-                          "SELECT id FROM submissions WHERE state = 1 AND (claimed_by = ''"
-                          " OR claimed_by = ?1 OR lease_until_ns <= ?2)"
-                          " ORDER BY received_ns, id"),
-          set_claim(db,
-                    "UPDATE submissions SET claimed_by = ?2, lease_until_ns = ?3 WHERE id = ?1"),
-          renew_claim(db,
-                      "UPDATE submissions SET lease_until_ns = ?3 WHERE id = ?1"
-                      " AND claimed_by = ?2"),
-          release_claim(db,
-                        "UPDATE submissions SET claimed_by = '', lease_until_ns = 0 WHERE id = ?1"
-                        " AND claimed_by = ?2"),
-          find_claim(db, "SELECT claimed_by, lease_until_ns FROM submissions WHERE id = ?1") {}
-
-    Statement begin_submission, find_submission, list_submissions;
-    Statement chunk_equals, insert_chunk, count_chunk, chunk;
-    Statement complete_submission, set_submission_state;
-    Statement head, find_revision, list_revisions, reverted_by, insert_revision;
-    Statement set_hidden_counts;
-    Statement stored_among, add_elements, add_element;
-    Statement hide_added, hide_node, hide_touching_versioned, hide_touching_unversioned,
-        hidden_counts;
-    Statement nodes_at, nodes_at_bare, edges_at, paths_at, stats_at, changed_between;
-    Statement version_of;
-    Statement find_setting, put_setting, insert_setting_if_absent, replace_setting, list_settings;
-    Statement put_submission_node, submissions_with_node, put_stand_in, find_stand_in;
-    Statement first_claimable, set_claim, renew_claim, release_claim, find_claim;
-  };
-
   // SQLite is a local file, so the host's clock is the database's.
   static std::int64_t NowNs() { return WallClockNs(); }
 
@@ -722,9 +474,9 @@ class SqliteVersionStore final : public VersionStore {
 
   // Throws AlreadyStored for the first of `elements` that is stored already.
   void RequireNoneStored(const std::vector<VersionedElement>& elements, RevisionNumber number) {
-    for (std::size_t i = 0; i < elements.size(); i += kChunk) {
+    for (std::size_t i = 0; i < elements.size(); i += kElementsPerStatement) {
       StatementUse s(s_.stored_among);
-      for (std::size_t j = i; j < std::min(i + kChunk, elements.size()); ++j) {
+      for (std::size_t j = i; j < std::min(i + kElementsPerStatement, elements.size()); ++j) {
         s->Bind(static_cast<int>(j - i + 1), elements[j].id);
       }
       if (s->Step()) {
@@ -737,10 +489,10 @@ class SqliteVersionStore final : public VersionStore {
   // Records revision `number` as having added `elements`.
   void AddElements(RevisionNumber number, const std::vector<VersionedElement>& elements) {
     std::size_t i = 0;
-    for (; i + kChunk <= elements.size(); i += kChunk) {
+    for (; i + kElementsPerStatement <= elements.size(); i += kElementsPerStatement) {
       StatementUse s(s_.add_elements);
       s->Bind(1, number);
-      for (int j = 0; j < kChunk; ++j) {
+      for (int j = 0; j < kElementsPerStatement; ++j) {
         s->Bind(2 + 2 * j, elements[i + j].id);
         s->Bind(3 + 2 * j, static_cast<std::int64_t>(elements[i + j].kind));
       }
@@ -798,7 +550,7 @@ class SqliteVersionStore final : public VersionStore {
   }
 
   sqlite3* db_;
-  Statements s_;
+  SqliteVersionStatements s_;
 };
 
 }  // namespace

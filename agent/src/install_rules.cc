@@ -1,0 +1,45 @@
+// What LocalMap's installs share (install_rules.h).
+#include "install_rules.h"
+
+#include <string>
+
+#include "element_counts.h"
+#include "fleetmap/core/error.h"
+
+namespace fleetmap::agent_internal {
+
+const std::set<Uuid>& OfKind(const ElementIds& ids, int kind) {
+  return kind == 0 ? ids.nodes : kind == 1 ? ids.edges : ids.paths;
+}
+
+std::set<Uuid>& OfKind(ElementIds& ids, int kind) {
+  return kind == 0 ? ids.nodes : kind == 1 ? ids.edges : ids.paths;
+}
+
+Retirement Retire(const SyncState& state, std::int64_t revision) {
+  Retirement retirement;
+  for (const UnmergedSubmission& unmerged : state.unmerged) {
+    if (unmerged.merged_revision && *unmerged.merged_revision <= revision) continue;
+    if (unmerged.failed) retirement.failed_elements += unmerged.content.size();
+    retirement.still_unmerged.push_back(unmerged);
+    ElementIds& keep = retirement.keep;
+    keep.nodes.insert(unmerged.content.nodes.begin(), unmerged.content.nodes.end());
+    keep.edges.insert(unmerged.content.edges.begin(), unmerged.content.edges.end());
+    keep.paths.insert(unmerged.content.paths.begin(), unmerged.content.paths.end());
+  }
+  return retirement;
+}
+
+void CheckDownloadCounts(const MapDownload& download, std::size_t nodes, std::size_t edges,
+                         std::size_t paths, const std::filesystem::path& map_path) {
+  if (nodes != download.nodes || edges != download.edges || paths != download.paths) {
+    throw Error(ErrorCode::kCorrupt,
+                std::string(download.base_revision != 0 ? "incremental" : "full") +
+                    " download of revision " + std::to_string(download.revision) + " gives " +
+                    ElementCounts(nodes, edges, paths) + ", its header says " +
+                    ElementCounts(download.nodes, download.edges, download.paths) + "; " +
+                    map_path.string() + " left as it was");
+  }
+}
+
+}  // namespace fleetmap::agent_internal

@@ -1,0 +1,44 @@
+// The SQLite VersionStore's prepared statements (schema in migrations/0002_versions.sql) and
+// the readers of the rows they select. sqlite_version_store.cc runs them: that file says what
+// the store does, this one what it asks SQLite.
+#pragma once
+
+#include <sqlite3.h>
+
+#include "fleetmap/store/version_store.h"
+#include "sqlite/statement.h"
+
+namespace fleetmap::internal {
+
+// Elements per statement in AppendRevision: SQLite sets up a statement (a cursor on every
+// index it touches) each time it runs, and 32 elements pay that once instead of 32 times
+// (as the graph store's batch inserts do); AppendRevision of 10^5 elements takes about as
+// long as their Put.
+constexpr int kElementsPerStatement = 32;
+
+// Every statement the SQLite VersionStore runs, prepared once on its connection.
+// REQUIRES: destroyed before the connection is closed.
+struct SqliteVersionStatements {
+  explicit SqliteVersionStatements(sqlite3* db);
+
+  Statement begin_submission, find_submission, list_submissions;
+  Statement chunk_equals, insert_chunk, count_chunk, chunk;
+  Statement complete_submission, set_submission_state;
+  Statement head, find_revision, list_revisions, reverted_by, insert_revision;
+  Statement set_hidden_counts;
+  Statement stored_among, add_elements, add_element;
+  Statement hide_added, hide_node, hide_touching_versioned, hide_touching_unversioned,
+      hidden_counts;
+  Statement nodes_at, nodes_at_bare, edges_at, paths_at, stats_at, changed_between;
+  Statement version_of;
+  Statement find_setting, put_setting, insert_setting_if_absent, replace_setting, list_settings;
+  Statement put_submission_node, submissions_with_node, put_stand_in, find_stand_in;
+  Statement first_claimable, set_claim, renew_claim, release_claim, find_claim;
+};
+
+// A row of find_submission, list_submissions or submissions_with_node.
+Submission ReadSubmission(const Statement& s);
+// A row of find_revision or list_revisions.
+Revision ReadRevision(const Statement& s);
+
+}  // namespace fleetmap::internal
