@@ -1,4 +1,4 @@
-// fleetmap-agent: the robot side of the fleet's map sync (DESIGN.md "Sync protocol").
+// fleetmap-agent: the robot side of the fleet's map sync (docs/sync-protocol.md).
 //   sync    one sync now: push what the server lacks, optionally wait for the merge, download
 //           and install the mission's map
 //   daemon  a sync each time the dock file appears (the robot docked), until SIGTERM/SIGINT
@@ -91,7 +91,7 @@ std::string ReadToken(const AgentArguments& args) {
     std::ifstream in(args.token_file);
     if (!in)
       throw Error(ErrorCode::kInvalidArgument, "cannot read --token-file " + args.token_file);
-    // Refused before a byte of it is used (issue 35 item 12).
+    // A token file others can read is refused before a byte of it is used.
     RequirePrivateSecretFile(args.token_file, "--token-file");
     std::string token;
     std::getline(in, token);
@@ -383,9 +383,9 @@ int StatusCommand(const AgentArguments& args) {
       map_edges = stats.edges;
       map_paths = stats.paths;
     }
-    // Counted, not read (issue 35 item 4: reading a backlog of 10^6 nodes took 35 s and
-    // 1.45 GB): map.db holds everything known to the server (the installed selection and what
-    // was pushed since, two disjoint sets), so the rest is unsynced.
+    // Counted, not read (reading a backlog of 10^6 nodes took 35 s and 1.45 GB): map.db holds
+    // everything known to the server (the installed selection and what was pushed since, two
+    // disjoint sets), so the rest is unsynced.
     const auto unsynced_count = [](std::int64_t in_map, const std::set<Uuid>& installed,
                                    const std::set<Uuid>& pushed) {
       const auto known = static_cast<std::int64_t>(installed.size() + pushed.size());

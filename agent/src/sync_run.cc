@@ -9,6 +9,7 @@
 #include "element_counts.h"
 #include "fleetmap/core/clock.h"
 #include "fleetmap/core/map_chunks.h"
+#include "fleetmap/core/printable_text.h"
 #include "fleetmap/protocol/download_exchange.h"
 #include "fleetmap/protocol/hello_exchange.h"
 #include "fleetmap/protocol/merge_status_exchange.h"
@@ -30,12 +31,6 @@ constexpr std::size_t kHeldNamed = 10;
 
 milliseconds Remaining(std::chrono::steady_clock::time_point deadline) {
   return std::chrono::duration_cast<milliseconds>(deadline - std::chrono::steady_clock::now());
-}
-
-std::string Mib(std::uint64_t bytes) {
-  char text[32];
-  std::snprintf(text, sizeof text, "%.2f MiB", static_cast<double>(bytes) / (1 << 20));
-  return text;
 }
 
 void Append(GraphBatch& to, GraphBatch&& part) {
@@ -110,8 +105,8 @@ void SyncRun::Attempt() {
 
     Hello(client);
     if (!replanned && !PlanHoldsUnder(*plan_, CurrentLimits())) {
-      Progress("the server takes " + Mib(CurrentLimits().max_submission_bytes) +
-               " a submission, not the " + Mib(plan_->limits.max_submission_bytes) +
+      Progress("the server takes " + BytesText(CurrentLimits().max_submission_bytes) +
+               " a submission, not the " + BytesText(plan_->limits.max_submission_bytes) +
                " planned for: planning the push again");
       plan_.reset();
       replanned = true;
@@ -166,7 +161,7 @@ void SyncRun::Prepare() {
   if (plan.pending_does_not_fit) {
     // Refused at push_begin, before the server stored a byte of it: nothing to resume.
     Progress("submission " + map_.state().submission->id.ToString() +
-             " is over the server's limits (" + Mib(limits.max_submission_bytes) +
+             " is over the server's limits (" + BytesText(limits.max_submission_bytes) +
              " a submission); its content is planned again in submissions that fit");
     map_.AbandonSubmission();
     plan = PlanPush(map_, limits);
@@ -190,12 +185,12 @@ void SyncRun::SayPlanned(const PushPlan& plan, const ServerLimits& limits, doubl
   if (!plan.submissions.empty()) {
     Progress("planned " + std::to_string(plan.submissions.size()) + " submission" +
              (plan.submissions.size() == 1 ? "" : "s") + " of " + std::to_string(nodes) +
-             " nodes, " + Mib(bytes) + " in " + std::to_string(seconds) + " s");
+             " nodes, " + BytesText(bytes) + " in " + std::to_string(seconds) + " s");
   }
   for (std::size_t i = 0; i < plan.held.size() && i < kHeldNamed; ++i) {
-    Progress("node " + plan.held[i].id.ToString() + " (" + Mib(plan.held[i].bytes) +
-             ") is over this server's limit of " + Mib(limits.max_submission_bytes) +
-             " a submission (and " + Mib(limits.max_frame_bytes) +
+    Progress("node " + plan.held[i].id.ToString() + " (" + BytesText(plan.held[i].bytes) +
+             ") is over this server's limit of " + BytesText(limits.max_submission_bytes) +
+             " a submission (and " + BytesText(limits.max_frame_bytes) +
              " a frame) on its own: kept in this map, not pushed, with the edges to it; it "
              "goes once the server takes it (fleetmapd --max-submission-mib; see "
              "`fleetmap-agent status`)");
@@ -295,7 +290,7 @@ void SyncRun::Push(SyncClient& client, Uuid submission, const PlannedSubmission&
   const v1::PushReady ready = client.Expect(v1::SyncFrame::kPushReady, during).push_ready();
   Progress("pushing submission " + id + ": " +
            ElementCounts(content.nodes.size(), content.edges.size(), content.paths.size()) + ", " +
-           std::to_string(chunks) + " chunks, " + Mib(content.total_bytes) +
+           std::to_string(chunks) + " chunks, " + BytesText(content.total_bytes) +
            (ready.complete() ? " (stored whole before)"
             : ready.next_chunk() > 0
                 ? " (resuming at chunk " + std::to_string(ready.next_chunk() + 1) + ")"
@@ -523,8 +518,8 @@ void SyncRun::ReceiveChunks(SyncClient& client, const std::string& during, Recei
       paths += part.paths.size();
       Append(download.content, std::move(part));
     }
-    Progress("downloading chunk " + std::to_string(tally.chunks()) + " (" + Mib(tally.bytes()) +
-             ")");
+    Progress("downloading chunk " + std::to_string(tally.chunks()) + " (" +
+             BytesText(tally.bytes()) + ")");
   }
   if (writer) {
     writer->Finish();

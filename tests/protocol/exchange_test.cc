@@ -57,8 +57,8 @@ TEST(ExchangeTest, APushBeginIsCheckedAgainstTheServersLimit) {
   EXPECT_EQ(read.submission, kSubmission);
   EXPECT_EQ(read.chunk_count, 3u);
   EXPECT_EQ(Refusal([&] { ReadPushBegin(PushBeginFrame(push).push_begin(), 999); }).second,
-            "push_begin: 1000 bytes announced (0.0 MiB), over this server's limit of 999 bytes "
-            "(0.0 MiB) a submission (fleetmapd --max-submission-mib)");
+            "push_begin: 1000 bytes announced (1000 B), over this server's limit of 999 bytes "
+            "(999 B) a submission (fleetmapd --max-submission-mib)");
   PushAnnouncement none = push;
   none.chunk_count = 0;
   EXPECT_EQ(Refusal([&] { ReadPushBegin(PushBeginFrame(none).push_begin(), 1000); }).first,

@@ -1,7 +1,5 @@
 #include "fleetmap/protocol/protocol_error.h"
 
-#include <cstdio>
-
 namespace fleetmap {
 
 ProtocolError::ProtocolError(v1::ErrorFrame::Code code, const std::string& text)
@@ -21,12 +19,6 @@ Uuid SubmissionIdOf(const std::string& bytes, std::string_view message) {
                                                      " bytes (ids are 16 bytes)");
   }
   return Uuid::FromBytes(bytes);
-}
-
-std::string MibText(std::uint64_t bytes) {
-  char text[40];
-  std::snprintf(text, sizeof text, "%.1f MiB", static_cast<double>(bytes) / double(1 << 20));
-  return text;
 }
 
 }  // namespace fleetmap

@@ -2,6 +2,7 @@
 
 #include "fleetmap/core/error.h"
 #include "fleetmap/core/map_chunks.h"
+#include "fleetmap/core/printable_text.h"
 #include "fleetmap/protocol/protocol_error.h"
 
 namespace fleetmap {
@@ -42,8 +43,8 @@ PushAnnouncement ReadPushBegin(const v1::PushBegin& begin, std::uint64_t max_sub
     throw ProtocolError(
         v1::ErrorFrame::INVALID,
         "push_begin: " + std::to_string(begin.total_bytes()) + " bytes announced (" +
-            MibText(begin.total_bytes()) + "), over this server's limit of " +
-            std::to_string(max_submission_bytes) + " bytes (" + MibText(max_submission_bytes) +
+            BytesText(begin.total_bytes()) + "), over this server's limit of " +
+            std::to_string(max_submission_bytes) + " bytes (" + BytesText(max_submission_bytes) +
             ") a submission (fleetmapd --max-submission-mib)");
   }
   push.author = begin.author();
@@ -80,7 +81,7 @@ void CheckPushChunk(const v1::PushChunk& chunk, const PushProgress& push,
                         "push_chunk " + std::to_string(seq) + ": the submission would reach " +
                             std::to_string(after) + " bytes, over this server's limit of " +
                             std::to_string(max_submission_bytes) + " bytes (" +
-                            MibText(max_submission_bytes) +
+                            BytesText(max_submission_bytes) +
                             ") a submission (fleetmapd --max-submission-mib); nothing stored");
   }
   if (after > push.announced.total_bytes) {

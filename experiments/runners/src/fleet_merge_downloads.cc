@@ -50,7 +50,7 @@ void FleetRun::MergeGroups(FoldState& fold, Repository& repository) {
                     fold.group_maps[g].content);
     const double pushed = SecondsSince(wall);
     const MergeOutcome outcome = repository.Merge(submission);
-    const std::int64_t nodes = repository.versions().StatsAt(repository.Head()).nodes;
+    const std::int64_t nodes = repository.inspect().StatsAt(repository.Head()).nodes;
     FleetBuild build{"merge " + std::to_string(g), fold.number, static_cast<std::size_t>(nodes),
                      ThreadCpuSeconds() - cpu, SecondsSince(wall)};
     build.push_seconds = pushed;

@@ -32,8 +32,8 @@ FleetRobot Register(RobotRegistry& registry, const std::string& name, const fs::
 
 FleetRobot RegisterFleetRobot(const std::string& store_uri, const std::string& name,
                               const fs::path& map_dir) {
-  std::unique_ptr<GraphStore> central = GraphStore::Open(store_uri);
-  RobotRegistry registry(central->versions());
+  const std::unique_ptr<Repository> central = Repository::Open(store_uri);
+  RobotRegistry registry(*central);
   return Register(registry, name, map_dir);
 }
 

@@ -353,9 +353,9 @@ bool SyncSession<Stream>::AdmitFrame(std::uint32_t length) {
   std::uint64_t in_flight = 0;
   if (!context_.robots.ReserveFrame(robot_, length, in_flight)) {
     Fail(v1::ErrorFrame::BUSY,
-         "a frame of " + MibText(length) + " while robot " + robot_name_ + " has " +
-             MibText(in_flight) + " of frames in flight across its sessions, over its cap of " +
-             MibText(context_.robots.limits().frame_bytes) +
+         "a frame of " + BytesText(length) + " while robot " + robot_name_ + " has " +
+             BytesText(in_flight) + " of frames in flight across its sessions, over its cap of " +
+             BytesText(context_.robots.limits().frame_bytes) +
              " (fleetmapd --max-inflight-mib-per-robot); retry when they are done");
     return false;
   }

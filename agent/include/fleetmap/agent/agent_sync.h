@@ -1,8 +1,10 @@
-// One sync of a robot with fleetmapd (seed 004 §V; the exchange in proto/fleetmap/sync.proto):
+// One sync of a robot with fleetmapd (seed 004 §V; the exchanges in docs/sync-protocol.md and
+// fleetmap/protocol/*.h; src/sync_run.h runs them as named steps):
 //
-//   plan      before the connect (issue 35 item 4): what the server lacks, read from map.db a
+//   plan      before the connect (a large backlog read after the hello let the server's frame
+//             timeout close the session): what the server lacks, read from map.db a
 //             batch of nodes at a time and cut into submissions that fit the server's limits
-//             as its last welcome said them (issue 35 item 3; src/push_plan.h); a node over
+//             as its last welcome said them (src/push_plan.h); a node over
 //             them on its own is held: kept in map.db unpushed, reported, tried every sync
 //   connect, Hello (protocol version, robot id, token); Welcome (the server's limits: when the
 //             plan does not fit them, or they would take a held node, plan again and reconnect,
@@ -81,8 +83,8 @@ struct SyncResult {
   std::size_t pushed_paths = 0;
   Uuid submission;
   std::string push_state;  // PushAccepted.state of the last submission: queued, merged, failed
-  // Held: nodes over the server's limits on their own, kept in the map unpushed (issue 35
-  // item 3), and the unsynced edges to them.
+  // Held: nodes over the server's limits on their own, kept in the map unpushed, and the
+  // unsynced edges to them.
   std::size_t held_nodes = 0;
   std::size_t held_edges = 0;
   std::uint64_t held_bytes = 0;

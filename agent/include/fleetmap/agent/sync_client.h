@@ -114,7 +114,7 @@ class SyncClient {
  private:
   struct Link;
 
-  // Issue 35 item 9: a plain link to a TLS server ends (or answers in TLS) at the first reply.
+  // A plain link to a TLS server ends (or answers in TLS) at the first reply.
   // True while no byte has come back on a link without TLS.
   bool FirstReplyWithoutTls() const;
   // Whether a TLS handshake with the server succeeds (a second connection, closed at once).

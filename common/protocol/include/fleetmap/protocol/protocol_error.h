@@ -28,7 +28,4 @@ v1::SyncFrame ErrorFrameOf(v1::ErrorFrame::Code code, const std::string& text);
 // `message` ("push_begin", ...) and the size for any other length.
 Uuid SubmissionIdOf(const std::string& bytes, std::string_view message);
 
-// Bytes for a person in the protocol's messages: "1.5 MiB".
-std::string MibText(std::uint64_t bytes);
-
 }  // namespace fleetmap
