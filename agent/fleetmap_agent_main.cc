@@ -372,121 +372,144 @@ int DaemonCommand(const AgentArguments& args) {
   return kExitOk;
 }
 
+// What map.db holds, and of it what the server does not know yet.
+struct MapCounts {
+  std::int64_t nodes = 0, edges = 0, paths = 0;
+  std::int64_t unsynced_nodes = 0, unsynced_edges = 0, unsynced_paths = 0;
+};
+
+MapCounts CountMap(const LocalMap& map) {
+  const SyncState& state = map.state();
+  MapCounts counts;
+  if (fs::exists(map.map_path())) {
+    const StoreStats stats = GraphStore::Open(map.map_uri())->Stats();
+    counts.nodes = stats.nodes;
+    counts.edges = stats.edges;
+    counts.paths = stats.paths;
+  }
+  // Counted, not read (reading a backlog of 10^6 nodes took 35 s and 1.45 GB): map.db holds
+  // everything known to the server (the installed selection and what was pushed since, two
+  // disjoint sets), so the rest is unsynced.
+  const auto unsynced = [](std::int64_t in_map, const std::set<Uuid>& installed,
+                           const std::set<Uuid>& pushed) {
+    const auto known = static_cast<std::int64_t>(installed.size() + pushed.size());
+    return std::max<std::int64_t>(0, in_map - known);
+  };
+  counts.unsynced_nodes = unsynced(counts.nodes, state.installed.nodes, state.pushed.nodes);
+  counts.unsynced_edges = unsynced(counts.edges, state.installed.edges, state.pushed.edges);
+  counts.unsynced_paths = unsynced(counts.paths, state.installed.paths, state.pushed.paths);
+  return counts;
+}
+
+json StatusJson(const LocalMap& map, const MapCounts& counts) {
+  const SyncState& state = map.state();
+  json held = json::array();
+  for (const HeldNode& node : state.held) {
+    held.push_back({{"id", node.id.ToString()}, {"bytes", node.bytes}});
+  }
+  json out = {{"map_dir", map.dir().string()},
+              {"robot", state.robot ? json(state.robot->ToString()) : json(nullptr)},
+              {"revision", state.revision},
+              {"policy", state.request ? json(state.request->policy) : json(nullptr)},
+              {"channel", state.request ? json(state.request->channel) : json(nullptr)},
+              {"installed_digest", std::to_string(state.installed_digest)},
+              {"last_error", state.last_error},
+              {"map_nodes", counts.nodes},
+              {"map_edges", counts.edges},
+              {"map_paths", counts.paths},
+              {"installed_nodes", state.installed.nodes.size()},
+              {"installed_edges", state.installed.edges.size()},
+              {"installed_paths", state.installed.paths.size()},
+              {"unsynced_nodes", counts.unsynced_nodes},
+              {"unsynced_edges", counts.unsynced_edges},
+              {"unsynced_paths", counts.unsynced_paths},
+              {"held_nodes", held},
+              {"server_max_submission_bytes", state.server_limits.max_submission_bytes},
+              {"pending_submission",
+               state.submission ? json(state.submission->id.ToString()) : json(nullptr)}};
+  json unmerged = json::array();
+  for (const UnmergedSubmission& u : state.unmerged) {
+    unmerged.push_back({{"id", u.id.ToString()},
+                        {"nodes", u.content.nodes.size()},
+                        {"edges", u.content.edges.size()},
+                        {"paths", u.content.paths.size()},
+                        {"state", u.failed            ? "failed"
+                                  : u.merged_revision ? "merged"
+                                                      : "pending"},
+                        {"merged_revision", u.merged_revision.value_or(0)},
+                        {"error", u.error}});
+  }
+  out["unmerged"] = unmerged;
+  return out;
+}
+
+void PrintHeldAndSubmissions(const SyncState& state) {
+  if (!state.held.empty()) {
+    std::uint64_t held_bytes = 0;
+    for (const HeldNode& node : state.held) held_bytes += node.bytes;
+    std::printf(
+        "HELD %zu nodes (%s), each over the server's limit of %s a submission on "
+        "its own: kept in this map, not pushed; each sync tries them again, and they go once "
+        "the server takes them (fleetmapd --max-submission-mib)\n",
+        state.held.size(), BytesText(held_bytes).c_str(),
+        BytesText(state.server_limits.max_submission_bytes).c_str());
+    for (const HeldNode& node : state.held) {
+      std::printf("  held node %s (%s)\n", node.id.ToString().c_str(),
+                  BytesText(node.bytes).c_str());
+    }
+  }
+  if (state.submission) {
+    std::printf("pending submission %s\n", state.submission->id.ToString().c_str());
+  }
+  for (const UnmergedSubmission& u : state.unmerged) {
+    const std::string counts = std::to_string(u.content.nodes.size()) + " nodes, " +
+                               std::to_string(u.content.edges.size()) + " edges, " +
+                               std::to_string(u.content.paths.size()) + " paths";
+    if (u.failed) {
+      std::printf(
+          "FAILED submission %s (%s, kept in this map): %s\n"
+          "  the server keeps it too; `fleetmap-agent discard %s` drops it from this map\n",
+          u.id.ToString().c_str(), counts.c_str(), u.error.c_str(), u.id.ToString().c_str());
+    } else if (u.merged_revision) {
+      std::printf("submission %s (%s) merged as revision %lld, not downloaded yet\n",
+                  u.id.ToString().c_str(), counts.c_str(),
+                  static_cast<long long>(*u.merged_revision));
+    } else {
+      std::printf("submission %s (%s) waiting for its merge\n", u.id.ToString().c_str(),
+                  counts.c_str());
+    }
+  }
+}
+
+void PrintStatus(const LocalMap& map, const MapCounts& counts) {
+  const SyncState& state = map.state();
+  std::printf("map %s\n", map.dir().string().c_str());
+  std::printf("robot %s\n", state.robot ? state.robot->ToString().c_str() : "(never synced)");
+  if (state.revision > 0) {
+    std::printf("revision %lld (%s, channel %s): %zu nodes, %zu edges, %zu paths installed\n",
+                static_cast<long long>(state.revision), state.request->policy.c_str(),
+                state.request->channel.c_str(), state.installed.nodes.size(),
+                state.installed.edges.size(), state.installed.paths.size());
+  } else {
+    std::printf("revision none installed\n");
+  }
+  std::printf("map.db %lld nodes, %lld edges, %lld paths\n", static_cast<long long>(counts.nodes),
+              static_cast<long long>(counts.edges), static_cast<long long>(counts.paths));
+  std::printf("unsynced %lld nodes, %lld edges, %lld paths\n",
+              static_cast<long long>(counts.unsynced_nodes),
+              static_cast<long long>(counts.unsynced_edges),
+              static_cast<long long>(counts.unsynced_paths));
+  PrintHeldAndSubmissions(state);
+}
+
 int StatusCommand(const AgentArguments& args) {
   try {
-    LocalMap map = LocalMap::Open(args.map_dir, LocalMapAccess::kReadOnly);
-    const SyncState& state = map.state();
-    std::int64_t map_nodes = 0, map_edges = 0, map_paths = 0;
-    if (fs::exists(map.map_path())) {
-      const StoreStats stats = GraphStore::Open(map.map_uri())->Stats();
-      map_nodes = stats.nodes;
-      map_edges = stats.edges;
-      map_paths = stats.paths;
-    }
-    // Counted, not read (reading a backlog of 10^6 nodes took 35 s and 1.45 GB): map.db holds
-    // everything known to the server (the installed selection and what was pushed since, two
-    // disjoint sets), so the rest is unsynced.
-    const auto unsynced_count = [](std::int64_t in_map, const std::set<Uuid>& installed,
-                                   const std::set<Uuid>& pushed) {
-      const auto known = static_cast<std::int64_t>(installed.size() + pushed.size());
-      return std::max<std::int64_t>(0, in_map - known);
-    };
-    const std::int64_t unsynced_nodes =
-        unsynced_count(map_nodes, state.installed.nodes, state.pushed.nodes);
-    const std::int64_t unsynced_edges =
-        unsynced_count(map_edges, state.installed.edges, state.pushed.edges);
-    const std::int64_t unsynced_paths =
-        unsynced_count(map_paths, state.installed.paths, state.pushed.paths);
-    json held = json::array();
-    std::uint64_t held_bytes = 0;
-    for (const HeldNode& node : state.held) {
-      held.push_back({{"id", node.id.ToString()}, {"bytes", node.bytes}});
-      held_bytes += node.bytes;
-    }
-    json out = {{"map_dir", map.dir().string()},
-                {"robot", state.robot ? json(state.robot->ToString()) : json(nullptr)},
-                {"revision", state.revision},
-                {"policy", state.request ? json(state.request->policy) : json(nullptr)},
-                {"channel", state.request ? json(state.request->channel) : json(nullptr)},
-                {"installed_digest", std::to_string(state.installed_digest)},
-                {"last_error", state.last_error},
-                {"map_nodes", map_nodes},
-                {"map_edges", map_edges},
-                {"map_paths", map_paths},
-                {"installed_nodes", state.installed.nodes.size()},
-                {"installed_edges", state.installed.edges.size()},
-                {"installed_paths", state.installed.paths.size()},
-                {"unsynced_nodes", unsynced_nodes},
-                {"unsynced_edges", unsynced_edges},
-                {"unsynced_paths", unsynced_paths},
-                {"held_nodes", held},
-                {"server_max_submission_bytes", state.server_limits.max_submission_bytes},
-                {"pending_submission",
-                 state.submission ? json(state.submission->id.ToString()) : json(nullptr)}};
-    json unmerged = json::array();
-    for (const UnmergedSubmission& u : state.unmerged) {
-      unmerged.push_back({{"id", u.id.ToString()},
-                          {"nodes", u.content.nodes.size()},
-                          {"edges", u.content.edges.size()},
-                          {"paths", u.content.paths.size()},
-                          {"state", u.failed            ? "failed"
-                                    : u.merged_revision ? "merged"
-                                                        : "pending"},
-                          {"merged_revision", u.merged_revision.value_or(0)},
-                          {"error", u.error}});
-    }
-    out["unmerged"] = unmerged;
+    const LocalMap map = LocalMap::Open(args.map_dir, LocalMapAccess::kReadOnly);
+    const MapCounts counts = CountMap(map);
     if (args.json) {
-      std::cout << JsonText(out) << std::endl;
-      return kExitOk;
-    }
-    std::printf("map %s\n", map.dir().string().c_str());
-    std::printf("robot %s\n", state.robot ? state.robot->ToString().c_str() : "(never synced)");
-    if (state.revision > 0) {
-      std::printf("revision %lld (%s, channel %s): %zu nodes, %zu edges, %zu paths installed\n",
-                  static_cast<long long>(state.revision), state.request->policy.c_str(),
-                  state.request->channel.c_str(), state.installed.nodes.size(),
-                  state.installed.edges.size(), state.installed.paths.size());
+      std::cout << JsonText(StatusJson(map, counts)) << std::endl;
     } else {
-      std::printf("revision none installed\n");
-    }
-    std::printf("map.db %lld nodes, %lld edges, %lld paths\n", static_cast<long long>(map_nodes),
-                static_cast<long long>(map_edges), static_cast<long long>(map_paths));
-    std::printf("unsynced %lld nodes, %lld edges, %lld paths\n",
-                static_cast<long long>(unsynced_nodes), static_cast<long long>(unsynced_edges),
-                static_cast<long long>(unsynced_paths));
-    if (!state.held.empty()) {
-      std::printf(
-          "HELD %zu nodes (%s), each over the server's limit of %s a submission on "
-          "its own: kept in this map, not pushed; each sync tries them again, and they go once "
-          "the server takes them (fleetmapd --max-submission-mib)\n",
-          state.held.size(), BytesText(held_bytes).c_str(),
-          BytesText(state.server_limits.max_submission_bytes).c_str());
-      for (const HeldNode& node : state.held) {
-        std::printf("  held node %s (%s)\n", node.id.ToString().c_str(),
-                    BytesText(node.bytes).c_str());
-      }
-    }
-    if (state.submission) {
-      std::printf("pending submission %s\n", state.submission->id.ToString().c_str());
-    }
-    for (const UnmergedSubmission& u : state.unmerged) {
-      const std::string counts = std::to_string(u.content.nodes.size()) + " nodes, " +
-                                 std::to_string(u.content.edges.size()) + " edges, " +
-                                 std::to_string(u.content.paths.size()) + " paths";
-      if (u.failed) {
-        std::printf(
-            "FAILED submission %s (%s, kept in this map): %s\n"
-            "  the server keeps it too; `fleetmap-agent discard %s` drops it from this map\n",
-            u.id.ToString().c_str(), counts.c_str(), u.error.c_str(), u.id.ToString().c_str());
-      } else if (u.merged_revision) {
-        std::printf("submission %s (%s) merged as revision %lld, not downloaded yet\n",
-                    u.id.ToString().c_str(), counts.c_str(),
-                    static_cast<long long>(*u.merged_revision));
-      } else {
-        std::printf("submission %s (%s) waiting for its merge\n", u.id.ToString().c_str(),
-                    counts.c_str());
-      }
+      PrintStatus(map, counts);
     }
     return kExitOk;
   } catch (const std::exception& e) {
