@@ -2,6 +2,8 @@
 // camera sees, whether each is there and detected, its look's descriptor and its noisy point.
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <optional>
 #include <vector>
 
 #include "landmark_looks.h"
@@ -9,6 +11,34 @@
 #include "world_random.h"
 
 namespace fleetmap {
+
+namespace world_internal {
+namespace {
+
+// Whether landmark `m` (number `i`) is there in `condition`, and which incarnation of it: a
+// structural landmark exists on some intervals of days, a parked car is a different car each
+// day and there on a day with some probability; the others are always there, as themselves.
+std::optional<std::int64_t> IncarnationToday(std::uint64_t seed, const AppearanceConfig& ap,
+                                             const LandmarkModel& m, std::uint32_t i,
+                                             const Condition& condition) {
+  std::int64_t incarnation = 0;
+  if (m.kind == LandmarkClass::kStructural) {
+    incarnation = static_cast<std::int64_t>(
+        std::floor((condition.days + m.structural_phase_days) / m.structural_period_days));
+    if (Unit(Hash(seed, Stream::kStructural, i, incarnation)) >= ap.structural_presence) {
+      return std::nullopt;
+    }
+  } else if (m.kind == LandmarkClass::kParkedCar) {
+    incarnation = condition.day;  // a different car each day
+    if (Unit(Hash(seed, Stream::kCar, m.car_slot, condition.day)) >= ap.car_presence) {
+      return std::nullopt;
+    }
+  }
+  return incarnation;
+}
+
+}  // namespace
+}  // namespace world_internal
 
 void World::Impl::Render(const Se3& world_T_camera, double arc_length_m,
                          const world_internal::Condition& condition, std::uint64_t frame_stream,
@@ -47,21 +77,9 @@ void World::Impl::Render(const Se3& world_T_camera, double arc_length_m,
         if (hidden) continue;
       }
 
-      // Is it there today, and which incarnation of it?
-      std::int64_t incarnation = 0;
-      if (m.kind == LandmarkClass::kStructural) {
-        incarnation = static_cast<std::int64_t>(
-            std::floor((condition.days + m.structural_phase_days) / m.structural_period_days));
-        if (Unit(Hash(config.seed, Stream::kStructural, i, incarnation)) >=
-            ap.structural_presence) {
-          continue;
-        }
-      } else if (m.kind == LandmarkClass::kParkedCar) {
-        incarnation = condition.day;  // a different car each day
-        if (Unit(Hash(config.seed, Stream::kCar, m.car_slot, condition.day)) >= ap.car_presence) {
-          continue;
-        }
-      }
+      const std::optional<std::int64_t> incarnation =
+          IncarnationToday(config.seed, ap, m, i, condition);
+      if (!incarnation) continue;
 
       const Lighting lighting = LightingOf(m.dawn_start_h, m.after_dawn_h, condition.time_of_day_h);
       Rng rng(Hash(frame_stream, Stream::kRender, i));
@@ -78,7 +96,7 @@ void World::Impl::Render(const Se3& world_T_camera, double arc_length_m,
       }
       Descriptor256 d = LookDescriptor(
           Hash(config.seed, Stream::kLook, i, replacements,
-               LookIndex(m.kind, lighting, condition.weather, sun_phase), incarnation));
+               LookIndex(m.kind, lighting, condition.weather, sun_phase), *incarnation));
       if (ob.viewpoint_bits_per_level > 0) {
         // Steps of scale from a 10 m view, and of bearing from straight across the road.
         const Eigen::Vector3d camera_world = world_T_camera.translation();
