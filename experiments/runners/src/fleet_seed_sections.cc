@@ -296,7 +296,7 @@ void Fig9Section(std::ostringstream& md, const FleetExperimentResult& result,
 void FrontierSection(std::ostringstream& md, const FleetExperimentResult& result,
                      const std::string& h) {
   if (!result.frontier.empty()) {
-    md << h << " The frontier an operator picks from (issue 34)\n\n"
+    md << h << " The frontier an operator picks from\n\n"
        << "Each policy with its knobs swept, every held-out outing downloading for its own start "
           "time (T_w window minutes, k experiences per stretch, cap, p paths share); against copy "
           "on the same frames. Points on the frontier need no more nodes than any point that "
