@@ -41,6 +41,24 @@ TEST(DownloadRequestTest, EveryFieldSurvivesTheStateAndTheWire) {
   EXPECT_EQ(ask.base_revision, 17);
 }
 
+TEST(DownloadRequestTest, EqualRequestsHaveOneCanonicalFormWhoeverWroteTheirBytes) {
+  const DownloadParams params = EveryField();
+  const v1::DownloadRequest plain = DownloadRequestOf(params, 17);
+  // The same request from a newer robot: a field this server does not know (number 999,
+  // varint 1) after the ones it does. Other bytes, the same request.
+  std::string newer_bytes = plain.SerializeAsString() + std::string("\xb8\x3e\x01", 3);
+  v1::DownloadRequest newer;
+  ASSERT_TRUE(newer.ParseFromString(newer_bytes));
+  ASSERT_NE(newer.SerializeAsString(), plain.SerializeAsString());
+  EXPECT_EQ(ReadDownloadRequest(newer).canonical, ReadDownloadRequest(plain).canonical);
+  EXPECT_EQ(DownloadAskOf(params, 17).canonical, ReadDownloadRequest(plain).canonical);
+  // Another base, or another field, is another request.
+  EXPECT_NE(DownloadAskOf(params, 16).canonical, DownloadAskOf(params, 17).canonical);
+  DownloadParams wider = params;
+  wider.window_min += 1;
+  EXPECT_NE(DownloadAskOf(wider, 17).canonical, DownloadAskOf(params, 17).canonical);
+}
+
 TEST(DownloadRequestTest, AStateWrittenBeforeChannelsAndRoutesReadsAsTheHeadWithoutARoute) {
   nlohmann::json old = DownloadParamsToJson(DownloadParams{});
   for (const char* key : {"channel", "route_xyz", "route_radius_m"}) old.erase(key);

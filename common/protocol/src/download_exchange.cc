@@ -14,10 +14,16 @@ v1::SyncFrame DownloadRequestFrame(const DownloadParams& params, std::int64_t ba
 
 DownloadAsk ReadDownloadRequest(const v1::DownloadRequest& request) {
   try {
-    return {DownloadParamsOf(request), request.base_revision()};
+    return DownloadAskOf(DownloadParamsOf(request), request.base_revision());
   } catch (const Error& error) {
     throw ProtocolError(v1::ErrorFrame::INVALID, "download_request: " + error.message());
   }
+}
+
+DownloadAsk DownloadAskOf(const DownloadParams& params, std::int64_t base_revision) {
+  DownloadAsk ask{params, base_revision, {}};
+  DownloadRequestOf(params, base_revision).AppendToString(&ask.canonical);
+  return ask;
 }
 
 std::string DownloadHeaderFrameBytes(const v1::DownloadHeader& header) {

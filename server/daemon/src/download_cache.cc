@@ -4,10 +4,7 @@ namespace fleetmap::daemon {
 
 std::string DownloadCache::Key(RevisionNumber revision, const DownloadAsk& ask,
                                std::uint32_t protocol_version) {
-  std::string key = std::to_string(revision) + "/v" + std::to_string(protocol_version) + "/";
-  // The request as its parameters say it, whoever wrote its bytes.
-  DownloadRequestOf(ask.params, ask.base_revision).AppendToString(&key);
-  return key;
+  return std::to_string(revision) + "/v" + std::to_string(protocol_version) + "/" + ask.canonical;
 }
 
 DownloadCache::Entry DownloadCache::Find(const std::string& key) {

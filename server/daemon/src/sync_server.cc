@@ -283,7 +283,8 @@ class SyncServer::Impl {
                                      static_cast<std::uint64_t>(stats.edges) * sizeof(Edge) +
                                      static_cast<std::uint64_t>(stats.paths) * sizeof(Path);
     if (plan_bytes > options_.download_cache_entry_bytes) return;
-    DownloadAsk copy;  // the parameters' defaults: a copy of the head
+    // The parameters' defaults: a copy of the head.
+    const DownloadAsk copy = DownloadAskOf(DownloadParams{}, 0);
     const std::string key = daemon::DownloadCache::Key(head, copy, kSyncProtocolVersion);
     const daemon::DownloadCache::Entry kept = cache_.Find(key);
     if (kept.plan || kept.encoded) return;

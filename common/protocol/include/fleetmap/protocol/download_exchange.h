@@ -18,13 +18,19 @@ namespace fleetmap {
 
 v1::SyncFrame DownloadRequestFrame(const DownloadParams& params, std::int64_t base_revision);
 
-// What a DownloadRequest asks for.
+// What a DownloadRequest asks for, read once where it arrives.
 struct DownloadAsk {
   DownloadParams params;
   std::int64_t base_revision = 0;  // 0: the whole selection
+  // The request as its parameters say it, encoded again by us: equal for equal requests
+  // whoever wrote their bytes (field order, defaults written out or not), so a cache can key
+  // on it without reading the request a second time.
+  std::string canonical;
 };
 // Throws ProtocolError(INVALID) saying "download_request: " and what is malformed.
 DownloadAsk ReadDownloadRequest(const v1::DownloadRequest& request);
+// The ask of a request the server makes itself (a copy planned ahead of downloads).
+DownloadAsk DownloadAskOf(const DownloadParams& params, std::int64_t base_revision);
 
 // The framed DownloadHeader and DownloadEnd (each with its length prefix).
 std::string DownloadHeaderFrameBytes(const v1::DownloadHeader& header);
