@@ -103,18 +103,10 @@ class RawSyncClient {
   // The next frame; nullopt at the end of the stream, on a timeout or on bytes that are not a
   // frame.
   std::optional<v1::SyncFrame> Receive() {
-    std::string prefix;
-    if (!ReadExactly(kSyncFrameLengthBytes, prefix)) return std::nullopt;
-    std::uint32_t length = 0;
+    const std::optional<std::string> raw = ReceiveRaw();
+    if (!raw) return std::nullopt;
     try {
-      length = DecodeSyncFrameLength(prefix);
-    } catch (const std::exception&) {
-      return std::nullopt;
-    }
-    std::string body;
-    if (!ReadExactly(length, body)) return std::nullopt;
-    try {
-      return DecodeSyncFrameBody(body);
+      return DecodeSyncFrameBody(raw->substr(kSyncFrameLengthBytes));
     } catch (const std::exception&) {
       return std::nullopt;
     }
