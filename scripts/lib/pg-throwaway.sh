@@ -23,6 +23,10 @@ pg_throwaway_start() {
     cat "$PG_THROWAWAY_DIR/initdb.log" >&2
     return 1
   fi
+  # A cluster that lives as long as one run need not survive the machine losing power: no
+  # fsync (a killed or restarted server still finds every commit in the kernel's cache, as the
+  # tests that kill it expect), which took a tenth off the PostgreSQL tests' time.
+  local PG_THROWAWAY_NO_FSYNC="-c fsync=off -c full_page_writes=off"
   local attempt port
   for attempt in 1 2 3 4 5 6 7 8; do
     port=$((20000 + RANDOM % 40000))
@@ -30,7 +34,7 @@ pg_throwaway_start() {
     if (exec 3<>"/dev/tcp/127.0.0.1/$port") 2>/dev/null; then continue; fi
     if "${PG_THROWAWAY_RUN[@]}" "$bin/pg_ctl" -D "$PG_THROWAWAY_DIR/data" \
         -l "$PG_THROWAWAY_DIR/server.log" -w -t 60 \
-        -o "-p $port -k $PG_THROWAWAY_DIR -c listen_addresses=127.0.0.1 -c max_connections=100" \
+        -o "-p $port -k $PG_THROWAWAY_DIR -c listen_addresses=127.0.0.1 -c max_connections=100 $PG_THROWAWAY_NO_FSYNC" \
         start >/dev/null 2>&1; then
       export FLEETMAP_TEST_PG_URI="postgresql://fleetmap@127.0.0.1:$port/postgres"
       echo "pg: throwaway PostgreSQL $("$bin/postgres" --version | awk '{print $3}') on 127.0.0.1:$port ($PG_THROWAWAY_DIR)" >&2
