@@ -559,9 +559,20 @@ class PostgresVersionStore final : public VersionStore {
     }
   }
 
+  // One named step per family of statements.
   void Prepare() {
     pqxx::connection& c = session_.connection();
-    // Submissions.
+    PrepareSubmissions(c);
+    PrepareClaims(c);
+    PrepareRevisions(c);
+    PrepareElementVersions(c);
+    PrepareMapAt(c);
+    PrepareSeenNodes(c);
+    PrepareSettings(c);
+  }
+
+  // Submissions and their chunks.
+  static void PrepareSubmissions(pqxx::connection& c) {
     c.prepare("version_begin_submission",
               "INSERT INTO submissions (id, robot, author, received_ns) VALUES ($1, $2, $3, $4)"
               " ON CONFLICT (id) DO NOTHING");
@@ -584,6 +595,10 @@ class PostgresVersionStore final : public VersionStore {
               "UPDATE submissions SET state = 1, digest = $2 WHERE id = $1");
     c.prepare("version_set_submission_state",
               "UPDATE submissions SET state = $2, revision = $3, error = $4 WHERE id = $1");
+  }
+
+  // Claims on queued submissions.
+  static void PrepareClaims(pqxx::connection& c) {
     // Claims, timed by this server's clock. SKIP LOCKED: instances claiming at once each lock
     // a different submission instead of queueing behind one another for the same row.
     c.prepare("version_claim_submission",
@@ -604,7 +619,10 @@ class PostgresVersionStore final : public VersionStore {
               " WHERE id = $1 AND claimed_by = $2");
     c.prepare("version_find_claim",
               "SELECT claimed_by, lease_until_ns FROM submissions WHERE id = $1");
-    // Revisions.
+  }
+
+  // Revisions.
+  static void PrepareRevisions(pqxx::connection& c) {
     c.prepare("version_head", "SELECT coalesce(max(number), 0) FROM revisions");
     c.prepare("version_find_revision",
               Cat({"SELECT ", kRevisionColumns, " FROM revisions WHERE number = $1"}));
@@ -619,6 +637,10 @@ class PostgresVersionStore final : public VersionStore {
     c.prepare("version_set_hidden_counts",
               "UPDATE revisions SET nodes_hidden = $2, edges_hidden = $3, paths_hidden = $4"
               " WHERE number = $1");
+  }
+
+  // Which revision added and hid each element.
+  static void PrepareElementVersions(pqxx::connection& c) {
     // Which of the ids is stored already, as any kind of element (one probe of each table's
     // primary key per id).
     c.prepare("version_stored_among",
@@ -652,7 +674,10 @@ class PostgresVersionStore final : public VersionStore {
                    " (SELECT 1 FROM element_versions v WHERE v.id = t.id)"}));
     c.prepare("version_hidden_counts",
               "SELECT kind, count(*) FROM element_versions WHERE hidden_rev = $1 GROUP BY kind");
-    // The map at a revision.
+  }
+
+  // The map at a revision, and what changed between two.
+  static void PrepareMapAt(pqxx::connection& c) {
     const std::string visible_nodes =
         Cat({" FROM nodes n LEFT JOIN element_versions v ON v.id = n.id WHERE ", kVisibleAtParam1});
     c.prepare("version_nodes_at",
@@ -686,8 +711,11 @@ class PostgresVersionStore final : public VersionStore {
               " WHERE id = $1 UNION ALL SELECT id FROM edges WHERE id = $1 UNION ALL"
               " SELECT id FROM paths WHERE id = $1) s LEFT JOIN element_versions v"
               " ON v.id = s.id LIMIT 1");
-    // Settings.
-    // What the server has seen of each node (0005_submission_nodes.sql).
+  }
+
+  // What the server has seen of each node (0005_submission_nodes.sql), and where an omitted node
+  // stands in.
+  static void PrepareSeenNodes(pqxx::connection& c) {
     c.prepare("version_put_submission_nodes",
               "INSERT INTO submission_nodes (node, submission) SELECT unnest($1::uuid[]), $2"
               " ON CONFLICT DO NOTHING");
@@ -701,6 +729,10 @@ class PostgresVersionStore final : public VersionStore {
     c.prepare("version_find_stand_in",
               "SELECT stand_in, tx, ty, tz, qw, qx, qy, qz, revision FROM stand_ins"
               " WHERE node = $1");
+  }
+
+  // Settings.
+  static void PrepareSettings(pqxx::connection& c) {
     c.prepare("version_find_setting", "SELECT value FROM settings WHERE key = $1");
     c.prepare("version_put_setting",
               "INSERT INTO settings (key, value) VALUES ($1, $2)"
