@@ -594,7 +594,8 @@ TYPED_TEST(GraphStoreConformance, SchemaSevenStoreMigratesWithItsEdges) {
   this->store_->Put(chain);
   this->store_.reset();
   this->backend_->ExecRaw(
-      "ALTER TABLE edges DROP COLUMN covariance; UPDATE fleetmap_schema SET version = 7");
+      "DROP TABLE retirements; DROP TABLE node_usage; ALTER TABLE edges DROP COLUMN covariance;"
+      " UPDATE fleetmap_schema SET version = 7");
   this->store_ = GraphStore::Open(this->backend_->Uri());
   EXPECT_EQ(this->store_->schema_version(), GraphStore::LatestSchemaVersion());
   for (const Edge& edge : chain.edges) {

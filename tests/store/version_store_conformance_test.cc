@@ -189,13 +189,14 @@ TYPED_TEST(VersionStoreConformance, SchemaOneStoreMigratesWithItsMapAtRevisionZe
   const GraphBatch old = StampedChain(3, 0);
   this->store_->Put(old);
   this->store_.reset();
-  // Back to schema 1: undo 0008 (edge covariances, a column of edges), 0006 (claims: columns of
-  // submissions, dropped with it), 0005 (submission nodes, stand-ins), 0004 (annotations on
-  // data: the payload tables, and the annotation table as schema 1 had it, empty here), 0003
-  // (sensor index) and 0002 (versions).
+  // Back to schema 1: undo 0009 (retirements, node use), 0008 (edge covariances, a column of
+  // edges), 0006 (claims: columns of submissions, dropped with it), 0005 (submission nodes,
+  // stand-ins), 0004 (annotations on data: the payload tables, and the annotation table as schema 1
+  // had it, empty here), 0003 (sensor index) and 0002 (versions).
   const bool sqlite = std::is_same_v<TypeParam, SqliteBackend>;
   this->backend_->ExecRaw(
-      std::string("ALTER TABLE edges DROP COLUMN covariance;"
+      std::string("DROP TABLE retirements; DROP TABLE node_usage;"
+                  " ALTER TABLE edges DROP COLUMN covariance;"
                   " DROP TABLE stand_ins; DROP TABLE submission_nodes;"
                   " DROP TABLE annotation_datum_link; DROP TABLE annotation_bbox2d;"
                   " DROP TABLE annotations;") +
@@ -1017,6 +1018,123 @@ TYPED_TEST(VersionStoreConformance, VersionOfUnknownAndUnversionedElements) {
   EXPECT_EQ(this->versions().VersionOf(versioned.edges[0].id), (ElementVersion{1, std::nullopt}));
 }
 
+// --- Retirements (experiences nobody uses, hidden so that a revert restores them) -----------
+
+Revision Retirement(RevisionNumber number) {
+  Revision r;
+  r.number = number;
+  r.created_ns = 8000 + number;
+  r.author = "depot";
+  r.kind = RevisionKind::kRetire;
+  r.report = "{\"retired\": []}";
+  return r;
+}
+
+TYPED_TEST(VersionStoreConformance, RetirementHidesAndItsRevertRestoresExactly) {
+  const History h = this->MakeHistory();
+  const std::vector<Node> before_nodes = this->versions().NodesAt(2);
+  const std::vector<Edge> before_edges = this->versions().EdgesAt(2);
+  const Revision r3 = this->versions().AppendRetirement(Retirement(3), {h.n2.id});
+  EXPECT_EQ(r3.kind, RevisionKind::kRetire);
+  EXPECT_EQ(RevisionKindName(r3.kind), "retire");
+  EXPECT_EQ(r3.nodes_hidden, 1);
+  EXPECT_EQ(r3.edges_hidden, 2);  // e12 and e23
+  EXPECT_EQ(r3.nodes_added, 0);
+  EXPECT_EQ(this->versions().FindRevision(3), r3);
+  std::set<Uuid> visible;
+  for (const Node& n : this->versions().NodesAt(3)) visible.insert(n.id);
+  EXPECT_FALSE(visible.contains(h.n2.id));
+  EXPECT_EQ(visible.size(), before_nodes.size() - 1);
+  for (const Edge& e : this->versions().EdgesAt(3)) {
+    EXPECT_TRUE(visible.count(e.from) && visible.count(e.to)) << e.id.ToString();
+  }
+  EXPECT_EQ(this->versions().StatsAt(3).nodes, static_cast<std::int64_t>(visible.size()));
+  EXPECT_EQ(this->versions().StatsAt(3).edges, static_cast<std::int64_t>(before_edges.size()) - 2);
+  // The past is untouched, and the change reads as a removal.
+  EXPECT_EQ(this->versions().NodesAt(2), before_nodes);
+  const RevisionChanges retired = this->versions().Changes(2, 3);
+  EXPECT_EQ(retired.nodes_removed, std::vector<Uuid>{h.n2.id});
+  EXPECT_EQ(retired.edges_removed, Sorted({h.e12.id, h.e23.id}));
+  EXPECT_TRUE(retired.nodes_added.empty());
+  EXPECT_EQ(this->versions().VersionOf(h.n2.id), (ElementVersion{1, 3}));
+
+  const Revision r4 = this->Revert(3);
+  EXPECT_EQ(r4.nodes_added, 1);
+  EXPECT_EQ(r4.edges_added, 2);
+  EXPECT_EQ(r4.nodes_hidden, 0);
+  EXPECT_EQ(this->versions().FindRevision(4), r4);
+  // Restored whole: the same nodes with the same landmarks, the same edges.
+  EXPECT_EQ(this->versions().NodesAt(4), before_nodes);
+  EXPECT_EQ(SortedIds(this->versions().EdgesAt(4)), SortedIds(before_edges));
+  EXPECT_EQ(this->versions().NodesAt(3).size(), before_nodes.size() - 1);
+  EXPECT_EQ(this->versions().Changes(3, 4).nodes_added, std::vector<Uuid>{h.n2.id});
+  const RevisionChanges none = this->versions().Changes(2, 4);
+  EXPECT_TRUE(none.nodes_added.empty() && none.nodes_removed.empty() && none.edges_added.empty() &&
+              none.edges_removed.empty());
+  EXPECT_EQ(this->versions().VersionOf(h.n2.id), (ElementVersion{1, std::nullopt}));
+  ExpectError(
+      ErrorCode::kConflict, [&] { this->Revert(3); }, "already reverted");
+
+  // Retired again later, and that too checks out at each revision.
+  const Revision r5 = this->versions().AppendRetirement(Retirement(5), {h.n2.id, h.n3.id});
+  EXPECT_EQ(r5.nodes_hidden, 2);
+  EXPECT_EQ(this->versions().NodesAt(4), before_nodes);
+  EXPECT_EQ(this->versions().NodesAt(5).size(), before_nodes.size() - 2);
+  EXPECT_EQ(this->versions().Changes(3, 5).nodes_removed, std::vector<Uuid>{h.n3.id});
+}
+
+TYPED_TEST(VersionStoreConformance, RetirementTakesOnlyWhatTheHeadShows) {
+  const History h = this->MakeHistory();
+  this->Revert(2);  // hides n3 and e23
+  // n3 is hidden already and an unknown id is nothing: only n2 is retired.
+  const Revision r4 =
+      this->versions().AppendRetirement(Retirement(4), {h.n2.id, h.n3.id, Uuid::Generate()});
+  EXPECT_EQ(r4.nodes_hidden, 1);
+  EXPECT_EQ(r4.edges_hidden, 1);  // e12: e23 went with revision 2's revert
+  // A revert of the merge that added n1 and n2 while n2 is retired: restoring the retirement
+  // later does not bring n2 back, for the merge's revert hid it too.
+  const Revision r5 = this->Revert(1);
+  EXPECT_GE(r5.nodes_hidden, 1);
+  const Revision r6 = this->Revert(4);
+  EXPECT_EQ(r6.nodes_added, 0);
+  std::set<Uuid> visible;
+  for (const Node& n : this->versions().NodesAt(6)) visible.insert(n.id);
+  EXPECT_FALSE(visible.contains(h.n1.id) || visible.contains(h.n2.id) || visible.contains(h.n3.id));
+  EXPECT_EQ(this->versions().NodesAt(6), this->versions().NodesAt(5));
+}
+
+TYPED_TEST(VersionStoreConformance, RetirementRefusesOtherKindsAndStaleHeads) {
+  this->MakeHistory();
+  ExpectError(
+      ErrorCode::kInvalidArgument, [&] { this->versions().AppendRetirement(Merge(3), {}); },
+      "retirements only");
+  ExpectError(
+      ErrorCode::kConflict, [&] { this->versions().AppendRetirement(Retirement(2), {}); },
+      "the head is 2");
+  EXPECT_EQ(this->versions().HeadRevision(), 2);
+}
+
+TYPED_TEST(VersionStoreConformance, NodeUsageSumsFramesAndKeepsTheNewestUse) {
+  const History h = this->MakeHistory();
+  this->versions().PutNodeUsage(1, {{h.n1.id, 4, 1000, UsageSource::kReplay}});
+  this->versions().PutNodeUsage(
+      2, {{h.n1.id, 2, 900, UsageSource::kReplay}, {h.n2.id, 1, 3000, UsageSource::kReplay}});
+  // A repeat replaces what that revision measured.
+  this->versions().PutNodeUsage(2, {{h.n1.id, 3, 950, UsageSource::kReplay}});
+  EXPECT_EQ(this->versions().UsageAt(1),
+            (std::vector<NodeUsage>{{h.n1.id, 4, 1000, UsageSource::kReplay}}));
+  std::vector<NodeUsage> expected{{h.n1.id, 7, 1000, UsageSource::kReplay},
+                                  {h.n2.id, 1, 3000, UsageSource::kReplay}};
+  std::sort(expected.begin(), expected.end(),
+            [](const NodeUsage& a, const NodeUsage& b) { return a.node < b.node; });
+  EXPECT_EQ(this->versions().UsageAt(2), expected);
+  EXPECT_TRUE(this->versions().UsageAt(0).empty());
+  ExpectError(ErrorCode::kInvalidArgument, [&] {
+    this->versions().PutNodeUsage(2, {{h.n3.id, -1, 5, UsageSource::kReplay}});
+  });
+  ExpectError(ErrorCode::kNotFound, [&] { this->versions().UsageAt(3); });
+}
+
 // --- Promotions (a dream's candidate made the map) ----------------------------------------
 
 Revision Promotion(RevisionNumber number) {
@@ -1112,7 +1230,8 @@ TYPED_TEST(VersionStoreConformance, SchemaSixStoreMigratesWithItsHistoryIntact) 
   const std::vector<Revision> revisions = this->versions().ListRevisions();
   this->store_.reset();
   this->backend_->ExecRaw(
-      "ALTER TABLE edges DROP COLUMN covariance; UPDATE fleetmap_schema SET version = 6");
+      "DROP TABLE retirements; DROP TABLE node_usage; ALTER TABLE edges DROP COLUMN covariance;"
+      " UPDATE fleetmap_schema SET version = 6");
   this->store_ = GraphStore::Open(this->backend_->Uri());
   EXPECT_EQ(this->store_->schema_version(), GraphStore::LatestSchemaVersion());
   EXPECT_EQ(this->versions().ListRevisions(), revisions);

@@ -138,6 +138,45 @@ void SetHiddenCount(Revision& recorded, VersionedKind kind, std::int64_t count) 
   }
 }
 
+Revision RetirementAsRecorded(const Revision& revision) {
+  if (revision.kind != RevisionKind::kRetire) {
+    throw Error(ErrorCode::kInvalidArgument,
+                "revision " + std::to_string(revision.number) +
+                    ": AppendRetirement records retirements only (kind retire)");
+  }
+  Revision recorded = revision;
+  recorded.submission = Uuid();
+  recorded.reverted = 0;
+  recorded.nodes_added = recorded.edges_added = recorded.paths_added = 0;
+  recorded.nodes_hidden = recorded.edges_hidden = recorded.paths_hidden = 0;
+  return recorded;
+}
+
+void SetRestoredCount(Revision& recorded, VersionedKind kind, std::int64_t count) {
+  switch (kind) {
+    case VersionedKind::kNode:
+      recorded.nodes_added = count;
+      break;
+    case VersionedKind::kEdge:
+      recorded.edges_added = count;
+      break;
+    case VersionedKind::kPath:
+      recorded.paths_added = count;
+      break;
+  }
+}
+
+void RequireValidUsage(const NodeUsage& usage) {
+  if (usage.frames < 0) {
+    throw Error(ErrorCode::kInvalidArgument,
+                "node use of " + usage.node.ToString() + ": negative frames");
+  }
+  if (usage.source != UsageSource::kReplay && usage.source != UsageSource::kRobot) {
+    throw Error(ErrorCode::kInvalidArgument,
+                "node use of " + usage.node.ToString() + ": unknown source");
+  }
+}
+
 Revision RevertAsRecorded(const Revision& revision) {
   Revision recorded = revision;
   recorded.kind = RevisionKind::kRevert;
@@ -245,14 +284,22 @@ bool VisibleAt(RevisionNumber added, std::optional<RevisionNumber> hidden, Revis
   return added <= r && (!hidden || *hidden > r);
 }
 
+bool VisibleAt(const ElementVersionRow& row, RevisionNumber r) {
+  if (!VisibleAt(row.added, row.hidden, r)) return false;
+  for (const RetirementSpan& span : row.retirements) {
+    if (span.retired <= r && (!span.restored || *span.restored > r)) return false;
+  }
+  return true;
+}
+
 RevisionChanges ChangesFromRows(RevisionNumber from, RevisionNumber to,
                                 const std::vector<ElementVersionRow>& rows) {
   RevisionChanges changes;
   changes.from = from;
   changes.to = to;
   for (const ElementVersionRow& row : rows) {
-    const bool at_from = VisibleAt(row.added, row.hidden, from);
-    const bool at_to = VisibleAt(row.added, row.hidden, to);
+    const bool at_from = VisibleAt(row, from);
+    const bool at_to = VisibleAt(row, to);
     if (at_from == at_to) continue;
     std::vector<Uuid>* list = nullptr;
     switch (row.kind) {

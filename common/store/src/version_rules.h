@@ -58,6 +58,16 @@ Revision PromotionAsRecorded(const Revision& revision, const GraphBatch& additio
 // Records that a revision hid `count` elements of `kind` (the store's hidden counts, per kind).
 void SetHiddenCount(Revision& recorded, VersionedKind kind, std::int64_t count);
 
+// AppendRetirement's check: a kRetire. Returns the revision as recorded before its hidden
+// counts are known (nothing added, no revert, no submission).
+Revision RetirementAsRecorded(const Revision& revision);
+
+// Records that a revert of a retirement brought back `count` elements of `kind`.
+void SetRestoredCount(Revision& recorded, VersionedKind kind, std::int64_t count);
+
+// PutNodeUsage's check of one record.
+void RequireValidUsage(const NodeUsage& usage);
+
 // AppendRevert's revision before its hidden counts are known: a kRevert with no submission
 // and nothing counted yet, whatever the caller filled in.
 Revision RevertAsRecorded(const Revision& revision);
@@ -101,16 +111,27 @@ Submission WithState(Submission stored, SubmissionState state, RevisionNumber re
 // 0002_versions.sql: added at or before r and not hidden at or before r.
 bool VisibleAt(RevisionNumber added, std::optional<RevisionNumber> hidden, RevisionNumber r);
 
-// One element_versions row of an element that is stored.
+// One retirement of an element (0009_retirement.sql): hidden from `retired` until `restored`.
+struct RetirementSpan {
+  RevisionNumber retired = 0;
+  std::optional<RevisionNumber> restored;
+};
+
+// One element_versions row of an element that is stored, and its retirements.
 struct ElementVersionRow {
   Uuid id;
   VersionedKind kind;
   RevisionNumber added;
   std::optional<RevisionNumber> hidden;
+  std::vector<RetirementSpan> retirements;
 };
 
-// Changes(from, to) from the rows of every element a revision between them added or hid
-// (elements outside that range are visible at both or at neither). Lists come sorted.
+// Visible at r by its element_versions row and not retired at r.
+bool VisibleAt(const ElementVersionRow& row, RevisionNumber r);
+
+// Changes(from, to) from the rows of every element a revision between them added, hid,
+// retired or restored (elements outside that range are visible at both or at neither), each
+// with all its retirements. Lists come sorted.
 RevisionChanges ChangesFromRows(RevisionNumber from, RevisionNumber to,
                                 const std::vector<ElementVersionRow>& rows);
 

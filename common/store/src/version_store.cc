@@ -10,6 +10,8 @@ std::string_view RevisionKindName(RevisionKind kind) {
       return "revert";
     case RevisionKind::kPromote:
       return "promote";
+    case RevisionKind::kRetire:
+      return "retire";
   }
   return "unknown";
 }

@@ -12,6 +12,7 @@
 //   revision however large it is.
 #include "postgres/postgres_version_store.h"
 
+#include <algorithm>
 #include <bit>
 #include <chrono>
 #include <string>
@@ -52,6 +53,20 @@ constexpr const char* kEdgesTouchingHiddenAt1 =
     " touching AS (SELECT e.id FROM hidden h JOIN edges e ON e.from_id = h.id WHERE h.kind = 1"
     " UNION SELECT e.id FROM hidden h JOIN edges e ON e.to_id = h.id WHERE h.kind = 1"
     " UNION SELECT e.id FROM hidden h JOIN edges e ON e.path_id = h.id WHERE h.kind = 3) ";
+
+// 0009_retirement.sql: no retirement of element `alias` is open at revision $1.
+std::string NotRetiredAtParam1(const char* alias) {
+  return std::string(" AND NOT EXISTS (SELECT 1 FROM retirements t WHERE t.id = ") + alias +
+         ".id AND t.retired_rev <= $1 AND (t.restored_rev IS NULL OR t.restored_rev > $1))";
+}
+
+// Element `alias` is not hidden at the head by element_versions nor by an open retirement.
+std::string VisibleAtHead(const char* alias) {
+  return std::string("NOT EXISTS (SELECT 1 FROM element_versions v WHERE v.id = ") + alias +
+         ".id AND v.hidden_rev IS NOT NULL) AND NOT EXISTS (SELECT 1 FROM retirements r"
+         " WHERE r.id = " +
+         alias + ".id AND r.restored_rev IS NULL)";
+}
 
 std::string Str(std::int64_t value) {
   return std::to_string(value);
@@ -295,12 +310,75 @@ class PostgresVersionStore final : public VersionStore {
           std::optional<RevisionNumber> reverted_by;
           const pqxx::result by = t.exec_prepared("version_reverted_by", revision.reverted);
           if (!by.empty()) reverted_by = by[0][0].as<std::int64_t>();
-          RequireRevertable(revision.reverted, Find(t, revision.reverted), reverted_by);
+          const std::optional<Revision> target = Find(t, revision.reverted);
+          RequireRevertable(revision.reverted, target, reverted_by);
           InsertRevision(t, recorded);
+          if (target->kind == RevisionKind::kRetire) {
+            Restore(t, recorded);
+            return;
+          }
           t.exec_prepared("version_hide_added", number, revision.reverted);
           HideTouchingAndCount(t, recorded);
         });
     return recorded;
+  }
+
+  Revision AppendRetirement(const Revision& revision, const std::vector<Uuid>& nodes) override {
+    Revision recorded = RetirementAsRecorded(revision);
+    const std::string retired = UuidArray(nodes);
+    session_.Atomically(
+        "append retirement " + RevisionName(revision.number), [&](pqxx::transaction_base& t) {
+          RequireNextRevision(revision.number, Head(t));
+          InsertRevision(t, recorded);
+          t.exec_prepared("version_retire_nodes", revision.number, retired);
+          t.exec_prepared("version_retire_touching", revision.number);
+          for (const pqxx::row& row : t.exec_prepared("version_retired_counts", revision.number)) {
+            SetHiddenCount(recorded, StoredVersionedKind(row[0].as<int>(), Uuid()),
+                           row[1].as<std::int64_t>());
+          }
+          t.exec_prepared("version_set_hidden_counts", revision.number, recorded.nodes_hidden,
+                          recorded.edges_hidden, recorded.paths_hidden);
+        });
+    return recorded;
+  }
+
+  // ---- Use ----
+
+  void PutNodeUsage(RevisionNumber revision, const std::vector<NodeUsage>& usage) override {
+    for (const NodeUsage& use : usage) RequireValidUsage(use);
+    if (usage.empty()) return;
+    std::vector<Uuid> nodes;
+    std::string sources = "{", frames = "{", last_ns = "{";
+    for (const NodeUsage& use : usage) {
+      const char* comma = nodes.empty() ? "" : ",";
+      nodes.push_back(use.node);
+      sources += comma + Str(static_cast<int>(use.source));
+      frames += comma + Str(use.frames);
+      last_ns += comma + Str(use.last_ns);
+    }
+    sources += '}';
+    frames += '}';
+    last_ns += '}';
+    session_.Atomically("use measured by " + RevisionName(revision),
+                        [&](pqxx::transaction_base& t) {
+                          t.exec_prepared("version_put_node_usage", UuidArray(nodes), revision,
+                                          sources, frames, last_ns);
+                        });
+  }
+
+  std::vector<NodeUsage> UsageAt(RevisionNumber r) override {
+    return session_.Autocommit("use up to " + RevisionName(r), [&](pqxx::transaction_base& t) {
+      RequireInHistory(r, Head(t));
+      std::vector<NodeUsage> usage;
+      for (const pqxx::row& row : t.exec_prepared("version_usage_at", r)) {
+        NodeUsage use;
+        use.node = UuidField(row[0]);
+        use.frames = row[1].as<std::int64_t>();
+        use.last_ns = row[2].as<std::int64_t>();
+        usage.push_back(use);
+      }
+      return usage;
+    });
   }
 
   // ---- The map at a revision ----
@@ -365,24 +443,35 @@ class PostgresVersionStore final : public VersionStore {
             const Uuid id = UuidField(row[0]);
             std::optional<RevisionNumber> hidden;
             if (!row[3].is_null()) hidden = row[3].as<std::int64_t>();
-            rows.push_back(
-                {id, StoredVersionedKind(row[1].as<int>(), id), row[2].as<std::int64_t>(), hidden});
+            rows.push_back({id,
+                            StoredVersionedKind(row[1].as<int>(), id),
+                            row[2].as<std::int64_t>(),
+                            hidden,
+                            {}});
+          }
+          if (t.exec_prepared1("version_any_retirement")[0].as<bool>()) {
+            AddRetirements(t, std::min(from, to), std::max(from, to), rows);
           }
           return ChangesFromRows(from, to, rows);
         });
   }
 
   std::optional<ElementVersion> VersionOf(const Uuid& id) override {
-    return session_.Autocommit("version of " + id.ToString(),
-                               [&](pqxx::transaction_base& t) -> std::optional<ElementVersion> {
-                                 const pqxx::result r =
-                                     t.exec_prepared("version_of", id.ToString());
-                                 if (r.empty()) return std::nullopt;
-                                 ElementVersion v;
-                                 v.added = r[0][0].as<std::int64_t>();
-                                 if (!r[0][1].is_null()) v.hidden = r[0][1].as<std::int64_t>();
-                                 return v;
-                               });
+    return session_.Autocommit(
+        "version of " + id.ToString(),
+        [&](pqxx::transaction_base& t) -> std::optional<ElementVersion> {
+          const pqxx::result r = t.exec_prepared("version_of", id.ToString());
+          if (r.empty()) return std::nullopt;
+          ElementVersion v;
+          v.added = r[0][0].as<std::int64_t>();
+          if (!r[0][1].is_null()) v.hidden = r[0][1].as<std::int64_t>();
+          const pqxx::result open = t.exec_prepared("version_open_retirement", id.ToString());
+          if (!open.empty()) {
+            const RevisionNumber retired = open[0][0].as<std::int64_t>();
+            if (!v.hidden || retired < *v.hidden) v.hidden = retired;
+          }
+          return v;
+        });
   }
 
   // ---- What the server has seen of each node ----
@@ -509,6 +598,50 @@ class PostgresVersionStore final : public VersionStore {
     t.exec_prepared("version_add_elements", id_array, kinds, number);
   }
 
+  // A revert of a retirement: closes what it hid and counts what came back as added.
+  static void Restore(pqxx::transaction_base& t, Revision& recorded) {
+    t.exec_prepared("version_restore_retired", recorded.number, recorded.reverted);
+    for (const pqxx::row& row : t.exec_prepared("version_restored_counts", recorded.number)) {
+      SetRestoredCount(recorded, StoredVersionedKind(row[0].as<int>(), Uuid()),
+                       row[1].as<std::int64_t>());
+    }
+    t.exec_prepared("version_set_added_counts", recorded.number, recorded.nodes_added,
+                    recorded.edges_added, recorded.paths_added);
+  }
+
+  // Changes' rows, completed with the elements a revision in (lo, hi] retired or restored and
+  // every retirement of each row's element.
+  static void AddRetirements(pqxx::transaction_base& t, RevisionNumber lo, RevisionNumber hi,
+                             std::vector<ElementVersionRow>& rows) {
+    for (const pqxx::row& row : t.exec_prepared("version_retired_between", lo, hi)) {
+      const Uuid id = UuidField(row[0]);
+      std::optional<RevisionNumber> hidden;
+      if (!row[3].is_null()) hidden = row[3].as<std::int64_t>();
+      rows.push_back(
+          {id, StoredVersionedKind(row[1].as<int>(), id), row[2].as<std::int64_t>(), hidden, {}});
+    }
+    std::sort(rows.begin(), rows.end(),
+              [](const ElementVersionRow& a, const ElementVersionRow& b) { return a.id < b.id; });
+    rows.erase(std::unique(rows.begin(), rows.end(),
+                           [](const ElementVersionRow& a, const ElementVersionRow& b) {
+                             return a.id == b.id;
+                           }),
+               rows.end());
+    std::vector<Uuid> ids;
+    ids.reserve(rows.size());
+    for (const ElementVersionRow& row : rows) ids.push_back(row.id);
+    for (const pqxx::row& span : t.exec_prepared("version_retirements_of", UuidArray(ids))) {
+      const Uuid id = UuidField(span[0]);
+      const auto at = std::lower_bound(
+          rows.begin(), rows.end(), id,
+          [](const ElementVersionRow& row, const Uuid& key) { return row.id < key; });
+      if (at == rows.end() || at->id != id) continue;
+      RetirementSpan retirement{span[1].as<std::int64_t>(), std::nullopt};
+      if (!span[2].is_null()) retirement.restored = span[2].as<std::int64_t>();
+      at->retirements.push_back(retirement);
+    }
+  }
+
   // After revision `recorded` hid nodes or paths: hides every visible edge left touching them
   // and records what the revision hid in all.
   void HideTouchingAndCount(pqxx::transaction_base& t, Revision& recorded) {
@@ -569,6 +702,7 @@ class PostgresVersionStore final : public VersionStore {
     PrepareMapAt(c);
     PrepareSeenNodes(c);
     PrepareSettings(c);
+    PrepareRetirement(c);
   }
 
   // Submissions and their chunks.
@@ -679,7 +813,8 @@ class PostgresVersionStore final : public VersionStore {
   // The map at a revision, and what changed between two.
   static void PrepareMapAt(pqxx::connection& c) {
     const std::string visible_nodes =
-        Cat({" FROM nodes n LEFT JOIN element_versions v ON v.id = n.id WHERE ", kVisibleAtParam1});
+        Cat({" FROM nodes n LEFT JOIN element_versions v ON v.id = n.id WHERE ", kVisibleAtParam1,
+             NotRetiredAtParam1("n")});
     c.prepare("version_nodes_at",
               Cat({"SELECT n.id, n.stamp_ns, n.robot, n.outing, n.landmarks", visible_nodes}));
     c.prepare("version_nodes_at_bare",
@@ -687,19 +822,19 @@ class PostgresVersionStore final : public VersionStore {
     c.prepare("version_edges_at",
               Cat({"SELECT ", kEdgeColumnsOfE,
                    " FROM edges e LEFT JOIN element_versions v ON v.id = e.id WHERE ",
-                   kVisibleAtParam1, " ORDER BY e.id"}));
+                   kVisibleAtParam1, NotRetiredAtParam1("e"), " ORDER BY e.id"}));
     c.prepare("version_paths_at",
               Cat({"SELECT p.id, p.robot, p.outing, p.start_ns, p.end_ns FROM paths p"
                    " LEFT JOIN element_versions v ON v.id = p.id WHERE ",
-                   kVisibleAtParam1, " ORDER BY p.start_ns, p.id"}));
+                   kVisibleAtParam1, NotRetiredAtParam1("p"), " ORDER BY p.start_ns, p.id"}));
     c.prepare("version_stats_at",
               Cat({"SELECT count(*), coalesce(sum(octet_length(n.landmarks)), 0),"
                    " (SELECT count(*) FROM edges e LEFT JOIN element_versions v ON v.id = e.id"
                    " WHERE ",
-                   kVisibleAtParam1,
+                   kVisibleAtParam1, NotRetiredAtParam1("e"),
                    "), (SELECT count(*) FROM paths p LEFT JOIN element_versions v"
                    " ON v.id = p.id WHERE ",
-                   kVisibleAtParam1, ")", visible_nodes}));
+                   kVisibleAtParam1, NotRetiredAtParam1("p"), ")", visible_nodes}));
     // Only elements some revision in ($1, $2] added or hid can differ between $1 and $2.
     c.prepare("version_changed_between",
               Cat({"SELECT v.id, v.kind, v.added_rev, v.hidden_rev FROM element_versions v"
@@ -729,6 +864,56 @@ class PostgresVersionStore final : public VersionStore {
     c.prepare("version_find_stand_in",
               "SELECT stand_in, tx, ty, tz, qw, qx, qy, qz, revision FROM stand_ins"
               " WHERE node = $1");
+  }
+
+  // Retirement (0009_retirement.sql) and the use it reads.
+  static void PrepareRetirement(pqxx::connection& c) {
+    c.prepare("version_any_retirement", "SELECT EXISTS (SELECT 1 FROM retirements)");
+    c.prepare("version_open_retirement",
+              "SELECT retired_rev FROM retirements WHERE id = $1 AND restored_rev IS NULL");
+    // The stored nodes among $2 visible at the head, retired by revision $1.
+    c.prepare("version_retire_nodes",
+              Cat({"INSERT INTO retirements (id, kind, retired_rev) SELECT n.id, 1, $1"
+                   " FROM nodes n WHERE n.id = ANY($2::uuid[]) AND ",
+                   VisibleAtHead("n"), " ON CONFLICT DO NOTHING"}));
+    // Every edge visible at the head with an end among the nodes revision $1 retired.
+    c.prepare("version_retire_touching",
+              Cat({"WITH gone AS (SELECT id FROM retirements WHERE retired_rev = $1"
+                   " AND kind = 1), touching AS (SELECT e.id FROM gone g JOIN edges e"
+                   " ON e.from_id = g.id UNION SELECT e.id FROM gone g JOIN edges e"
+                   " ON e.to_id = g.id) INSERT INTO retirements (id, kind, retired_rev)"
+                   " SELECT touching.id, 2, $1 FROM touching WHERE ",
+                   VisibleAtHead("touching")}));
+    c.prepare("version_retired_counts",
+              "SELECT kind, count(*) FROM retirements WHERE retired_rev = $1 GROUP BY kind");
+    c.prepare("version_restore_retired",
+              "UPDATE retirements SET restored_rev = $1 WHERE retired_rev = $2"
+              " AND restored_rev IS NULL");
+    // What revision $1 brought back: restored, and not hidden since by element_versions.
+    c.prepare("version_restored_counts",
+              "SELECT r.kind, count(*) FROM retirements r WHERE r.restored_rev = $1"
+              " AND NOT EXISTS (SELECT 1 FROM element_versions v WHERE v.id = r.id"
+              " AND v.hidden_rev IS NOT NULL) GROUP BY r.kind");
+    c.prepare("version_set_added_counts",
+              "UPDATE revisions SET nodes_added = $2, edges_added = $3, paths_added = $4"
+              " WHERE number = $1");
+    // Elements some revision in ($1, $2] retired or restored, with their element_versions.
+    c.prepare("version_retired_between",
+              "SELECT t.id, t.kind, coalesce(v.added_rev, 0), v.hidden_rev FROM"
+              " (SELECT DISTINCT id, kind FROM retirements WHERE (retired_rev > $1"
+              " AND retired_rev <= $2) OR (restored_rev > $1 AND restored_rev <= $2))"
+              " t LEFT JOIN element_versions v ON v.id = t.id");
+    c.prepare("version_retirements_of",
+              "SELECT id, retired_rev, restored_rev FROM retirements WHERE id = ANY($1::uuid[])");
+    c.prepare("version_put_node_usage",
+              "INSERT INTO node_usage (node, revision, source, frames, last_ns)"
+              " SELECT u.node, $2, u.source, u.frames, u.last_ns FROM unnest($1::uuid[],"
+              " $3::smallint[], $4::bigint[], $5::bigint[]) AS u (node, source, frames, last_ns)"
+              " ON CONFLICT (node, revision, source) DO UPDATE SET frames = excluded.frames,"
+              " last_ns = excluded.last_ns");
+    c.prepare("version_usage_at",
+              "SELECT node, sum(frames)::bigint, max(last_ns) FROM node_usage WHERE revision <= $1"
+              " GROUP BY node ORDER BY node");
   }
 
   // Settings.

@@ -65,9 +65,24 @@ constexpr const char* kEdgesTouchingHiddenAt1 =
     " UNION SELECT e.id FROM hidden h JOIN edges e ON e.to_id = h.id WHERE h.kind = 1"
     " UNION SELECT e.id FROM hidden h JOIN edges e ON e.path_id = h.id WHERE h.kind = 3) ";
 
-constexpr const char* kVisibleNodes =
+// 0009_retirement.sql: no retirement of element `alias` is open at revision ?1.
+std::string NotRetiredAtParam1(const char* alias) {
+  return std::string(" AND NOT EXISTS (SELECT 1 FROM retirements t WHERE t.id = ") + alias +
+         ".id AND t.retired_rev <= ?1 AND (t.restored_rev IS NULL OR t.restored_rev > ?1))";
+}
+
+// Element `alias` is not hidden at the head by element_versions nor by an open retirement.
+std::string VisibleAtHead(const char* alias) {
+  return std::string("NOT EXISTS (SELECT 1 FROM element_versions v WHERE v.id = ") + alias +
+         ".id AND v.hidden_rev IS NOT NULL) AND NOT EXISTS (SELECT 1 FROM retirements r"
+         " WHERE r.id = " +
+         alias + ".id AND r.restored_rev IS NULL)";
+}
+
+const std::string kVisibleNodes =
     " FROM nodes n LEFT JOIN element_versions v ON v.id = n.id WHERE coalesce(v.added_rev, 0)"
-    " <= ?1 AND (v.hidden_rev IS NULL OR v.hidden_rev > ?1)";
+    " <= ?1 AND (v.hidden_rev IS NULL OR v.hidden_rev > ?1)" +
+    NotRetiredAtParam1("n");
 
 }  // namespace
 
@@ -173,19 +188,19 @@ SqliteVersionStatements::SqliteVersionStatements(sqlite3* db)
           db, Sql({"SELECT n.id, n.stamp_ns, n.robot, n.outing, NULL", kVisibleNodes}).c_str()),
       edges_at(db, Sql({"SELECT ", kEdgeColumnsOfE,
                         " FROM edges e LEFT JOIN element_versions v ON v.id = e.id WHERE ",
-                        kVisibleAtParam1, " ORDER BY e.id"})
+                        kVisibleAtParam1, NotRetiredAtParam1("e"), " ORDER BY e.id"})
                        .c_str()),
       paths_at(db, Sql({"SELECT p.id, p.robot, p.outing, p.start_ns, p.end_ns FROM paths p"
                         " LEFT JOIN element_versions v ON v.id = p.id WHERE ",
-                        kVisibleAtParam1, " ORDER BY p.start_ns, p.id"})
+                        kVisibleAtParam1, NotRetiredAtParam1("p"), " ORDER BY p.start_ns, p.id"})
                        .c_str()),
       stats_at(db, Sql({"SELECT count(*), coalesce(sum(length(n.landmarks)), 0),"
                         " (SELECT count(*) FROM edges e LEFT JOIN element_versions v"
                         " ON v.id = e.id WHERE ",
-                        kVisibleAtParam1,
+                        kVisibleAtParam1, NotRetiredAtParam1("e"),
                         "), (SELECT count(*) FROM paths p LEFT JOIN element_versions v"
                         " ON v.id = p.id WHERE ",
-                        kVisibleAtParam1, ")", kVisibleNodes})
+                        kVisibleAtParam1, NotRetiredAtParam1("p"), ")", kVisibleNodes})
                        .c_str()),
       // Only elements some revision in (?1, ?2] added or hid can differ between them.
       changed_between(db, Sql({"SELECT v.id, v.kind, v.added_rev, v.hidden_rev"
@@ -199,6 +214,51 @@ SqliteVersionStatements::SqliteVersionStatements(sqlite3* db)
                  " WHERE id = ?1 UNION ALL SELECT id FROM edges WHERE id = ?1 UNION ALL"
                  " SELECT id FROM paths WHERE id = ?1) s LEFT JOIN element_versions v"
                  " ON v.id = s.id LIMIT 1"),
+      open_retirement(db,
+                      "SELECT retired_rev FROM retirements WHERE id = ?1"
+                      " AND restored_rev IS NULL"),
+      any_retirement(db, "SELECT EXISTS (SELECT 1 FROM retirements)"),
+      // A stored node visible at the head, retired by revision ?1.
+      retire_node(db, Sql({"INSERT INTO retirements (id, kind, retired_rev) SELECT n.id, 1, ?1"
+                           " FROM nodes n WHERE n.id = ?2 AND ",
+                           VisibleAtHead("n")})
+                          .c_str()),
+      // Every edge visible at the head with an end among the nodes revision ?1 retired.
+      retire_touching(db, Sql({"WITH gone AS (SELECT id FROM retirements WHERE retired_rev = ?1"
+                               " AND kind = 1), touching AS (SELECT e.id FROM gone g JOIN edges e"
+                               " ON e.from_id = g.id UNION SELECT e.id FROM gone g JOIN edges e"
+                               " ON e.to_id = g.id) INSERT INTO retirements (id, kind,"
+                               " retired_rev) SELECT touching.id, 2, ?1 FROM touching WHERE ",
+                               VisibleAtHead("touching")})
+                              .c_str()),
+      retired_counts(db,
+                     "SELECT kind, count(*) FROM retirements WHERE retired_rev = ?1"
+                     " GROUP BY kind"),
+      restore_retired(db,
+                      "UPDATE retirements SET restored_rev = ?1 WHERE retired_rev = ?2"
+                      " AND restored_rev IS NULL"),
+      // What revision ?1 brought back: restored, and not hidden since by element_versions.
+      restored_counts(db,
+                      "SELECT r.kind, count(*) FROM retirements r WHERE r.restored_rev = ?1"
+                      " AND NOT EXISTS (SELECT 1 FROM element_versions v WHERE v.id = r.id"
+                      " AND v.hidden_rev IS NOT NULL) GROUP BY r.kind"),
+      set_added_counts(db,
+                       "UPDATE revisions SET nodes_added = ?2, edges_added = ?3,"
+                       " paths_added = ?4 WHERE number = ?1"),
+      // Elements some revision in (?1, ?2] retired or restored, with their element_versions.
+      retired_between(db,
+                      "SELECT t.id, t.kind, coalesce(v.added_rev, 0), v.hidden_rev FROM"
+                      " (SELECT DISTINCT id, kind FROM retirements WHERE (retired_rev > ?1"
+                      " AND retired_rev <= ?2) OR (restored_rev > ?1 AND restored_rev <= ?2))"
+                      " t LEFT JOIN element_versions v ON v.id = t.id ORDER BY t.id"),
+      retirements_of(db, "SELECT retired_rev, restored_rev FROM retirements WHERE id = ?1"),
+      put_node_usage(db,
+                     "INSERT INTO node_usage (node, revision, source, frames, last_ns)"
+                     " VALUES (?1, ?2, ?3, ?4, ?5) ON CONFLICT (node, revision, source)"
+                     " DO UPDATE SET frames = excluded.frames, last_ns = excluded.last_ns"),
+      usage_at(db,
+               "SELECT node, sum(frames), max(last_ns) FROM node_usage WHERE revision <= ?1"
+               " GROUP BY node ORDER BY node"),
       find_setting(db, "SELECT value FROM settings WHERE key = ?1"),
       put_setting(db,
                   "INSERT INTO settings (key, value) VALUES (?1, ?2)"

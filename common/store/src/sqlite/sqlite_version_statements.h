@@ -30,7 +30,11 @@ struct SqliteVersionStatements {
   Statement hide_added, hide_node, hide_touching_versioned, hide_touching_unversioned,
       hidden_counts;
   Statement nodes_at, nodes_at_bare, edges_at, paths_at, stats_at, changed_between;
-  Statement version_of;
+  Statement version_of, open_retirement;
+  // Retirement (0009_retirement.sql).
+  Statement any_retirement, retire_node, retire_touching, retired_counts, restore_retired,
+      restored_counts, set_added_counts, retired_between, retirements_of;
+  Statement put_node_usage, usage_at;
   Statement find_setting, put_setting, insert_setting_if_absent, replace_setting, list_settings;
   Statement put_submission_node, submissions_with_node, put_stand_in, find_stand_in;
   Statement first_claimable, set_claim, renew_claim, release_claim, find_claim;

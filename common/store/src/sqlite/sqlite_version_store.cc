@@ -248,8 +248,13 @@ class SqliteVersionStore final : public VersionStore {
         s->Bind(1, revision.reverted);
         if (s->Step()) reverted_by = s->Int64(0);
       }
-      RequireRevertable(revision.reverted, FindRevision(revision.reverted), reverted_by);
+      const std::optional<Revision> target = FindRevision(revision.reverted);
+      RequireRevertable(revision.reverted, target, reverted_by);
       InsertRevision(recorded);
+      if (target->kind == RevisionKind::kRetire) {
+        Restore(recorded);
+        return;
+      }
       {
         StatementUse s(s_.hide_added);
         s->Bind(1, number);
@@ -259,6 +264,71 @@ class SqliteVersionStore final : public VersionStore {
       HideTouchingAndCount(recorded);
     });
     return recorded;
+  }
+
+  Revision AppendRetirement(const Revision& revision, const std::vector<Uuid>& nodes) override {
+    Revision recorded = RetirementAsRecorded(revision);
+    Atomically([&] {
+      RequireNextRevision(revision.number, Head());
+      InsertRevision(recorded);
+      for (const Uuid& node : nodes) {
+        StatementUse s(s_.retire_node);
+        s->Bind(1, revision.number);
+        s->Bind(2, node);
+        s->Run();
+      }
+      {
+        StatementUse s(s_.retire_touching);
+        s->Bind(1, revision.number);
+        s->Run();
+      }
+      {
+        StatementUse s(s_.retired_counts);
+        s->Bind(1, revision.number);
+        while (s->Step()) {
+          SetHiddenCount(recorded, StoredVersionedKind(s->Int64(0), Uuid()), s->Int64(1));
+        }
+      }
+      StatementUse s(s_.set_hidden_counts);
+      s->Bind(1, recorded.number);
+      s->Bind(2, recorded.nodes_hidden);
+      s->Bind(3, recorded.edges_hidden);
+      s->Bind(4, recorded.paths_hidden);
+      s->Run();
+    });
+    return recorded;
+  }
+
+  // ---- Use ----
+
+  void PutNodeUsage(RevisionNumber revision, const std::vector<NodeUsage>& usage) override {
+    for (const NodeUsage& use : usage) RequireValidUsage(use);
+    Atomically([&] {
+      for (const NodeUsage& use : usage) {
+        StatementUse s(s_.put_node_usage);
+        s->Bind(1, use.node);
+        s->Bind(2, revision);
+        s->Bind(3, static_cast<std::int64_t>(use.source));
+        s->Bind(4, use.frames);
+        s->Bind(5, use.last_ns);
+        s->Run();
+      }
+    });
+  }
+
+  std::vector<NodeUsage> UsageAt(RevisionNumber r) override {
+    RequireInHistory(r, Head());
+    StatementUse s(s_.usage_at);
+    s->Bind(1, r);
+    std::vector<NodeUsage> usage;
+    while (s->Step()) {
+      NodeUsage use;
+      use.node = s->UuidAt(0);
+      use.frames = s->Int64(1);
+      use.last_ns = s->Int64(2);
+      usage.push_back(use);
+    }
+    return usage;
   }
 
   // ---- The map at a revision ----
@@ -312,11 +382,38 @@ class SqliteVersionStore final : public VersionStore {
     s->Bind(1, std::min(from, to));
     s->Bind(2, std::max(from, to));
     std::vector<ElementVersionRow> rows;
-    while (s->Step()) {
-      const Uuid id = s->UuidAt(0);
-      std::optional<RevisionNumber> hidden;
-      if (!s->IsNull(3)) hidden = s->Int64(3);
-      rows.push_back({id, StoredVersionedKind(s->Int64(1), id), s->Int64(2), hidden});
+    const auto read_rows = [&rows](Statement& s) {
+      while (s.Step()) {
+        const Uuid id = s.UuidAt(0);
+        std::optional<RevisionNumber> hidden;
+        if (!s.IsNull(3)) hidden = s.Int64(3);
+        rows.push_back({id, StoredVersionedKind(s.Int64(1), id), s.Int64(2), hidden, {}});
+      }
+    };
+    read_rows(*s);
+    if (AnyRetirement()) {
+      {
+        StatementUse retired(s_.retired_between);
+        retired->Bind(1, std::min(from, to));
+        retired->Bind(2, std::max(from, to));
+        read_rows(*retired);
+      }
+      std::sort(rows.begin(), rows.end(),
+                [](const ElementVersionRow& a, const ElementVersionRow& b) { return a.id < b.id; });
+      rows.erase(std::unique(rows.begin(), rows.end(),
+                             [](const ElementVersionRow& a, const ElementVersionRow& b) {
+                               return a.id == b.id;
+                             }),
+                 rows.end());
+      for (ElementVersionRow& row : rows) {
+        StatementUse spans(s_.retirements_of);
+        spans->Bind(1, row.id);
+        while (spans->Step()) {
+          RetirementSpan span{spans->Int64(0), std::nullopt};
+          if (!spans->IsNull(1)) span.restored = spans->Int64(1);
+          row.retirements.push_back(span);
+        }
+      }
     }
     return ChangesFromRows(from, to, rows);
   }
@@ -328,6 +425,9 @@ class SqliteVersionStore final : public VersionStore {
     ElementVersion v;
     v.added = s->Int64(0);
     if (!s->IsNull(1)) v.hidden = s->Int64(1);
+    StatementUse open(s_.open_retirement);
+    open->Bind(1, id);
+    if (open->Step() && (!v.hidden || open->Int64(0) < *v.hidden)) v.hidden = open->Int64(0);
     return v;
   }
 
@@ -509,6 +609,34 @@ class SqliteVersionStore final : public VersionStore {
 
   // After revision `recorded` hid nodes or paths: hides every visible edge left touching them
   // and records what the revision hid in all.
+  bool AnyRetirement() {
+    StatementUse s(s_.any_retirement);
+    return s->Step() && s->Int64(0) != 0;
+  }
+
+  // A revert of a retirement: closes what it hid and counts what came back as added.
+  void Restore(Revision& recorded) {
+    {
+      StatementUse s(s_.restore_retired);
+      s->Bind(1, recorded.number);
+      s->Bind(2, recorded.reverted);
+      s->Run();
+    }
+    {
+      StatementUse s(s_.restored_counts);
+      s->Bind(1, recorded.number);
+      while (s->Step()) {
+        SetRestoredCount(recorded, StoredVersionedKind(s->Int64(0), Uuid()), s->Int64(1));
+      }
+    }
+    StatementUse s(s_.set_added_counts);
+    s->Bind(1, recorded.number);
+    s->Bind(2, recorded.nodes_added);
+    s->Bind(3, recorded.edges_added);
+    s->Bind(4, recorded.paths_added);
+    s->Run();
+  }
+
   void HideTouchingAndCount(Revision& recorded) {
     const RevisionNumber number = recorded.number;
     for (Statement* statement : {&s_.hide_touching_versioned, &s_.hide_touching_unversioned}) {

@@ -39,6 +39,9 @@ enum class RevisionKind : int {
   // Makes a dream's candidate map the map (seed 004 §VI-E; dream_candidates.h): adds what the
   // candidate holds that the head lacks and hides the dreamed nodes it did without.
   kPromote = 3,
+  // Hides experiences no replay has localised against for a stated time (retirement.h); a
+  // revert of it restores them, so retirement loses nothing.
+  kRetire = 4,
 };
 
 struct Revision {
@@ -46,9 +49,12 @@ struct Revision {
   std::int64_t created_ns = 0;  // UTC
   std::string author;           // who made it: the robot that pushed, or a user
   RevisionKind kind = RevisionKind::kMerge;
-  Uuid submission;              // kMerge: the submission merged; nil for kRevert
-  RevisionNumber reverted = 0;  // kRevert: the revision whose additions it hid; 0 for kMerge
-  // Recorded by the store from what the revision really added and hid.
+  Uuid submission;  // kMerge: the submission merged; nil for kRevert
+  // kRevert: the revision it reverted (whose additions it hid, or, for a kRetire, whose
+  // retirements it undid); 0 otherwise.
+  RevisionNumber reverted = 0;
+  // Recorded by the store from what the revision really added and hid. A revert of a kRetire
+  // counts what it brought back as added.
   std::int64_t nodes_added = 0, edges_added = 0, paths_added = 0;
   std::int64_t nodes_hidden = 0, edges_hidden = 0, paths_hidden = 0;
   std::string report;  // free text for people, e.g. the merge report as JSON
@@ -82,7 +88,24 @@ struct Submission {
   friend bool operator==(const Submission&, const Submission&) = default;
 };
 
-// "merge", "revert"; "receiving", "queued", "merged", "failed".
+// Where a record of use comes from.
+enum class UsageSource : int {
+  kReplay = 1,  // MERGE's replay of a submission's frames against the map (seed 004 §V-A)
+  kRobot = 2,   // a robot's own localisation while driving, as it reported it
+};
+
+// How much one node of the map was localised against, as one revision measured it: frames
+// that localised against it and the newest of their stamps (the robot's clock, UTC).
+struct NodeUsage {
+  Uuid node;
+  std::int64_t frames = 0;
+  std::int64_t last_ns = 0;
+  UsageSource source = UsageSource::kReplay;
+
+  friend bool operator==(const NodeUsage&, const NodeUsage&) = default;
+};
+
+// "merge", "revert", "promote", "retire"; "receiving", "queued", "merged", "failed".
 std::string_view RevisionKindName(RevisionKind kind);
 std::string_view SubmissionStateName(SubmissionState state);
 
@@ -240,6 +263,24 @@ class VersionStore {
   virtual Revision AppendPromotion(const Revision& revision, const GraphBatch& additions,
                                    const std::vector<Uuid>& hide_nodes) = 0;
 
+  // Records revision.number (head + 1, else Error(kConflict)) as a kRetire: hides each node
+  // of `nodes` visible at the head and every visible edge with an end among them, as a
+  // promotion does, but so that a revert of it restores exactly what it hid (unless something
+  // else hid it since: a revert of the revision that added it). Returns it as recorded, with
+  // the hidden counts. Throws Error(kInvalidArgument) for a kind other than kRetire.
+  virtual Revision AppendRetirement(const Revision& revision, const std::vector<Uuid>& nodes) = 0;
+
+  // ---- Use: which nodes robots localise against (retirement.h reads it). ----
+
+  // Records what revision `revision` measured (one row per node and source; a repeat
+  // replaces it). REQUIRES: the revision is stored (write it in its transaction, after it).
+  // Throws Error(kInvalidArgument) for negative frames.
+  virtual void PutNodeUsage(RevisionNumber revision, const std::vector<NodeUsage>& usage) = 0;
+  // Per node, what every revision up to `r` measured from every source together: frames
+  // summed, the newest last_ns (source kReplay). By node. Throws Error(kNotFound) unless
+  // 0 <= r <= head.
+  virtual std::vector<NodeUsage> UsageAt(RevisionNumber r) = 0;
+
   // ---- The map at a revision. Each throws Error(kNotFound) unless 0 <= r <= head. ----
 
   // Visible nodes, by stamp_ns then id; landmarks_blob left empty unless with_landmarks.
@@ -253,7 +294,9 @@ class VersionStore {
   // What differs between the maps at `from` and `to`, in either order.
   virtual RevisionChanges Changes(RevisionNumber from, RevisionNumber to) = 0;
   // Which revisions added and hid a stored node, edge or path; nullopt when none is stored
-  // under that id. Elements outside version control report added = 0.
+  // under that id. Elements outside version control report added = 0. `hidden` says whether
+  // and since when it is hidden at the head (a retirement a revert undid is not reported), so
+  // this answers for the head only.
   virtual std::optional<ElementVersion> VersionOf(const Uuid& id) = 0;
 
   // ---- Repository settings: small named values (e.g. the appearance vocabulary). ----
