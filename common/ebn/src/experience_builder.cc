@@ -274,6 +274,9 @@ FrameReport ExperienceBuilder::Process(const Frame& frame) {
   const bool lost = !reference_ || vo_since_success_m_ > options_.relocalise_after_m;
   if (!best && lost && map_.size() > 0) best = Relocalise(frame, report, observed);
   policy_.ObserveIteration(observed);
+  for (const LocalisationAttempt& attempt : observed) {
+    if (attempt.success) report.localised_against.push_back(attempt.node);
+  }
 
   if (best) {
     MoveTo(*best);

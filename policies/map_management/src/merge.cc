@@ -81,6 +81,13 @@ class Merger {
               [](const NodeStandIn& a, const NodeStandIn& b) { return a.node < b.node; });
     result_.report.stand_ins = result_.stand_ins.size();
     result_.report.seconds = SecondsSince(start);
+    for (const auto* usage : {&usage_, &robot_usage_}) {
+      for (const auto& [node, use] : *usage) result_.usage.push_back(use);
+    }
+    std::sort(result_.usage.begin(), result_.usage.end(),
+              [](const NodeUsage& a, const NodeUsage& b) {
+                return a.node != b.node ? a.node < b.node : a.source < b.source;
+              });
     return std::move(result_);
   }
 
@@ -399,6 +406,9 @@ class Merger {
             RelativePose(segment[i - 1], segment[i], members).value_or(Se3::Identity());
       }
       const FrameReport report = localiser.Process(frame);
+      for (const Uuid& node : report.localised_against) {
+        RecordUse(usage_, node, frame.stamp_ns, UsageSource::kReplay);
+      }
       frames[i].node = segment[i];
       frames[i].localised = report.successes > 0;
       frames[i].prev_T_this = frame.prev_T_this;
@@ -636,7 +646,8 @@ class Merger {
     for (const ExperienceMap::MetricLink& link : server_.at(*server_.Find(edge.from)).links) {
       linked |= link.to == *server_.Find(edge.to);
     }
-    if (!linked) server_.AddMetricEdge(edge.from, edge.to, edge.from_T_to, edge.covariance.optional());
+    if (!linked)
+      server_.AddMetricEdge(edge.from, edge.to, edge.from_T_to, edge.covariance.optional());
     result_.additions.edges.push_back(edge);
     written_edges_.insert(edge.id);
     ++result_.report.metric_edges_added;
@@ -645,12 +656,23 @@ class Merger {
   // Path edges onto whatever now stands for their ends on the server.
   void CarryPathMemory() {
     std::unordered_set<Uuid> paths_used;
+    std::unordered_map<Uuid, std::int64_t> path_end_ns;
+    for (const Path& path : submission_.paths) path_end_ns.emplace(path.id, path.end_ns);
     for (const Edge& edge : submission_.edges) {
       if (edge.kind != EdgeKind::kPath || unresolved_.contains(edge.id) ||
           derived_.contains(edge.id)) {
         continue;
       }
       const std::optional<Uuid> from = OnServer(edge.from), to = OnServer(edge.to);
+      // The robot's own report of its driving: each step of its path memory is a node it
+      // localised in (seed 002 §IV), most of them the server's where its copy localised, which
+      // the replay never sees (only what the robot built is pushed and replayed).
+      const auto end = path_end_ns.find(edge.path);
+      if (end != path_end_ns.end()) {
+        for (const std::optional<Uuid>& node : {from, to}) {
+          if (node) RecordUse(robot_usage_, *node, end->second, UsageSource::kRobot);
+        }
+      }
       if (!from || !to || *from == *to) {
         ++result_.report.path_edges_dropped;
         continue;
@@ -675,6 +697,15 @@ class Merger {
     }
   }
 
+  static void RecordUse(std::unordered_map<Uuid, NodeUsage>& usage, const Uuid& node,
+                        std::int64_t stamp_ns, UsageSource source) {
+    NodeUsage& use = usage[node];
+    use.node = node;
+    use.source = source;
+    ++use.frames;
+    use.last_ns = std::max(use.last_ns, stamp_ns);
+  }
+
   std::optional<Uuid> OnServer(const Uuid& node) const {
     if (server_.Find(node)) return node;
     const auto it = stands_in_for_.find(node);
@@ -697,6 +728,8 @@ class Merger {
   std::unordered_set<Uuid> derived_;     // edges a download derived: recognised, not stored
   std::unordered_set<Uuid> written_edges_;
   const LinkRegistration* registration_ = nullptr;
+  // By the node localised against: in the replay, and in the robot's own driving.
+  std::unordered_map<Uuid, NodeUsage> usage_, robot_usage_;
   MergeResult result_;
 };
 

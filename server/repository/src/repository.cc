@@ -418,6 +418,13 @@ void Repository::UpdateAppearanceIndex() {
     bags.clear();
   };
   for (RevisionNumber r = appearance_->mark().revision + 1; r <= head; ++r) {
+    // The nodes a revert of a retirement brings back are indexed already: the index keeps the
+    // nodes the head hides (a region only takes the visible ones), so they are not added twice.
+    const std::optional<Revision> revision = versions().FindRevision(r);
+    if (revision && revision->kind == RevisionKind::kRevert && revision->nodes_added > 0) {
+      if (r == head) flush(r);
+      continue;
+    }
     const RevisionChanges added = versions().Changes(r - 1, r);
     constexpr std::size_t kReadBatch = 1024;
     for (std::size_t i = 0; i < added.nodes_added.size(); i += kReadBatch) {
@@ -606,6 +613,7 @@ MergeOutcome Repository::Merge(const Uuid& id, const MergeProgress& progress) {
     store_->Put(result.additions);
     for (NodeStandIn& stand_in : result.stand_ins) stand_in.revision = revision.number;
     versions.PutStandIns(result.stand_ins);
+    versions.PutNodeUsage(revision.number, result.usage);
     versions.SetSubmissionState(id, SubmissionState::kMerged, revision.number, "");
     if (options_.before_merge_commit) options_.before_merge_commit(id);
     transaction.Commit();

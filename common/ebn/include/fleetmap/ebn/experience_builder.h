@@ -71,6 +71,9 @@ struct FrameReport {
   // Ground-truth metres travelled since the last successful localisation (0 on success);
   // visual-odometry metres when the frame carries no ground truth.
   double distance_since_success_m = 0.0;
+  // The nodes this frame localised against (every successful attempt; at most Np): what the
+  // map's use is measured by (retirement.h).
+  std::vector<Uuid> localised_against;
 };
 
 struct OutingStart {

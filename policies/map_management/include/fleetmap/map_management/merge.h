@@ -91,6 +91,11 @@ struct MergeResult {
   // Where each omitted node of the submission went (revision left 0 for the caller to set):
   // with `additions`, every submitted node is accounted for (or it was a duplicate).
   std::vector<NodeStandIn> stand_ins;
+  // What the server map is used for, measured where it costs nothing (retirement.h), by node
+  // then source: the server nodes the replay localised the submission's frames against (seed
+  // 004 §V-A), and those the robot's path memory says it localised in while driving (seed 002
+  // §IV; a step counts as a frame, stamped with its path's end).
+  std::vector<NodeUsage> usage;
   MergeReport report;
 };
 
