@@ -33,6 +33,7 @@
 #include "fleetmap/map_management/merge.h"
 #include "fleetmap/repository/download_plan.h"
 #include "fleetmap/repository/repository_inspection.h"
+#include "fleetmap/repository/retirement.h"
 #include "fleetmap/store/graph_store.h"
 #include "fleetmap/store/version_store.h"
 
@@ -158,6 +159,18 @@ class Repository {
   // `force`, Error(kInvalidArgument) giving both scores for a candidate whose held-out score
   // does not beat that of the order the server merged (or whose dream did not score it).
   Revision Promote(const Uuid& candidate, const std::string& author, bool force = false);
+
+  // ---- Retirement (retirement.h) ----
+
+  // What a retirement at the head would hide now, and why the other candidates stay. Reads
+  // the head's nodes (without landmarks), metric edges and use, and the unmerged submissions.
+  // Throws Error(kInvalidArgument) for a retire_after_ns or place_radius_m that is not
+  // positive.
+  RetirementPlan PlanRetirement(const RetireOptions& options);
+  // Plans on the head and, when the plan hides anything, appends it as the next revision
+  // (kRetire, its report the plan as JSON), authored by `author`; nullopt when nothing is to
+  // go. Error(kConflict) when another writer appended a revision first (plan again).
+  std::optional<Revision> Retire(const RetireOptions& options, const std::string& author);
 
   // ---- Reading revisions ----
 
