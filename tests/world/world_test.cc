@@ -446,6 +446,43 @@ TEST(World, LightingFollowsTimeOfDay) {
   InvalidArgumentMessage([] { ParseWeather("snow"); });
 }
 
+TEST(World, CountsTheLandmarksItReplaces) {
+  WorldConfig config;
+  config.appearance.zone_volatility_spread = 1.0;  // each landmark's rate in [0.5, 1.5] x mean
+  config.appearance.replacement_rate_per_day = 0.0;
+  EXPECT_EQ(World(config).LandmarksReplacedBetween(0.0, 100.0), 0u) << "nothing changes for good";
+
+  // At most 0.015 a day, no landmark is replaced twice in 30 days: the days' counts add up to
+  // the month's, and a uniform phase makes the month's about 30 x the mean rate of them all.
+  config.appearance.replacement_rate_per_day = 0.01;
+  const World world(config);
+  const std::size_t month = world.LandmarksReplacedBetween(0.0, 30.0);
+  std::size_t days = 0;
+  for (int d = 0; d < 30; ++d) days += world.LandmarksReplacedBetween(d, d + 1.0);
+  EXPECT_EQ(days, month);
+  const double expected = 0.3 * static_cast<double>(world.landmark_count());
+  EXPECT_NEAR(static_cast<double>(month), expected, 0.1 * expected);
+  EXPECT_EQ(world.LandmarksReplacedBetween(4.5, 4.5), 0u);
+  InvalidArgumentMessage([&] { world.LandmarksReplacedBetween(2.0, 1.0); });
+
+  // Five or more a day: every landmark is replaced within any day.
+  config.appearance.replacement_rate_per_day = 10.0;
+  const World restless(config);
+  EXPECT_EQ(restless.LandmarksReplacedBetween(3.0, 4.0), restless.landmark_count());
+}
+
+// Every world file in experiments/worlds/ loads and builds a world.
+TEST(WorldConfig, EveryWorldFileLoads) {
+  int files = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(DefaultWorldFile().parent_path())) {
+    if (entry.path().extension() != ".json") continue;
+    SCOPED_TRACE(entry.path().string());
+    EXPECT_NO_THROW(World(LoadWorldConfig(entry.path())));
+    ++files;
+  }
+  EXPECT_GE(files, 3);
+}
+
 TEST(World, RejectsBadOutings) {
   const World world{WorldConfig{}};
   Outing o = LapOuting(1, 0, 12.0, Weather::kSun);

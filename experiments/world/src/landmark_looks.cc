@@ -19,6 +19,11 @@ std::array<double, 3> AfterDawn(double dawn, double day, double dusk, double nig
   return {day - dawn, dusk - dawn, night - dawn};
 }
 
+std::int64_t ReplacementCount(const LandmarkModel& m, double days) {
+  return static_cast<std::int64_t>(
+      std::floor(days * m.replacement_rate_per_day + m.replacement_phase));
+}
+
 double Of(const PerLighting& v, Lighting l) {
   switch (l) {
     case Lighting::kNight:

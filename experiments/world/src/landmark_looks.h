@@ -44,6 +44,10 @@ Lighting LightingOf(double dawn_start_h, const std::array<double, 3>& after_dawn
 
 std::array<double, 3> AfterDawn(double dawn, double day, double dusk, double night);
 
+// How often landmark `m` has been replaced (all its looks changed for good) by `days` since the
+// world epoch, fractional: computed, not stored (world.h: "Slow change").
+std::int64_t ReplacementCount(const LandmarkModel& m, double days);
+
 double Of(const PerLighting& v, Lighting l);
 double Of(const PerWeather& v, Weather w);
 

@@ -65,6 +65,20 @@ std::size_t World::landmark_count() const {
   return impl_->landmarks.size();
 }
 
+std::size_t World::LandmarksReplacedBetween(double from_day, double to_day) const {
+  if (!(from_day <= to_day)) {
+    throw Error(ErrorCode::kInvalidArgument, "LandmarksReplacedBetween: from_day > to_day");
+  }
+  // The count only grows with time, so a landmark replaced within the interval is one whose
+  // count differs at its ends.
+  return static_cast<std::size_t>(
+      std::count_if(impl_->landmarks.begin(), impl_->landmarks.end(),
+                    [&](const world_internal::LandmarkModel& m) {
+                      return world_internal::ReplacementCount(m, to_day) !=
+                             world_internal::ReplacementCount(m, from_day);
+                    }));
+}
+
 Se3 World::PoseAt(double arc_length_m) const {
   return CameraPose(impl_->route.At(arc_length_m), impl_->config.route.camera_height_m);
 }

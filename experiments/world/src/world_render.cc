@@ -85,8 +85,7 @@ void World::Impl::Render(const Se3& world_T_camera, double arc_length_m,
       Rng rng(Hash(frame_stream, Stream::kRender, i));
       if (rng.Uniform() >= Of(ob.detection, lighting) * weather_detection) continue;
 
-      const auto replacements = static_cast<std::int64_t>(
-          std::floor(condition.days * m.replacement_rate_per_day + m.replacement_phase));
+      const std::int64_t replacements = ReplacementCount(m, condition.days);
       int sun_phase = 0;
       if (ap.sun_shadow_phase_h > 0.0 && lighting == Lighting::kDay &&
           condition.weather == Weather::kSun) {

@@ -88,6 +88,13 @@ class World {
   double route_length_m() const;
   std::size_t landmark_count() const;
 
+  // Landmarks replaced (all their looks changed for good: "Slow change" above) at least once
+  // in [from_day, to_day), days since the world epoch, fractional: the world's own change, which
+  // a map that keeps up with it has to follow. Day d of a schedule is [d, d + 1). Counted from
+  // each landmark's replacement model, O(landmarks). Throws Error(kInvalidArgument) unless
+  // from_day <= to_day.
+  std::size_t LandmarksReplacedBetween(double from_day, double to_day) const;
+
   // world_T_camera of the camera at arc length s (metres, any value; wrapped onto the loop).
   Se3 PoseAt(double arc_length_m) const;
 
