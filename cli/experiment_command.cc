@@ -225,6 +225,8 @@ struct LifelongArgs {
   int per_day = LifelongOptions{}.forays_per_day;
   std::string policies = "tod+cover,tod+paths+cover";
   std::string build_policy = "path";
+  double retire_after_days = 0.0;
+  double place_radius_m = RetireOptions{}.place_radius_m;
   int threads = 2;
   int seed = -1;
   std::string seeds;
@@ -249,14 +251,20 @@ void RunLifelong(const LifelongArgs& args) {
   options.forays_per_day = args.per_day;
   options.policies = SplitList(args.policies);
   options.build_policy = args.build_policy;
+  options.retire_after_days = args.retire_after_days;
+  options.retire.place_radius_m = args.place_radius_m;
   options.threads = args.threads;
   FleetArgs seed_args;
   seed_args.seeds = args.seeds;
   seed_args.seed = args.seed;
   const std::vector<std::uint64_t> seeds = FleetSeeds(seed_args, options.world.seed);
   std::cerr << "lifelong experiment: " << seeds.size() << " world seed(s), " << options.days
-            << " days of " << options.forays_per_day << " forays, " << options.threads
-            << " threads; results in " << args.out_dir << "\n";
+            << " days of " << options.forays_per_day << " forays, ";
+  if (options.retire_after_days > 0) {
+    std::cerr << "without and with retirement after " << options.retire_after_days
+              << " days unused, ";
+  }
+  std::cerr << options.threads << " threads; results in " << args.out_dir << "\n";
   std::vector<LifelongSeedRun> runs;
   for (std::size_t i = 0; i < seeds.size(); ++i) {
     LifelongOptions seed_options = options;
@@ -273,6 +281,15 @@ void RunLifelong(const LifelongArgs& args) {
     bar.Finish();
   }
   std::cout << WriteLifelongReport(runs, options, args.out_dir, std::cerr);
+
+  // The report shows the FAIL lines; the run itself succeeded, so the exit status stays 0.
+  const LifelongAcceptance acceptance = JudgeLifelongSeeds(runs);
+  if (!acceptance.all()) {
+    std::cerr << "note: acceptance lines failed:\n";
+    for (const LifelongLine& line : acceptance.lines) {
+      if (!line.pass) std::cerr << "  " << line.name << "\n";
+    }
+  }
 }
 
 // `fleetmap experiment ranking`.
@@ -380,8 +397,9 @@ void AddLifelongCommand(CLI::App* experiment) {
       "lifelong",
       "A map that stops growing: forays merged day after day; per day the nodes "
       "MERGE added, the map's size, and the next day's forays localised (held out, before they "
-      "drive) with copy and with their downloads. Writes lifelong.csv, lifelong.png and "
-      "summary.md to --out and prints the summary.");
+      "drive) with copy and with their downloads; with --retire-after, each seed runs twice, "
+      "without and with retirement. Writes lifelong.csv, lifelong.png and summary.md to --out "
+      "and prints the summary.");
   lifelong->add_option("--world", lifelong_args->world_file,
                        "World file (JSON; see experiments/worlds/default.json)");
   lifelong
@@ -403,6 +421,21 @@ void AddLifelongCommand(CLI::App* experiment) {
                    "localise) or distance (Γ(distance), the paper's baseline)")
       ->capture_default_str()
       ->check(CLI::IsMember({"path", "distance"}));
+  lifelong
+      ->add_option("--retire-after", lifelong_args->retire_after_days,
+                   "Also run every seed with retirement, as a second arm on the same world and "
+                   "forays (each seed then runs twice: without, then with): after each day's "
+                   "merges, hide the experiences no replay has localised against for this many "
+                   "days (by the map's clock) where another experience holds the place; the "
+                   "summary judges the arms against each other. 0: without retirement only")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 36500.0));
+  lifelong
+      ->add_option("--place-radius", lifelong_args->place_radius_m,
+                   "With --retire-after: metres within which another experience that stays "
+                   "holds a retired one's place")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
   lifelong->add_option("--out", lifelong_args->out_dir, "Directory for CSVs, plots and summary.md")
       ->capture_default_str();
   lifelong->add_option("--threads", lifelong_args->threads, "Worker threads")

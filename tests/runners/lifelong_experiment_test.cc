@@ -1,15 +1,19 @@
-// The lifelong experiment: its bookkeeping on a small world (every day merged,
-// the next day's forays held out in copy and each download, the map's size the sum of what
-// MERGE added), and its judgement on hand-made days, each line shown to fail.
+// The lifelong experiment on a small world: its bookkeeping (every day merged, the next day's
+// forays held out in copy and each download, the map's size what MERGE added less what
+// retirement hid, the world's replacements counted beside it) in both arms, without and with
+// retirement, and the files its report writes. The judgement is tested on hand-made days in
+// lifelong_verdict_test.cc.
 #include "fleetmap/runners/lifelong_experiment.h"
 
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <fstream>
 #include <sstream>
 
 #include "fleetmap/core/error.h"
 #include "fleetmap/runners/lifelong_report.h"
+#include "fleetmap/world/world.h"
 #include "scratch_dir.h"
 
 namespace fleetmap {
@@ -27,24 +31,17 @@ LifelongOptions SmallLifelongOptions(const std::filesystem::path& dir) {
   return options;
 }
 
-TEST(LifelongExperimentTest, EveryDayIsMergedAndTheNextDayHeldOutInCopyAndEachDownload) {
-  const ScratchDir dir("fleetmap-lifelong-test");
-  const LifelongOptions options = SmallLifelongOptions(dir / "work");
-  std::int64_t last_done = 0, total = 0;
-  const LifelongResult result =
-      RunLifelongExperiment(options, [&](std::int64_t done, std::int64_t all) {
-        EXPECT_GE(done, last_done);
-        last_done = done;
-        total = all;
-      });
-  EXPECT_EQ(last_done, total) << "progress reaches its total";
-  ASSERT_EQ(result.days.size(), 4u);
+// The bookkeeping every day of an arm keeps.
+void ExpectDaysAddUp(const std::vector<LifelongDay>& days, const LifelongOptions& options) {
   std::size_t map_nodes = 0;
-  for (const LifelongDay& day : result.days) {
+  for (const LifelongDay& day : days) {
+    SCOPED_TRACE("day " + std::to_string(day.day));
     EXPECT_EQ(day.forays, 2);
     EXPECT_LE(day.nodes_added, day.nodes_built) << "MERGE adds only what was pushed";
     map_nodes += day.nodes_added;
-    EXPECT_EQ(day.map_nodes, map_nodes) << "the head is the sum of what every merge added";
+    ASSERT_LE(day.nodes_retired, map_nodes);
+    map_nodes -= day.nodes_retired;
+    EXPECT_EQ(day.map_nodes, map_nodes) << "the head is what merges added less what retired";
     ASSERT_EQ(day.next_day.size(), 1 + options.policies.size());
     EXPECT_EQ(day.next_day[0].map, "copy");
     EXPECT_DOUBLE_EQ(day.next_day[0].mean_nodes, static_cast<double>(day.map_nodes));
@@ -57,13 +54,71 @@ TEST(LifelongExperimentTest, EveryDayIsMergedAndTheNextDayHeldOutInCopyAndEachDo
     EXPECT_GT(day.next_day[0].frames, 0);
     EXPECT_LE(day.next_day[0].beyond_10m, day.next_day[0].frames);
   }
-  EXPECT_GT(result.days.front().nodes_added, 0u) << "the first day maps the route";
+  EXPECT_GT(days.front().nodes_added, 0u) << "the first day maps the route";
+}
+
+TEST(LifelongExperimentTest, BothArmsMergeEveryDayAndHoldOutTheNextAndRetirementHides) {
+  const ScratchDir dir("fleetmap-lifelong-test");
+  LifelongOptions options = SmallLifelongOptions(dir / "work");
+  // Six days of forays at random hours: by the third, experiences of other hours than the
+  // last six go unused where the place holds newer ones.
+  options.days = 6;
+  options.retire_after_days = 0.25;
+  std::int64_t last_done = 0, total = 0;
+  const LifelongResult result =
+      RunLifelongExperiment(options, [&](std::int64_t done, std::int64_t all) {
+        EXPECT_GE(done, last_done);
+        last_done = done;
+        total = all;
+      });
+  EXPECT_EQ(last_done, total) << "progress reaches its total, both arms in it";
+  const auto days = static_cast<std::size_t>(options.days);
+  ASSERT_EQ(result.days.size(), days);
+  ASSERT_EQ(result.retiring_days.size(), days);
+  {
+    SCOPED_TRACE("without retirement");
+    ExpectDaysAddUp(result.days, options);
+  }
+  {
+    SCOPED_TRACE("with retirement");
+    ExpectDaysAddUp(result.retiring_days, options);
+  }
+
+  const World world(options.world);
+  std::size_t retired = 0;
+  for (std::size_t d = 0; d < days; ++d) {
+    const LifelongDay& without = result.days[d];
+    const LifelongDay& with = result.retiring_days[d];
+    EXPECT_EQ(without.nodes_retired, 0u);
+    EXPECT_EQ(without.world_replaced, world.LandmarksReplacedBetween(d, d + 1.0));
+    EXPECT_EQ(with.world_replaced, without.world_replaced) << "one world under both arms";
+    EXPECT_EQ(with.next_day[0].frames, without.next_day[0].frames) << "the same forays";
+    retired += with.nodes_retired;
+  }
+  EXPECT_EQ(result.retiring_days[0].nodes_built, result.days[0].nodes_built)
+      << "the first day drives onto an empty map in both arms";
+  EXPECT_GT(retired, 0u) << "experiences unused for six hours retire where others hold the place";
+  EXPECT_LE(result.retiring_days.back().map_nodes, result.days.back().map_nodes);
 
   std::ostringstream log;
   const LifelongSeedRun runs[] = {{1, result}};
   const std::string summary = WriteLifelongReport(runs, options, dir / "out", log);
-  EXPECT_TRUE(std::filesystem::exists(dir / "out" / "seed-1" / "lifelong.csv"));
-  EXPECT_NE(summary.find("nodes MERGE added, days 4-4 / days 1-1"), std::string::npos) << summary;
+  std::ifstream csv(dir / "out" / "seed-1" / "lifelong.csv");
+  std::string header;
+  ASSERT_TRUE(std::getline(csv, header));
+  EXPECT_EQ(header.rfind("day,forays,world_replaced,without_nodes_built,", 0), 0u) << header;
+  for (const char* column : {"without_map_mb", "with_nodes_retired", "with_map_nodes",
+                             "with_copy_p10", "with_tod+cover_not_localised_p"}) {
+    EXPECT_NE(header.find(column), std::string::npos) << column;
+  }
+  EXPECT_NE(summary.find("| with retirement: map nodes, day " + std::to_string(days) + " / day " +
+                         std::to_string(days / 2) + " |"),
+            std::string::npos)
+      << summary;
+  EXPECT_NE(summary.find("| tod+cover not localised, days " + std::to_string(days - days / 3 + 1) +
+                         "-" + std::to_string(days) + ", with retirement / without |"),
+            std::string::npos)
+      << summary;
 }
 
 TEST(LifelongExperimentTest, RejectsBadOptions) {
@@ -79,66 +134,13 @@ TEST(LifelongExperimentTest, RejectsBadOptions) {
   options = SmallLifelongOptions(dir / "work");
   options.build_policy = "random";
   EXPECT_THROW(RunLifelongExperiment(options), Error);
-}
-
-// `days` days adding `added(day)` nodes each, copy's next day `beyond(day)` of 1000 frames.
-template <typename Added, typename Beyond>
-LifelongResult Days(int days, Added added, Beyond beyond) {
-  LifelongResult result;
-  for (int d = 1; d <= days; ++d) {
-    LifelongDay day;
-    day.day = d;
-    day.nodes_added = added(d);
-    day.next_day.push_back({"copy", 0.0, 1000, 0, beyond(d)});
-    result.days.push_back(day);
-  }
-  return result;
-}
-
-TEST(LifelongJudgeTest, AMapThatStopsGrowingPasses) {
-  // 100 a day for ten days, then 20: 200 / 1000.
-  const LifelongResult result = Days(
-      30, [](int d) { return d <= 10 ? 100u : 20u; }, [](int) { return 5; });
-  const LifelongVerdict v = JudgeLifelong(result);
-  EXPECT_EQ(v.early_first, 1);
-  EXPECT_EQ(v.early_last, 10);
-  EXPECT_EQ(v.late_first, 21);
-  EXPECT_EQ(v.late_last, 30);
-  EXPECT_EQ(v.early_added, 1000u);
-  EXPECT_EQ(v.late_added, 200u);
-  EXPECT_DOUBLE_EQ(v.growth, 0.2);
-  EXPECT_DOUBLE_EQ(v.copy_p10_ratio, 1.0);
-  EXPECT_TRUE(v.all());
-}
-
-TEST(LifelongJudgeTest, AMapStillGrowingAtATenthOfItsStartFailsAtForty) {
-  const LifelongResult result = Days(
-      30, [](int d) { return d <= 10 ? 100u : 40u; }, [](int) { return 5; });
-  const LifelongVerdict v = JudgeLifelong(result);
-  EXPECT_DOUBLE_EQ(v.growth, 0.4);
-  EXPECT_FALSE(v.growth_pass);
-  EXPECT_FALSE(v.all());
-}
-
-TEST(LifelongJudgeTest, LocalisingWorseLateThanEarlyFails) {
-  const LifelongResult result = Days(
-      30, [](int d) { return d <= 10 ? 100u : 10u; }, [](int d) { return d > 20 ? 9 : 5; });
-  const LifelongVerdict v = JudgeLifelong(result);
-  EXPECT_TRUE(v.growth_pass);
-  EXPECT_DOUBLE_EQ(v.copy_p10_ratio, (90.0 + 1) / (10002.0) / ((50.0 + 1) / 10002.0));
-  EXPECT_FALSE(v.p10_pass);
-}
-
-TEST(LifelongJudgeTest, AShortRunComparesItsThirdsAndTooShortARunIsRefused) {
-  const LifelongResult nine = Days(
-      9, [](int d) { return d <= 3 ? 100u : 10u; }, [](int) { return 0; });
-  const LifelongVerdict v = JudgeLifelong(nine);
-  EXPECT_EQ(v.early_last, 3);
-  EXPECT_EQ(v.late_first, 7);
-  EXPECT_DOUBLE_EQ(v.growth, 0.1);
-  EXPECT_THROW(JudgeLifelong(Days(
-                   2, [](int) { return 1u; }, [](int) { return 0; })),
-               Error);
+  options = SmallLifelongOptions(dir / "work");
+  options.retire_after_days = -1.0;
+  EXPECT_THROW(RunLifelongExperiment(options), Error);
+  options = SmallLifelongOptions(dir / "work");
+  options.retire_after_days = 1.0;
+  options.retire.place_radius_m = 0.0;
+  EXPECT_THROW(RunLifelongExperiment(options), Error);
 }
 
 }  // namespace

@@ -2,8 +2,10 @@
 
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <memory>
 #include <mutex>
+#include <optional>
 
 #include "fleetmap/core/clock.h"
 #include "fleetmap/core/error.h"
@@ -32,6 +34,13 @@ void Validate(const LifelongOptions& o) {
     fail("build_policy must be path or distance, not " + o.build_policy);
   }
   if (o.test_window < 0) fail("test_window must be >= 0");
+  if (!(o.retire_after_days >= 0.0 && o.retire_after_days <= 36500.0)) {
+    fail("retire_after_days must be in [0, 36500]");
+  }
+  // The repository checks the rest when it retires, after the arm without has run.
+  if (!(o.retire.place_radius_m > 0.0) || !std::isfinite(o.retire.place_radius_m)) {
+    fail("retire.place_radius_m must be > 0");
+  }
   if (o.threads < 1) fail("threads must be >= 1");
   if (o.work_dir.empty()) fail("work_dir must be set");
   for (const std::string& name : o.policies) {
@@ -48,16 +57,42 @@ class LifelongRun {
   LifelongResult Run() {
     const auto start = std::chrono::steady_clock::now();
     Prepare();
-    for (int day = 0; day < options_.days; ++day) {
-      LifelongDay row = DriveAndMerge(day);
-      row.next_day = HoldOut(day + 1);
-      result_.days.push_back(std::move(row));
+    // Without first, then with: the same forays, each arm in a repository of its own.
+    result_.days = RunArm(options_.work_dir / "server.db", std::nullopt);
+    if (options_.retire_after_days > 0) {
+      RetireOptions retire = options_.retire;
+      retire.retire_after_ns = static_cast<std::int64_t>(
+          std::llround(options_.retire_after_days * static_cast<double>(kNanosecondsPerDay)));
+      retire.now_ns = std::nullopt;
+      result_.retiring_days = RunArm(options_.work_dir / "server-retiring.db", retire);
     }
     result_.seconds = SecondsSince(start);
     return std::move(result_);
   }
 
  private:
+  std::vector<LifelongDay> RunArm(const std::filesystem::path& database,
+                                  const std::optional<RetireOptions>& retirement) {
+    OpenRepository(database);
+    std::vector<LifelongDay> days;
+    for (int day = 0; day < options_.days; ++day) {
+      LifelongDay row = DriveAndMerge(day);
+      if (retirement) {
+        // Between the day's merges and the next day's pull, as a depot would run it overnight.
+        const std::optional<Revision> retired = repository_->Retire(*retirement, "lifelong");
+        if (retired) row.nodes_retired = static_cast<std::size_t>(retired->nodes_hidden);
+      }
+      const StoreStats stats = repository_->inspect().StatsAt(repository_->Head());
+      row.map_nodes = static_cast<std::size_t>(stats.nodes);
+      row.map_bytes = stats.landmark_bytes;
+      row.world_replaced = world_.LandmarksReplacedBetween(day, day + 1.0);
+      row.next_day = HoldOut(day + 1);
+      days.push_back(std::move(row));
+    }
+    repository_.reset();
+    return days;
+  }
+
   void Prepare() {
     outings_ = ScheduleDailyOutings(options_.world, options_.days + 1, options_.forays_per_day);
     vocabulary_ = TrainWorldVocabulary(world_);
@@ -74,14 +109,17 @@ class LifelongRun {
         total += frames * static_cast<std::int64_t>(1 + options_.policies.size());
       }
     }
-    progress_.Plan(total);
+    const int arms = options_.retire_after_days > 0 ? 2 : 1;
+    progress_.Plan(total * arms);
+  }
+
+  void OpenRepository(const std::filesystem::path& database) {
     RepositoryOptions repository;
     repository.merge = options_.merge;
     repository.merge.localiser = Builder(true, options_.build_cores);
     repository.vocabulary = vocabulary_;
     repository_ = std::make_unique<Repository>(
-        GraphStore::Open("sqlite:" + (options_.work_dir / "server.db").string(),
-                         {.durability = Durability::kBuffered}),
+        GraphStore::Open("sqlite:" + database.string(), {.durability = Durability::kBuffered}),
         repository);
   }
 
@@ -144,9 +182,6 @@ class LifelongRun {
       const MergeOutcome outcome = repository_->Merge(submission);
       row.nodes_added += outcome.report.nodes_added;
     }
-    const StoreStats stats = repository_->inspect().StatsAt(repository_->Head());
-    row.map_nodes = static_cast<std::size_t>(stats.nodes);
-    row.map_bytes = stats.landmark_bytes;
     return row;
   }
 

@@ -13,7 +13,14 @@
 //
 // Churchill and Newman found that the experiences a route needs tend to a constant as it is
 // driven again and again: per day this reports the nodes MERGE added and the size of the map,
-// so the growth curve shows whether ours do.
+// so the growth curve shows whether ours do, beside the landmarks the world itself replaced that
+// day (a map that follows a changing world has to add experiences at its pace).
+//
+// Nothing takes an experience away from a map that only merges, so on a world that keeps
+// changing it grows with the days. With retire_after_days set, each seed also runs a second arm
+// on the same world and the same forays, in a repository of its own: after each day's merges
+// it retires (retirement.h) the experiences no replay has localised against for that long, by
+// the map's own clock, before the next day is held out.
 #pragma once
 
 #include <cstdint>
@@ -24,6 +31,7 @@
 #include "fleetmap/ebn/experience_builder.h"
 #include "fleetmap/map_management/merge.h"
 #include "fleetmap/map_management/stretch_coverage.h"
+#include "fleetmap/repository/retirement.h"
 #include "fleetmap/runners/ranking_experiment.h"
 #include "fleetmap/world/world_config.h"
 
@@ -50,8 +58,15 @@ struct LifelongOptions {
   double paths_percent = 50.0;
   double epoch_min = 60.0;
   CoverageOptions coverage = {};
+  // Retirement: > 0 also runs the arm with retirement, retiring the experiences no replay has
+  // localised against for this many days; 0: only the arm without.
+  double retire_after_days = 0.0;  // [0, 36500]
+  // The rest of the retirement's options (retirement.h). Its retire_after_ns is set from
+  // retire_after_days and its now_ns left unset: the map's own clock, the newest stamp it has
+  // seen, so each arm's time moves with its own forays.
+  RetireOptions retire = {};
   int threads = 2;                 // >= 1
-  std::filesystem::path work_dir;  // the repository goes here (created; removed by the caller)
+  std::filesystem::path work_dir;  // the repositories go here (created; removed by the caller)
 };
 
 // The next day's forays localised in one map, before they drive.
@@ -66,17 +81,22 @@ struct LifelongHeldOut {
 struct LifelongDay {
   int day = 0;  // 1-based: the first day merged is day 1
   int forays = 0;
+  // Landmarks the world replaced (all their looks changed for good) during the day, world day
+  // day - 1 (World::LandmarksReplacedBetween): the same in both arms.
+  std::size_t world_replaced = 0;
   std::size_t nodes_built = 0;            // new nodes the day's forays pushed
   std::size_t nodes_added = 0;            // of those, MERGE added
-  std::size_t map_nodes = 0;              // at the head after the day
+  std::size_t nodes_retired = 0;          // hidden by the day's retirement; 0 without
+  std::size_t map_nodes = 0;              // at the head after the day (and its retirement)
   std::int64_t map_bytes = 0;             // landmark bytes at the head
   std::vector<LifelongHeldOut> next_day;  // copy first, then the policies in order
 };
 
 struct LifelongResult {
-  std::vector<LifelongDay> days;
+  std::vector<LifelongDay> days;           // without retirement: the map keeps what it merged
+  std::vector<LifelongDay> retiring_days;  // with retirement; empty when it was not run
   std::int64_t frames_rendered = 0;
-  double seconds = 0.0;
+  double seconds = 0.0;  // both arms
 };
 
 // Throws Error(kInvalidArgument) for options out of range (and as the world and the
