@@ -36,6 +36,8 @@ void AddDownloadCommand(CLI::App& app);
 void AddDreamCommand(CLI::App& app);
 // `fleetmap dream-now`, `candidates` and `promote` (dream_candidate_commands.cc).
 void AddDreamCandidateCommands(CLI::App& app);
+// `fleetmap retire`: hide experiences unused for a while, as a revision (retire_command.cc).
+void AddRetireCommand(CLI::App& app);
 // `fleetmap export`: a revision as PLY, g2o, GraphML or a TUM trajectory (export_command.cc).
 void AddExportCommand(CLI::App& app);
 // `fleetmap render`: the map at a revision drawn from above as PNG or SVG (render_command.cc).

@@ -19,6 +19,7 @@ int main(int argc, char** argv) {
   fleetmap::cli::AddDownloadCommand(app);
   fleetmap::cli::AddDreamCommand(app);
   fleetmap::cli::AddDreamCandidateCommands(app);
+  fleetmap::cli::AddRetireCommand(app);
   fleetmap::cli::AddExportCommand(app);
   fleetmap::cli::AddRenderCommand(app);
   fleetmap::cli::AddRobotCommands(app);

@@ -6,9 +6,7 @@
 //                                 each other sensor, streamed (JSON Lines with --json)
 // Times are UTC nanoseconds or ISO 8601 (2014-06-02T09:30:15.25Z).
 #include <CLI/CLI.hpp>
-#include <cctype>
 #include <cstdio>
-#include <ctime>
 #include <iostream>
 #include <map>
 #include <memory>
@@ -39,43 +37,6 @@ struct QueryArgs {
   std::string mode = "closest";
   std::optional<double> tolerance_ms;
 };
-
-// Integer nanoseconds, or YYYY-MM-DDTHH:MM:SS[.fraction]Z.
-std::int64_t ParseTime(const std::string& text, const std::string& option) {
-  auto bad = [&] {
-    return Error(ErrorCode::kInvalidArgument,
-                 option + " '" + text +
-                     "' is neither UTC nanoseconds nor ISO 8601 like 2014-06-02T09:30:15.25Z");
-  };
-  if (text.empty()) throw bad();
-  std::size_t i = text[0] == '-' ? 1 : 0;
-  if (i < text.size() && text.find_first_not_of("0123456789", i) == std::string::npos) {
-    try {
-      return std::stoll(text);
-    } catch (const std::exception&) {
-      throw bad();
-    }
-  }
-  std::tm tm{};
-  int consumed = 0;
-  if (std::sscanf(text.c_str(), "%4d-%2d-%2dT%2d:%2d:%2d%n", &tm.tm_year, &tm.tm_mon, &tm.tm_mday,
-                  &tm.tm_hour, &tm.tm_min, &tm.tm_sec, &consumed) != 6) {
-    throw bad();
-  }
-  tm.tm_year -= 1900;
-  tm.tm_mon -= 1;
-  std::int64_t fraction_ns = 0;
-  std::size_t pos = static_cast<std::size_t>(consumed);
-  if (pos < text.size() && text[pos] == '.') {
-    std::int64_t scale = 100'000'000;
-    for (++pos; pos < text.size() && std::isdigit(static_cast<unsigned char>(text[pos])); ++pos) {
-      fraction_ns += (text[pos] - '0') * scale;
-      scale /= 10;
-    }
-  }
-  if (pos + 1 != text.size() || text[pos] != 'Z') throw bad();
-  return static_cast<std::int64_t>(timegm(&tm)) * 1'000'000'000 + fraction_ns;
-}
 
 NearestQuery ParseQuery(const QueryArgs& args) {
   NearestQuery q;
@@ -183,7 +144,7 @@ void RunNearest(const QueryArgs& args) {
   auto store = GraphStore::Open(args.store);
   SensorIndex& index = store->sensors();
   Names names(index);
-  const std::int64_t t = ParseTime(args.at, "--at");
+  const std::int64_t t = ParseUtcTime(args.at, "--at");
   const std::optional<Datum> d = index.Nearest(
       PlatformNamed(index, args.platform), SensorNamed(index, args.sensor), t, ParseQuery(args));
   if (!d) {
@@ -199,7 +160,7 @@ void RunJoin(const QueryArgs& args) {
   auto store = GraphStore::Open(args.store);
   SensorIndex& index = store->sensors();
   Names names(index);
-  const std::int64_t t = ParseTime(args.at, "--at");
+  const std::int64_t t = ParseUtcTime(args.at, "--at");
   PrintData(index.TemporalJoin(PlatformNamed(index, args.platform), t, ParseQuery(args)), args.json,
             names);
 }
@@ -208,8 +169,8 @@ void RunBatchJoin(const QueryArgs& args) {
   auto store = GraphStore::Open(args.store);
   SensorIndex& index = store->sensors();
   Names names(index);
-  const std::int64_t t0 = ParseTime(args.from, "--from");
-  const std::int64_t t1 = ParseTime(args.to, "--to");
+  const std::int64_t t0 = ParseUtcTime(args.from, "--from");
+  const std::int64_t t1 = ParseUtcTime(args.to, "--to");
   const PlatformId platform = PlatformNamed(index, args.platform);
   const SensorId base = SensorNamed(index, args.sensor);
   std::vector<SensorId> others;

@@ -1,5 +1,7 @@
 #include "repository_arguments.h"
 
+#include <cctype>
+#include <cstdio>
 #include <cstdlib>
 #include <ctime>
 #include <filesystem>
@@ -93,6 +95,42 @@ std::string FormatUtc(std::int64_t ns) {
   char text[32];
   std::strftime(text, sizeof text, "%Y-%m-%dT%H:%M:%SZ", &utc);
   return text;
+}
+
+std::int64_t ParseUtcTime(const std::string& text, std::string_view option) {
+  auto bad = [&] {
+    return Error(ErrorCode::kInvalidArgument,
+                 std::string(option) + " '" + text +
+                     "' is neither UTC nanoseconds nor ISO 8601 like 2014-06-02T09:30:15.25Z");
+  };
+  if (text.empty()) throw bad();
+  std::size_t i = text[0] == '-' ? 1 : 0;
+  if (i < text.size() && text.find_first_not_of("0123456789", i) == std::string::npos) {
+    try {
+      return std::stoll(text);
+    } catch (const std::exception&) {
+      throw bad();
+    }
+  }
+  std::tm tm{};
+  int consumed = 0;
+  if (std::sscanf(text.c_str(), "%4d-%2d-%2dT%2d:%2d:%2d%n", &tm.tm_year, &tm.tm_mon, &tm.tm_mday,
+                  &tm.tm_hour, &tm.tm_min, &tm.tm_sec, &consumed) != 6) {
+    throw bad();
+  }
+  tm.tm_year -= 1900;
+  tm.tm_mon -= 1;
+  std::int64_t fraction_ns = 0;
+  std::size_t pos = static_cast<std::size_t>(consumed);
+  if (pos < text.size() && text[pos] == '.') {
+    std::int64_t scale = 100'000'000;
+    for (++pos; pos < text.size() && std::isdigit(static_cast<unsigned char>(text[pos])); ++pos) {
+      fraction_ns += (text[pos] - '0') * scale;
+      scale /= 10;
+    }
+  }
+  if (pos + 1 != text.size() || text[pos] != 'Z') throw bad();
+  return static_cast<std::int64_t>(timegm(&tm)) * 1'000'000'000 + fraction_ns;
 }
 
 Error InContext(const Error& error, const std::string& context) {

@@ -52,6 +52,10 @@ void RequireRevision(Repository& repository, RevisionNumber r);
 // UTC nanoseconds as ISO 8601 to the second: 2024-05-01T08:30:00Z.
 std::string FormatUtc(std::int64_t ns);
 
+// A time given as integer UTC nanoseconds or as ISO 8601 UTC, YYYY-MM-DDTHH:MM:SS[.fraction]Z;
+// else Error(kInvalidArgument) naming `option` and the text.
+std::int64_t ParseUtcTime(const std::string& text, std::string_view option);
+
 // `error` with `context` in front of its message ("context: message"), same code. (Error's
 // what() starts with the code's name; that is not repeated inside.)
 Error InContext(const Error& error, const std::string& context);

@@ -3,6 +3,7 @@
 // what a revision added and never deletes it).
 #include <cstdio>
 #include <iostream>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
@@ -40,12 +41,43 @@ struct LogArgs {
   bool json = false;
 };
 
-std::string Source(const Revision& r) {
+// The kind of each revision by number, to tell a revert of a retirement (a restore) from one
+// of a merge.
+std::map<RevisionNumber, RevisionKind> KindsOf(const std::vector<Revision>& history) {
+  std::map<RevisionNumber, RevisionKind> kinds;
+  for (const Revision& r : history) kinds[r.number] = r.kind;
+  return kinds;
+}
+
+bool RestoresRetirement(const Revision& r, const std::map<RevisionNumber, RevisionKind>& kinds) {
+  if (r.kind != RevisionKind::kRevert) return false;
+  const auto reverted = kinds.find(r.reverted);
+  return reverted != kinds.end() && reverted->second == RevisionKind::kRetire;
+}
+
+// "retirement of 12 nodes unused since 2024-05-01T08:30:00Z": the count the store recorded, the
+// cutoff from the plan the revision keeps as its report (left out when that does not read).
+std::string RetirementSource(const Revision& r) {
+  std::string text = "retirement of " + Count(r.nodes_hidden, "node");
+  const nlohmann::json plan = nlohmann::json::parse(r.report, nullptr, /*allow_exceptions=*/false);
+  if (plan.is_object() && plan.contains("cutoff_ns") && plan["cutoff_ns"].is_number_integer()) {
+    text += " unused since " + FormatUtc(plan["cutoff_ns"].get<std::int64_t>());
+  }
+  return text;
+}
+
+std::string Source(const Revision& r, const std::map<RevisionNumber, RevisionKind>& kinds) {
   switch (r.kind) {
     case RevisionKind::kMerge:
       return "submission " + r.submission.ToString();
     case RevisionKind::kRevert:
+      if (RestoresRetirement(r, kinds)) {
+        return "revision " + std::to_string(r.reverted) + ": restored " +
+               Count(r.nodes_added, "node");
+      }
       return "revision " + std::to_string(r.reverted);
+    case RevisionKind::kRetire:
+      return RetirementSource(r);
     case RevisionKind::kPromote:
       break;
   }
@@ -59,6 +91,7 @@ std::string Source(const Revision& r) {
 void RunLog(const LogArgs& args) {
   const std::unique_ptr<Repository> repository = OpenRepository(args.store);
   const std::vector<Revision> history = repository->History();
+  const std::map<RevisionNumber, RevisionKind> kinds = KindsOf(history);
   if (args.json) {
     nlohmann::ordered_json list = nlohmann::ordered_json::array();
     for (const Revision& r : history) {
@@ -70,12 +103,14 @@ void RunLog(const LogArgs& args) {
       entry["kind"] = RevisionKindName(r.kind);
       if (r.kind == RevisionKind::kMerge) entry["submission"] = r.submission.ToString();
       if (r.kind == RevisionKind::kRevert) entry["reverted"] = r.reverted;
-      if (r.kind == RevisionKind::kPromote) entry["source"] = Source(r);
+      if (RestoresRetirement(r, kinds)) entry["restores"] = "retire";
+      if (r.kind != RevisionKind::kMerge) entry["source"] = Source(r, kinds);
       entry["added"] = {
           {"nodes", r.nodes_added}, {"edges", r.edges_added}, {"paths", r.paths_added}};
       entry["hidden"] = {
           {"nodes", r.nodes_hidden}, {"edges", r.edges_hidden}, {"paths", r.paths_hidden}};
-      // A merge keeps MERGE's report as JSON; anything else stays text.
+      // A merge keeps MERGE's report as JSON, a retirement its plan (retirement.h); anything
+      // else stays text.
       const nlohmann::ordered_json report =
           nlohmann::ordered_json::parse(r.report, nullptr, /*allow_exceptions=*/false);
       entry["report"] = report.is_discarded() ? nlohmann::ordered_json(r.report) : report;
@@ -91,22 +126,25 @@ void RunLog(const LogArgs& args) {
   }
   // Authors are outside text: escaped to one line each, so none can forge a row or drive the
   // terminal.
-  int author_width = 6;
+  // The OF column is as wide as its longest entry (a retirement's reads longer than a UUID).
+  int author_width = 6, of_width = 47;
   for (const Revision& r : history) {
     author_width = std::max(author_width, static_cast<int>(PrintableText(r.author).size()));
+    of_width = std::max(of_width, static_cast<int>(Source(r, kinds).size()));
   }
-  std::printf("%-4s  %-20s  %-*s  %-6s  %-47s  %-23s  %s\n", "REV", "TIME (UTC)", author_width,
-              "AUTHOR", "KIND", "OF", "ADDED nodes/edges/paths", "HIDDEN nodes/edges/paths");
+  std::printf("%-4s  %-20s  %-*s  %-6s  %-*s  %-23s  %s\n", "REV", "TIME (UTC)", author_width,
+              "AUTHOR", "KIND", of_width, "OF", "ADDED nodes/edges/paths",
+              "HIDDEN nodes/edges/paths");
   for (const Revision& r : history) {
     const std::string added = std::to_string(r.nodes_added) + "/" + std::to_string(r.edges_added) +
                               "/" + std::to_string(r.paths_added);
     const std::string hidden = std::to_string(r.nodes_hidden) + "/" +
                                std::to_string(r.edges_hidden) + "/" +
                                std::to_string(r.paths_hidden);
-    std::printf("%-4lld  %-20s  %-*s  %-6s  %-47s  %-23s  %s\n", static_cast<long long>(r.number),
+    std::printf("%-4lld  %-20s  %-*s  %-6s  %-*s  %-23s  %s\n", static_cast<long long>(r.number),
                 FormatUtc(r.created_ns).c_str(), author_width, PrintableText(r.author).c_str(),
-                std::string(RevisionKindName(r.kind)).c_str(), Source(r).c_str(), added.c_str(),
-                hidden.c_str());
+                std::string(RevisionKindName(r.kind)).c_str(), of_width, Source(r, kinds).c_str(),
+                added.c_str(), hidden.c_str());
   }
 }
 
@@ -195,6 +233,15 @@ void RunRevert(const RevertArgs& args) {
   std::printf("revision %lld reverts revision %lld (author %s)\n",
               static_cast<long long>(revert.number), static_cast<long long>(args.revision),
               PrintableText(revert.author).c_str());
+  // A revert of a retirement brings back what it hid, and the store counts that as added.
+  if (const std::optional<Revision> reverted = repository->inspect().FindRevision(args.revision);
+      reverted && reverted->kind == RevisionKind::kRetire) {
+    std::printf("  restored %s, %s, %s that revision %lld retired\n",
+                Count(revert.nodes_added, "node").c_str(),
+                Count(revert.edges_added, "edge").c_str(),
+                Count(revert.paths_added, "path").c_str(), static_cast<long long>(args.revision));
+    return;
+  }
   std::printf("  hid %s, %s, %s (kept in the store: revision %lld still checks out)\n",
               Count(revert.nodes_hidden, "node").c_str(),
               Count(revert.edges_hidden, "edge").c_str(),
@@ -219,10 +266,12 @@ void AddHistoryCommands(CLI::App& app) {
   CLI::App* log = app.add_subcommand("log", "Show the history of revisions");
   log->footer(
       "The linear history of revisions (seed 004 §V: like SVN): number, time (UTC), author, "
-      "kind (a merge of a submission, or a revert of a revision), and the nodes, edges and paths "
-      "each added and hid.");
+      "kind (a merge of a submission, a revert of a revision, a promotion of a dream candidate, "
+      "a retirement of unused experiences), and the nodes, edges and paths each added and hid "
+      "(a revert of a retirement adds back what it hid).");
   AddStoreOption(*log, log_args->store);
-  log->add_flag("--json", log_args->json, "Print JSON (with each merge's full report)");
+  log->add_flag("--json", log_args->json,
+                "Print JSON (with each merge's full report, each retirement's plan)");
   // Record files moved from `log` to `records`: a user who types the old command
   // is told where it went instead of reading a parse error.
   log->allow_extras();
@@ -266,7 +315,8 @@ void AddHistoryCommands(CLI::App& app) {
       "Makes a new revision that hides every node, edge and path REVISION added, and any edge "
       "that would dangle. Nothing is deleted: every earlier revision still checks out, and "
       "hidden nodes are never merged again (seed 004 §III-D: UUIDs identify data). A revert "
-      "cannot be reverted, nor a revision twice.");
+      "of a retirement (`fleetmap retire`) instead restores what it hid. A revert cannot be "
+      "reverted, nor a revision twice.");
   AddStoreOption(*revert, revert_args->store);
   revert->add_option("revision", revert_args->revision, "The revision to revert")->required();
   revert->add_option("--author", revert_args->author, "Who reverts (default: $USER)");

@@ -1,5 +1,5 @@
 // The repository commands of `fleetmap` (init, push, submissions, merge, log, checkout, diff,
-// download, revert, dream; seed 004 §IV–§VI) end to end: the built executable run as a
+// download, revert, dream, retire; seed 004 §IV–§VI) end to end: the built executable run as a
 // subprocess against real stores, with robot maps built by the EBN builder on the
 // two-condition corridor. Bad input must exit non-zero, say what was wrong, and change nothing.
 #include <gtest/gtest.h>
@@ -325,6 +325,10 @@ TEST_F(CliRepositoryTest, BadInputExitsNonZeroNamesTheProblemAndChangesNothing) 
           {"missing.db"});
   EXPECT_FALSE(std::filesystem::exists(dir_ / "missing.db"));
   refused({"push", "--map", Maps().day, "--robot", "robot-7"}, {"--robot 'robot-7'"});
+  // A retirement needs a clock it can read; one with nothing unused that long writes nothing.
+  refused({"retire", "--now", "yesterday"}, {"--now 'yesterday'", "ISO 8601"});
+  const RunResult nothing = RunOn({"retire", "--retire-after", "36500"});
+  EXPECT_TRUE(Contains(nothing.out, "nothing to retire at revision 2")) << nothing.out;
 
   EXPECT_EQ(Snapshot(), before);
   // A repository that does not exist is not created by reading it.
