@@ -14,6 +14,7 @@
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <iostream>
@@ -25,6 +26,7 @@
 #include "fleetmap/daemon/status_http.h"
 #include "fleetmap/daemon/sync_server.h"
 #include "fleetmap/map_management/dream_plan.h"
+#include "fleetmap/repository/retirement.h"
 #include "fleetmap/store/sqlite_process_setup.h"
 
 namespace {
@@ -60,6 +62,8 @@ struct Flags {
   std::int64_t merge_lease_ms;
   std::int64_t merge_poll_ms;
   std::size_t dream_max_orders = 0;  // 0: all of them
+  double retire_after_days = 0.0;    // 0: no retirement
+  std::string retire_at;             // empty: right after the dream
   double frame_timeout_s;
   std::size_t download_batch_kib;
 };
@@ -211,6 +215,22 @@ void AddDreamOptions(CLI::App& app, fleetmap::SyncServerOptions& options, std::s
                  "(default 0: all of them)");
 }
 
+void AddRetireOptions(CLI::App& app, Flags& flags) {
+  app.add_option("--retire-after", flags.retire_after_days,
+                 "Retire experiences unused for this many days (fractions allowed; default 0: "
+                 "never), daily: nodes no merge has localised against since the map's clock "
+                 "(its newest stamp) minus this are hidden as a revision (`fleetmap retire`), "
+                 "where their place holds other experiences; `fleetmap revert N` restores them. "
+                 "On a store connection of its own, beside merges")
+      ->check(CLI::Range(0.0, 36'500.0));
+  app.add_option("--retire-at", flags.retire_at,
+                 std::string("Retire every day at this UTC time of day, ") +
+                     fleetmap::kTimeOfDayGrammar +
+                     " (default: right after each nightly dream, so --dream-at is needed "
+                     "without it). A retirement not made since that time last came runs at "
+                     "start");
+}
+
 void AddTestOptions(CLI::App& app, Flags& flags) {
   // A test knob, hidden from --help: each merge holds its transaction this long before the
   // commit, so a test can kill the daemon mid-merge.
@@ -227,6 +247,32 @@ void AddTestOptions(CLI::App& app, Flags& flags) {
   app.add_option("--debug-download-batch-kib", flags.download_batch_kib)
       ->group("")
       ->check(CLI::Range(std::size_t{1}, std::size_t{1} << 20));
+}
+
+// The options read from text (times of day); throws Error(kInvalidArgument) naming the one
+// that does not read.
+void ApplyTimeFlags(const std::string& dream_at, const Flags& flags,
+                    fleetmap::SyncServerOptions& options) {
+  if (!dream_at.empty()) {
+    options.dream_at_minute = fleetmap::ParseTimeOfDay(dream_at, "--dream-at");
+  }
+  if (!flags.retire_at.empty()) {
+    options.retire_at_minute = fleetmap::ParseTimeOfDay(flags.retire_at, "--retire-at");
+  }
+  if (flags.retire_after_days > 0.0) {
+    fleetmap::RetireOptions retire;
+    retire.retire_after_ns =
+        std::llround(flags.retire_after_days * static_cast<double>(fleetmap::kNanosecondsPerDay));
+    options.retire = retire;
+    if (!options.retire_at_minute && !options.dream_at_minute) {
+      throw fleetmap::Error(fleetmap::ErrorCode::kInvalidArgument,
+                            "--retire-after needs --retire-at HH:MM, or --dream-at to retire "
+                            "right after the dream");
+    }
+  } else if (options.retire_at_minute) {
+    throw fleetmap::Error(fleetmap::ErrorCode::kInvalidArgument,
+                          "--retire-at without --retire-after: retirement is off");
+  }
 }
 
 void ApplyFlags(const Flags& flags, fleetmap::SyncServerOptions& options) {
@@ -322,6 +368,7 @@ int main(int argc, char** argv) {
   AddLimitOptions(app, options, flags);
   AddMergeOptions(app, options, flags);
   AddDreamOptions(app, options, dream_at, flags);
+  AddRetireOptions(app, flags);
   AddTestOptions(app, flags);
   try {
     app.parse(argc, argv);
@@ -333,13 +380,11 @@ int main(int argc, char** argv) {
     const int code = app.exit(e);
     return code == 0 ? 0 : 2;
   }
-  if (!dream_at.empty()) {
-    try {
-      options.dream_at_minute = fleetmap::ParseTimeOfDay(dream_at, "--dream-at");
-    } catch (const fleetmap::Error& e) {
-      std::cerr << "fleetmapd: " << e.what() << "\n";
-      return 2;
-    }
+  try {
+    ApplyTimeFlags(dream_at, flags, options);
+  } catch (const fleetmap::Error& e) {
+    std::cerr << "fleetmapd: " << e.what() << "\n";
+    return 2;
   }
   ApplyFlags(flags, options);
   StartLogging();

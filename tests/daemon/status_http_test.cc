@@ -188,10 +188,10 @@ FleetStatus StatusWithPictureAndHistory() {
   status.head_picture_svg = std::make_shared<const std::string>(canvas.svg());
   status.picture_revision = 6;  // the head (7) is still being drawn
   status.recent_revisions = {
-      {7, "revert", "ops", "", kRobotSyncNs, 0, 4},
-      {6, "merge", "<r&d>", "<r&d>", kRobotSyncNs - 600 * kSecond, 12, 0},
+      {7, "revert", "ops", "", kRobotSyncNs, 0, 4, "of revision 6"},
+      {6, "merge", "<r&d>", "<r&d>", kRobotSyncNs - 600 * kSecond, 12, 0, ""},
       {5, "merge", "scout", "0b7e2d6c-1f4a-4c2e-9d3b-5a6f7e8d9c02", kRobotSyncNs - 7200 * kSecond,
-       4, 0},
+       4, 0, ""},
   };
   return status;
 }
@@ -331,6 +331,10 @@ TEST(StatusHttpServerTest, PageShowsTheHeadsPictureAndTheHistory) {
   EXPECT_NE(history.find("2024-05-01T12:41:30Z"), std::string::npos) << history;
   EXPECT_NE(history.find("15 min ago"), std::string::npos) << history;
   EXPECT_LT(history.find(">7</td>"), history.find(">6</td>")) << "newest first";
+  EXPECT_NE(history.find("<td>revert <span class=\"of\">of revision 6</span></td>"),
+            std::string::npos)
+      << "a revert names what it undid:\n"
+      << history;
 
   const Response picture = MustGet(server.port(), "/map.svg?r=6");
   EXPECT_EQ(picture.result(), http::status::ok);

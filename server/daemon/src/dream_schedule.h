@@ -1,18 +1,16 @@
-// fleetmapd's nightly dream (`--dream-at HH:MM`, UTC): a thread of its own that sleeps until
-// the time comes, then runs RunNightlyDream (nightly_dream.h) on a Repository of its own (its
-// own store connection), so a dream never holds a session's or the merge queue's store: pushes,
-// merges and downloads go on while it runs. What it does shows in Status() (for /metrics and
-// the status page). A dream missed before it started (fleetmapd down at the time, or killed
-// mid-dream) runs at once when it starts, with a log line saying so.
+// fleetmapd's nightly dream (`--dream-at HH:MM`, UTC): a daily job (daily_job.h) that runs
+// RunNightlyDream (nightly_dream.h) on a Repository of its own (its own store connection), so a
+// dream never holds a session's or the merge queue's store: pushes, merges and downloads go on
+// while it runs. What it does shows in Status() (for /metrics and the status page). A dream
+// missed before it started (fleetmapd down at the time, or killed mid-dream) runs at once when
+// it starts, with a log line saying so.
 #pragma once
 
-#include <chrono>
-#include <cstdint>
+#include <functional>
 #include <optional>
 #include <string>
-#include <string_view>
-#include <thread>
 
+#include "daily_job.h"
 #include "fleetmap/core/mutex.h"
 #include "fleetmap/daemon/fleet_status.h"
 #include "fleetmap/repository/nightly_dream.h"
@@ -20,15 +18,12 @@
 
 namespace fleetmap::daemon {
 
-// The first time after `now` whose UTC time of day is `minute_of_day` (today's, when it is
-// still to come, else tomorrow's).
-std::chrono::system_clock::time_point NextDreamTime(std::chrono::system_clock::time_point now,
-                                                    int minute_of_day);
-
 class DreamSchedule {
  public:
+  // `after_each`, when given, is called on the dream's thread after each dream, however it
+  // ended, unless the schedule is stopping (fleetmapd retires right after the dream).
   DreamSchedule(std::string store_uri, StoreOptions store_options, int minute_of_day,
-                NightlyDreamOptions options);
+                NightlyDreamOptions options, std::function<void()> after_each = {});
   ~DreamSchedule();  // Stop()
   DreamSchedule(const DreamSchedule&) = delete;
   DreamSchedule& operator=(const DreamSchedule&) = delete;
@@ -40,22 +35,20 @@ class DreamSchedule {
   DreamStatus Status() const;
 
  private:
-  void Run();
   void RunOnce();
-  // The dream missed before this start (FindMissedDream), if any; a store that cannot be read
-  // is logged and taken as none missed.
-  std::optional<MissedDream> FindMissed() const;
+  // Whether a dream was missed before this start (FindMissedDream), logging which; a store
+  // that cannot be read is logged and taken as none missed.
+  bool DueAtStart() const;
 
   const std::string store_uri_;
   const StoreOptions store_options_;
   const int minute_of_day_;
   const NightlyDreamOptions options_;
+  const std::function<void()> after_each_;
 
   mutable Mutex mutex_;
-  CondVar wake_;
-  bool stopping_ GUARDED_BY(mutex_) = false;
   DreamStatus status_ GUARDED_BY(mutex_);
-  std::thread thread_;
+  DailyJob job_;  // last: its thread uses the members above
 };
 
 }  // namespace fleetmap::daemon

@@ -26,7 +26,15 @@ std::vector<RevisionRow> RecentRevisions(Repository& repository, RevisionNumber 
                     "",
                     revision->created_ns,
                     revision->nodes_added,
-                    revision->nodes_hidden};
+                    revision->nodes_hidden,
+                    ""};
+    if (revision->kind == RevisionKind::kRevert) {
+      // A revert of a retirement brings back what it hid: the row says so, as the log does.
+      const std::optional<Revision> reverted = inspect.FindRevision(revision->reverted);
+      const bool restores = reverted && reverted->kind == RevisionKind::kRetire;
+      row.of =
+          (restores ? "restores revision " : "of revision ") + std::to_string(revision->reverted);
+    }
     if (revision->kind == RevisionKind::kMerge) {
       if (const auto submission = inspect.FindSubmission(revision->submission)) {
         const auto name = robot_names.find(submission->robot);

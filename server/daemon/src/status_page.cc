@@ -33,6 +33,7 @@ th { background: #eef2f6; font-size: 13px; color: #3a4a5c; }
 td.num, th.num { text-align: right; font-variant-numeric: tabular-nums; }
 td.uuid { font-family: ui-monospace, "DejaVu Sans Mono", monospace; font-size: 13px; }
 .ago { color: #5b6b7c; margin-left: 6px; }
+.of { color: #5b6b7c; }
 .never { color: #9a6b00; }
 .late { color: #9a6b00; font-weight: bold; }
 .differs { color: #fff; background: #b00020; font-weight: bold; }
@@ -169,7 +170,8 @@ void MapFigure(std::string& html, const FleetStatus& status) {
       "they were captured, metric edges dark, path-memory edges faint.</figcaption></figure>\n";
 }
 
-// The latest revisions, newest first: who made each, when, and what it added and hid.
+// The latest revisions, newest first: who made each, when, and what it added and hid (a
+// retirement hides, a revert of one adds back).
 void HistoryTable(std::string& html, const FleetStatus& status) {
   html += "<h2>History (latest " + std::to_string(status.recent_revisions.size()) + " of " +
           std::to_string(status.head_revision) + ")</h2>\n";
@@ -179,8 +181,10 @@ void HistoryTable(std::string& html, const FleetStatus& status) {
       "<th class=\"num\">Nodes hidden</th></tr></thead>\n<tbody>\n";
   for (const RevisionRow& row : status.recent_revisions) {
     const std::string when = UtcIsoTime(row.created_ns);
+    const std::string of =
+        row.of.empty() ? "" : " <span class=\"of\">" + EscapeHtml(row.of) + "</span>";
     html += "<tr><td class=\"num\">" + std::to_string(row.revision) + "</td><td>" +
-            EscapeHtml(row.kind) + "</td><td>" + EscapeHtml(row.robot) + "</td><td>" +
+            EscapeHtml(row.kind) + of + "</td><td>" + EscapeHtml(row.robot) + "</td><td>" +
             EscapeHtml(row.author) + "</td><td><time datetime=\"" + when + "\">" + when +
             "</time><span class=\"ago\">" + TimeAgo(row.created_ns, status.now_ns) +
             "</span></td><td class=\"num\">" + std::to_string(row.nodes_added) +

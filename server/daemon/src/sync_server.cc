@@ -10,6 +10,7 @@
 #include <boost/asio/ssl/context.hpp>
 #include <boost/asio/strand.hpp>
 #include <cstring>
+#include <functional>
 #include <optional>
 #include <thread>
 #include <vector>
@@ -24,6 +25,7 @@
 #include "fleetmap/wire/secret_file.h"
 #include "head_picture.h"
 #include "merge_queue.h"
+#include "retire_schedule.h"
 #include "robot_allowance.h"
 #include "server_activity.h"
 #include "session_tracker.h"
@@ -101,6 +103,11 @@ class SyncServer::Impl {
     if (options_.hello_deadline.count() <= 0) {
       throw Error(ErrorCode::kInvalidArgument, "fleetmapd: --hello-timeout must be positive");
     }
+    if (options_.retire && !options_.retire_at_minute && !options_.dream_at_minute) {
+      throw Error(ErrorCode::kInvalidArgument,
+                  "--retire-after needs --retire-at HH:MM, or --dream-at to retire right after "
+                  "the dream");
+    }
     const tcp::endpoint endpoint = ParseListen(options_.listen);
     if (options_.tls_cert_path.empty() != options_.tls_key_path.empty()) {
       throw Error(ErrorCode::kInvalidArgument,
@@ -136,9 +143,21 @@ class SyncServer::Impl {
         options_.store_uri, merge_options,
         [this](const daemon::MergeDone& done) { OnMergeDone(done); });
     activity_.SetInstance(merge_options.instance);
+    if (options_.retire) {
+      // The head moved under the status page and the warm download plan: read it again.
+      retire_ = std::make_unique<daemon::RetireSchedule>(
+          options_.store_uri, store_options, options_.retire_at_minute, *options_.retire,
+          [this] { RefreshFromStore(); });
+    }
     if (options_.dream_at_minute) {
+      // Without a time of its own, retirement follows each dream.
+      std::function<void()> after_dream;
+      if (retire_ && !options_.retire_at_minute) {
+        after_dream = [retire = retire_.get()] { retire->RunSoon(); };
+      }
       dream_ = std::make_unique<daemon::DreamSchedule>(options_.store_uri, store_options,
-                                                       *options_.dream_at_minute, options_.dream);
+                                                       *options_.dream_at_minute, options_.dream,
+                                                       std::move(after_dream));
     }
     context_.emplace(daemon::SessionContext{options_, *store_, *merges_, cache_, activity_,
                                             tracker_, admission_, robots_, draining_});
@@ -152,6 +171,7 @@ class SyncServer::Impl {
     spdlog::info("merge queue: instance {}, {} submissions queued in the store",
                  merges_->instance(), queued);
     RefreshFromStore();
+    if (retire_) retire_->Start();
     if (dream_) dream_->Start();
     do_accept();
     for (int i = 0; i < options_.io_threads; ++i) {
@@ -162,8 +182,9 @@ class SyncServer::Impl {
   void Stop() {
     if (stopped_.exchange(true)) return;
     draining_ = true;
-    if (dream_) dream_->Stop();  // abandons a dream in progress: it leaves no candidate
-    if (threads_.empty()) {      // never started
+    if (dream_) dream_->Stop();    // abandons a dream in progress: it leaves no candidate
+    if (retire_) retire_->Stop();  // after the dream, which may ask it to run
+    if (threads_.empty()) {        // never started
       merges_->Stop();
       store_->Stop();
       return;
@@ -388,7 +409,8 @@ class SyncServer::Impl {
   daemon::ConnectionAdmission admission_;
   daemon::RobotAllowance robots_;
   std::unique_ptr<daemon::MergeQueue> merges_;
-  std::unique_ptr<daemon::DreamSchedule> dream_;  // null without --dream-at
+  std::unique_ptr<daemon::RetireSchedule> retire_;  // null without --retire-after
+  std::unique_ptr<daemon::DreamSchedule> dream_;    // null without --dream-at
   std::unique_ptr<daemon::StoreWorkers> store_;
   std::atomic<bool> draining_{false};
   std::atomic<bool> stopped_{false};

@@ -54,13 +54,16 @@ struct MergeRun {
 // One revision of the history, as the status page lists it.
 struct RevisionRow {
   std::int64_t revision = 0;
-  std::string kind;    // "merge" or "revert"
+  std::string kind;    // RevisionKindName: "merge", "revert", "promote", "retire"
   std::string author;  // who made it: the robot that pushed (as it named itself), or a user
   std::string robot;   // merges: the name of the robot whose submission it was (its UUID text
-                       // when unregistered); empty for reverts
+                       // when unregistered); empty for the rest
   std::int64_t created_ns = 0;
-  std::int64_t nodes_added = 0;
+  std::int64_t nodes_added = 0;  // a revert of a retirement: the nodes it restored
   std::int64_t nodes_hidden = 0;
+  // Reverts: what they undid, for people ("of revision 7", "restores revision 7", a
+  // retirement's); empty for the rest.
+  std::string of;
 };
 
 // The nightly dream (`--dream-at`, nightly_dream.h): when it runs next, whether one runs now

@@ -21,6 +21,7 @@
 
 #include "fleetmap/daemon/fleet_status.h"
 #include "fleetmap/repository/nightly_dream.h"
+#include "fleetmap/repository/retirement.h"
 
 namespace fleetmap {
 
@@ -108,6 +109,12 @@ struct SyncServerOptions {
   // fleetmapd --dream-at, read by ParseTimeOfDay), on a store connection of its own. None: never.
   std::optional<int> dream_at_minute;
   NightlyDreamOptions dream;
+  // Retirement (retirement.h) on schedule, on a store connection of its own: nodes unused for
+  // retire->retire_after_ns are hidden as a revision (fleetmapd --retire-after). None: never.
+  std::optional<RetireOptions> retire;
+  // When: daily at this UTC minute of the day (--retire-at); none: right after each nightly
+  // dream, which then must be scheduled (else the constructor throws).
+  std::optional<int> retire_at_minute;
 };
 
 class SyncServer {
@@ -115,8 +122,8 @@ class SyncServer {
   // Opens the store (creating and migrating it), loads the TLS files and binds the listening
   // socket; serves nothing until Start(). Throws Error(kInvalidArgument) for a bad listen
   // address, a plain-text listen address off loopback without allow_plaintext, unreadable TLS
-  // files or a key others can read, Error(kBackend) when the address cannot be bound, and as
-  // GraphStore::Open for the store.
+  // files or a key others can read, a retirement with neither a time nor a dream to follow,
+  // Error(kBackend) when the address cannot be bound, and as GraphStore::Open for the store.
   explicit SyncServer(SyncServerOptions options);
   ~SyncServer();  // Stop()
   SyncServer(const SyncServer&) = delete;

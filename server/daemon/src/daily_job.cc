@@ -1,0 +1,101 @@
+#include "daily_job.h"
+
+#include <cstdio>
+#include <utility>
+
+namespace fleetmap::daemon {
+std::chrono::system_clock::time_point NextDailyTime(std::chrono::system_clock::time_point now,
+                                                    int minute_of_day) {
+  using std::chrono::days;
+  using std::chrono::minutes;
+  // system_clock counts UTC without leap seconds, so days divide it exactly.
+  const auto midnight = std::chrono::floor<days>(now);
+  auto next = midnight + minutes(minute_of_day);
+  if (next <= now) next += days(1);
+  return next;
+}
+
+std::int64_t UtcNs(std::chrono::system_clock::time_point t) {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(t.time_since_epoch()).count();
+}
+
+std::string TimeOfDayText(int minute_of_day) {
+  char text[24];  // room for any int, though minute_of_day is 0 to 1439
+  std::snprintf(text, sizeof text, "%02d:%02d", minute_of_day / 60, minute_of_day % 60);
+  return text;
+}
+
+DailyJob::DailyJob(std::optional<int> minute_of_day, std::function<void()> run,
+                   std::function<bool()> missed)
+    : minute_of_day_(minute_of_day), run_(std::move(run)), missed_(std::move(missed)) {}
+
+DailyJob::~DailyJob() {
+  Stop();
+}
+
+void DailyJob::Start() {
+  if (minute_of_day_) {
+    // Set before the thread starts, so a status read right after Start shows it.
+    MutexLock lock(mutex_);
+    next_ns_ = UtcNs(NextDailyTime(std::chrono::system_clock::now(), *minute_of_day_));
+  }
+  thread_ = std::thread([this] { Run(); });
+}
+
+void DailyJob::Stop() {
+  {
+    MutexLock lock(mutex_);
+    stopping_ = true;
+  }
+  wake_.NotifyAll();
+  if (thread_.joinable()) thread_.join();
+}
+
+void DailyJob::RunSoon() {
+  {
+    MutexLock lock(mutex_);
+    run_soon_ = true;
+  }
+  wake_.NotifyAll();
+}
+
+bool DailyJob::Stopping() const {
+  MutexLock lock(mutex_);
+  return stopping_;
+}
+
+std::int64_t DailyJob::NextNs() const {
+  MutexLock lock(mutex_);
+  return next_ns_;
+}
+
+bool DailyJob::WaitForRun() {
+  MutexLock lock(mutex_);
+  while (!stopping_) {
+    if (run_soon_) {
+      run_soon_ = false;
+      return true;
+    }
+    const auto woken = [&]() REQUIRES(mutex_) { return stopping_ || run_soon_; };
+    if (!minute_of_day_) {
+      wake_.Wait(mutex_, woken);
+      continue;
+    }
+    const auto next = NextDailyTime(std::chrono::system_clock::now(), *minute_of_day_);
+    next_ns_ = UtcNs(next);
+    // Woken early only to stop or to run now; a spurious or clock-change wake-up re-checks the
+    // time.
+    if (wake_.WaitUntil(mutex_, next, woken)) continue;
+    if (std::chrono::system_clock::now() >= next) return true;
+  }
+  return false;
+}
+
+void DailyJob::Run() {
+  // A run that did not happen at its time, or did not finish, happens now rather than a day
+  // late.
+  if (missed_ && missed_()) run_();
+  while (WaitForRun()) run_();
+}
+
+}  // namespace fleetmap::daemon
