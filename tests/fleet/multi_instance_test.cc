@@ -318,16 +318,14 @@ TYPED_TEST(FrozenInstanceTest, AnInstanceFrozenPastItsLeaseRollsBackInsteadOfCom
   const GraphBatch pushed = RandomRobotMap(robot.id, 20, 31);
   WriteLocalMap(robot, pushed);
   // The merge pauses 1.5 s after its claim; the lease is 600 ms, renewed every 200 ms while
-  // the process runs.
+  // the process runs. The other instance starts only once the frozen one holds the claim: two
+  // instances polling one queue race for it, and under load the other could win it first.
   Instance frozen = StartInstance(uri, "frozen", this->dir_ / "frozen.log",
                                   {"--debug-merge-pause-ms", "1500"}, "600");
-  Instance other =
-      StartInstance(uri, "other", this->dir_ / "other.log", {"--busy-timeout-ms", "500"}, "600");
   ASSERT_FALSE(frozen.server.address.empty());
-  ASSERT_FALSE(other.server.address.empty());
   const auto log = this->dir_ / "agent.log";
   std::unique_ptr<ChildProcess> agent =
-      StartSync(robot, frozen.server.address + "," + other.server.address, log,
+      StartSync(robot, frozen.server.address, log,
                 {"--wait-merge", "--merge-timeout", "60", "--retry-for", "60", "--policy", "copy"});
 
   ASSERT_TRUE(frozen.server.LogContains("merging", std::chrono::milliseconds(30'000)))
@@ -335,6 +333,9 @@ TYPED_TEST(FrozenInstanceTest, AnInstanceFrozenPastItsLeaseRollsBackInsteadOfCom
   std::this_thread::sleep_for(milliseconds(200));  // into the pause
   frozen.server.process->Signal(SIGSTOP);
   // Past its lease: the other instance claims the submission and merges it.
+  Instance other =
+      StartInstance(uri, "other", this->dir_ / "other.log", {"--busy-timeout-ms", "500"}, "600");
+  ASSERT_FALSE(other.server.address.empty());
   ASSERT_TRUE(other.server.LogContains("merge ", std::chrono::milliseconds(20'000)))
       << other.server.Log();
   ASSERT_TRUE(other.server.LogContains("nodes added", std::chrono::milliseconds(20'000)))
