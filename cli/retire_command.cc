@@ -1,6 +1,7 @@
-// `fleetmap retire`: hides the experiences no MERGE replay has localised against for a stated
-// time, where the place holds others (Repository::Retire, retirement.h), as a new revision that
-// `fleetmap revert` undoes whole. --dry-run shows the plan and writes nothing.
+// `fleetmap retire`: hides the experiences nobody has localised against for a stated time (as
+// MERGE measured it: its replays and the robots' path memory), where the place holds others
+// (Repository::Retire, retirement.h), as a new revision that `fleetmap revert` undoes whole.
+// --dry-run shows the plan and writes nothing.
 #include <cmath>
 #include <cstdio>
 #include <iostream>

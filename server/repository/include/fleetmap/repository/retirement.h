@@ -6,7 +6,8 @@
 //
 // What it never hides (docs/retirement.md):
 // - a node localised against within `retire_after` of the map's clock (VersionStore::UsageAt,
-//   recorded by every MERGE's replay), or newer than that itself;
+//   recorded by every MERGE: its replay, and the steps of the robot's path memory), or newer
+//   than that itself;
 // - the last experience of a place: a node is retired only when another experience (a node of
 //   another outing) that stays lies within `place_radius_m` of it, with poses composed along
 //   visible metric edges;
