@@ -425,7 +425,7 @@ void AddLifelongCommand(CLI::App* experiment) {
       ->add_option("--retire-after", lifelong_args->retire_after_days,
                    "Also run every seed with retirement, as a second arm on the same world and "
                    "forays (each seed then runs twice: without, then with): after each day's "
-                   "merges, hide the experiences no replay has localised against for this many "
+                   "merges, hide the experiences nobody has localised against for this many "
                    "days (by the map's clock) where another experience holds the place; the "
                    "summary judges the arms against each other. 0: without retirement only")
       ->capture_default_str()

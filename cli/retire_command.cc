@@ -157,7 +157,8 @@ void AddRetireCommand(CLI::App& app) {
   CLI::App* retire = app.add_subcommand(
       "retire", "Hide experiences unused for a while where their place holds others");
   retire->footer(
-      "Makes a new revision (kind retire) hiding the nodes no MERGE replay has localised against "
+      "Makes a new revision (kind retire) hiding the nodes nobody has localised against (MERGE's "
+      "replays, robots' path memory) "
       "since the map's clock minus --retire-after (the clock: the newest stamp the map has seen, "
       "or --now), with every edge that ends at one. A node stays when it is the last experience "
       "of its place (no other outing's node that stays lies within --place-radius, along "

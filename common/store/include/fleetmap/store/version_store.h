@@ -39,7 +39,7 @@ enum class RevisionKind : int {
   // Makes a dream's candidate map the map (seed 004 §VI-E; dream_candidates.h): adds what the
   // candidate holds that the head lacks and hides the dreamed nodes it did without.
   kPromote = 3,
-  // Hides experiences no replay has localised against for a stated time (retirement.h); a
+  // Hides experiences nobody has localised against for a stated time (retirement.h); a
   // revert of it restores them, so retirement loses nothing.
   kRetire = 4,
 };

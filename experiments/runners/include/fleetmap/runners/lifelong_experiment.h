@@ -19,7 +19,7 @@
 // Nothing takes an experience away from a map that only merges, so on a world that keeps
 // changing it grows with the days. With retire_after_days set, each seed also runs a second arm
 // on the same world and the same forays, in a repository of its own: after each day's merges
-// it retires (retirement.h) the experiences no replay has localised against for that long, by
+// it retires (retirement.h) the experiences nobody has localised against for that long, by
 // the map's own clock, before the next day is held out.
 #pragma once
 
@@ -58,7 +58,7 @@ struct LifelongOptions {
   double paths_percent = 50.0;
   double epoch_min = 60.0;
   CoverageOptions coverage = {};
-  // Retirement: > 0 also runs the arm with retirement, retiring the experiences no replay has
+  // Retirement: > 0 also runs the arm with retirement, retiring the experiences nobody has
   // localised against for this many days; 0: only the arm without.
   double retire_after_days = 0.0;  // [0, 36500]
   // The rest of the retirement's options (retirement.h). Its retire_after_ns is set from

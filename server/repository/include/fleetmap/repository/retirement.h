@@ -1,7 +1,7 @@
 // Retirement: a map that forgets what the world forgot. Churchill and Newman's experiences are
 // added where a place no longer localises (seed 004 §V-A's MERGE keeps only what does not);
 // nothing ever took one away, so on a world that keeps changing the map grows with every day.
-// A retirement is a revision (RevisionKind::kRetire) that hides the experiences no replay has
+// A retirement is a revision (RevisionKind::kRetire) that hides the experiences nobody has
 // localised against for a stated time, where the place holds others; a revert restores them.
 //
 // What it never hides (docs/retirement.md):
