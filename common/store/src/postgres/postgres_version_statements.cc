@@ -187,8 +187,11 @@ void PrepareMapAt(pqxx::connection& c) {
                  " WHERE ((v.added_rev > $1 AND v.added_rev <= $2)"
                  " OR (v.hidden_rev > $1 AND v.hidden_rev <= $2)) AND ",
                  kElementStored, " ORDER BY v.id"}));
+  // With the retirement of it open at the head, if any: one round trip per call, which MERGE
+  // makes for every node and edge it meets.
   c.prepare("version_of",
-            "SELECT coalesce(v.added_rev, 0), v.hidden_rev FROM (SELECT id FROM nodes"
+            "SELECT coalesce(v.added_rev, 0), v.hidden_rev, (SELECT retired_rev FROM retirements"
+            " WHERE id = $1 AND restored_rev IS NULL) FROM (SELECT id FROM nodes"
             " WHERE id = $1 UNION ALL SELECT id FROM edges WHERE id = $1 UNION ALL"
             " SELECT id FROM paths WHERE id = $1) s LEFT JOIN element_versions v"
             " ON v.id = s.id LIMIT 1");
@@ -215,8 +218,6 @@ void PrepareSeenNodes(pqxx::connection& c) {
 // Retirement (0009_retirement.sql) and the use it reads.
 void PrepareRetirement(pqxx::connection& c) {
   c.prepare("version_any_retirement", "SELECT EXISTS (SELECT 1 FROM retirements)");
-  c.prepare("version_open_retirement",
-            "SELECT retired_rev FROM retirements WHERE id = $1 AND restored_rev IS NULL");
   // The stored nodes among $2 visible at the head, retired by revision $1.
   c.prepare("version_retire_nodes",
             Cat({"INSERT INTO retirements (id, kind, retired_rev) SELECT n.id, 1, $1"

@@ -416,21 +416,20 @@ class PostgresVersionStore final : public VersionStore {
   }
 
   std::optional<ElementVersion> VersionOf(const Uuid& id) override {
-    return session_.Autocommit(
-        "version of " + id.ToString(),
-        [&](pqxx::transaction_base& t) -> std::optional<ElementVersion> {
-          const pqxx::result r = t.exec_prepared("version_of", id.ToString());
-          if (r.empty()) return std::nullopt;
-          ElementVersion v;
-          v.added = r[0][0].as<std::int64_t>();
-          if (!r[0][1].is_null()) v.hidden = r[0][1].as<std::int64_t>();
-          const pqxx::result open = t.exec_prepared("version_open_retirement", id.ToString());
-          if (!open.empty()) {
-            const RevisionNumber retired = open[0][0].as<std::int64_t>();
-            if (!v.hidden || retired < *v.hidden) v.hidden = retired;
-          }
-          return v;
-        });
+    return session_.Autocommit("version of " + id.ToString(),
+                               [&](pqxx::transaction_base& t) -> std::optional<ElementVersion> {
+                                 const pqxx::result r =
+                                     t.exec_prepared("version_of", id.ToString());
+                                 if (r.empty()) return std::nullopt;
+                                 ElementVersion v;
+                                 v.added = r[0][0].as<std::int64_t>();
+                                 if (!r[0][1].is_null()) v.hidden = r[0][1].as<std::int64_t>();
+                                 if (!r[0][2].is_null()) {
+                                   const RevisionNumber retired = r[0][2].as<std::int64_t>();
+                                   if (!v.hidden || retired < *v.hidden) v.hidden = retired;
+                                 }
+                                 return v;
+                               });
   }
 
   // ---- What the server has seen of each node ----

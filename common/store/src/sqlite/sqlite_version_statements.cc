@@ -209,14 +209,14 @@ SqliteVersionStatements::SqliteVersionStatements(sqlite3* db)
                                " AND v.hidden_rev <= ?2)) AND ",
                                kElementStored, " ORDER BY v.id"})
                               .c_str()),
+      // With the retirement of it open at the head, if any: one probe per call, which MERGE
+      // makes for every node and edge it meets.
       version_of(db,
-                 "SELECT coalesce(v.added_rev, 0), v.hidden_rev FROM (SELECT id FROM nodes"
+                 "SELECT coalesce(v.added_rev, 0), v.hidden_rev, (SELECT retired_rev FROM"
+                 " retirements WHERE id = ?1 AND restored_rev IS NULL) FROM (SELECT id FROM nodes"
                  " WHERE id = ?1 UNION ALL SELECT id FROM edges WHERE id = ?1 UNION ALL"
                  " SELECT id FROM paths WHERE id = ?1) s LEFT JOIN element_versions v"
                  " ON v.id = s.id LIMIT 1"),
-      open_retirement(db,
-                      "SELECT retired_rev FROM retirements WHERE id = ?1"
-                      " AND restored_rev IS NULL"),
       any_retirement(db, "SELECT EXISTS (SELECT 1 FROM retirements)"),
       // A stored node visible at the head, retired by revision ?1.
       retire_node(db, Sql({"INSERT INTO retirements (id, kind, retired_rev) SELECT n.id, 1, ?1"

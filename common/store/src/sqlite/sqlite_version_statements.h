@@ -30,7 +30,7 @@ struct SqliteVersionStatements {
   Statement hide_added, hide_node, hide_touching_versioned, hide_touching_unversioned,
       hidden_counts;
   Statement nodes_at, nodes_at_bare, edges_at, paths_at, stats_at, changed_between;
-  Statement version_of, open_retirement;
+  Statement version_of;
   // Retirement (0009_retirement.sql).
   Statement any_retirement, retire_node, retire_touching, retired_counts, restore_retired,
       restored_counts, set_added_counts, retired_between, retirements_of;

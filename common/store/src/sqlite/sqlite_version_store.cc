@@ -425,9 +425,7 @@ class SqliteVersionStore final : public VersionStore {
     ElementVersion v;
     v.added = s->Int64(0);
     if (!s->IsNull(1)) v.hidden = s->Int64(1);
-    StatementUse open(s_.open_retirement);
-    open->Bind(1, id);
-    if (open->Step() && (!v.hidden || open->Int64(0) < *v.hidden)) v.hidden = open->Int64(0);
+    if (!s->IsNull(2) && (!v.hidden || s->Int64(2) < *v.hidden)) v.hidden = s->Int64(2);
     return v;
   }
 
