@@ -9,6 +9,7 @@
 #include <mutex>
 #include <random>
 
+#include "fleetmap/core/deterministic_uuids.h"
 #include "fleetmap/core/error.h"
 
 namespace fleetmap {
@@ -26,6 +27,7 @@ Uuid Uuid::NameBased(const Uuid& name_space, std::string_view name) {
 }
 
 Uuid Uuid::Generate() {
+  if (DeterministicUuids* scope = DeterministicUuids::Current()) return scope->Next();
   // RFC 9562 §6.2 method 1: a 12-bit counter in rand_a keeps ids monotonic within one
   // millisecond; when it overflows, the timestamp moves on by one millisecond (allowed by
   // §6.2; it only happens above 4 million ids a second). This state is process-wide on
@@ -64,11 +66,16 @@ Uuid Uuid::Generate() {
     random_bits.seed(seeds);
     seeded_for = getpid();
   }
-  Bytes bytes;
   const std::uint64_t high = random_bits(), low = random_bits();
+  return Version7(ms, sequence, high, low);
+}
+
+Uuid Uuid::Version7(std::uint64_t ms, std::uint32_t sequence, std::uint64_t random_high,
+                    std::uint64_t random_low) {
+  Bytes bytes;
   for (int i = 0; i < 8; ++i) {
-    bytes[i] = static_cast<std::uint8_t>(high >> (8 * i));
-    bytes[8 + i] = static_cast<std::uint8_t>(low >> (8 * i));
+    bytes[i] = static_cast<std::uint8_t>(random_high >> (8 * i));
+    bytes[8 + i] = static_cast<std::uint8_t>(random_low >> (8 * i));
   }
   for (int i = 0; i < 6; ++i) bytes[i] = static_cast<std::uint8_t>(ms >> (40 - 8 * i));
   bytes[6] = static_cast<std::uint8_t>(0x70 | ((sequence >> 8) & 0x0f));  // version 7

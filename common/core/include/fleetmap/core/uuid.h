@@ -26,8 +26,13 @@ class Uuid {
   // counter, then 62 random bits (a per-thread generator seeded from libuuid). Ids made later in a
   // process compare greater, so the B-tree indexes of both databases append instead of splitting
   // pages at random (seed 000 §6: B-tree indexes); with random v4 keys a 10^6-node chain loads ~3x
-  // slower. Thread-safe.
+  // slower. Thread-safe. Within a DeterministicUuids scope on this thread (tests and
+  // experiments), the scope's next id instead.
   static Uuid Generate();
+  // The version 7 id of these fields: 48 bits of Unix milliseconds, a 12-bit sequence, and 62
+  // of the random bits (RFC 9562 §5.7).
+  static Uuid Version7(std::uint64_t ms, std::uint32_t sequence, std::uint64_t random_high,
+                       std::uint64_t random_low);
   // A new random (version 4) UUID, for ids that must not reveal when they were made.
   static Uuid GenerateRandom();
   // The name-based (version 5, SHA-1) UUID of `name` in `name_space` (RFC 9562 §5.5): the
