@@ -106,6 +106,7 @@ struct FleetArgs {
   int dream_folds = 1;
   bool no_sharing = false;
   bool no_frontier = false;
+  bool deterministic_ids = false;
   CoverageOptions coverage;
   int seed = -1;
   std::string seeds;  // "N" (N seeds from the world's) or "a,b,c"; empty: the world's seed
@@ -176,6 +177,7 @@ void RunFleet(const FleetArgs& args) {
   options.dream_folds = args.dream_folds;
   options.sharing = !args.no_sharing;
   options.frontier = !args.no_frontier;
+  options.deterministic_ids = args.deterministic_ids;
   options.coverage = args.coverage;
   options.merge.omit_localised_fraction = args.omit_fraction;
   options.merge.decision_length_m = args.stretch_m;
@@ -227,6 +229,7 @@ struct LifelongArgs {
   std::string build_policy = "path";
   double retire_after_days = 0.0;
   double place_radius_m = RetireOptions{}.place_radius_m;
+  bool deterministic_ids = false;
   int threads = 2;
   int seed = -1;
   std::string seeds;
@@ -253,6 +256,7 @@ void RunLifelong(const LifelongArgs& args) {
   options.build_policy = args.build_policy;
   options.retire_after_days = args.retire_after_days;
   options.retire.place_radius_m = args.place_radius_m;
+  options.deterministic_ids = args.deterministic_ids;
   options.threads = args.threads;
   FleetArgs seed_args;
   seed_args.seeds = args.seeds;
@@ -378,6 +382,11 @@ void AddFleetCommand(CLI::App* experiment) {
   fleet->add_flag("--no-frontier", fleet_args->no_frontier,
                   "Skip the frontier (each download policy with its knobs swept): "
                   "about a third less work; its judged line then fails as not run");
+  fleet->add_flag("--deterministic-ids", fleet_args->deterministic_ids,
+                  "Mint every node, edge and submission id from a sequence fixed by the seed "
+                  "and the task, not at random: two runs then take the same decisions, and "
+                  "each seed's merge_decisions.txt (what every merge kept, added and stood in) "
+                  "compares two builds of MERGE line for line. For comparisons, not speed");
   fleet->add_option("--threads", fleet_args->threads, "Worker threads")
       ->capture_default_str()
       ->check(CLI::Range(1, 256));
@@ -438,6 +447,10 @@ void AddLifelongCommand(CLI::App* experiment) {
       ->check(CLI::PositiveNumber);
   lifelong->add_option("--out", lifelong_args->out_dir, "Directory for CSVs, plots and summary.md")
       ->capture_default_str();
+  lifelong->add_flag("--deterministic-ids", lifelong_args->deterministic_ids,
+                     "Mint ids from a sequence fixed by the seed, day and foray, alike in both "
+                     "arms: the arms then differ by retirement alone, not by the ties random ids "
+                     "break (with --retire-after 36500 they are equal)");
   lifelong->add_option("--threads", lifelong_args->threads, "Worker threads")
       ->capture_default_str()
       ->check(CLI::Range(1, 256));

@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <map>
 #include <set>
@@ -193,6 +194,31 @@ TEST_F(FleetExperimentTest, EveryFigureIsBuiltAndLocalisedOnTheHeldOutFrames) {
   }
   EXPECT_NE(summary.find("## Acceptance"), std::string::npos);
   EXPECT_NE(summary.find("67.57 %"), std::string::npos) << "the paper's figure beside ours";
+}
+
+// Two runs with deterministic ids decide alike, merge for merge, though the tasks run on two
+// worker threads in whatever order: the comparison a change to MERGE is checked by.
+TEST_F(FleetExperimentTest, WithDeterministicIdsTwoRunsDecideAlikeMergeForMerge) {
+  std::vector<std::string> decisions[2];
+  for (int run = 0; run < 2; ++run) {
+    FleetExperimentOptions options = SmallFleetOptions(dir_ / ("work" + std::to_string(run)));
+    options.folds = 3;
+    options.world.schedule.outings = 6;
+    options.dream_folds = 0;
+    options.sharing = false;
+    options.frontier = false;
+    options.deterministic_ids = true;
+    decisions[run] = RunFleetExperiment(options).merge_decisions;
+  }
+  EXPECT_EQ(decisions[0], decisions[1]);
+  const auto count = [&](const std::string& what) {
+    return std::count_if(decisions[0].begin(), decisions[0].end(), [&](const std::string& line) {
+      return line.find(what) != std::string::npos;
+    });
+  };
+  EXPECT_GT(count(" keeps "), 0);
+  EXPECT_GT(count(" adds edge "), 0);
+  EXPECT_TRUE(std::is_sorted(decisions[0].begin(), decisions[0].end()));
 }
 
 TEST_F(FleetExperimentTest, RejectsBadOptions) {

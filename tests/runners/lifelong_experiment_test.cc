@@ -121,6 +121,35 @@ TEST(LifelongExperimentTest, BothArmsMergeEveryDayAndHoldOutTheNextAndRetirement
       << summary;
 }
 
+// With retirement that retires nothing, the arms differ only by their ids: deterministic ids
+// make them equal, whichever worker thread drives which foray.
+TEST(LifelongExperimentTest, WithDeterministicIdsArmsThatRetireNothingAreEqualDayForDay) {
+  const ScratchDir dir("fleetmap-lifelong-test");
+  LifelongOptions options = SmallLifelongOptions(dir / "work");
+  options.retire_after_days = 36500.0;
+  options.deterministic_ids = true;
+  const LifelongResult result = RunLifelongExperiment(options);
+  ASSERT_EQ(result.days.size(), result.retiring_days.size());
+  for (std::size_t d = 0; d < result.days.size(); ++d) {
+    SCOPED_TRACE("day " + std::to_string(d + 1));
+    const LifelongDay& a = result.days[d];
+    const LifelongDay& b = result.retiring_days[d];
+    EXPECT_EQ(b.nodes_retired, 0u);
+    EXPECT_EQ(a.nodes_built, b.nodes_built);
+    EXPECT_EQ(a.nodes_added, b.nodes_added);
+    EXPECT_EQ(a.map_nodes, b.map_nodes);
+    EXPECT_EQ(a.map_bytes, b.map_bytes);
+    ASSERT_EQ(a.next_day.size(), b.next_day.size());
+    for (std::size_t m = 0; m < a.next_day.size(); ++m) {
+      SCOPED_TRACE(a.next_day[m].map);
+      EXPECT_EQ(a.next_day[m].mean_nodes, b.next_day[m].mean_nodes);
+      EXPECT_EQ(a.next_day[m].frames, b.next_day[m].frames);
+      EXPECT_EQ(a.next_day[m].not_localised, b.next_day[m].not_localised);
+      EXPECT_EQ(a.next_day[m].beyond_10m, b.next_day[m].beyond_10m);
+    }
+  }
+}
+
 TEST(LifelongExperimentTest, RejectsBadOptions) {
   const ScratchDir dir("fleetmap-lifelong-test");
   LifelongOptions options = SmallLifelongOptions(dir / "work");

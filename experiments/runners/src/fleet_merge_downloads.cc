@@ -2,6 +2,7 @@
 // repository (Fig. 7), each held-out outing's download of the merged map by every policy
 // (Fig. 9), and the policies' knobs swept for the frontier an operator picks from.
 #include <algorithm>
+#include <cstdio>
 #include <functional>
 #include <map>
 
@@ -29,12 +30,26 @@ std::vector<Uuid> DepotOf(const GraphBatch& merged) {
   return depot;
 }
 
+// Hex floats: the same bits print the same, any other bits differently.
+std::string PoseText(const Se3& pose) {
+  std::string text;
+  char number[32];
+  for (int row = 0; row < 3; ++row) {
+    for (int col = 0; col < 4; ++col) {
+      std::snprintf(number, sizeof number, " %a", pose.matrix()(row, col));
+      text += number;
+    }
+  }
+  return text;
+}
+
 }  // namespace
 
 void FleetRun::MergeAndDownload(FoldState& fold) {
   std::unique_ptr<Repository> repository = OpenRepository(fold, "server");
   MergeGroups(fold, *repository);
   const GraphBatch merged = repository->Checkout();
+  if (options_.deterministic_ids) RecordMergeDecisions(fold, *repository, merged);
   LocaliseMerged(fold, merged);
   const std::vector<Uuid> depot = DepotOf(merged);
   DownloadByEveryPolicy(fold, *repository, merged, depot);
@@ -61,6 +76,40 @@ void FleetRun::MergeGroups(FoldState& fold, Repository& repository) {
     build.merge_call_seconds = outcome.seconds;
     RecordBuild(build);
   }
+}
+
+void FleetRun::RecordMergeDecisions(const FoldState& fold, Repository& repository,
+                                    const GraphBatch& merged) {
+  std::unordered_map<Uuid, const Edge*> edges;
+  for (const Edge& edge : merged.edges) edges.emplace(edge.id, &edge);
+  std::vector<std::string> lines;
+  const std::string fold_text = "fold " + std::to_string(fold.number);
+  for (RevisionNumber r = 1; r <= repository.Head(); ++r) {
+    const RevisionChanges changes = repository.Diff(r - 1, r);
+    const std::string merge = fold_text + " revision " + std::to_string(r);
+    for (const Uuid& node : changes.nodes_added)
+      lines.push_back(merge + " keeps " + node.ToString());
+    for (const Uuid& id : changes.edges_added) {
+      const auto edge = edges.find(id);
+      std::string line = merge + " adds edge " + id.ToString();
+      if (edge != edges.end()) {
+        line += " " + edge->second->from.ToString() + " " + edge->second->to.ToString() +
+                PoseText(edge->second->from_T_to);
+      }
+      lines.push_back(line);
+    }
+  }
+  for (const BuiltMap& group : fold.group_maps) {
+    for (const Node& node : group.content.nodes) {
+      if (const std::optional<NodeStandIn> s = repository.inspect().FindStandIn(node.id)) {
+        lines.push_back(fold_text + " revision " + std::to_string(s->revision) + " stands " +
+                        s->stand_in.ToString() + " in for " + node.id.ToString() +
+                        PoseText(s->stand_in_T_node));
+      }
+    }
+  }
+  const std::lock_guard lock(result_mutex_);
+  result_.merge_decisions.insert(result_.merge_decisions.end(), lines.begin(), lines.end());
 }
 
 void FleetRun::LocaliseMerged(FoldState& fold, const GraphBatch& merged) {

@@ -172,8 +172,9 @@ void SeedChapters(std::ostringstream& md, const std::vector<SeedView>& seeds,
        << "Files in " << SeedDirName(seeds[i].seed)
        << "/: fig7_builds.csv, heldout_runs.csv, fig7_p_gap.csv, fig8_p_gap.csv, "
           "fig9_p_gap.csv, fig9_downloads.csv, fig10_orders.csv"
-       << (dreamed ? ", fig10_p_gap.csv" : "") << (plotted[i] ? ", fleet.png (fleet.gp)" : "")
-       << ".\n\n";
+       << (dreamed ? ", fig10_p_gap.csv" : "")
+       << (seeds[i].result->merge_decisions.empty() ? "" : ", merge_decisions.txt")
+       << (plotted[i] ? ", fleet.png (fleet.gp)" : "") << ".\n\n";
     SeedSections(md, *seeds[i].result, options, verdicts[i], "###");
   }
 }

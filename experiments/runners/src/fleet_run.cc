@@ -13,6 +13,7 @@
 #include "fleetmap/store/graph_store.h"
 #include "fleetmap/world/world_runs.h"
 #include "outing_runs.h"
+#include "task_ids.h"
 #include "task_queue.h"
 
 namespace fleetmap::fleet_internal {
@@ -21,18 +22,42 @@ FleetExperimentResult FleetRun::Run() {
   const Clock::time_point start = Clock::now();
   Prepare();
   TaskQueue queue;
+  // Each task under the ids of its own name (task_ids.h), when they are deterministic.
+  const auto ids = [this](const std::string& task, const FoldState& fold) {
+    return TaskIds(options_.deterministic_ids, options_.world.seed,
+                   task + " " + std::to_string(fold.number));
+  };
   for (FoldState& fold : folds_) {
-    queue.Push([this, &fold] { SingleAgent(fold); });
+    queue.Push([this, &fold, ids] {
+      const TaskIds task = ids("single", fold);
+      SingleAgent(fold);
+    });
     for (std::size_t g = 0; g < fold.groups.size(); ++g) {
-      queue.Push([this, &fold, g, &queue] {
-        BuildGroup(fold, g);
+      queue.Push([this, &fold, g, &queue, ids] {
+        {
+          const TaskIds task = ids("group " + std::to_string(g), fold);
+          BuildGroup(fold, g);
+        }
         if (--fold.groups_left == 0) {
-          queue.Push([this, &fold] { MergeAndDownload(fold); });
-          if (fold.number < options_.dream_folds) queue.Push([this, &fold] { Dreaming(fold); });
+          queue.Push([this, &fold, ids] {
+            const TaskIds task = ids("merge", fold);
+            MergeAndDownload(fold);
+          });
+          if (fold.number < options_.dream_folds) {
+            queue.Push([this, &fold, ids] {
+              const TaskIds task = ids("dream", fold);
+              Dreaming(fold);
+            });
+          }
         }
       });
     }
-    if (options_.sharing) queue.Push([this, &fold] { Sharing(fold); });
+    if (options_.sharing) {
+      queue.Push([this, &fold, ids] {
+        const TaskIds task = ids("sharing", fold);
+        Sharing(fold);
+      });
+    }
   }
   queue.Run(options_.threads);
   for (const FoldState& fold : folds_) DiagnoseMerge(fold);
@@ -235,6 +260,7 @@ double FleetRun::ProbabilityGapExceeds(const HeldOutRun& run, double x_m) {
 }
 
 void FleetRun::Sort() {
+  std::sort(result_.merge_decisions.begin(), result_.merge_decisions.end());
   std::sort(result_.builds.begin(), result_.builds.end(), [](const auto& a, const auto& b) {
     return std::tie(a.fold, a.map) < std::tie(b.fold, b.map);
   });

@@ -134,6 +134,11 @@ class FleetRun {
   // Fig. 7: each group's map pushed and merged in turn, each merge recorded as a build.
   void MergeGroups(FoldState& fold, Repository& repository);
 
+  // With deterministic ids: what every merge of the fold kept, added and stood in, a line each
+  // (FleetExperimentResult::merge_decisions).
+  void RecordMergeDecisions(const FoldState& fold, Repository& repository,
+                            const GraphBatch& merged);
+
   // The merged map's edge errors (and its links'), and its held-out run.
   void LocaliseMerged(FoldState& fold, const GraphBatch& merged);
 

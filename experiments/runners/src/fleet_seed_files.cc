@@ -214,6 +214,11 @@ bool WriteSeedFiles(const FleetExperimentResult& result, const std::filesystem::
   if (!orders.empty()) WriteGapCurves(result, dir, "fig10_p_gap.csv", orders);
   WriteDownloadsAndOrders(result, dir);
   if (!result.frontier.empty()) WriteFrontierFiles(result, dir, log);
+  if (!result.merge_decisions.empty()) {
+    std::ostringstream decisions;
+    for (const std::string& line : result.merge_decisions) decisions << line << "\n";
+    Save(dir / "merge_decisions.txt", decisions.str());
+  }
   return PlotFleet(dir, fig7, fig8, fig9, orders, log);
 }
 

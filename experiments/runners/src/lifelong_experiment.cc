@@ -17,6 +17,7 @@
 #include "fleetmap/world/world.h"
 #include "fleetmap/world/world_runs.h"
 #include "outing_runs.h"
+#include "task_ids.h"
 #include "task_queue.h"
 #include "work_progress.h"
 
@@ -141,6 +142,12 @@ class LifelongRun {
 
   void Advance(std::int64_t frames) { progress_.Advance(frames); }
 
+  // The ids of one task (task_ids.h): named alike in both arms, which are then paired.
+  TaskIds Ids(const std::string& task, int day, std::size_t k) const {
+    return TaskIds(options_.deterministic_ids, options_.world.seed,
+                   task + " " + std::to_string(day) + " " + std::to_string(k));
+  }
+
   // One foray: single-agent EBN onto the copy it pulled; what it built, to push.
   GraphBatch Drive(const GraphBatch& copy, std::size_t outing) {
     ExperienceMap map = ExperienceMap::FromGraph(copy.nodes, copy.edges, vocabulary_);
@@ -166,9 +173,13 @@ class LifelongRun {
     std::vector<GraphBatch> built(forays.size());
     TaskQueue drives;
     for (std::size_t k = 0; k < forays.size(); ++k) {
-      drives.Push([this, &built, &copy, &forays, k] { built[k] = Drive(copy, forays[k]); });
+      drives.Push([this, &built, &copy, &forays, day, k] {
+        const TaskIds ids = Ids("drive", day, k);
+        built[k] = Drive(copy, forays[k]);
+      });
     }
     drives.Run(options_.threads);
+    const TaskIds ids = Ids("merge", day, 0);
 
     LifelongDay row;
     row.day = day + 1;
@@ -227,8 +238,9 @@ class LifelongRun {
     }
     std::mutex held_mutex;
     TaskQueue localise;
-    for (const Job& job : jobs) {
-      localise.Push([this, &job, &held, &held_mutex] {
+    for (std::size_t j = 0; j < jobs.size(); ++j) {
+      localise.Push([this, &job = jobs[j], &held, &held_mutex, day, j] {
+        const TaskIds ids = Ids("hold out", day, j);
         const ExperienceMap map =
             ExperienceMap::FromGraph(job.content->nodes, job.content->edges, vocabulary_);
         PathRanking policy(PathMemoryOf(*job.content), {.window_iterations = options_.test_window});

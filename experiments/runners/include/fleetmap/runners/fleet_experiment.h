@@ -66,6 +66,10 @@ struct FleetExperimentOptions {
   // Fig. 8, two robots sharing: off for a quicker look at MERGE and DOWNLOAD (a third of the
   // work), which nothing judged depends on.
   bool sharing = true;
+  // Every task mints its ids from a sequence fixed by the world's seed and the task's name
+  // (deterministic_uuids.h), so that two runs take the same decisions node for node: to
+  // compare a change to MERGE or two arms by their kept nodes, not by chance.
+  bool deterministic_ids = false;
   int threads = 2;                 // >= 1
   std::filesystem::path work_dir;  // stores go here (created; removed by the caller)
 };
@@ -248,6 +252,10 @@ struct FleetExperimentResult {
   std::vector<FleetFrameCost> frame_costs;
   std::vector<FleetFrontierPoint> frontier;  // empty unless options.frontier
   std::vector<FleetEdgeErrors> edge_errors;
+  // With options.deterministic_ids: every merge's decisions, a line each, sorted: the nodes each
+  // revision kept, the edges it added (ends and pose in hex floats) and the stand-ins of the
+  // nodes it omitted. Two runs decide alike exactly when these are equal.
+  std::vector<std::string> merge_decisions;
   int outings = 0;
   std::int64_t frames_rendered = 0;
   double seconds = 0.0;
