@@ -554,6 +554,13 @@ MergeOutcome Repository::Merge(const Uuid& id, const MergeProgress& progress) {
   const auto fail = [&](const Error& error) {
     versions().SetSubmissionState(id, SubmissionState::kFailed, 0, error.what());
   };
+  // Each phase's time, from the end of the one before.
+  auto phase_start = std::chrono::steady_clock::now();
+  const auto phase_done = [&](double& seconds) {
+    const auto now = std::chrono::steady_clock::now();
+    seconds = std::chrono::duration<double>(now - phase_start).count();
+    phase_start = now;
+  };
   GraphBatch content;
   try {
     content = ReadSubmission(id);
@@ -561,6 +568,7 @@ MergeOutcome Repository::Merge(const Uuid& id, const MergeProgress& progress) {
     if (error.code() == ErrorCode::kCorrupt) fail(error);
     throw;
   }
+  phase_done(outcome.phases.read_seconds);
   VersionStore& versions = this->versions();
   const RevisionNumber head = versions.HeadRevision();
   // A UUID is the node: one the server holds with other content is refused, both kept (the
@@ -578,6 +586,7 @@ MergeOutcome Repository::Merge(const Uuid& id, const MergeProgress& progress) {
     outcome.seconds = SecondsSince(start);
     return outcome;
   }
+  phase_done(outcome.phases.checks_seconds);
   // The region of the head this submission can reach, not the whole map (merge_region.h).
   std::shared_ptr<const AppearanceVocabulary> vocabulary = Vocabulary(&content);
   if (!vocabulary) {
@@ -587,10 +596,12 @@ MergeOutcome Repository::Merge(const Uuid& id, const MergeProgress& progress) {
   }
   const std::shared_ptr<const AppearanceVocabulary> index_vocabulary = IndexVocabulary(&content);
   UpdateAppearanceIndex();
+  phase_done(outcome.phases.index_seconds);
   MergeRegion region =
       LoadMergeRegion(*store_, head, content, NamedNodes(content, ends), *appearance_,
                       *index_vocabulary, vocabulary, RegionOptions(options_.merge));
   outcome.region_nodes = region.map.size();
+  phase_done(outcome.phases.region_seconds);
   const ServerCatalogue catalogue = CatalogueFor(versions, region, ends);
   MergeResult result;
   try {
@@ -599,6 +610,7 @@ MergeOutcome Repository::Merge(const Uuid& id, const MergeProgress& progress) {
     if (error.code() == ErrorCode::kCorrupt || error.code() == ErrorCode::kIntegrity) fail(error);
     throw;
   }
+  phase_done(outcome.phases.merge_seconds);
 
   {
     GraphStore::Transaction transaction = store_->Begin();
@@ -618,6 +630,7 @@ MergeOutcome Repository::Merge(const Uuid& id, const MergeProgress& progress) {
     if (options_.before_merge_commit) options_.before_merge_commit(id);
     transaction.Commit();
   }
+  phase_done(outcome.phases.write_seconds);
   outcome.report = result.report;
   outcome.seconds = SecondsSince(start);
   return outcome;

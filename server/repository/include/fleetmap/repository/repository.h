@@ -68,6 +68,16 @@ struct MergeOutcome {
   std::optional<Uuid> waits_for;
   double seconds = 0.0;          // the whole call: region, MERGE and the commit
   std::size_t region_nodes = 0;  // the map's nodes MERGE loaded (merge_region.h)
+  // Where `seconds` went: what a merge costs beyond its replay and decisions (report.seconds,
+  // part of `merge_seconds`) is the rest.
+  struct Phases {
+    double read_seconds = 0.0;    // the submission read back and decoded
+    double checks_seconds = 0.0;  // UUID collisions and the edges' ends looked up
+    double index_seconds = 0.0;   // the vocabularies and the appearance index brought up to date
+    double region_seconds = 0.0;  // LoadMergeRegion
+    double merge_seconds = 0.0;   // fleetmap::Merge
+    double write_seconds = 0.0;   // the revision written and committed
+  } phases;
 };
 
 struct Download {
