@@ -1,13 +1,16 @@
 // `fleetmap bench scale`: how the repository's work grows with the map.
 // For each backend and size it writes a fleet map of n nodes (scale_workload.h), then
 // measures, each in a child process of its own so that its peak RSS is its own:
-//   merge     a 500-node submission that revisits a known stretch: Push, then Merge timed;
-//   download  a mission's time-of-day subset of about 10 % of the nodes, selected and encoded
-//             into chunks as fleetmapd does for a cold download;
+//   merge     a 500-node submission that revisits a known stretch: Push, then Merge timed,
+//             the second of two in one repository (as a running fleetmapd merges), beside
+//             the first's time and the merge's own replay and decisions;
+//   download  a mission's time-of-day subset of about 10 % of the nodes, planned and then
+//             read and encoded a batch at a time, as fleetmapd streams a cold download;
 // and the store's size on disk. Prints a table, writes a CSV and a log-log plot.
 //
 // The children are this same program (`fleetmap bench scale-step`, hidden), which prints one
-// JSON line: seconds, peak RSS (getrusage) and RSS before the work.
+// JSON line: seconds, peak RSS (getrusage) and RSS before the work, and the step's figures per
+// node sent (pushed, for a merge), which stay flat when the work is per node and not per map.
 #include "fleetmap/bench/scale_bench.h"
 
 #include <sys/resource.h>
@@ -34,6 +37,7 @@
 #include "fleetmap/core/map_chunks.h"
 #include "fleetmap/core/printable_text.h"
 #include "fleetmap/map_management/download_policy.h"
+#include "fleetmap/repository/download_plan.h"
 #include "fleetmap/repository/repository.h"
 #include "fleetmap/runners/gnuplot.h"
 #include "raw_baseline.h"
@@ -44,6 +48,10 @@ namespace {
 
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
+
+// About as many landmark bytes per batch as fleetmapd reads and encodes at a time
+// (daemon::kDownloadBatchBytes).
+constexpr std::int64_t kStreamBatchBytes = std::int64_t{4} << 20;
 
 // Bytes of landmarks per landmark in a blob (3 floats and a 32-byte descriptor, plus framing),
 // for the disk estimate.
@@ -73,6 +81,10 @@ std::int64_t PeakRssBytes() {
   return static_cast<std::int64_t>(usage.ru_maxrss) * 1024;
 }
 
+double PerNode(double seconds, std::size_t nodes) {
+  return nodes > 0 ? seconds / static_cast<double>(nodes) : 0.0;
+}
+
 // ---- the child: one measured step ----
 
 }  // namespace
@@ -86,34 +98,79 @@ void RunScaleStep(const ScaleStepOptions& o) {
   result["op"] = o.op;
   result["rss_before_bytes"] = CurrentRssBytes();
   if (o.op == "merge") {
-    const Uuid robot = Uuid::Generate(), id = Uuid::Generate();
-    const GraphBatch submission = RevisitSubmission(spec, o.submission_nodes, robot);
-    repository->Push(id, robot, "fleetmap bench scale", submission);
-    result["rss_before_bytes"] = CurrentRssBytes();
-    const Clock::time_point start = Clock::now();
-    const MergeOutcome outcome = repository->Merge(id);
-    result["seconds"] = SecondsSince(start);
-    result["nodes_pushed"] = submission.nodes.size();
-    result["nodes_added"] = outcome.revision.nodes_added;
-    result["revision"] = outcome.revision.number;
-    result["region_nodes"] = outcome.region_nodes;
+    // Two revisits merged in turn by the one repository: the first warms what a running
+    // fleetmapd keeps between merges (the vocabularies, the appearance index's open segments),
+    // the second is timed, beside its own replay and decisions (MergeReport::seconds).
+    double cold_seconds = 0.0;
+    for (int merge = 0; merge < 2; ++merge) {
+      const Uuid robot = Uuid::Generate(), id = Uuid::Generate();
+      const GraphBatch submission = RevisitSubmission(spec, o.submission_nodes, robot);
+      repository->Push(id, robot, "fleetmap bench scale", submission);
+      result["rss_before_bytes"] = CurrentRssBytes();
+      const Clock::time_point start = Clock::now();
+      const MergeOutcome outcome = repository->Merge(id);
+      const double seconds = SecondsSince(start);
+      if (merge == 0) {
+        cold_seconds = seconds;
+        continue;
+      }
+      result["seconds"] = seconds;
+      result["cold_seconds"] = cold_seconds;
+      result["replay_seconds"] = outcome.report.seconds;
+      result["phases"] = {
+          {"read", outcome.phases.read_seconds},   {"checks", outcome.phases.checks_seconds},
+          {"index", outcome.phases.index_seconds}, {"region", outcome.phases.region_seconds},
+          {"merge", outcome.phases.merge_seconds}, {"write", outcome.phases.write_seconds}};
+      result["call_over_replay"] =
+          outcome.report.seconds > 0 ? seconds / outcome.report.seconds : 0.0;
+      result["nodes_pushed"] = submission.nodes.size();
+      result["seconds_per_node_pushed"] = PerNode(seconds, submission.nodes.size());
+      result["nodes_added"] = outcome.revision.nodes_added;
+      result["revision"] = outcome.revision.number;
+      result["region_nodes"] = outcome.region_nodes;
+    }
   } else if (o.op == "download") {
     DownloadPolicy policy = ParseDownloadPolicy("tod");
     policy.mission_start_min = RevisitTimeOfDayMin(spec);
     // T_w is a half-width (seed 004 Eq. 4: within T_w of the mission start either way).
     policy.window_min = 1440.0 * o.subset_percent / 100.0 / 2.0;
+    // As fleetmapd sends a download (download_stream.h): planned without landmarks, then the
+    // nodes' landmarks read and encoded a batch at a time, each batch dropped once counted.
     const Clock::time_point start = Clock::now();
-    const Download download = repository->SelectForDownload(policy);
-    const std::vector<std::string> chunks = EncodeMapChunks(download.map);
-    result["seconds"] = SecondsSince(start);
+    const DownloadPlan plan = repository->PlanDownload(policy, repository->Head());
     std::int64_t bytes = 0;
-    for (const std::string& chunk : chunks) bytes += static_cast<std::int64_t>(chunk.size());
-    result["nodes"] = download.map.nodes.size();
+    const auto count = [&](std::vector<Path> paths, std::vector<Node> nodes,
+                           std::vector<Edge> edges) {
+      GraphBatch part;
+      part.paths = std::move(paths);
+      part.nodes = std::move(nodes);
+      part.edges = std::move(edges);
+      for (const std::string& chunk : EncodeMapChunks(std::move(part))) {
+        bytes += static_cast<std::int64_t>(chunk.size());
+      }
+    };
+    count(plan.paths, {}, {});
+    const std::size_t per_batch = static_cast<std::size_t>(std::max<std::int64_t>(
+        1, kStreamBatchBytes / std::max<std::int64_t>(1, plan.mean_node_bytes)));
+    for (std::size_t i = 0; i < plan.nodes.size(); i += per_batch) {
+      const std::span<const Uuid> ids(plan.nodes.data() + i,
+                                      std::min(per_batch, plan.nodes.size() - i));
+      count({}, repository->ReadNodes(ids), {});
+    }
+    count({}, {}, plan.edges);
+    const double seconds = SecondsSince(start);
+    result["seconds"] = seconds;
+    result["nodes"] = plan.nodes.size();
     result["bytes"] = bytes;
+    result["seconds_per_node_sent"] = PerNode(seconds, plan.nodes.size());
   } else {
     throw Error(ErrorCode::kInvalidArgument, "bench scale-step: unknown --op " + o.op);
   }
-  result["peak_rss_bytes"] = PeakRssBytes();
+  const std::int64_t peak = PeakRssBytes();
+  result["peak_rss_bytes"] = peak;
+  if (o.op == "download") {
+    result["peak_growth_bytes"] = peak - result["rss_before_bytes"].get<std::int64_t>();
+  }
   std::cout << JsonText(result) << std::endl;
 }
 
@@ -231,32 +288,55 @@ double Number(const nlohmann::json& step, const char* key) {
   return step.contains(key) ? step[key].get<double>() : 0.0;
 }
 
+// The download's peak RSS growth per byte it encoded (MB per MB); 0 when it encoded nothing.
+double GrowthPerByteSent(const nlohmann::json& download) {
+  const double bytes = Number(download, "bytes");
+  return bytes > 0 ? Number(download, "peak_growth_bytes") / bytes : 0.0;
+}
+
+// "x1.23", the growth from a to b; "x-" when a is 0.
+std::string Times(double a, double b) {
+  char text[32];
+  if (a > 0) {
+    std::snprintf(text, sizeof text, "x%.2f", b / a);
+  } else {
+    std::snprintf(text, sizeof text, "x-");
+  }
+  return text;
+}
+
 void PrintTable(std::ostream& out, const std::vector<ScaleRow>& rows) {
   char line[512];
   std::snprintf(line, sizeof line,
-                "%-10s %9s %5s %9s %10s %9s | %9s %9s %6s %7s | %9s %9s %8s %9s  %s\n", "backend",
-                "nodes", "lm", "write s", "store MB", "index MB", "merge s", "merge MB", "added",
-                "region", "dl s", "dl MB", "dl nodes", "dl data", "status");
+                "%-10s %9s %5s %9s %10s %9s | %9s %8s %9s %9s %6s %7s | %9s %9s %8s %9s %10s %12s  "
+                "%s\n",
+                "backend", "nodes", "lm", "write s", "store MB", "index MB", "merge s", "/replay",
+                "cold s", "merge MB", "added", "region", "dl s", "dl MB", "dl nodes", "dl data",
+                "dl ms/node", "dl growth/MB", "status");
   out << line;
   for (const ScaleRow& r : rows) {
     std::snprintf(line, sizeof line,
-                  "%-10s %9zu %5d %9.1f %10s %9s | %9.3f %9s %6.0f %7.0f | %9.3f %9s %8.0f %9s  "
-                  "%s\n",
+                  "%-10s %9zu %5d %9.1f %10s %9s | %9.3f %8.2f %9.3f %9s %6.0f %7.0f | %9.3f %9s "
+                  "%8.0f %9s %10.4f %12.2f  %s\n",
                   r.backend.c_str(), r.n, r.landmarks, r.write_s, Mb(r.store_bytes).c_str(),
                   Mb(r.index_bytes).c_str(), Number(r.merge, "seconds"),
+                  Number(r.merge, "call_over_replay"), Number(r.merge, "cold_seconds"),
                   Mb(static_cast<std::int64_t>(Number(r.merge, "peak_rss_bytes"))).c_str(),
                   Number(r.merge, "nodes_added"), Number(r.merge, "region_nodes"),
                   Number(r.download, "seconds"),
                   Mb(static_cast<std::int64_t>(Number(r.download, "peak_rss_bytes"))).c_str(),
                   Number(r.download, "nodes"),
                   Mb(static_cast<std::int64_t>(Number(r.download, "bytes"))).c_str(),
-                  r.status.c_str());
+                  Number(r.download, "seconds_per_node_sent") * 1000.0,
+                  GrowthPerByteSent(r.download), r.status.c_str());
     out << line;
   }
-  out << "(merge s: the median of --merges runs; merge MB, dl MB: peak RSS of the process doing "
-         "it; region: map nodes the merge "
+  out << "(merge s: the median of --merges runs of the second of two merges in one process; "
+         "/replay: that merge's whole call over its replay and decisions; cold s: the first "
+         "merge; merge MB, dl MB: peak RSS of the process doing it; region: map nodes the merge "
          "loaded; index MB: the appearance index beside the store; dl data: the encoded subset; "
-         "lm: landmarks per node)\n";
+         "dl ms/node: download time per node sent; dl growth/MB: the download's peak RSS over its "
+         "RSS before, per MB of dl data; lm: landmarks per node)\n";
   // Growth between consecutive sizes of one backend: what the scale targets compare.
   for (std::size_t i = 1; i < rows.size(); ++i) {
     const ScaleRow& a = rows[i - 1];
@@ -264,11 +344,16 @@ void PrintTable(std::ostream& out, const std::vector<ScaleRow>& rows) {
     if (a.backend != b.backend || Number(a.merge, "seconds") <= 0) continue;
     std::snprintf(line, sizeof line,
                   "%s %zu -> %zu nodes (x%.1f): merge time x%.2f, merge peak RSS x%.2f, download "
-                  "time x%.2f\n",
+                  "time x%.2f, download time per sent node %s, download peak growth per MB sent "
+                  "%s\n",
                   b.backend.c_str(), a.n, b.n, static_cast<double>(b.n) / static_cast<double>(a.n),
                   Number(b.merge, "seconds") / Number(a.merge, "seconds"),
                   Number(b.merge, "peak_rss_bytes") / Number(a.merge, "peak_rss_bytes"),
-                  Number(b.download, "seconds") / std::max(1e-9, Number(a.download, "seconds")));
+                  Number(b.download, "seconds") / std::max(1e-9, Number(a.download, "seconds")),
+                  Times(Number(a.download, "seconds_per_node_sent"),
+                        Number(b.download, "seconds_per_node_sent"))
+                      .c_str(),
+                  Times(GrowthPerByteSent(a.download), GrowthPerByteSent(b.download)).c_str());
     out << line;
   }
 }
@@ -278,7 +363,9 @@ void WriteCsv(const fs::path& file, const std::vector<ScaleRow>& rows) {
   csv << "backend,nodes,landmarks_per_node,write_s,store_bytes,index_bytes,merge_s,"
          "merge_peak_rss_bytes,merge_rss_before_bytes,merge_nodes_pushed,merge_nodes_added,"
          "merge_region_nodes,download_s,"
-         "download_peak_rss_bytes,download_nodes,download_bytes,status,merge_runs\n";
+         "download_peak_rss_bytes,download_nodes,download_bytes,status,merge_runs,"
+         "download_s_per_node_sent,download_peak_growth_bytes,merge_s_per_node_pushed,"
+         "merge_replay_s,merge_cold_s\n";
   for (const ScaleRow& r : rows) {
     csv << r.backend << ',' << r.n << ',' << r.landmarks << ',' << r.write_s << ',' << r.store_bytes
         << ',' << r.index_bytes << ',' << Number(r.merge, "seconds") << ','
@@ -289,7 +376,11 @@ void WriteCsv(const fs::path& file, const std::vector<ScaleRow>& rows) {
         << static_cast<std::int64_t>(Number(r.download, "peak_rss_bytes")) << ','
         << Number(r.download, "nodes") << ','
         << static_cast<std::int64_t>(Number(r.download, "bytes")) << ",\"" << r.status << "\","
-        << (r.merge.contains("seconds_runs") ? r.merge["seconds_runs"].size() : 0) << "\n";
+        << (r.merge.contains("seconds_runs") ? r.merge["seconds_runs"].size() : 0) << ','
+        << Number(r.download, "seconds_per_node_sent") << ','
+        << static_cast<std::int64_t>(Number(r.download, "peak_growth_bytes")) << ','
+        << Number(r.merge, "seconds_per_node_pushed") << ',' << Number(r.merge, "replay_seconds")
+        << ',' << Number(r.merge, "cold_seconds") << "\n";
   }
   csv.close();
   if (!csv) throw Error(ErrorCode::kBackend, "cannot write " + file.string());
@@ -306,8 +397,8 @@ void Plot(const fs::path& dir, const std::vector<std::string>& backends, std::os
   for (const std::string& b : backends) {
     const std::string filter = "(strcol(1) eq '" + b + "' ? ";
     gp << (first ? "" : ", ") << csv << " every ::1 using 2:" << filter
-       << "$6 : 1/0) with linespoints title '" << b << " merge', " << csv
-       << " every ::1 using 2:" << filter << "$11 : 1/0) with linespoints title '" << b
+       << "$7 : 1/0) with linespoints title '" << b << " merge', " << csv
+       << " every ::1 using 2:" << filter << "$13 : 1/0) with linespoints title '" << b
        << " download'";
     first = false;
   }
@@ -316,8 +407,8 @@ void Plot(const fs::path& dir, const std::vector<std::string>& backends, std::os
   for (const std::string& b : backends) {
     const std::string filter = "(strcol(1) eq '" + b + "' ? ";
     gp << (first ? "" : ", ") << csv << " every ::1 using 2:" << filter
-       << "$7/1e6 : 1/0) with linespoints title '" << b << " merge', " << csv
-       << " every ::1 using 2:" << filter << "$12/1e6 : 1/0) with linespoints title '" << b
+       << "$8/1e6 : 1/0) with linespoints title '" << b << " merge', " << csv
+       << " every ::1 using 2:" << filter << "$14/1e6 : 1/0) with linespoints title '" << b
        << " download'";
     first = false;
   }
