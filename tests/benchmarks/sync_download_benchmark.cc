@@ -14,9 +14,11 @@
 //                       OS cache);
 //   AgentPull           the same download by fleetmap-agent, installed into a fresh local map
 //                       (landmark_MBps: landmark bytes over the whole pull; agent_cpu_s and
-//                       server_cpu_s: what each process spent per pull);
+//                       server_cpu_s: what each process spent per pull; cpu_ms_per_MB: the
+//                       two together per MB of landmarks);
 //   RawSqliteInstall    the install's ceiling: the same map written by plain sqlite3 into the
-//                       agent's tables, one transaction, then fsynced (landmark_MBps);
+//                       agent's tables, one transaction, then fsynced (landmark_MBps;
+//                       cpu_ms_per_MB: this process's CPU per MB of landmarks);
 //   StoreScratchInstall the same map through a scratch GraphStore in 1 MiB chunks, as the
 //                       agent's install thread puts it, without the link (landmark_MBps);
 //   RawLoopback         the same number of bytes written in 1 MiB pieces over one socket.
@@ -33,6 +35,7 @@
 
 #include <chrono>
 #include <cstdio>
+#include <ctime>
 #include <fstream>
 #include <iterator>
 #include <memory>
@@ -84,6 +87,13 @@ double ChildrenCpuSeconds() {
     return static_cast<double>(t.tv_sec) + static_cast<double>(t.tv_usec) / 1e6;
   };
   return seconds(usage.ru_utime) + seconds(usage.ru_stime);
+}
+
+// CPU seconds this process has used so far (user + system, all threads).
+double OwnCpuSeconds() {
+  timespec t{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+  return static_cast<double>(t.tv_sec) + static_cast<double>(t.tv_nsec) / 1e9;
 }
 
 // CPU seconds process `pid` used so far (user + system, all threads); 0 when unreadable. On a
@@ -233,6 +243,10 @@ void AgentPull(benchmark::State& state) {
   const double pulls = static_cast<double>(state.iterations());
   state.counters["agent_cpu_s"] = agent_cpu / pulls;
   state.counters["server_cpu_s"] = server_cpu / pulls;
+  // The pull's whole cost per MB, comparable with RawSqliteInstall's when the machine is too
+  // busy for MB/s to mean much.
+  const double landmark_mb = static_cast<double>(f.landmark_bytes) / 1e6;
+  state.counters["cpu_ms_per_MB"] = 1e3 * (agent_cpu + server_cpu) / pulls / landmark_mb;
   state.counters["landmark_MBps"] = seconds > 0 ? static_cast<double>(f.landmark_bytes) *
                                                       static_cast<double>(state.iterations()) /
                                                       1e6 / seconds
@@ -243,8 +257,9 @@ BENCHMARK(AgentPull)->Unit(benchmark::kMillisecond)->Iterations(2)->UseRealTime(
 // The install's ceiling: the same map (nodes and edges, generated as the fixture's) written
 // through plain sqlite3 into a fresh file as the agent's tables hold it (the node table with
 // its three indexes, the edge table with its two), in one transaction with the journal in
-// memory, then fsynced: no link, no decoding, no digest, no checks. landmark_MBps compares
-// with AgentPull's.
+// memory, then fsynced: no link, no decoding, no digest, no checks. landmark_MBps and
+// cpu_ms_per_MB compare with AgentPull's: the map is the fixture's, so the landmark bytes
+// summed here are the store's landmark_bytes AgentPull divides by.
 void RawSqliteInstall(benchmark::State& state) {
   Fixture& f = Shared();
   std::vector<GraphBatch> parts;
@@ -267,9 +282,11 @@ void RawSqliteInstall(benchmark::State& state) {
     }
   };
   double seconds = 0.0;
+  double cpu = 0.0;
   for (auto _ : state) {
     std::filesystem::remove(file);
     const auto start = std::chrono::steady_clock::now();
+    const double cpu_before = OwnCpuSeconds();
     sqlite3* db = nullptr;
     sqlite3_open(file.c_str(), &db);
     exec(db,
@@ -323,6 +340,7 @@ void RawSqliteInstall(benchmark::State& state) {
     const int fd = ::open(file.c_str(), O_RDONLY);
     ::fsync(fd);
     ::close(fd);
+    cpu += OwnCpuSeconds() - cpu_before;
     seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   }
   std::filesystem::remove(file);
@@ -330,6 +348,8 @@ void RawSqliteInstall(benchmark::State& state) {
                                                       static_cast<double>(state.iterations()) /
                                                       1e6 / seconds
                                                 : 0.0;
+  state.counters["cpu_ms_per_MB"] = 1e3 * cpu / static_cast<double>(state.iterations()) /
+                                    (static_cast<double>(landmark_bytes) / 1e6);
 }
 BENCHMARK(RawSqliteInstall)->Unit(benchmark::kMillisecond)->Iterations(2)->UseRealTime();
 

@@ -225,8 +225,14 @@ void Fill(LimitLine& line, const ChildRun& child, const std::string& ours_run,
 std::vector<LimitLine> PullLines(const LimitsBenchOptions& o) {
   const ChildRun child =
       RunChild(o, "sync_download_benchmark", "^(SyncDownload/warm|AgentPull|RawSqliteInstall)");
+  // Judged on CPU (the agent's and fleetmapd's together per MB of landmarks, against plain
+  // sqlite3's): on a shared machine the wall-clock rate measures the neighbours as much as the
+  // pull. The rate is still reported beside it.
+  LimitLine pull_cpu = Line("agent pull CPU, 528 MB of landmarks, loopback", "CPU-ms/MB",
+                            "RawSqliteInstall", LimitLine::Bound::kAtMost, 1.5);
+  Fill(pull_cpu, child, "AgentPull", "cpu_ms_per_MB", "RawSqliteInstall", "cpu_ms_per_MB");
   LimitLine pull = Line("agent pull, 542 MB map, loopback", "MB/s", "RawSqliteInstall",
-                        LimitLine::Bound::kAtLeast, 0.9);
+                        LimitLine::Bound::kNone, 0);
   Fill(pull, child, "AgentPull", "landmark_MBps", "RawSqliteInstall", "landmark_MBps");
   LimitLine cold =
       Line("cold download from a fresh fleetmapd", "MB/s", "-", LimitLine::Bound::kAtLeast, 300);
@@ -236,7 +242,7 @@ std::vector<LimitLine> PullLines(const LimitsBenchOptions& o) {
       Line("fleetmapd peak memory growth over a download", "MB", "-", LimitLine::Bound::kAtMost, 0);
   growth.bound_on_ours = true;
   Fill(growth, child, "SyncDownload/warm", "server_growth_MB", "", "");
-  return {pull, cold, growth};
+  return {pull_cpu, pull, cold, growth};
 }
 
 // Judged against ORB detecting what the front end detects (2 x the kept count in both
