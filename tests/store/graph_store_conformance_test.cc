@@ -453,6 +453,28 @@ TYPED_TEST(GraphStoreConformance, EdgesFromToAndTouching) {
   EXPECT_LT(from0[0].id, from0[1].id);
 }
 
+TYPED_TEST(GraphStoreConformance, EdgesTouchingOfOneKind) {
+  GraphBatch g = Chain(4);  // 0 -> 1 -> 2 -> 3, metric
+  const Path path{Uuid::Generate(), Uuid::Generate(), Uuid::Generate(), 0, 1};
+  g.paths.push_back(path);
+  g.edges.push_back(PathEdge(g.nodes[1].id, g.nodes[3].id, path.id));
+  g.edges.push_back(PathEdge(g.nodes[0].id, g.nodes[1].id, path.id));
+  this->store_->Put(g);
+  const std::vector<Uuid> around{g.nodes[1].id};
+  EXPECT_EQ(this->store_->EdgesTouching(around).size(), 4u);
+  const std::vector<Edge> metric = this->store_->EdgesTouching(around, EdgeKind::kMetric);
+  ASSERT_EQ(metric.size(), 2u);  // 0-1 and 1-2
+  for (const Edge& edge : metric) {
+    EXPECT_EQ(edge.kind, EdgeKind::kMetric);
+    EXPECT_TRUE(edge.from == g.nodes[1].id || edge.to == g.nodes[1].id);
+  }
+  const std::vector<Edge> paths = this->store_->EdgesTouching(around, EdgeKind::kPath);
+  ASSERT_EQ(paths.size(), 2u);
+  for (const Edge& edge : paths) EXPECT_EQ(edge.path, path.id);
+  EXPECT_TRUE(
+      this->store_->EdgesTouching(std::vector<Uuid>{g.nodes[2].id}, EdgeKind::kPath).empty());
+}
+
 // --- Edge covariances ---------------------------------------------------------------------
 
 TYPED_TEST(GraphStoreConformance, EdgeCovarianceRoundTripsExactlyOnEveryReadPath) {

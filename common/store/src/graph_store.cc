@@ -245,8 +245,9 @@ std::vector<Edge> GraphStore::EdgesTo(const Uuid& node) {
   return Guarded([&] { return DoEdgesTo(node); });
 }
 
-std::vector<Edge> GraphStore::EdgesTouching(std::span<const Uuid> nodes) {
-  return Guarded([&] { return DoEdgesTouching(nodes); });
+std::vector<Edge> GraphStore::EdgesTouching(std::span<const Uuid> nodes,
+                                            std::optional<EdgeKind> kind) {
+  return Guarded([&] { return DoEdgesTouching(nodes, kind); });
 }
 
 std::vector<Edge> GraphStore::EdgesOfPath(const Uuid& path) {
@@ -333,7 +334,7 @@ Subgraph GraphStore::Neighbourhood(const NeighbourhoodQuery& query) {
     std::unordered_set<Uuid> expanded;
     std::vector<Uuid> frontier{query.centre};
     for (int round = 1; round <= query.max_hops && !frontier.empty(); ++round) {
-      std::vector<Edge> touching = DoEdgesTouching(frontier);
+      std::vector<Edge> touching = DoEdgesTouching(frontier, std::nullopt);
       for (const Uuid& id : frontier) expanded.insert(id);
       const std::unordered_set<Uuid> frontier_set(frontier.begin(), frontier.end());
       std::vector<Uuid> improved;
@@ -366,7 +367,7 @@ Subgraph GraphStore::Neighbourhood(const NeighbourhoodQuery& query) {
       if (!expanded.count(id)) boundary.push_back(id);
     }
     if (!boundary.empty()) {
-      for (Edge& e : DoEdgesTouching(boundary)) edges.emplace(e.id, std::move(e));
+      for (Edge& e : DoEdgesTouching(boundary, std::nullopt)) edges.emplace(e.id, std::move(e));
     }
     Subgraph result;
     std::vector<Node> nodes = DoGetNodes(order);

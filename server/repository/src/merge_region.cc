@@ -124,9 +124,13 @@ struct Reached {
   std::unordered_map<Uuid, Edge> edges;
 };
 
-// Multi-source shortest paths along visible metric edges, settled in waves so that each
-// wave's edges come in one store round trip. A node reached later by a shorter route is
-// relaxed again from the edges already read. Sets region.truncated when max_nodes stops it.
+// Multi-source shortest paths along visible metric edges, settled in waves. A wave's edges come
+// in one store round trip, with those of every node already reached and not yet read (up to a
+// wave more): a node's edges are the same whenever they are read, and nodes reached now are
+// settled in the next waves, so the search makes a round trip per ring of the frontier instead
+// of one per metre of it. Distances are minima over the same edges whatever order they are
+// read in. A node reached later by a shorter route is relaxed again from the edges already
+// read. Sets region.truncated when max_nodes stops it.
 Reached SearchAroundSeeds(GraphStore& store, VersionStore& versions, RevisionNumber head,
                           const std::unordered_set<Uuid>& seeds, const MergeRegionOptions& options,
                           MergeRegion& region) {
@@ -135,11 +139,13 @@ Reached SearchAroundSeeds(GraphStore& store, VersionStore& versions, RevisionNum
   std::unordered_map<Uuid, Edge>& edges = reached.edges;  // visible metric edges read
   std::unordered_map<Uuid, std::vector<const Edge*>> adjacent;
   std::unordered_set<Uuid> read, edge_checked;
+  std::vector<Uuid> reached_unread;  // reached, edges not read yet (may hold read ones)
   using Entry = std::pair<double, Uuid>;
   std::priority_queue<Entry, std::vector<Entry>, std::greater<>> queue;
   for (const Uuid& seed : seeds) {
     distance_m.emplace(seed, 0.0);
     queue.push({0.0, seed});
+    reached_unread.push_back(seed);
   }
   constexpr std::size_t kWave = 512;
   while (!queue.empty()) {
@@ -153,8 +159,13 @@ Reached SearchAroundSeeds(GraphStore& store, VersionStore& versions, RevisionNum
       if (read.insert(node).second) unread.push_back(node);
     }
     if (!unread.empty()) {
-      for (const Edge& edge : store.EdgesTouching(unread)) {
-        if (edge.kind != EdgeKind::kMetric || !edge_checked.insert(edge.id).second) continue;
+      const std::size_t wanted = unread.size() + kWave;
+      while (!reached_unread.empty() && unread.size() < wanted) {
+        if (read.insert(reached_unread.back()).second) unread.push_back(reached_unread.back());
+        reached_unread.pop_back();
+      }
+      for (const Edge& edge : store.EdgesTouching(unread, EdgeKind::kMetric)) {
+        if (!edge_checked.insert(edge.id).second) continue;
         if (!VisibleAt(versions.VersionOf(edge.id), head)) continue;
         const Edge& kept = edges.emplace(edge.id, edge).first->second;
         adjacent[edge.from].push_back(&kept);
@@ -175,6 +186,7 @@ Reached SearchAroundSeeds(GraphStore& store, VersionStore& versions, RevisionNum
         }
         distance_m[next] = d;
         queue.push({d, next});
+        if (!read.contains(next)) reached_unread.push_back(next);
       }
     }
   }

@@ -305,8 +305,17 @@ class PostgresGraphStore final : public GraphStore {
   std::vector<Edge> DoEdgesTo(const Uuid& node) override {
     return ReadEdges("edges_to", node.ToString());
   }
-  std::vector<Edge> DoEdgesTouching(std::span<const Uuid> nodes) override {
-    return ReadEdges("edges_touching", UuidArray(nodes));
+  std::vector<Edge> DoEdgesTouching(std::span<const Uuid> nodes,
+                                    std::optional<EdgeKind> kind) override {
+    if (!kind) return ReadEdges("edges_touching", UuidArray(nodes));
+    return session_.Autocommit("edges_touching_of_kind", [&](pqxx::transaction_base& t) {
+      std::vector<Edge> edges;
+      for (const pqxx::row& row :
+           t.exec_prepared("edges_touching_of_kind", UuidArray(nodes), static_cast<int>(*kind))) {
+        edges.push_back(ReadEdge(row, 0));
+      }
+      return edges;
+    });
   }
   std::vector<Edge> DoEdgesOfPath(const Uuid& path) override {
     return ReadEdges("edges_of_path", path.ToString());
@@ -472,6 +481,10 @@ class PostgresGraphStore final : public GraphStore {
               Cat({"SELECT ", kEdgeColumns,
                    " FROM edges WHERE from_id = ANY($1::uuid[]) OR to_id = ANY($1::uuid[])"
                    " ORDER BY id"}));
+    c.prepare("edges_touching_of_kind",
+              Cat({"SELECT ", kEdgeColumns,
+                   " FROM edges WHERE (from_id = ANY($1::uuid[]) OR to_id = ANY($1::uuid[]))"
+                   " AND kind = $2 ORDER BY id"}));
     c.prepare("edges_of_path", Cat({"SELECT ", kEdgeColumnsOfE,
                                     " FROM edges e JOIN nodes n ON n.id = e.to_id"
                                     " WHERE e.path_id = $1 ORDER BY n.stamp_ns, e.id"}));

@@ -366,14 +366,22 @@ class SqliteGraphStore final : public GraphStore {
     return ReadEdges(statements_->edges_to, node);
   }
 
-  std::vector<Edge> DoEdgesTouching(std::span<const Uuid> nodes) override {
+  std::vector<Edge> DoEdgesTouching(std::span<const Uuid> nodes,
+                                    std::optional<EdgeKind> kind) override {
     std::vector<Edge> edges;
     std::unordered_set<Uuid> seen;
+    const auto add = [&](std::vector<Edge> read) {
+      for (Edge& e : read) {
+        if (seen.insert(e.id).second) edges.push_back(std::move(e));
+      }
+    };
     for (const Uuid& n : nodes) {
-      for (Statement* s : {&statements_->edges_from, &statements_->edges_to}) {
-        for (Edge& e : ReadEdges(*s, n)) {
-          if (seen.insert(e.id).second) edges.push_back(std::move(e));
-        }
+      if (kind) {
+        add(ReadEdgesOfKind(statements_->edges_from_of_kind, n, *kind));
+        add(ReadEdgesOfKind(statements_->edges_to_of_kind, n, *kind));
+      } else {
+        add(ReadEdges(statements_->edges_from, n));
+        add(ReadEdges(statements_->edges_to, n));
       }
     }
     return edges;
@@ -482,6 +490,12 @@ class SqliteGraphStore final : public GraphStore {
           edges_to(
               db,
               Sql({"SELECT ", kEdgeColumns, " FROM edges WHERE to_id = ?1 ORDER BY id"}).c_str()),
+          edges_from_of_kind(db, Sql({"SELECT ", kEdgeColumns,
+                                      " FROM edges WHERE from_id = ?1 AND kind = ?2 ORDER BY id"})
+                                     .c_str()),
+          edges_to_of_kind(db, Sql({"SELECT ", kEdgeColumns,
+                                    " FROM edges WHERE to_id = ?1 AND kind = ?2 ORDER BY id"})
+                                   .c_str()),
           edges_of_path(db, Sql({"SELECT ", kEdgeColumnsOfE,
                                  " FROM edges e JOIN nodes n ON n.id = e.to_id"
                                  " WHERE e.path_id = ?1 ORDER BY n.stamp_ns, e.id"})
@@ -507,7 +521,7 @@ class SqliteGraphStore final : public GraphStore {
 
     Statement insert_node, insert_edge, insert_path, insert_annotation;
     Statement find_node, node_stored, find_edge, find_path, find_annotation;
-    Statement edges_from, edges_to, edges_of_path;
+    Statement edges_from, edges_to, edges_from_of_kind, edges_to_of_kind, edges_of_path;
     Statement annotations_on_node, annotations_on_edge, annotations_of_parent;
     Statement insert_nodes_chunk, insert_edges_chunk;
     Statement read_chain;
@@ -666,6 +680,15 @@ class SqliteGraphStore final : public GraphStore {
   std::vector<Edge> ReadEdges(Statement& statement, const Uuid& key) {
     StatementUse s(statement);
     s->Bind(1, key);
+    std::vector<Edge> edges;
+    while (s->Step()) edges.push_back(ReadEdge(*s, 0));
+    return edges;
+  }
+
+  std::vector<Edge> ReadEdgesOfKind(Statement& statement, const Uuid& key, EdgeKind kind) {
+    StatementUse s(statement);
+    s->Bind(1, key);
+    s->Bind(2, static_cast<std::int64_t>(kind));
     std::vector<Edge> edges;
     while (s->Step()) edges.push_back(ReadEdge(*s, 0));
     return edges;

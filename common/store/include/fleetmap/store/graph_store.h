@@ -176,8 +176,11 @@ class GraphStore : public GraphReader, public GraphWriter {
   // Edges leaving / entering one node, ordered by edge UUID.
   std::vector<Edge> EdgesFrom(const Uuid& node);
   std::vector<Edge> EdgesTo(const Uuid& node);
-  // Every edge with an endpoint in `nodes`, in one round trip, each edge once.
-  std::vector<Edge> EdgesTouching(std::span<const Uuid> nodes);
+  // Every edge with an endpoint in `nodes`, in one round trip, each edge once; with `kind`, only
+  // the edges of that kind (a place revisited every day gathers a path edge per visit, which a
+  // search along metric edges would otherwise read and drop).
+  std::vector<Edge> EdgesTouching(std::span<const Uuid> nodes,
+                                  std::optional<EdgeKind> kind = std::nullopt);
   // The edges of one path, ordered by the stamp of their `to` node.
   std::vector<Edge> EdgesOfPath(const Uuid& path);
 
@@ -246,7 +249,8 @@ class GraphStore : public GraphReader, public GraphWriter {
   virtual std::vector<Node> DoGetNodes(std::span<const Uuid> ids) = 0;
   virtual std::vector<Edge> DoEdgesFrom(const Uuid& node) = 0;
   virtual std::vector<Edge> DoEdgesTo(const Uuid& node) = 0;
-  virtual std::vector<Edge> DoEdgesTouching(std::span<const Uuid> nodes) = 0;
+  virtual std::vector<Edge> DoEdgesTouching(std::span<const Uuid> nodes,
+                                            std::optional<EdgeKind> kind) = 0;
   virtual std::vector<Edge> DoEdgesOfPath(const Uuid& path) = 0;
   virtual std::vector<Annotation> DoAnnotationsOn(AnnotationTarget kind, const Uuid& target) = 0;
   virtual std::vector<Annotation> DoChildAnnotations(const Uuid& parent) = 0;
