@@ -74,6 +74,9 @@ void FleetRun::MergeGroups(FoldState& fold, Repository& repository) {
     build.links_registered = outcome.report.links_registered;
     build.links_inconsistent = outcome.report.links_inconsistent;
     build.merge_call_seconds = outcome.seconds;
+    build.merge_index_seconds = outcome.phases.index_seconds;
+    build.merge_region_seconds = outcome.phases.region_seconds;
+    build.merge_write_seconds = outcome.phases.write_seconds;
     RecordBuild(build);
   }
 }

@@ -108,20 +108,25 @@ void DownloadWhy(std::ostringstream& md, const FleetExperimentResult& result,
 // EBN's CPU per frame against the map it localises in, over the single-agent builds' outings in
 // four bins of equal count by map size: where the paper's time saving can come from.
 void FrameCostWhy(std::ostringstream& md, const FleetExperimentResult& result) {
-  double wall = 0, push = 0, algorithm = 0, call = 0;
+  double wall = 0, push = 0, algorithm = 0, call = 0, index = 0, region = 0, write = 0;
   for (const FleetBuild& b : result.builds) {
     if (!IsNumbered(b.map, "merge ")) continue;
     wall += b.wall_seconds;
     push += b.push_seconds;
     algorithm += b.merge_algorithm_seconds;
     call += b.merge_call_seconds;
+    index += b.merge_index_seconds;
+    region += b.merge_region_seconds;
+    write += b.merge_write_seconds;
   }
   if (wall > 0) {
     md << "The merges' wall time, " << Fixed(wall, 1) << " s over every fold: pushing the "
        << "submissions " << Percent(push / wall) << " %, MERGE's replay and decisions "
-       << Percent(algorithm / wall) << " %, the rest of the merge call (reading the submission, "
-       << "the head's mirror, writing the revision) " << Percent((call - algorithm) / wall)
-       << " %.\n\n";
+       << Percent(algorithm / wall) << " %, the rest of the merge call "
+       << Percent((call - algorithm) / wall) << " % (the vocabularies and appearance index "
+       << Percent(index / wall) << " %, loading the region " << Percent(region / wall)
+       << " %, writing the revision " << Percent(write / wall) << " %); the merge calls took "
+       << Fixed(algorithm > 0 ? call / algorithm : 0.0, 2) << " x their replay and decisions.\n\n";
   }
   std::vector<FleetFrameCost> rows = result.frame_costs;
   if (rows.size() < 4) return;

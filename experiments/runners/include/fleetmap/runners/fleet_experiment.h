@@ -101,6 +101,11 @@ struct FleetBuild {
   double push_seconds = 0.0;
   double merge_algorithm_seconds = 0.0;
   double merge_call_seconds = 0.0;
+  // Of the rest of the call (MergeOutcome::Phases): the vocabularies and appearance index
+  // brought up to date, the region loaded, the revision written.
+  double merge_index_seconds = 0.0;
+  double merge_region_seconds = 0.0;
+  double merge_write_seconds = 0.0;
   // A merge's links to the server map: made, of those registered by the frame's own
   // registration, and dropped as inconsistent with their neighbours (MergeReport).
   std::size_t links = 0, links_registered = 0, links_inconsistent = 0;
