@@ -74,6 +74,9 @@ FleetExperimentResult FleetRun::Run() {
 void FleetRun::Prepare() {
   outings_ = ScheduleOutings(options_.world);
   vocabulary_ = TrainWorldVocabulary(world_);
+  // One appearance-index vocabulary for every fold's repository, as a fleet's one store trains
+  // one at its first merge and keeps it: not one per fold.
+  index_vocabulary_ = TrainWorldVocabulary(world_, IndexVocabularyOptions());
   frames_ = RenderOutings(world_, outings_, options_.threads);
   for (std::size_t i = 0; i < outings_.size(); ++i) outing_index_.emplace(outings_[i].id, i);
 
@@ -237,6 +240,7 @@ std::unique_ptr<Repository> FleetRun::OpenRepository(const FoldState& fold,
   RepositoryOptions repository;
   repository.merge = Merging();
   repository.vocabulary = vocabulary_;
+  repository.index_vocabulary = index_vocabulary_;
   return std::make_unique<Repository>(
       GraphStore::Open("sqlite:" + (options_.work_dir / (StorePath(fold, name) + ".db")).string(),
                        {.durability = Durability::kBuffered}),

@@ -202,7 +202,8 @@ class FleetRun {
   std::vector<Outing> outings_;
   std::vector<std::vector<Frame>> frames_;
   std::shared_ptr<const AppearanceVocabulary> vocabulary_;
-  std::unordered_map<Uuid, std::size_t> outing_index_;  // outing id -> index in outings_
+  std::shared_ptr<const AppearanceVocabulary> index_vocabulary_;  // every fold's repository's
+  std::unordered_map<Uuid, std::size_t> outing_index_;            // outing id -> index in outings_
   std::vector<FoldState> folds_;
 
   std::mutex result_mutex_;

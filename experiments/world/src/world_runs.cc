@@ -33,7 +33,8 @@ std::vector<Outing> VocabularyOutings(const WorldConfig& config) {
 
 }  // namespace
 
-std::shared_ptr<const AppearanceVocabulary> TrainWorldVocabulary(const World& world) {
+std::shared_ptr<const AppearanceVocabulary> TrainWorldVocabulary(const World& world,
+                                                                 const VocabularyOptions& options) {
   std::vector<Descriptor256> sample;
   for (const Outing& outing : VocabularyOutings(world.config())) {
     const std::vector<Frame> frames = world.Frames(outing);
@@ -45,7 +46,7 @@ std::shared_ptr<const AppearanceVocabulary> TrainWorldVocabulary(const World& wo
   if (sample.empty()) {
     throw Error(ErrorCode::kInvalidArgument, "world vocabulary: the world shows no landmarks");
   }
-  return std::make_shared<const AppearanceVocabulary>(AppearanceVocabulary::Train(sample));
+  return std::make_shared<const AppearanceVocabulary>(AppearanceVocabulary::Train(sample, options));
 }
 
 OutingStart DepotStart(const Outing& outing, const ExperienceMap& map) {

@@ -22,17 +22,6 @@ constexpr const char* kVocabularySetting = "appearance.vocabulary";
 // The finer words of the map's appearance index on disk (Repository::IndexVocabulary).
 constexpr const char* kIndexVocabularySetting = "appearance.index_vocabulary";
 
-// The index vocabulary: 10^5 words where MERGE's has 10^3. A query reads the postings of its
-// words, about n D / W for n nodes of D descriptors over W words: at 10^6 nodes of 200
-// descriptors, 2000 per word instead of 200,000. Finer words match fewer noisy descriptors,
-// but a place seen again still shares far more of them than chance (seed 004 §III-B needs the
-// place, not a ranking; the region's own index ranks with MERGE's words).
-VocabularyOptions IndexVocabularyOptions() {
-  VocabularyOptions options;
-  options.branching = 10;
-  options.depth = 5;
-  return options;
-}
 // A head with more landmark bytes than this trains the vocabulary from a sample of its first
 // revisions instead of reading every node (a fleet map of 10^6 nodes holds about 9 GB).
 constexpr std::int64_t kWholeHeadSampleBytes = 512LL << 20;
@@ -91,6 +80,18 @@ MergeRegionOptions RegionOptions(const MergeOptions& merge) {
 }
 
 }  // namespace
+
+// The index vocabulary: 10^5 words where MERGE's has 10^3. A query reads the postings of its
+// words, about n D / W for n nodes of D descriptors over W words: at 10^6 nodes of 200
+// descriptors, 2000 per word instead of 200,000. Finer words match fewer noisy descriptors,
+// but a place seen again still shares far more of them than chance (seed 004 §III-B needs the
+// place, not a ranking; the region's own index ranks with MERGE's words).
+VocabularyOptions IndexVocabularyOptions() {
+  VocabularyOptions options;
+  options.branching = 10;
+  options.depth = 5;
+  return options;
+}
 
 std::unique_ptr<Repository> Repository::Open(std::string_view uri, RepositoryOptions options) {
   std::unique_ptr<GraphStore> store = GraphStore::Open(uri, options.store);
@@ -333,6 +334,10 @@ std::shared_ptr<const AppearanceVocabulary> Repository::Vocabulary(
 std::shared_ptr<const AppearanceVocabulary> Repository::IndexVocabulary(
     const GraphBatch* first_submission) {
   if (index_vocabulary_) return index_vocabulary_;
+  if (options_.index_vocabulary) {
+    index_vocabulary_ = options_.index_vocabulary;
+    return index_vocabulary_;
+  }
   if (const std::optional<std::string> stored = versions().FindSetting(kIndexVocabularySetting)) {
     index_vocabulary_ =
         std::make_shared<const AppearanceVocabulary>(AppearanceVocabulary::Decode(*stored));

@@ -13,8 +13,10 @@ namespace fleetmap {
 
 // A vocabulary trained on four drives in different light and weather, rendered apart from the
 // scheduled outings so that no held-out frame shapes it. Deterministic for a world. Throws
-// Error(kInvalidArgument) for a world that shows no landmarks.
-std::shared_ptr<const AppearanceVocabulary> TrainWorldVocabulary(const World& world);
+// Error(kInvalidArgument) for a world that shows no landmarks. `options` shape it (MERGE's
+// words by default; an appearance index's are finer).
+std::shared_ptr<const AppearanceVocabulary> TrainWorldVocabulary(
+    const World& world, const VocabularyOptions& options = {});
 
 // Outings start docked at the depot: the map's earliest experience, saved at the loop's start
 // (arc length 0) where every scheduled outing begins. A position, not a localisation. An

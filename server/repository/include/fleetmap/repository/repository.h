@@ -46,6 +46,11 @@ struct RepositoryOptions {
   // repository; a repository without one trains it from the first submission it merges
   // (deterministically) and stores it, so every later merge uses the same words.
   std::shared_ptr<const AppearanceVocabulary> vocabulary;
+  // The vocabulary of the map's appearance index, which finds the region a merge loads (shaped
+  // by IndexVocabularyOptions). Null: the one stored with the repository, trained from the map
+  // (or the first submission) at its first merge. Repositories of one world may share one, as
+  // they may share `vocabulary`, instead of each training its own.
+  std::shared_ptr<const AppearanceVocabulary> index_vocabulary;
   // UTC nanoseconds for revision and submission stamps; null: the system clock.
   std::function<std::int64_t()> now_ns;
   // Called inside each merge's transaction just before it commits (null: nothing). A throw
@@ -58,6 +63,10 @@ struct RepositoryOptions {
   // store's URI.
   std::filesystem::path appearance_dir;
 };
+
+// The shape of an appearance index's vocabulary (RepositoryOptions::index_vocabulary): finer
+// than MERGE's, so that a query reads few postings on a large map.
+VocabularyOptions IndexVocabularyOptions();
 
 struct MergeOutcome {
   Revision revision;            // the revision the submission became
