@@ -396,6 +396,30 @@ TYPED_TEST(RepositoryTest, TheVocabularyIsTrainedOnceAndKeptWithTheMap) {
   EXPECT_EQ(this->repository_->versions().FindSetting("appearance.vocabulary"), stored);
 }
 
+// A repository given its appearance index's vocabulary trains none and stores none; one
+// without trains it at its first merge and keeps it.
+TYPED_TEST(RepositoryTest, AGivenIndexVocabularyIsUsedInsteadOfTrainingOne) {
+  const GraphBatch day = RobotMap({0});
+  this->PushAndMerge(day);
+  const std::optional<std::string> trained =
+      this->repository_->versions().FindSetting("appearance.index_vocabulary");
+  ASSERT_TRUE(trained.has_value());
+
+  this->repository_.reset();
+  this->backend_.emplace();  // a fresh store
+  RepositoryOptions options;
+  options.vocabulary = SharedCorridorVocabulary();
+  options.index_vocabulary =
+      std::make_shared<const AppearanceVocabulary>(AppearanceVocabulary::Decode(*trained));
+  this->repository_ = Repository::Open(this->backend_->Uri(), options);
+  const Revision first = this->PushAndMerge(day);
+  EXPECT_GT(first.nodes_added, 0);
+  EXPECT_FALSE(this->repository_->versions().FindSetting("appearance.index_vocabulary"))
+      << "the given words are used, not trained and stored";
+  const Revision again = this->PushAndMerge(RobotMap({0}));
+  EXPECT_LT(again.nodes_added, first.nodes_added) << "the day seen again localises";
+}
+
 TYPED_TEST(RepositoryTest, DownloadsAreIntegralSubsetsOfARevision) {
   this->PushAndMerge(RobotMap({0}));
   this->PushAndMerge(RobotMap({1}));
