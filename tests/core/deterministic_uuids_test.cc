@@ -1,10 +1,10 @@
-#include "fleetmap/core/deterministic_uuids.h"
-
 #include <gtest/gtest.h>
 
 #include <thread>
 #include <unordered_set>
 #include <vector>
+
+#include "fleetmap/core/uuid.h"
 
 namespace fleetmap {
 namespace {

@@ -1,6 +1,6 @@
-#include "fleetmap/core/deterministic_uuids.h"
-
 #include <vector>
+
+#include "fleetmap/core/uuid.h"
 
 namespace fleetmap {
 namespace {

@@ -9,7 +9,6 @@
 #include <mutex>
 #include <random>
 
-#include "fleetmap/core/deterministic_uuids.h"
 #include "fleetmap/core/error.h"
 
 namespace fleetmap {

@@ -7,7 +7,7 @@
 #include <optional>
 #include <string>
 
-#include "fleetmap/core/deterministic_uuids.h"
+#include "fleetmap/core/uuid.h"
 
 namespace fleetmap {
 

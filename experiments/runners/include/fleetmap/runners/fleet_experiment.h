@@ -67,8 +67,8 @@ struct FleetExperimentOptions {
   // work), which nothing judged depends on.
   bool sharing = true;
   // Every task mints its ids from a sequence fixed by the world's seed and the task's name
-  // (deterministic_uuids.h), so that two runs take the same decisions node for node: to
-  // compare a change to MERGE or two arms by their kept nodes, not by chance.
+  // (DeterministicUuids, fleetmap/core/uuid.h), so that two runs take the same decisions node for
+  // node: to compare a change to MERGE or two arms by their kept nodes, not by chance.
   bool deterministic_ids = false;
   int threads = 2;                 // >= 1
   std::filesystem::path work_dir;  // stores go here (created; removed by the caller)

@@ -66,8 +66,8 @@ struct LifelongOptions {
   // seen, so each arm's time moves with its own forays.
   RetireOptions retire = {};
   // Each arm's forays, merges and submissions mint their ids from a sequence fixed by the
-  // world's seed and the arm, day and foray (deterministic_uuids.h): the two arms then differ
-  // by retirement alone, not by the ties random ids break differently.
+  // world's seed and the arm, day and foray (DeterministicUuids, fleetmap/core/uuid.h): the two
+  // arms then differ by retirement alone, not by the ties random ids break differently.
   bool deterministic_ids = false;
   int threads = 2;                 // >= 1
   std::filesystem::path work_dir;  // the repositories go here (created; removed by the caller)
