@@ -379,7 +379,7 @@ struct MapCounts {
 };
 
 MapCounts CountMap(const LocalMap& map) {
-  const SyncState& state = map.state();
+  const SyncStateCounts known = map.counts();
   MapCounts counts;
   if (fs::exists(map.map_path())) {
     const StoreStats stats = GraphStore::Open(map.map_uri())->Stats();
@@ -389,20 +389,20 @@ MapCounts CountMap(const LocalMap& map) {
   }
   // Counted, not read (reading a backlog of 10^6 nodes took 35 s and 1.45 GB): map.db holds
   // everything known to the server (the installed selection and what was pushed since, two
-  // disjoint sets), so the rest is unsynced.
-  const auto unsynced = [](std::int64_t in_map, const std::set<Uuid>& installed,
-                           const std::set<Uuid>& pushed) {
-    const auto known = static_cast<std::int64_t>(installed.size() + pushed.size());
-    return std::max<std::int64_t>(0, in_map - known);
+  // disjoint sets), so the rest is unsynced. The sets' sizes are sync.json's; the sets, in
+  // map.db, are not read (a status is not a sync's worth of memory).
+  const auto unsynced = [](std::int64_t in_map, std::size_t installed, std::size_t pushed) {
+    return std::max<std::int64_t>(0, in_map - static_cast<std::int64_t>(installed + pushed));
   };
-  counts.unsynced_nodes = unsynced(counts.nodes, state.installed.nodes, state.pushed.nodes);
-  counts.unsynced_edges = unsynced(counts.edges, state.installed.edges, state.pushed.edges);
-  counts.unsynced_paths = unsynced(counts.paths, state.installed.paths, state.pushed.paths);
+  counts.unsynced_nodes = unsynced(counts.nodes, known.installed.nodes, known.pushed.nodes);
+  counts.unsynced_edges = unsynced(counts.edges, known.installed.edges, known.pushed.edges);
+  counts.unsynced_paths = unsynced(counts.paths, known.installed.paths, known.pushed.paths);
   return counts;
 }
 
 json StatusJson(const LocalMap& map, const MapCounts& counts) {
   const SyncState& state = map.state();
+  const SyncStateCounts known = map.counts();
   json held = json::array();
   for (const HeldNode& node : state.held) {
     held.push_back({{"id", node.id.ToString()}, {"bytes", node.bytes}});
@@ -417,9 +417,9 @@ json StatusJson(const LocalMap& map, const MapCounts& counts) {
               {"map_nodes", counts.nodes},
               {"map_edges", counts.edges},
               {"map_paths", counts.paths},
-              {"installed_nodes", state.installed.nodes.size()},
-              {"installed_edges", state.installed.edges.size()},
-              {"installed_paths", state.installed.paths.size()},
+              {"installed_nodes", known.installed.nodes},
+              {"installed_edges", known.installed.edges},
+              {"installed_paths", known.installed.paths},
               {"unsynced_nodes", counts.unsynced_nodes},
               {"unsynced_edges", counts.unsynced_edges},
               {"unsynced_paths", counts.unsynced_paths},
@@ -428,11 +428,13 @@ json StatusJson(const LocalMap& map, const MapCounts& counts) {
               {"pending_submission",
                state.submission ? json(state.submission->id.ToString()) : json(nullptr)}};
   json unmerged = json::array();
-  for (const UnmergedSubmission& u : state.unmerged) {
+  for (std::size_t i = 0; i < state.unmerged.size(); ++i) {
+    const UnmergedSubmission& u = state.unmerged[i];
+    const ElementCount& content = known.unmerged.at(i);
     unmerged.push_back({{"id", u.id.ToString()},
-                        {"nodes", u.content.nodes.size()},
-                        {"edges", u.content.edges.size()},
-                        {"paths", u.content.paths.size()},
+                        {"nodes", content.nodes},
+                        {"edges", content.edges},
+                        {"paths", content.paths},
                         {"state", u.failed            ? "failed"
                                   : u.merged_revision ? "merged"
                                                       : "pending"},
@@ -443,7 +445,7 @@ json StatusJson(const LocalMap& map, const MapCounts& counts) {
   return out;
 }
 
-void PrintHeldAndSubmissions(const SyncState& state) {
+void PrintHeldAndSubmissions(const SyncState& state, const SyncStateCounts& known) {
   if (!state.held.empty()) {
     std::uint64_t held_bytes = 0;
     for (const HeldNode& node : state.held) held_bytes += node.bytes;
@@ -461,10 +463,12 @@ void PrintHeldAndSubmissions(const SyncState& state) {
   if (state.submission) {
     std::printf("pending submission %s\n", state.submission->id.ToString().c_str());
   }
-  for (const UnmergedSubmission& u : state.unmerged) {
-    const std::string counts = std::to_string(u.content.nodes.size()) + " nodes, " +
-                               std::to_string(u.content.edges.size()) + " edges, " +
-                               std::to_string(u.content.paths.size()) + " paths";
+  for (std::size_t i = 0; i < state.unmerged.size(); ++i) {
+    const UnmergedSubmission& u = state.unmerged[i];
+    const ElementCount& content = known.unmerged.at(i);
+    const std::string counts = std::to_string(content.nodes) + " nodes, " +
+                               std::to_string(content.edges) + " edges, " +
+                               std::to_string(content.paths) + " paths";
     if (u.failed) {
       std::printf(
           "FAILED submission %s (%s, kept in this map): %s\n"
@@ -483,13 +487,14 @@ void PrintHeldAndSubmissions(const SyncState& state) {
 
 void PrintStatus(const LocalMap& map, const MapCounts& counts) {
   const SyncState& state = map.state();
+  const SyncStateCounts known = map.counts();
   std::printf("map %s\n", map.dir().string().c_str());
   std::printf("robot %s\n", state.robot ? state.robot->ToString().c_str() : "(never synced)");
   if (state.revision > 0) {
     std::printf("revision %lld (%s, channel %s): %zu nodes, %zu edges, %zu paths installed\n",
                 static_cast<long long>(state.revision), state.request->policy.c_str(),
-                state.request->channel.c_str(), state.installed.nodes.size(),
-                state.installed.edges.size(), state.installed.paths.size());
+                state.request->channel.c_str(), known.installed.nodes, known.installed.edges,
+                known.installed.paths);
   } else {
     std::printf("revision none installed\n");
   }
@@ -499,7 +504,7 @@ void PrintStatus(const LocalMap& map, const MapCounts& counts) {
               static_cast<long long>(counts.unsynced_nodes),
               static_cast<long long>(counts.unsynced_edges),
               static_cast<long long>(counts.unsynced_paths));
-  PrintHeldAndSubmissions(state);
+  PrintHeldAndSubmissions(state, known);
 }
 
 int StatusCommand(const AgentArguments& args) {

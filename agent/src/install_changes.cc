@@ -20,7 +20,7 @@ namespace {
 
 using agent_internal::OfKind;
 
-std::vector<Uuid> ToVector(const std::set<Uuid>& ids) {
+std::vector<Uuid> ToVector(const IdSet& ids) {
   return {ids.begin(), ids.end()};
 }
 
@@ -29,7 +29,7 @@ ElementIds NextSelection(const ElementIds& installed, const MapDownload& downloa
   const ElementIds added = IdsOf(download.content);
   ElementIds selection;
   for (int kind = 0; kind < 3; ++kind) {
-    std::set<Uuid>& next = OfKind(selection, kind);
+    IdSet& next = OfKind(selection, kind);
     for (const Uuid& id : OfKind(installed, kind)) {
       if (!OfKind(download.removed, kind).contains(id)) next.insert(next.end(), id);
     }
@@ -99,8 +99,8 @@ void RemoveLeaving(GraphStore& store, const ElementIds& installed, const Element
 // (`own`: unmerged or pushed) win over the download's under the same UUID (a collision the
 // server refuses): the robot keeps its version.
 GraphBatch WritesOf(GraphStore& store, const MapDownload& download, const ElementIds& installed,
-                    const std::set<Uuid>& kept_nodes, const std::set<Uuid>& pushed_nodes,
-                    SelectionDigest& digest, InstallReport& report) {
+                    const IdSet& kept_nodes, const IdSet& pushed_nodes, SelectionDigest& digest,
+                    InstallReport& report) {
   GraphBatch writes;
   writes.paths = download.content.paths;
   writes.edges = download.content.edges;

@@ -1,6 +1,7 @@
 // What LocalMap's installs share (install_rules.h).
 #include "install_rules.h"
 
+#include <algorithm>
 #include <string>
 
 #include "element_counts.h"
@@ -8,11 +9,11 @@
 
 namespace fleetmap::agent_internal {
 
-const std::set<Uuid>& OfKind(const ElementIds& ids, int kind) {
+const IdSet& OfKind(const ElementIds& ids, int kind) {
   return kind == 0 ? ids.nodes : kind == 1 ? ids.edges : ids.paths;
 }
 
-std::set<Uuid>& OfKind(ElementIds& ids, int kind) {
+IdSet& OfKind(ElementIds& ids, int kind) {
   return kind == 0 ? ids.nodes : kind == 1 ? ids.edges : ids.paths;
 }
 
@@ -28,6 +29,26 @@ Retirement Retire(const SyncState& state, std::int64_t revision) {
     keep.paths.insert(unmerged.content.paths.begin(), unmerged.content.paths.end());
   }
   return retirement;
+}
+
+KeptSubmissions::KeptSubmissions(const SyncState& state, std::int64_t revision) {
+  for (const UnmergedSubmission& unmerged : state.unmerged) {
+    if (unmerged.merged_revision && *unmerged.merged_revision <= revision) continue;
+    if (unmerged.failed) failed_elements_ += unmerged.content.size();
+    kept_.push_back(&unmerged);
+  }
+}
+
+bool KeptSubmissions::Contains(const Uuid& id, int kind) const {
+  return std::any_of(kept_.begin(), kept_.end(), [&](const UnmergedSubmission* unmerged) {
+    return OfKind(unmerged->content, kind).contains(id);
+  });
+}
+
+std::vector<UnmergedSubmission> KeptSubmissions::Copies() const {
+  std::vector<UnmergedSubmission> copies;
+  for (const UnmergedSubmission* unmerged : kept_) copies.push_back(*unmerged);
+  return copies;
 }
 
 void CheckDownloadCounts(const MapDownload& download, std::size_t nodes, std::size_t edges,

@@ -12,8 +12,8 @@
 
 namespace fleetmap::agent_internal {
 
-const std::set<Uuid>& OfKind(const ElementIds& ids, int kind);  // 0 nodes, 1 edges, 2 paths
-std::set<Uuid>& OfKind(ElementIds& ids, int kind);
+const IdSet& OfKind(const ElementIds& ids, int kind);  // 0 nodes, 1 edges, 2 paths
+IdSet& OfKind(ElementIds& ids, int kind);
 
 // Unmerged submissions a download of `revision` reflects retire; the others' content stays.
 struct Retirement {
@@ -22,6 +22,25 @@ struct Retirement {
   std::size_t failed_elements = 0;
 };
 Retirement Retire(const SyncState& state, std::int64_t revision);
+
+// The same submissions as Retire keeps, looked up where the state holds them rather than
+// gathered into sets of their own (a backlog's content is millions of ids). REQUIRES: the
+// state outlives it, unchanged.
+class KeptSubmissions {
+ public:
+  KeptSubmissions() = default;
+  KeptSubmissions(const SyncState& state, std::int64_t revision);
+
+  // Whether element `id` of `kind` (0 nodes, 1 edges, 2 paths) is in a kept submission.
+  bool Contains(const Uuid& id, int kind) const;
+  std::size_t failed_elements() const { return failed_elements_; }
+  // Copies of the kept submissions, in push order.
+  std::vector<UnmergedSubmission> Copies() const;
+
+ private:
+  std::vector<const UnmergedSubmission*> kept_;
+  std::size_t failed_elements_ = 0;
+};
 
 // The selection a download gives must have the counts its header says: Error(kCorrupt) naming
 // `map_path` (left as it was) otherwise.

@@ -20,6 +20,7 @@
 #include "fleetmap/core/staged_file.h"
 #include "fleetmap/store/graph_store.h"
 #include "fleetmap/store/version_store.h"
+#include "id_tables.h"
 #include "install_rules.h"
 #include "map_files.h"
 #include "map_reading.h"
@@ -31,20 +32,26 @@ namespace {
 
 namespace fs = std::filesystem;
 using agent_internal::HasLiveLog;
+using agent_internal::IdTables;
 using agent_internal::InAny;
 using agent_internal::kInstallTokenKey;
 using agent_internal::kLockFile;
 using agent_internal::kNewMapFile;
 using agent_internal::kNextStateFile;
 using agent_internal::kStateFile;
+using agent_internal::NewIdsGeneration;
 using agent_internal::OfKind;
 using agent_internal::ReadElements;
+using agent_internal::ReadStateIds;
 using agent_internal::ReadSyncState;
 using agent_internal::RemoveDatabaseFiles;
 using agent_internal::Rename;
+using agent_internal::StoredSyncState;
+using agent_internal::SubmissionsOf;
 using agent_internal::SyncStateToJson;
 using agent_internal::WithSuffix;
 using agent_internal::WriteFileAtomically;
+using agent_internal::WriteStateIds;
 
 // Whether the install that wrote `next` happened: one that replaced map.db whole got as far
 // as its rename (no token; sync.json.next alone means so), one in place committed its token.
@@ -53,12 +60,38 @@ bool InstalledInPlace(const SyncState& next, const std::string& map_uri) {
   return GraphStore::Open(map_uri)->versions().FindSetting(kInstallTokenKey) == next.install_token;
 }
 
+// Of `ids`, those `state` has not installed.
+ElementIds NotInstalled(const SyncState& state, const ElementIds& ids) {
+  ElementIds out;
+  for (int kind = 0; kind < 3; ++kind) {
+    for (const Uuid& id : OfKind(ids, kind)) {
+      if (!OfKind(state.installed, kind).contains(id)) OfKind(out, kind).insert(id);
+    }
+  }
+  return out;
+}
+
 }  // namespace
 
 bool ElementIds::Contains(const ElementIds& other) const {
   return std::includes(nodes.begin(), nodes.end(), other.nodes.begin(), other.nodes.end()) &&
          std::includes(edges.begin(), edges.end(), other.edges.begin(), other.edges.end()) &&
          std::includes(paths.begin(), paths.end(), other.paths.begin(), other.paths.end());
+}
+
+ElementCount CountOf(const ElementIds& ids) {
+  return ElementCount{ids.nodes.size(), ids.edges.size(), ids.paths.size()};
+}
+
+SyncStateCounts CountsOf(const SyncState& state) {
+  SyncStateCounts counts;
+  counts.installed = CountOf(state.installed);
+  counts.pushed = CountOf(state.pushed);
+  if (state.submission) counts.submission = CountOf(state.submission->content);
+  for (const UnmergedSubmission& unmerged : state.unmerged) {
+    counts.unmerged.push_back(CountOf(unmerged.content));
+  }
+  return counts;
 }
 
 ElementIds IdsOf(const GraphBatch& batch) {
@@ -75,7 +108,11 @@ LocalMap LocalMap::Open(const fs::path& dir, LocalMapAccess access) {
       throw Error(ErrorCode::kNotFound, "no robot map directory " + dir.string());
     }
     LocalMap map(dir, access, -1);
-    map.state_ = ReadSyncState(dir / kStateFile);
+    // The scalars and the sets' sizes: a reader (status) never reads the sets.
+    StoredSyncState stored = ReadSyncState(dir / kStateFile);
+    map.state_ = std::move(stored.state);
+    map.counts_ = std::move(stored.counts);
+    map.ids_read_ = stored.ids_inline;
     return map;
   }
   std::error_code ec;
@@ -104,7 +141,7 @@ LocalMap LocalMap::Open(const fs::path& dir, LocalMapAccess access) {
     if (fs::exists(new_map)) {
       RemoveDatabaseFiles(new_map);
       fs::remove(next_state);
-    } else if (InstalledInPlace(ReadSyncState(next_state), map.map_uri())) {
+    } else if (InstalledInPlace(ReadSyncState(next_state).state, map.map_uri())) {
       Rename(next_state, dir / kStateFile);
     } else {
       fs::remove(next_state);
@@ -117,9 +154,55 @@ LocalMap LocalMap::Open(const fs::path& dir, LocalMapAccess access) {
   fs::remove(WithSuffix(dir / kStateFile, ".tmp"), ignored);
   fs::remove(WithSuffix(next_state, ".tmp"), ignored);
 
-  map.state_ = ReadSyncState(dir / kStateFile);
+  StoredSyncState stored = ReadSyncState(dir / kStateFile);
   GraphStore::Open(map.map_uri());  // creates an empty map, so the builder and readers find one
+  map.LoadIds(std::move(stored));
   return map;
+}
+
+void LocalMap::LoadIds(agent_internal::StoredSyncState stored) {
+  state_ = std::move(stored.state);
+  ids_read_ = true;
+  IdTables tables = IdTables::Open(map_path());
+  if (stored.ids_inline) {
+    // Written by an agent that kept the sets in sync.json: moved into map.db, then sync.json
+    // rewritten without them (a crash in between moves them again).
+    state_.ids_generation = NewIdsGeneration();
+    tables.Begin();
+    WriteStateIds(tables, state_, /*submissions=*/true);
+    tables.Commit();
+    SaveState();
+  } else {
+    const std::vector<Uuid> lost = ReadStateIds(tables, state_, stored.counts);
+    lost_submissions_.insert(lost.begin(), lost.end());
+  }
+  tables.Prune(state_.ids_generation, SubmissionsOf(state_));
+}
+
+SyncStateCounts LocalMap::counts() const {
+  return access_ == LocalMapAccess::kReadOnly ? counts_ : CountsOf(state_);
+}
+
+void LocalMap::WriteSubmissionIds(const Uuid& submission, const ElementIds& content) {
+  IdTables tables = IdTables::Open(map_path());
+  tables.Begin();
+  tables.WriteSubmission(submission, content);
+  tables.Commit();
+}
+
+void LocalMap::PruneIds() {
+  std::vector<Uuid> named = SubmissionsOf(state_);
+  named.insert(named.end(), staged_.begin(), staged_.end());
+  IdTables::Open(map_path()).Prune(state_.ids_generation, named);
+}
+
+void LocalMap::ReadIdsIfUnread() {
+  if (ids_read_) return;
+  if (fs::exists(map_path())) {
+    IdTables tables = IdTables::Open(map_path(), /*scratch=*/false, /*read_only=*/true);
+    ReadStateIds(tables, state_, counts_);
+  }
+  ids_read_ = true;
 }
 
 LocalMap::LocalMap(fs::path dir, LocalMapAccess access, int lock_fd)
@@ -129,7 +212,11 @@ LocalMap::LocalMap(LocalMap&& other) noexcept
     : dir_(std::move(other.dir_)),
       access_(other.access_),
       lock_fd_(std::exchange(other.lock_fd_, -1)),
-      state_(std::move(other.state_)) {}
+      state_(std::move(other.state_)),
+      counts_(std::move(other.counts_)),
+      ids_read_(other.ids_read_),
+      staged_(std::move(other.staged_)),
+      lost_submissions_(std::move(other.lost_submissions_)) {}
 
 LocalMap::~LocalMap() {
   if (lock_fd_ >= 0) ::close(lock_fd_);  // releases the flock
@@ -148,6 +235,7 @@ void LocalMap::SaveState() {
 
 GraphBatch LocalMap::Unsynced() {
   if (!fs::exists(map_path())) return {};
+  ReadIdsIfUnread();
   return ReadElements(map_uri(), [this](const Uuid& id, int kind) {
     return !InAny(state_.installed, state_.pushed, id, kind);
   });
@@ -172,8 +260,36 @@ PendingSubmission LocalMap::BeginSubmission(const GraphBatch& content) {
                                                  " already has submission " +
                                                  state_.submission->id.ToString() + " pending");
   }
-  state_.submission = PendingSubmission{Uuid::Generate(), IdsOf(content)};
+  PendingSubmission submission{Uuid::Generate(), IdsOf(content)};
+  // Its content first: until sync.json names it, its rows are left over and pruned.
+  WriteSubmissionIds(submission.id, submission.content);
+  state_.submission = std::move(submission);
   SaveState();
+  return *state_.submission;
+}
+
+Uuid LocalMap::StageSubmission(const ElementIds& content) {
+  RequireWritable("stage a submission");
+  const Uuid id = Uuid::Generate();
+  WriteSubmissionIds(id, content);
+  staged_.push_back(id);
+  return id;
+}
+
+PendingSubmission LocalMap::BeginSubmission(const ElementIds& content, const Uuid& staged) {
+  RequireWritable("begin submission");
+  if (state_.submission) {
+    throw Error(ErrorCode::kInvalidArgument, "robot map " + dir_.string() +
+                                                 " already has submission " +
+                                                 state_.submission->id.ToString() + " pending");
+  }
+  if (std::find(staged_.begin(), staged_.end(), staged) == staged_.end()) {
+    throw Error(ErrorCode::kInvalidArgument,
+                "submission " + staged.ToString() + " was not staged in " + dir_.string());
+  }
+  state_.submission = PendingSubmission{staged, content};
+  SaveState();
+  std::erase(staged_, staged);
   return *state_.submission;
 }
 
@@ -184,7 +300,9 @@ PendingSubmission LocalMap::BeginSubmission(const ElementIds& content) {
                                                  " already has submission " +
                                                  state_.submission->id.ToString() + " pending");
   }
-  state_.submission = PendingSubmission{Uuid::Generate(), content};
+  PendingSubmission submission{Uuid::Generate(), content};
+  WriteSubmissionIds(submission.id, submission.content);
+  state_.submission = std::move(submission);
   SaveState();
   return *state_.submission;
 }
@@ -194,6 +312,7 @@ void LocalMap::AbandonSubmission() {
   if (!state_.submission) return;
   state_.submission.reset();
   SaveState();
+  PruneIds();
 }
 
 void LocalMap::RecordServerLimits(const ServerLimits& limits) {
@@ -289,8 +408,18 @@ void LocalMap::Discard(const Uuid& submission) {
                     " has not failed (its merge is pending or done); only a failed one can be "
                     "discarded");
   }
+  // Its content stays pushed (the next install drops it): written as such before it leaves the
+  // list that made it so.
+  {
+    IdTables tables = IdTables::Open(map_path());
+    tables.Begin();
+    tables.AddToSet(state_.ids_generation, agent_internal::IdRole::kPushed,
+                    NotInstalled(state_, found->content));
+    tables.Commit();
+  }
   state_.unmerged.erase(found);
   SaveState();
+  PruneIds();
 }
 
 void LocalMap::CommitChangesInPlace(GraphStore& store, const ElementIds& gone,
@@ -299,6 +428,15 @@ void LocalMap::CommitChangesInPlace(GraphStore& store, const ElementIds& gone,
     throw Error(ErrorCode::kConflict, map_path().string() +
                                           " is open in another process (its write-ahead log "
                                           "is live); stop the map builder before a sync");
+  }
+  // The next sets, as a generation of their own: the current one stays until the state that
+  // names the next is current (a crash before leaves the next one to be pruned).
+  next_state.ids_generation = NewIdsGeneration();
+  {
+    IdTables tables = IdTables::Open(map_path());
+    tables.Begin();
+    WriteStateIds(tables, next_state, /*submissions=*/false);
+    tables.Commit();
   }
   const fs::path next_state_path = dir_ / kNextStateFile;
   WriteFileAtomically(next_state_path, SyncStateToJson(next_state));
@@ -326,6 +464,7 @@ void LocalMap::CommitChangesInPlace(GraphStore& store, const ElementIds& gone,
   Rename(next_state_path, dir_ / kStateFile);
   SyncToDisk(dir_);
   state_ = std::move(next_state);
+  PruneIds();
 }
 
 void LocalMap::CommitNewMap(SyncState next_state) {
@@ -333,6 +472,17 @@ void LocalMap::CommitNewMap(SyncState next_state) {
   if (HasLiveLog(new_map)) {  // closing the only connection should have checkpointed it
     RemoveDatabaseFiles(new_map);
     throw Error(ErrorCode::kBackend, new_map.string() + "-wal was not checkpointed on close");
+  }
+  // The sets go into the new map, written whole: they become current with it.
+  next_state.ids_generation = NewIdsGeneration();
+  try {
+    IdTables tables = IdTables::Open(new_map, /*scratch=*/true);
+    tables.Begin();
+    WriteStateIds(tables, next_state, /*submissions=*/true);
+    tables.Commit();
+  } catch (...) {
+    RemoveDatabaseFiles(new_map);
+    throw;
   }
   SyncToDisk(new_map);
   if (HasLiveLog(map_path())) {

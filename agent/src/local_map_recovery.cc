@@ -4,11 +4,13 @@
 #include <algorithm>
 #include <filesystem>
 #include <memory>
+#include <span>
 #include <unordered_set>
 
 #include "fleetmap/agent/local_map.h"
 #include "fleetmap/core/error.h"
 #include "fleetmap/store/graph_store.h"
+#include "id_tables.h"
 
 namespace fleetmap {
 
@@ -49,61 +51,104 @@ void LocalMap::ForgetServerCopy(const Uuid& robot) {
   next.restore_own_work = true;
   if (std::filesystem::exists(map_path())) {
     const std::unique_ptr<GraphStore> store = GraphStore::Open(map_uri());
-    NodeFilter bare;
-    bare.with_landmarks = false;
-    StoredIds stored;
-    std::unordered_set<Uuid> own_nodes;
+    // Ids in sorted arrays and edges a batch of nodes at a time: a backlog of 10^6 nodes is 2
+    // million edges, hundreds of MB read at once.
     std::vector<Uuid> all_nodes;
-    for (const Node& node : store->ListNodes(bare)) {
-      all_nodes.push_back(node.id);
-      stored.nodes.insert(node.id);
-      if (node.robot == robot) {
-        own_nodes.insert(node.id);
-      } else {
-        next.pushed.nodes.insert(node.id);
+    std::vector<Uuid> own_nodes;
+    {
+      NodeFilter bare;
+      bare.with_landmarks = false;
+      for (const Node& node : store->ListNodes(bare)) {
+        all_nodes.push_back(node.id);
+        if (node.robot == robot) {
+          own_nodes.push_back(node.id);
+        } else {
+          next.pushed.nodes.insert(node.id);
+        }
       }
     }
+    std::sort(all_nodes.begin(), all_nodes.end());
+    std::sort(own_nodes.begin(), own_nodes.end());
+    const auto has = [](const std::vector<Uuid>& sorted, const Uuid& id) {
+      return std::binary_search(sorted.begin(), sorted.end(), id);
+    };
+    std::unordered_set<Uuid> stored_paths;
     std::unordered_set<Uuid> own_paths;
     for (const Path& path : store->ListPaths({})) {
-      stored.paths.insert(path.id);
+      stored_paths.insert(path.id);
       if (path.robot == robot) {
         own_paths.insert(path.id);
       } else {
         next.pushed.paths.insert(path.id);
       }
     }
+    // The submissions the state knew, and how many of each one's edges map.db holds.
+    std::vector<const ElementIds*> known_content;
+    if (state_.submission) known_content.push_back(&state_.submission->content);
+    for (const UnmergedSubmission& unmerged : state_.unmerged) {
+      known_content.push_back(&unmerged.content);
+    }
+    std::vector<std::size_t> edges_held(known_content.size(), 0);
     // An edge between two nodes of other robots came with them; one that touches this
     // robot's nodes, or lies on its path, is its own (a re-push of one the server has is
-    // recognised by its UUID).
-    for (const Edge& edge : store->EdgesTouching(all_nodes)) {
-      stored.edges.insert(edge.id);
-      const bool own = own_nodes.contains(edge.from) || own_nodes.contains(edge.to) ||
-                       (!edge.path.IsNil() && own_paths.contains(edge.path));
-      if (!own) next.pushed.edges.insert(edge.id);
+    // recognised by its UUID). Each edge is read with the batch that holds its `from` node (its
+    // `to`, when map.db lacks the `from`).
+    constexpr std::size_t kBatch = 4096;
+    for (std::size_t from = 0; from < all_nodes.size(); from += kBatch) {
+      const std::span<const Uuid> batch =
+          std::span<const Uuid>(all_nodes).subspan(from, std::min(kBatch, all_nodes.size() - from));
+      const auto in_batch = [&](const Uuid& id) {
+        return std::binary_search(batch.begin(), batch.end(), id);
+      };
+      for (const Edge& edge : store->EdgesTouching(batch)) {
+        if (!in_batch(edge.from) && (has(all_nodes, edge.from) || !in_batch(edge.to))) continue;
+        const bool own = has(own_nodes, edge.from) || has(own_nodes, edge.to) ||
+                         (!edge.path.IsNil() && own_paths.contains(edge.path));
+        if (!own) next.pushed.edges.insert(edge.id);
+        for (std::size_t i = 0; i < known_content.size(); ++i) {
+          if (known_content[i]->edges.contains(edge.id)) ++edges_held[i];
+        }
+      }
     }
     // What the state knew of the robot's own pushes and the map still holds whole stays known:
     // a pending push resumes under its id, an unmerged submission keeps its content through
     // installs (the restore passes over it). The rest comes back from the server.
+    std::size_t index = 0;
     const auto whole = [&](const ElementIds& content) {
-      return std::all_of(content.nodes.begin(), content.nodes.end(),
-                         [&](const Uuid& id) { return stored.nodes.contains(id); }) &&
-             std::all_of(content.edges.begin(), content.edges.end(),
-                         [&](const Uuid& id) { return stored.edges.contains(id); }) &&
+      const bool edges = edges_held[index++] == content.edges.size();
+      return edges &&
+             std::all_of(content.nodes.begin(), content.nodes.end(),
+                         [&](const Uuid& id) { return has(all_nodes, id); }) &&
              std::all_of(content.paths.begin(), content.paths.end(),
-                         [&](const Uuid& id) { return stored.paths.contains(id); });
+                         [&](const Uuid& id) { return stored_paths.contains(id); });
     };
-    if (state_.submission && whole(state_.submission->content)) {
+    // (A submission whose ids map.db lost with the map is not whole, whatever it still holds.)
+    // (Called once per submission, in known_content's order.)
+    const auto kept = [&](const Uuid& id, const ElementIds& content) {
+      const bool is_whole = whole(content);
+      return !lost_submissions_.contains(id) && is_whole;
+    };
+    if (state_.submission && kept(state_.submission->id, state_.submission->content)) {
       next.submission = state_.submission;
     }
     for (const UnmergedSubmission& unmerged : state_.unmerged) {
-      if (!whole(unmerged.content)) continue;
+      if (!kept(unmerged.id, unmerged.content)) continue;
       next.unmerged.push_back(unmerged);
       next.pushed.nodes.insert(unmerged.content.nodes.begin(), unmerged.content.nodes.end());
       next.pushed.edges.insert(unmerged.content.edges.begin(), unmerged.content.edges.end());
       next.pushed.paths.insert(unmerged.content.paths.begin(), unmerged.content.paths.end());
     }
   }
+  // The sets as a new generation; the kept submissions' content is in map.db already.
+  next.ids_generation = agent_internal::NewIdsGeneration();
+  {
+    agent_internal::IdTables tables = agent_internal::IdTables::Open(map_path());
+    tables.Begin();
+    agent_internal::WriteStateIds(tables, next, /*submissions=*/false);
+    tables.Commit();
+  }
   state_ = std::move(next);
+  lost_submissions_.clear();
   // A state that was lost is written once the server has accepted the robot (BindRobot after
   // the welcome): a sync refused at its hello (a wrong token or robot id) changes nothing.
   if (state_.robot) SaveState();
@@ -149,19 +194,20 @@ LocalMap::Restored LocalMap::RestoreSubmission(const UnmergedSubmission& submiss
   store->Put(missing);
   restored.written = missing.nodes.size() + missing.edges.size() + missing.paths.size();
   for (int kind = 0; kind < 3; ++kind) {
-    const std::set<Uuid>& ids = kind == 0   ? record.content.nodes
-                                : kind == 1 ? record.content.edges
-                                            : record.content.paths;
-    std::set<Uuid>& installed = kind == 0   ? state_.installed.nodes
-                                : kind == 1 ? state_.installed.edges
-                                            : state_.installed.paths;
-    std::set<Uuid>& pushed = kind == 0   ? state_.pushed.nodes
-                             : kind == 1 ? state_.pushed.edges
-                                         : state_.pushed.paths;
+    const IdSet& ids = kind == 0   ? record.content.nodes
+                       : kind == 1 ? record.content.edges
+                                   : record.content.paths;
+    IdSet& installed = kind == 0   ? state_.installed.nodes
+                       : kind == 1 ? state_.installed.edges
+                                   : state_.installed.paths;
+    IdSet& pushed = kind == 0   ? state_.pushed.nodes
+                    : kind == 1 ? state_.pushed.edges
+                                : state_.pushed.paths;
     for (const Uuid& id : ids) {
       if (!installed.contains(id)) pushed.insert(id);
     }
   }
+  WriteSubmissionIds(record.id, record.content);
   state_.unmerged.push_back(std::move(record));
   SaveState();
   return restored;

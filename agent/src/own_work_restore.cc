@@ -1,5 +1,6 @@
 #include "own_work_restore.h"
 
+#include <algorithm>
 #include <cstdint>
 #include <optional>
 
@@ -57,6 +58,13 @@ OwnWorkRestored RestoreOwnWork(SyncClient& client, LocalMap& map,
                                            std::to_string(entry.submission_id().size()) + " bytes");
     }
     const Uuid id = Uuid::FromBytes(entry.submission_id());
+    // One this map recorded (pushed from here, or restored before) changes nothing, and is not
+    // fetched: a backlog pushed by the same sync is GBs of content.
+    const SyncState& state = map.state();
+    if (std::any_of(state.unmerged.begin(), state.unmerged.end(),
+                    [&](const UnmergedSubmission& known) { return known.id == id; })) {
+      continue;
+    }
     const std::string during = "restore of submission " + id.ToString();
     say("restoring submission " + id.ToString() + " (" + entry.state() + ", " +
         std::to_string(entry.chunk_count()) + " chunks) from the server");

@@ -23,6 +23,8 @@ namespace {
 constexpr std::uint64_t kDefaultMaxSubmissionBytes = std::uint64_t{2048} << 20;
 // Nodes read from map.db at a time: a few MB of landmarks at most for ordinary nodes.
 constexpr std::size_t kNodeBatch = 64;
+// Nodes whose edges are read from map.db at a time, when the plan gathers them.
+constexpr std::size_t kPlanEdgeBatch = 4096;
 // What an element adds to a chunk beyond its own encoding, at most: its field tag and length
 // prefix (map_chunks.cc counts the same 8), so a submission's bytes never pass its budget.
 constexpr std::size_t kElementOverhead = 8;
@@ -109,6 +111,17 @@ void ForEachNode(GraphStore& store, const std::vector<Uuid>& ids, Fn fn) {
   }
 }
 
+// Edge `id` of `store`. Throws Error(kNotFound) when map.db no longer holds it.
+Edge ReadEdge(GraphStore& store, const Uuid& id) {
+  try {
+    return store.GetEdge(id);
+  } catch (const Error& e) {
+    if (e.code() != ErrorCode::kNotFound) throw;
+    throw Error(ErrorCode::kNotFound,
+                store.uri() + " no longer holds edge " + id.ToString() + " (planned for a push)");
+  }
+}
+
 // Encodes `submission` from `store` as PlanPush did, giving each chunk to `emit`.
 void Encode(GraphStore& store, const PlannedSubmission& submission, const ChunkStream::Emit& emit) {
   ChunkStream stream(emit);
@@ -123,7 +136,7 @@ void Encode(GraphStore& store, const PlannedSubmission& submission, const ChunkS
     stream.Write(std::move(message), size, NewNode);
   });
   for (const std::uint32_t i : submission.edges) {
-    v1::Edge message = ToProto((*submission.edge_pool)[i]);
+    v1::Edge message = ToProto(ReadEdge(store, (*submission.edge_pool)[i].id));
     const std::size_t size = message.ByteSizeLong();
     stream.Write(std::move(message), size, NewEdge);
   }
@@ -147,9 +160,9 @@ bool NodeFits(std::uint64_t bytes, const ServerLimits& limits) {
 // submission holding one of its ends.
 class Partitioner {
  public:
-  Partitioner(const ServerLimits& limits, std::shared_ptr<const std::vector<Edge>> edge_pool,
-              PushPlan& plan)
-      : limits_(limits), edge_pool_(std::move(edge_pool)), plan_(plan) {
+  Partitioner(GraphStore& store, const ServerLimits& limits,
+              std::shared_ptr<const std::vector<PlannedEdge>> edge_pool, PushPlan& plan)
+      : store_(store), limits_(limits), edge_pool_(std::move(edge_pool)), plan_(plan) {
     Start();
   }
 
@@ -166,7 +179,7 @@ class Partitioner {
     current_.nodes.push_back(id);
   }
   void AddEdge(std::uint32_t i) {
-    Room(ToProto((*edge_pool_)[i]).ByteSizeLong());
+    Room((*edge_pool_)[i].bytes);
     current_.edges.push_back(i);
   }
   void Finish() { Close(); }
@@ -194,7 +207,7 @@ class Partitioner {
     if (used_ == 0) return;
     std::sort(current_.edges.begin(), current_.edges.end());  // the pool is by UUID
     for (const std::uint32_t i : current_.edges) {
-      v1::Edge message = ToProto((*edge_pool_)[i]);
+      v1::Edge message = ToProto(ReadEdge(store_, (*edge_pool_)[i].id));
       const std::size_t size = message.ByteSizeLong();
       stream_->Write(std::move(message), size, NewEdge);
     }
@@ -204,8 +217,9 @@ class Partitioner {
     used_ = 0;
   }
 
+  GraphStore& store_;
   ServerLimits limits_;
-  std::shared_ptr<const std::vector<Edge>> edge_pool_;
+  std::shared_ptr<const std::vector<PlannedEdge>> edge_pool_;
   PushPlan& plan_;
   PlannedSubmission current_;
   std::unique_ptr<ChunkTally> tally_;
@@ -222,7 +236,7 @@ class Partitioner {
 // The pending submission as recorded, encoded once for its count, bytes and digest.
 PlannedSubmission PlanPending(GraphStore& store, const PendingSubmission& pending,
                               const std::vector<Path>& paths,
-                              std::shared_ptr<const std::vector<Edge>> edge_pool) {
+                              std::shared_ptr<const std::vector<PlannedEdge>> edge_pool) {
   PlannedSubmission submission;
   for (const Path& path : paths) {
     if (pending.content.paths.contains(path.id)) submission.paths.push_back(path);
@@ -292,13 +306,31 @@ PushPlan PlanPush(const LocalMap& map, const ServerLimits& said) {
   }
   std::sort(new_nodes.begin(), new_nodes.end());
   // Only the edges this plan may send (new or pending), ordered by UUID: the pool of them all.
-  auto edge_pool = std::make_shared<std::vector<Edge>>(store->EdgesTouching(all_nodes));
+  // Read a batch of nodes at a time, each edge with the batch holding its `from` node (its
+  // `to`, when map.db lacks the `from`): memory holds the pool, not every edge's content.
+  auto edge_pool = std::make_shared<std::vector<PlannedEdge>>();
+  std::sort(all_nodes.begin(), all_nodes.end());
+  for (std::size_t from = 0; from < all_nodes.size(); from += kPlanEdgeBatch) {
+    const std::span<const Uuid> batch(all_nodes.data() + from,
+                                      std::min(kPlanEdgeBatch, all_nodes.size() - from));
+    const auto in_batch = [&](const Uuid& id) {
+      return std::binary_search(batch.begin(), batch.end(), id);
+    };
+    for (const Edge& edge : store->EdgesTouching(batch)) {
+      const bool here =
+          in_batch(edge.from) ||
+          (!std::binary_search(all_nodes.begin(), all_nodes.end(), edge.from) && in_batch(edge.to));
+      if (!here || OfKind(state.installed, 1).contains(edge.id) ||
+          OfKind(state.pushed, 1).contains(edge.id)) {
+        continue;
+      }
+      edge_pool->push_back(PlannedEdge{edge.id, edge.from, edge.to,
+                                       static_cast<std::uint32_t>(ToProto(edge).ByteSizeLong())});
+    }
+  }
   std::vector<Uuid>().swap(all_nodes);
-  std::erase_if(*edge_pool, [&](const Edge& edge) {
-    return OfKind(state.installed, 1).contains(edge.id) ||
-           OfKind(state.pushed, 1).contains(edge.id);
-  });
   SortById(*edge_pool);
+  edge_pool->shrink_to_fit();
   std::vector<Path> paths = store->ListPaths({});
   SortById(paths);
 
@@ -312,16 +344,16 @@ PushPlan PlanPush(const LocalMap& map, const ServerLimits& said) {
     plan.pending_first = true;
   }
 
-  Partitioner parts(plan.limits, edge_pool, plan);
+  Partitioner parts(*store, plan.limits, edge_pool, plan);
   for (const Path& path : paths) {
     if (is_new(path.id, 2)) parts.AddPath(path);
   }
   // An edge goes once its new ends are placed (-1: held with a node it ends at; -2: pending).
-  const std::vector<Edge>& pool = *edge_pool;
+  const std::vector<PlannedEdge>& pool = *edge_pool;
   std::vector<int> waiting(pool.size(), 0);
   std::unordered_map<Uuid, std::vector<std::uint32_t>> edges_at;
   for (std::uint32_t i = 0; i < pool.size(); ++i) {
-    const Edge& edge = pool[i];
+    const PlannedEdge& edge = pool[i];
     if (!is_new(edge.id, 1)) {
       waiting[i] = -2;
       continue;

@@ -10,8 +10,9 @@
 //   to it wait with it.
 // - Item 4: the planning reads the nodes in batches and encodes them once to learn each
 //   submission's chunk count, bytes and digest (what PushBegin announces), keeping none of the
-//   chunks; StreamSubmission encodes them again as they are sent. Memory holds ids, edges and
-//   a batch of nodes, never the content.
+//   chunks; StreamSubmission encodes them again as they are sent. Memory holds ids, each
+//   edge's ends and encoded size (PlannedEdge) and a batch of nodes, never the content: an
+//   edge is read again by id each time it is encoded.
 //
 // A submission's chunks are exactly EncodeMapChunks of its content with each kind ordered by
 // UUID (paths, nodes, edges), as LocalMap::SubmissionContent gives it: a submission recorded by
@@ -22,6 +23,7 @@
 #include <deque>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -37,19 +39,31 @@ inline constexpr std::uint32_t kPushChunkEnvelopeBytes = 64;
 // `said` with what a server that did not say is taken to take: fleetmapd's defaults.
 ServerLimits EffectiveLimits(const ServerLimits& said);
 
+// An edge a plan may send, as the plan holds it: its ends and encoded size, not its content
+// (a pose is 128 bytes; a backlog has millions of edges), which is read again, by id, when the
+// edge is encoded.
+struct PlannedEdge {
+  Uuid id;
+  Uuid from;
+  Uuid to;
+  std::uint32_t bytes = 0;  // encoded
+};
+
 struct PlannedSubmission {
-  // Each kind ordered by UUID. Nodes by id only: their landmarks are read again when sent.
-  // Edges as positions in `edge_pool`, which is ordered by UUID and shared by the submissions
-  // of a plan: a backlog's millions of edges are held once.
+  // Each kind ordered by UUID. Nodes and edges by id only: their content is read again when
+  // sent. Edges as positions in `edge_pool`, which is ordered by UUID and shared by the
+  // submissions of a plan: a backlog's millions of edges are held once.
   std::vector<Path> paths;
   std::vector<Uuid> nodes;
-  std::shared_ptr<const std::vector<Edge>> edge_pool;
+  std::shared_ptr<const std::vector<PlannedEdge>> edge_pool;
   std::vector<std::uint32_t> edges;
   // What PushBegin announces.
   std::uint32_t chunk_count = 0;
   std::uint64_t total_bytes = 0;
   std::uint64_t digest = 0;
   std::uint64_t largest_chunk_bytes = 0;
+  // The id it goes under once recorded (LocalMap::StageSubmission); none for the pending one.
+  std::optional<Uuid> staged;
 
   ElementIds Ids() const;
 };

@@ -4,9 +4,11 @@
 #include <algorithm>
 #include <chrono>
 #include <filesystem>
+#include <iterator>
 #include <memory>
 #include <optional>
 #include <set>
+#include <span>
 #include <string>
 #include <utility>
 #include <vector>
@@ -28,12 +30,10 @@ namespace {
 namespace fs = std::filesystem;
 using agent_internal::BackgroundFlusher;
 using agent_internal::InAny;
+using agent_internal::KeptSubmissions;
 using agent_internal::kNewMapFile;
 using agent_internal::OfKind;
-using agent_internal::ReadElements;
 using agent_internal::RemoveDatabaseFiles;
-using agent_internal::Retire;
-using agent_internal::Retirement;
 
 }  // namespace
 
@@ -52,7 +52,7 @@ struct MapInstallation::State {
   ElementIds selection;  // ids written so far, up to the last Seal
   // The robot's pushed nodes whose merge this download does not reflect, and the current map
   // to read them from (opened when the download holds one).
-  std::set<Uuid> own_unmerged;
+  KeptSubmissions own_unmerged;
   std::unique_ptr<GraphStore> current;
   std::size_t own_kept = 0;  // download nodes the robot's own content stood in for
   SelectionDigest digest;    // of the selection written so far, up to the last Seal
@@ -69,24 +69,23 @@ struct MapInstallation::State {
     Merge(written_edges, selection.edges);
   }
 
-  // Puts `kept` beside the download, checks map.db.new holds all of it, commits and closes
-  // it. REQUIRES: Seal() called since the last write.
-  void WriteKeptAndClose(const GraphBatch& kept);
+  // Checks map.db.new holds the download and the `kept` elements written beside it, commits
+  // and closes it. REQUIRES: Seal() called since the last write.
+  void CheckAndClose(const ElementCount& kept);
 
  private:
-  void Merge(std::vector<std::pair<Uuid, std::uint64_t>>& written, std::set<Uuid>& ids) {
+  void Merge(std::vector<std::pair<Uuid, std::uint64_t>>& written, IdSet& ids) {
     std::stable_sort(written.begin(), written.end(),
                      [](const auto& a, const auto& b) { return a.first < b.first; });
-    for (const auto& [id, element_digest] : written) {
-      const std::size_t before = ids.size();
-      // Ascending ids go in at the end in constant time.
-      if (ids.empty() || *ids.rbegin() < id) {
-        ids.insert(ids.end(), id);
-      } else {
-        ids.insert(id);
-      }
-      if (ids.size() > before) digest.Add(SelectionDigest::From(element_digest));
+    std::vector<Uuid> added;
+    for (std::size_t i = 0; i < written.size(); ++i) {
+      const auto& [id, element_digest] = written[i];
+      if ((i > 0 && written[i - 1].first == id) || ids.contains(id)) continue;
+      added.push_back(id);
+      digest.Add(SelectionDigest::From(element_digest));
     }
+    // Sorted: merged into the set at once.
+    ids.insert(added.begin(), added.end());
     written.clear();
   }
 };
@@ -111,7 +110,7 @@ std::unique_ptr<MapInstallation> LocalMap::BeginInstall(const MapDownload& downl
   state->download.edges = download.edges;
   state->download.paths = download.paths;
   state->new_map = dir_ / kNewMapFile;
-  state->own_unmerged = Retire(state_, download.revision).keep.nodes;
+  state->own_unmerged = KeptSubmissions(state_, download.revision);
   RemoveDatabaseFiles(state->new_map);
   try {
     StoreOptions options;
@@ -199,7 +198,7 @@ void MapInstallation::Write(const GraphBatch& part, const PreparedChunk& digests
   std::optional<GraphBatch> mine;
   std::vector<std::size_t> replaced;  // nodes of `part` the robot's own stands in for
   for (std::size_t i = 0; i < part.nodes.size(); ++i) {
-    if (!s.own_unmerged.contains(part.nodes[i].id)) continue;
+    if (!s.own_unmerged.Contains(part.nodes[i].id, 0)) continue;
     if (!s.current) s.current = GraphStore::Open(s.map->map_uri());
     std::optional<Node> own = s.current->FindNode(part.nodes[i].id);
     if (!own || *own == part.nodes[i]) continue;
@@ -253,84 +252,174 @@ void CheckSelectionCounts(const ElementIds& selection, const MapDownload& downlo
   }
 }
 
-// Local content the server does not have yet, and pushed content not merged yet, stays with
-// whatever it references (as Install): read from map.db, which is mostly the last download
-// and is not read whole. Counts what it keeps in `report`.
-GraphBatch ReadKeptContent(const std::string& map_uri, const ElementIds& selection,
-                           const SyncState& state, const Retirement& retirement,
-                           InstallReport& report) {
-  auto unsynced = [&](const Uuid& id, int kind) {
-    return !InAny(state.installed, state.pushed, id, kind);
-  };
-  auto unmerged = [&](const Uuid& id, int kind) {
-    return OfKind(retirement.keep, kind).contains(id);
-  };
-  GraphBatch kept = ReadElements(map_uri, [&](const Uuid& id, int kind) {
-    return !OfKind(selection, kind).contains(id) && (unsynced(id, kind) || unmerged(id, kind));
-  });
-  for (int kind = 0; kind < 3; ++kind) {
-    const auto count = [&](const auto& elements) {
-      for (const auto& element : elements) {
-        if (unsynced(element.id, kind)) {
-          ++report.kept_unsynced;
-        } else {
-          ++report.kept_unmerged;
-        }
-      }
-    };
-    if (kind == 0) count(kept.nodes);
-    if (kind == 1) count(kept.edges);
-    if (kind == 2) count(kept.paths);
-  }
-  report.kept_failed = std::min(retirement.failed_elements, report.kept_unmerged);
-  return kept;
+// Node ids a read of kept nodes takes at a time (a few MB of landmarks), and a query of the
+// edges touching nodes.
+constexpr std::size_t kNodeReadBatch = 512;
+constexpr std::size_t kEdgeQueryBatch = 4096;
+
+bool SortedHas(std::span<const Uuid> ids, const Uuid& id) {
+  return std::binary_search(ids.begin(), ids.end(), id);
 }
 
-// Adds to `kept` the nodes and paths of map.db its edges hang from that neither it nor the
-// selection holds, counted in `report`.
-void AddWhatKeptEdgesReference(const std::string& map_uri, const ElementIds& selection,
-                               GraphBatch& kept, InstallReport& report) {
-  const std::unique_ptr<GraphStore> current = GraphStore::Open(map_uri);
-  std::set<Uuid> kept_nodes;
-  std::set<Uuid> kept_paths;
-  for (const Node& node : kept.nodes) kept_nodes.insert(node.id);
-  for (const Path& path : kept.paths) kept_paths.insert(path.id);
-  std::vector<Node> extra_nodes;
-  std::vector<Path> extra_paths;
-  std::optional<std::vector<Path>> current_paths;  // read when a kept edge needs one
-  for (const Edge& edge : kept.edges) {
-    for (const Uuid& end : {edge.from, edge.to}) {
-      if (selection.nodes.contains(end) || kept_nodes.contains(end)) continue;
-      if (std::optional<Node> node = current->FindNode(end)) {
-        extra_nodes.push_back(std::move(*node));
-        kept_nodes.insert(end);
-        ++report.kept_for_unsynced;
+// What of map.db an install keeps beside the selection (as Install): local content the server
+// does not have yet, pushed content whose merge the download does not reflect, and the nodes and
+// paths of map.db their edges hang from. Found by id, then copied into the new map a batch at a
+// time: map.db is never read whole (a backlog of 10^6 nodes is GBs of landmarks).
+class KeptContent {
+ public:
+  KeptContent(GraphStore& current, const ElementIds& selection, const SyncState& state,
+              const KeptSubmissions& unmerged)
+      : current_(current), selection_(selection), state_(state), unmerged_(unmerged) {}
+
+  // Finds what is kept (ids, and the paths whole), counted in `report`.
+  void Find(InstallReport& report) {
+    {
+      NodeFilter bare;
+      bare.with_landmarks = false;
+      const std::vector<Node> listed = current_.ListNodes(bare);
+      all_nodes_.reserve(listed.size());
+      for (const Node& node : listed) all_nodes_.push_back(node.id);
+    }
+    std::sort(all_nodes_.begin(), all_nodes_.end());
+    for (const Uuid& id : all_nodes_) {
+      if (Keeps(id, 0)) {
+        nodes_.push_back(id);
+        Count(id, 0, report);
       }
     }
-    if (!edge.path.IsNil() && !selection.paths.contains(edge.path) &&
-        !kept_paths.contains(edge.path)) {
-      if (!current_paths) current_paths = current->ListPaths({});
-      for (const Path& path : *current_paths) {
+    all_paths_ = current_.ListPaths({});
+    std::set<Uuid> kept_paths;
+    for (const Path& path : all_paths_) {
+      if (Keeps(path.id, 2)) {
+        paths_.push_back(path);
+        kept_paths.insert(path.id);
+        Count(path.id, 2, report);
+      }
+    }
+    std::set<Uuid> extra_nodes;
+    ForEachKeptEdge([&](const Edge& edge) {
+      ++edges_;
+      Count(edge.id, 1, report);
+      for (const Uuid& end : {edge.from, edge.to}) {
+        if (selection_.nodes.contains(end) || SortedHas(nodes_, end)) continue;
+        if (SortedHas(all_nodes_, end) && extra_nodes.insert(end).second) {
+          ++report.kept_for_unsynced;
+        }
+      }
+      if (edge.path.IsNil() || selection_.paths.contains(edge.path) ||
+          kept_paths.contains(edge.path)) {
+        return;
+      }
+      for (const Path& path : all_paths_) {
         if (path.id == edge.path) {
-          extra_paths.push_back(path);
+          paths_.push_back(path);
           kept_paths.insert(path.id);
           ++report.kept_for_unsynced;
         }
       }
+    });
+    std::vector<Uuid> nodes;
+    nodes.reserve(nodes_.size() + extra_nodes.size());
+    std::merge(nodes_.begin(), nodes_.end(), extra_nodes.begin(), extra_nodes.end(),
+               std::back_inserter(nodes));
+    nodes_ = std::move(nodes);
+    for (const Uuid& id : nodes_) Know(id, 0);
+    for (const Path& path : paths_) Know(path.id, 2);
+  }
+
+  // Writes what Find found into `into`: the paths, the nodes a batch at a time, then the edges
+  // (their ends written first). Returns what it wrote.
+  ElementCount CopyInto(GraphStore& into) {
+    if (!paths_.empty()) {
+      GraphBatch batch;
+      batch.paths = paths_;
+      into.Put(batch);
+    }
+    for (std::size_t from = 0; from < nodes_.size(); from += kNodeReadBatch) {
+      const std::size_t count = std::min(kNodeReadBatch, nodes_.size() - from);
+      GraphBatch batch;
+      batch.nodes = current_.GetNodes(std::span<const Uuid>(nodes_).subspan(from, count));
+      into.Put(batch);
+    }
+    std::size_t edges = 0;
+    GraphBatch batch;
+    const auto flush = [&] {
+      if (batch.edges.empty()) return;
+      into.Put(batch);
+      edges += batch.edges.size();
+      batch.edges.clear();
+    };
+    ForEachKeptEdge([&](const Edge& edge) {
+      batch.edges.push_back(edge);
+      if (batch.edges.size() >= kEdgeQueryBatch) flush();
+    });
+    flush();
+    return ElementCount{nodes_.size(), edges, paths_.size()};
+  }
+
+  // Of what is kept, what the server has (installed or pushed before): the next state's pushed.
+  ElementIds TakeKnown() { return std::move(known_); }
+
+ private:
+  bool Unsynced(const Uuid& id, int kind) const {
+    return !InAny(state_.installed, state_.pushed, id, kind);
+  }
+  bool Keeps(const Uuid& id, int kind) const {
+    return !OfKind(selection_, kind).contains(id) &&
+           (Unsynced(id, kind) || unmerged_.Contains(id, kind));
+  }
+  void Count(const Uuid& id, int kind, InstallReport& report) {
+    if (Unsynced(id, kind)) {
+      ++report.kept_unsynced;
+    } else {
+      ++report.kept_unmerged;
     }
   }
-  for (Node& node : extra_nodes) kept.nodes.push_back(std::move(node));
-  for (Path& path : extra_paths) kept.paths.push_back(std::move(path));
-}
+  void Know(const Uuid& id, int kind) {
+    if (!Unsynced(id, kind)) {
+      IdSet& known = OfKind(known_, kind);
+      known.insert(known.end(), id);
+    }
+  }
+  // Calls `fn` with each kept edge of map.db once: read with the batch of nodes holding its
+  // `from` node (its `to`, for an edge whose `from` map.db lacks).
+  template <typename Fn>
+  void ForEachKeptEdge(Fn fn) {
+    for (std::size_t from = 0; from < all_nodes_.size(); from += kEdgeQueryBatch) {
+      const std::span<const Uuid> batch =
+          std::span<const Uuid>(all_nodes_)
+              .subspan(from, std::min(kEdgeQueryBatch, all_nodes_.size() - from));
+      for (const Edge& edge : current_.EdgesTouching(batch)) {
+        const bool here = SortedHas(batch, edge.from) ||
+                          (!SortedHas(all_nodes_, edge.from) && SortedHas(batch, edge.to));
+        if (!here || !Keeps(edge.id, 1)) continue;
+        if (!known_edges_done_) Know(edge.id, 1);
+        fn(edge);
+      }
+    }
+    known_edges_done_ = true;
+  }
+
+  GraphStore& current_;
+  const ElementIds& selection_;
+  const SyncState& state_;
+  const KeptSubmissions& unmerged_;
+  std::vector<Uuid> all_nodes_;  // of map.db, sorted
+  std::vector<Path> all_paths_;
+  std::vector<Uuid> nodes_;  // kept, sorted
+  std::vector<Path> paths_;
+  std::size_t edges_ = 0;
+  ElementIds known_;
+  bool known_edges_done_ = false;
+};
 
 // The state that goes with the new map: the selection written (`selection`, of digest
-// `digest`), and of `kept`, what the server has. Every field is set here; `installed` and
-// `pushed` are built new rather than copied from the old state and replaced (tens of
-// thousands of ids each).
+// `digest`), the kept submissions, and `known` (what the server has of what was kept) as
+// pushed. Every field is set here; `installed` and `pushed` are built new rather than copied
+// from the old state and replaced (millions of ids each).
 SyncState NextStreamedState(const SyncState& state, const MapDownload& download,
                             ElementIds&& selection, std::uint64_t digest,
-                            std::vector<UnmergedSubmission>&& still_unmerged,
-                            const GraphBatch& kept) {
+                            std::vector<UnmergedSubmission>&& still_unmerged, ElementIds&& known) {
   SyncState next_state;
   next_state.robot = state.robot;
   next_state.submission = state.submission;
@@ -343,30 +432,18 @@ SyncState NextStreamedState(const SyncState& state, const MapDownload& download,
   next_state.last_error = state.last_error;
   next_state.restore_own_work = state.restore_own_work;
   next_state.unmerged = std::move(still_unmerged);
-  auto known = [&](const Uuid& id, int kind) {
-    return InAny(state.installed, state.pushed, id, kind);
-  };
-  for (const Node& node : kept.nodes) {
-    if (known(node.id, 0)) next_state.pushed.nodes.insert(node.id);
-  }
-  for (const Edge& edge : kept.edges) {
-    if (known(edge.id, 1)) next_state.pushed.edges.insert(edge.id);
-  }
-  for (const Path& path : kept.paths) {
-    if (known(path.id, 2)) next_state.pushed.paths.insert(path.id);
-  }
+  next_state.pushed = std::move(known);
   return next_state;
 }
 
 }  // namespace
 
-void MapInstallation::State::WriteKeptAndClose(const GraphBatch& kept) {
+void MapInstallation::State::CheckAndClose(const ElementCount& kept) {
   try {
-    if (!kept.nodes.empty() || !kept.edges.empty() || !kept.paths.empty()) store->Put(kept);
     const StoreStats stats = store->Stats();
-    const std::size_t nodes = selection.nodes.size() + kept.nodes.size();
-    const std::size_t edges = selection.edges.size() + kept.edges.size();
-    const std::size_t paths = selection.paths.size() + kept.paths.size();
+    const std::size_t nodes = selection.nodes.size() + kept.nodes;
+    const std::size_t edges = selection.edges.size() + kept.edges;
+    const std::size_t paths = selection.paths.size() + kept.paths;
     if (static_cast<std::size_t>(stats.nodes) != nodes ||
         static_cast<std::size_t>(stats.edges) != edges ||
         static_cast<std::size_t>(stats.paths) != paths) {
@@ -395,22 +472,34 @@ InstallReport MapInstallation::Commit() {
   const MapDownload& download = s.download;
   const SyncState& state = map.state_;
   CheckSelectionCounts(s.selection, download, map.map_path());
-  Retirement retirement = Retire(state, download.revision);
+  const KeptSubmissions unmerged(state, download.revision);
 
   InstallReport report;
   report.revision = download.revision;
   report.nodes = s.selection.nodes.size();
   report.edges = s.selection.edges.size();
   report.paths = s.selection.paths.size();
-  GraphBatch kept = ReadKeptContent(map.map_uri(), s.selection, state, retirement, report);
   report.kept_own_over_download = s.own_kept;
-  AddWhatKeptEdgesReference(map.map_uri(), s.selection, kept, report);
-  s.WriteKeptAndClose(kept);
+  ElementIds known;
+  try {
+    const std::unique_ptr<GraphStore> current = GraphStore::Open(map.map_uri());
+    KeptContent kept(*current, s.selection, state, unmerged);
+    kept.Find(report);
+    const ElementCount written = kept.CopyInto(*s.store);
+    s.CheckAndClose(written);
+    known = kept.TakeKnown();
+  } catch (const Error& e) {
+    if (e.code() == ErrorCode::kIntegrity) {
+      throw Error(ErrorCode::kCorrupt, "download of revision " + std::to_string(download.revision) +
+                                           " is not an integral map: " + e.message());
+    }
+    throw;
+  }
+  report.kept_failed = std::min(unmerged.failed_elements(), report.kept_unmerged);
 
   report.selection_digest = s.digest.value();
-  SyncState next_state =
-      NextStreamedState(state, download, std::move(s.selection), s.digest.value(),
-                        std::move(retirement.still_unmerged), kept);
+  SyncState next_state = NextStreamedState(state, download, std::move(s.selection),
+                                           s.digest.value(), unmerged.Copies(), std::move(known));
   s.committed = true;  // from here CommitNewMap owns map.db.new (it removes it on failure)
   map.CommitNewMap(std::move(next_state));
   return report;

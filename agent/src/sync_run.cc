@@ -166,6 +166,11 @@ void SyncRun::Prepare() {
     map_.AbandonSubmission();
     plan = PlanPush(map_, limits);
   }
+  // What each new submission carries, recorded in map.db now: the session then records it as
+  // pending in sync.json alone (a backlog's millions of ids take seconds to write).
+  for (std::size_t i = plan.pending_first ? 1 : 0; i < plan.submissions.size(); ++i) {
+    plan.submissions[i].staged = map_.StageSubmission(plan.submissions[i].Ids());
+  }
   result_.prepare_seconds += SecondsSince(start);
   result_.held_nodes = plan.held.size();
   result_.held_edges = plan.held_edges;
@@ -273,7 +278,13 @@ void SyncRun::PushAll(SyncClient& client) {
   map_.RecordHeld(plan_->held);
   while (!plan_->submissions.empty()) {
     const PlannedSubmission& next = plan_->submissions.front();
-    if (!map_.state().submission) map_.BeginSubmission(next.Ids());
+    if (!map_.state().submission) {
+      if (next.staged) {
+        map_.BeginSubmission(next.Ids(), *next.staged);
+      } else {
+        map_.BeginSubmission(next.Ids());
+      }
+    }
     Push(client, map_.state().submission->id, next);
     plan_->submissions.pop_front();
   }

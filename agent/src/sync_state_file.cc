@@ -18,35 +18,15 @@ namespace {
 using nlohmann::json;
 
 // Bumped when the meaning of a field changes; a newer file is refused, not misread.
-constexpr int kStateFormat = 1;
+constexpr int kStateFormat = 2;
+// Written before the id sets moved into map.db: the sets inline, as lists of ids. Read once
+// and moved (LocalMap::Open).
+constexpr int kInlineIdsFormat = 1;
 
-std::set<Uuid> IdsFromJson(const json& list) {
-  std::set<Uuid> ids;
+IdSet IdsFromJson(const json& list) {
+  IdSet ids;
   for (const json& item : list) ids.insert(Uuid::Parse(item.get<std::string>()));
   return ids;
-}
-
-void AppendIds(std::string& out, const std::set<Uuid>& ids) {
-  out += '[';
-  bool first = true;
-  for (const Uuid& id : ids) {
-    if (!first) out += ',';
-    first = false;
-    out += '"';
-    out += id.ToString();
-    out += '"';
-  }
-  out += ']';
-}
-
-void AppendElements(std::string& out, const ElementIds& ids) {
-  out += "{\"nodes\": ";
-  AppendIds(out, ids.nodes);
-  out += ", \"edges\": ";
-  AppendIds(out, ids.edges);
-  out += ", \"paths\": ";
-  AppendIds(out, ids.paths);
-  out += '}';
 }
 
 ElementIds ElementsFromJson(const json& object) {
@@ -57,108 +37,96 @@ ElementIds ElementsFromJson(const json& object) {
   return ids;
 }
 
+json CountJson(const ElementCount& count) {
+  return json::array({count.nodes, count.edges, count.paths});
+}
+
+ElementCount CountFromJson(const json& list) {
+  return ElementCount{list.at(0).get<std::size_t>(), list.at(1).get<std::size_t>(),
+                      list.at(2).get<std::size_t>()};
+}
+
 [[noreturn]] void ThrowIo(const std::string& what, const std::filesystem::path& path) {
   throw Error(ErrorCode::kBackend, what + " " + path.string() + ": " + std::strerror(errno));
 }
 
 }  // namespace
 
-// The state as JSON, the id lists written straight into the text: a large backlog's state
-// holds millions of ids, and a JSON tree of them took seconds and hundreds of MB each time it
-// was saved, inside a session the server times out.
 std::string SyncStateToJson(const SyncState& state) {
-  std::string out;
-  std::size_t ids = state.installed.size() + state.pushed.size();
-  for (const UnmergedSubmission& u : state.unmerged) ids += u.content.size();
-  if (state.submission) ids += state.submission->content.size();
-  out.reserve(1024 + ids * 40);
-  const auto key = [&out](const char* name) {
-    out += "\"";
-    out += name;
-    out += "\": ";
-  };
-  out += "{\n";
-  key("format");
-  out += std::to_string(kStateFormat) + ",\n";
-  key("robot");
-  out += JsonText(state.robot ? json(state.robot->ToString()) : json(nullptr)) + ",\n";
-  key("revision");
-  out += std::to_string(state.revision) + ",\n";
-  key("request");
-  out += JsonText(state.request ? DownloadParamsToJson(*state.request) : json(nullptr)) + ",\n";
-  key("installed");
-  AppendElements(out, state.installed);
-  out += ",\n";
-  key("pushed");
-  AppendElements(out, state.pushed);
-  out += ",\n";
-  key("unmerged");
-  out += "[";
+  const SyncStateCounts counts = CountsOf(state);
+  json root;
+  root["format"] = kStateFormat;
+  root["robot"] = state.robot ? json(state.robot->ToString()) : json(nullptr);
+  root["revision"] = state.revision;
+  root["request"] = state.request ? DownloadParamsToJson(*state.request) : json(nullptr);
+  root["ids_generation"] = state.ids_generation;
+  root["installed_count"] = CountJson(counts.installed);
+  root["pushed_count"] = CountJson(counts.pushed);
+  json unmerged = json::array();
   for (std::size_t i = 0; i < state.unmerged.size(); ++i) {
     const UnmergedSubmission& u = state.unmerged[i];
-    out += i == 0 ? "\n " : ",\n ";
-    out += "{\"id\": \"" + u.id.ToString() + "\", \"content\": ";
-    AppendElements(out, u.content);
-    out += ", \"merged_revision\": " +
-           (u.merged_revision ? std::to_string(*u.merged_revision) : std::string("null")) +
-           ", \"failed\": " + (u.failed ? "true" : "false") +
-           ", \"error\": " + JsonText(json(u.error)) + "}";
+    unmerged.push_back(
+        {{"id", u.id.ToString()},
+         {"count", CountJson(counts.unmerged[i])},
+         {"merged_revision", u.merged_revision ? json(*u.merged_revision) : json(nullptr)},
+         {"failed", u.failed},
+         {"error", u.error}});
   }
-  out += "],\n";
-  // The server's limits and the held nodes; files written before them have neither key (read as
-  // none).
-  key("server_limits");
-  out += JsonText(json({{"max_submission_bytes", state.server_limits.max_submission_bytes},
-                        {"max_frame_bytes", state.server_limits.max_frame_bytes}})) +
-         ",\n";
+  root["unmerged"] = unmerged;
+  root["server_limits"] = {{"max_submission_bytes", state.server_limits.max_submission_bytes},
+                           {"max_frame_bytes", state.server_limits.max_frame_bytes}};
   json held = json::array();
   for (const HeldNode& node : state.held) {
     held.push_back({{"id", node.id.ToString()}, {"bytes", node.bytes}});
   }
-  key("held");
-  out += JsonText(held) + ",\n";
-  // What was installed and the last error; files written before them have neither key (read as
-  // none).
-  key("installed_digest");
-  out += JsonText(json(std::to_string(state.installed_digest))) + ",\n";
-  key("last_error");
-  out += JsonText(json(state.last_error)) + ",\n";
-  key("restore_own_work");
-  out += std::string(state.restore_own_work ? "true" : "false") + ",\n";
-  key("install_token");
-  out += JsonText(json(state.install_token)) + ",\n";
-  key("submission");
-  if (state.submission) {
-    out += "{\"id\": \"" + state.submission->id.ToString() + "\", \"content\": ";
-    AppendElements(out, state.submission->content);
-    out += "}";
-  } else {
-    out += "null";
-  }
-  out += "\n}\n";
-  return out;
+  root["held"] = held;
+  // A string: JSON readers that hold numbers as doubles would round a 64-bit digest.
+  root["installed_digest"] = std::to_string(state.installed_digest);
+  root["last_error"] = state.last_error;
+  root["restore_own_work"] = state.restore_own_work;
+  root["install_token"] = state.install_token;
+  root["submission"] =
+      state.submission
+          ? json({{"id", state.submission->id.ToString()}, {"count", CountJson(counts.submission)}})
+          : json(nullptr);
+  return JsonText(root, 1) + "\n";
 }
 
-SyncState SyncStateFromJson(const std::string& text, const std::string& source) {
+StoredSyncState SyncStateFromJson(const std::string& text, const std::string& source) {
   try {
     const json root = json::parse(text);
     const int format = root.at("format").get<int>();
-    if (format != kStateFormat) {
+    if (format != kStateFormat && format != kInlineIdsFormat) {
       throw Error(ErrorCode::kCorrupt, "sync state " + source + " has format " +
                                            std::to_string(format) + "; this build reads " +
+                                           std::to_string(kInlineIdsFormat) + " and " +
                                            std::to_string(kStateFormat));
     }
-    SyncState state;
+    const bool inline_ids = format == kInlineIdsFormat;
+    StoredSyncState stored;
+    stored.ids_inline = inline_ids;
+    SyncState& state = stored.state;
+    SyncStateCounts& counts = stored.counts;
     if (!root.at("robot").is_null()) state.robot = Uuid::Parse(root["robot"].get<std::string>());
     state.revision = root.at("revision").get<std::int64_t>();
     if (!root.at("request").is_null()) state.request = DownloadParamsFromJson(root["request"]);
-    state.installed = ElementsFromJson(root.at("installed"));
-    state.pushed = ElementsFromJson(root.at("pushed"));
-    if (!root.at("submission").is_null()) {
-      state.submission =
-          PendingSubmission{Uuid::Parse(root["submission"].at("id").get<std::string>()),
-                            ElementsFromJson(root["submission"].at("content"))};
+    if (inline_ids) {
+      state.installed = ElementsFromJson(root.at("installed"));
+      state.pushed = ElementsFromJson(root.at("pushed"));
+    } else {
+      state.ids_generation = root.at("ids_generation").get<std::string>();
+      counts.installed = CountFromJson(root.at("installed_count"));
+      counts.pushed = CountFromJson(root.at("pushed_count"));
     }
+    if (!root.at("submission").is_null()) {
+      const json& pending = root["submission"];
+      state.submission =
+          PendingSubmission{Uuid::Parse(pending.at("id").get<std::string>()),
+                            inline_ids ? ElementsFromJson(pending.at("content")) : ElementIds{}};
+      if (!inline_ids) counts.submission = CountFromJson(pending.at("count"));
+    }
+    // The server's limits and the held nodes, what was installed and the last error: files
+    // written before them have no such keys (read as none).
     if (root.contains("server_limits")) {
       const json& limits = root["server_limits"];
       state.server_limits.max_submission_bytes =
@@ -179,10 +147,11 @@ SyncState SyncStateFromJson(const std::string& text, const std::string& source) 
     }
     for (const json& u : root.at("unmerged")) {
       UnmergedSubmission submission{Uuid::Parse(u.at("id").get<std::string>()),
-                                    ElementsFromJson(u.at("content")),
+                                    inline_ids ? ElementsFromJson(u.at("content")) : ElementIds{},
                                     std::nullopt,
                                     false,
                                     {}};
+      if (!inline_ids) counts.unmerged.push_back(CountFromJson(u.at("count")));
       if (!u.at("merged_revision").is_null()) {
         submission.merged_revision = u["merged_revision"].get<std::int64_t>();
       }
@@ -196,7 +165,8 @@ SyncState SyncStateFromJson(const std::string& text, const std::string& source) 
       }
       state.unmerged.push_back(std::move(submission));
     }
-    return state;
+    if (inline_ids) counts = CountsOf(state);
+    return stored;
   } catch (const Error& e) {
     if (e.code() == ErrorCode::kCorrupt) throw;
     throw Error(ErrorCode::kCorrupt, "sync state " + source + ": " + e.message());
@@ -207,7 +177,7 @@ SyncState SyncStateFromJson(const std::string& text, const std::string& source) 
   }
 }
 
-SyncState ReadSyncState(const std::filesystem::path& path) {
+StoredSyncState ReadSyncState(const std::filesystem::path& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) {
     if (!std::filesystem::exists(path)) return {};

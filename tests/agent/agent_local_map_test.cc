@@ -7,6 +7,7 @@
 #include <sys/stat.h>
 
 #include <fstream>
+#include <nlohmann/json.hpp>
 
 #include "corridor_robot_map.h"
 #include "expect_error.h"
@@ -587,6 +588,221 @@ TEST(AgentLocalMapTest, AnInterruptedInstallInPlaceRollsForwardOnlyWhenItCommitt
   LocalMap map = LocalMap::Open(robot);
   EXPECT_EQ(map.state(), after);
   EXPECT_FALSE(fs::exists(robot / "sync.json.next"));
+}
+
+nlohmann::json IdsJson(const IdSet& ids) {
+  nlohmann::json list = nlohmann::json::array();
+  for (const Uuid& id : ids) list.push_back(id.ToString());
+  return list;
+}
+
+nlohmann::json ElementsJson(const ElementIds& ids) {
+  return {
+      {"nodes", IdsJson(ids.nodes)}, {"edges", IdsJson(ids.edges)}, {"paths", IdsJson(ids.paths)}};
+}
+
+// `state`'s sync.json (`text`) as an agent before the id tables wrote it: format 1, every set
+// inline as a list of ids.
+std::string WithIdsInline(const std::string& text, const SyncState& state) {
+  nlohmann::json root = nlohmann::json::parse(text);
+  root["format"] = 1;
+  root.erase("ids_generation");
+  root.erase("installed_count");
+  root.erase("pushed_count");
+  root["installed"] = ElementsJson(state.installed);
+  root["pushed"] = ElementsJson(state.pushed);
+  if (state.submission) {
+    root["submission"] = {{"id", state.submission->id.ToString()},
+                          {"content", ElementsJson(state.submission->content)}};
+  }
+  for (std::size_t i = 0; i < state.unmerged.size(); ++i) {
+    root["unmerged"][i].erase("count");
+    root["unmerged"][i]["content"] = ElementsJson(state.unmerged[i].content);
+  }
+  return root.dump(1);
+}
+
+// Rows of an agent table in `db`; -1 when the table does not exist.
+long long CountRows(const fs::path& db, const std::string& table) {
+  sqlite3* handle = nullptr;
+  if (sqlite3_open(db.c_str(), &handle) != SQLITE_OK) return -1;
+  sqlite3_stmt* s = nullptr;
+  long long rows = -1;
+  if (sqlite3_prepare_v2(handle, ("SELECT COUNT(*) FROM " + table).c_str(), -1, &s, nullptr) ==
+          SQLITE_OK &&
+      sqlite3_step(s) == SQLITE_ROW) {
+    rows = sqlite3_column_int64(s, 0);
+  }
+  sqlite3_finalize(s);
+  sqlite3_close(handle);
+  return rows;
+}
+
+void ExecSql(const fs::path& db, const std::string& sql) {
+  sqlite3* handle = nullptr;
+  ASSERT_EQ(sqlite3_open(db.c_str(), &handle), SQLITE_OK);
+  EXPECT_EQ(sqlite3_exec(handle, sql.c_str(), nullptr, nullptr, nullptr), SQLITE_OK)
+      << sqlite3_errmsg(handle);
+  sqlite3_close(handle);
+}
+
+// A sync.json an agent wrote before the sets moved into map.db (every set as a list of ids) is
+// read once, its sets moved into map.db's tables, and rewritten without them; the state is the
+// same before and after, and from then on comes from map.db.
+TEST(AgentLocalMapTest, AStateWithItsIdsInSyncJsonIsMovedIntoMapDbOnce) {
+  const ScratchDir dir("fleetmap-agent-map");
+  const fs::path robot = dir / "robot";
+  SyncState before;
+  {
+    LocalMap map = LocalMap::Open(robot);
+    map.Install(FullDownload(SharedMaps().night, 3));
+    PushDay(map);
+    GraphStore::Open(map.map_uri())->Put(CorridorRobotMap({{0, 10.0}}));
+    map.BeginSubmission(map.Unsynced());
+    map.RecordSyncError("link reset");
+    before = map.state();
+  }
+  ASSERT_EQ(before.unmerged.size(), 1u);
+  ASSERT_TRUE(before.submission.has_value());
+  ASSERT_FALSE(before.installed.nodes.empty());
+  ASSERT_FALSE(before.pushed.nodes.empty());
+  // As the old agent left the directory: the sets in sync.json, none in map.db.
+  WriteText(robot / "sync.json", WithIdsInline(ReadText(robot / "sync.json"), before));
+  ExecSql(robot / "map.db", "DROP TABLE agent_ids; DROP TABLE agent_submission_ids;");
+  const std::string node = SharedMaps().day.nodes[0].id.ToString();
+  ASSERT_NE(ReadText(robot / "sync.json").find(node), std::string::npos);
+
+  {
+    // A reader before the move: the sets' sizes from the lists.
+    const LocalMap reader = LocalMap::Open(robot, LocalMapAccess::kReadOnly);
+    EXPECT_EQ(reader.counts(), CountsOf(before));
+  }
+  {
+    LocalMap map = LocalMap::Open(robot);
+    SyncState expected = before;
+    expected.ids_generation = map.state().ids_generation;
+    EXPECT_EQ(map.state(), expected);
+    EXPECT_NE(map.state().ids_generation, before.ids_generation);
+  }
+  const std::string moved = ReadText(robot / "sync.json");
+  EXPECT_EQ(moved.find(node), std::string::npos) << moved;
+  EXPECT_EQ(nlohmann::json::parse(moved)["format"], 2);
+  EXPECT_GT(CountRows(robot / "map.db", "agent_ids"), 0);
+  EXPECT_GT(CountRows(robot / "map.db", "agent_submission_ids"), 0);
+  // And from map.db from now on, with nothing left over.
+  LocalMap map = LocalMap::Open(robot);
+  SyncState expected = before;
+  expected.ids_generation = map.state().ids_generation;
+  EXPECT_EQ(map.state(), expected);
+  EXPECT_EQ(ReadText(robot / "sync.json"), moved);
+  const SyncStateCounts counts = CountsOf(before);
+  EXPECT_EQ(CountRows(robot / "map.db", "agent_submission_ids"),
+            static_cast<long long>(counts.submission.size() + counts.unmerged[0].size()));
+}
+
+// The sets live in map.db and sync.json says how large they are: a reader (status) learns the
+// sizes without reading a set, however large, and sync.json stays small.
+TEST(AgentLocalMapTest, AReaderLearnsTheSetsSizesWithoutReadingThem) {
+  const ScratchDir dir("fleetmap-agent-map");
+  const fs::path robot = dir / "robot";
+  constexpr std::size_t kIds = 50'000;
+  ElementIds large;
+  for (std::size_t i = 0; i < kIds; ++i) large.nodes.insert(Uuid::Generate());
+  for (std::size_t i = 0; i < kIds / 2; ++i) large.edges.insert(Uuid::Generate());
+  SyncState written;
+  {
+    LocalMap map = LocalMap::Open(robot);
+    map.MarkPushed(map.BeginSubmission(large).id);
+    written = map.state();
+  }
+  EXPECT_LT(fs::file_size(robot / "sync.json"), 4096u);
+  const LocalMap reader = LocalMap::Open(robot, LocalMapAccess::kReadOnly);
+  ASSERT_EQ(reader.state().unmerged.size(), 1u);
+  EXPECT_EQ(reader.state().unmerged[0].content.size(), 0u);  // not read
+  EXPECT_EQ(reader.state().pushed.size(), 0u);
+  const SyncStateCounts counts = reader.counts();
+  ASSERT_EQ(counts.unmerged.size(), 1u);
+  EXPECT_EQ(counts.unmerged[0], (ElementCount{kIds, kIds / 2, 0}));
+  EXPECT_EQ(counts.pushed, (ElementCount{kIds, kIds / 2, 0}));
+  // The submission's ids are in map.db once (pushed is what the unmerged submissions carry).
+  EXPECT_EQ(CountRows(robot / "map.db", "agent_submission_ids"),
+            static_cast<long long>(kIds + kIds / 2));
+  EXPECT_EQ(CountRows(robot / "map.db", "agent_ids"), 0);
+  // A writer reads them all back.
+  LocalMap map = LocalMap::Open(robot);
+  EXPECT_EQ(map.state(), written);
+}
+
+// Ids map.db holds for a set sync.json does not name (a crash between writing a submission's
+// ids and the state naming it, or an install's leftover generation) are deleted at the next
+// open; and a map.db lost under a sync.json takes its submissions' ids with it, which Open tells
+// apart from an empty submission.
+TEST(AgentLocalMapTest, IdsTheStateDoesNotNameArePrunedAndLostOnesAreNoticed) {
+  const ScratchDir dir("fleetmap-agent-map");
+  const fs::path robot = dir / "robot";
+  SyncState before;
+  {
+    LocalMap map = LocalMap::Open(robot);
+    map.Install(FullDownload(SharedMaps().night, 2));
+    PushDay(map);
+    before = map.state();
+  }
+  const long long submission_rows = CountRows(robot / "map.db", "agent_submission_ids");
+  const long long set_rows = CountRows(robot / "map.db", "agent_ids");
+  ExecSql(robot / "map.db",
+          "INSERT INTO agent_submission_ids VALUES (x'00112233445566778899aabbccddeeff', 0, "
+          "x'00112233445566778899aabbccddeef0');"
+          "INSERT INTO agent_ids VALUES ('an-old-generation', 0, 0, "
+          "x'00112233445566778899aabbccddeef0');");
+  {
+    LocalMap map = LocalMap::Open(robot);
+    EXPECT_EQ(map.state(), before);
+  }
+  EXPECT_EQ(CountRows(robot / "map.db", "agent_submission_ids"), submission_rows);
+  EXPECT_EQ(CountRows(robot / "map.db", "agent_ids"), set_rows);
+
+  // map.db lost: the day submission's ids went with it. Starting over keeps no submission whose
+  // content it cannot see whole (the restore brings it back from the server).
+  for (const char* suffix : {"", "-wal", "-shm"}) fs::remove(robot.string() + "/map.db" + suffix);
+  LocalMap map = LocalMap::Open(robot);
+  ASSERT_EQ(map.state().unmerged.size(), 1u);
+  EXPECT_EQ(map.state().revision, 2);
+  map.ForgetServerCopy(Uuid::Generate());
+  EXPECT_TRUE(map.state().unmerged.empty());
+  EXPECT_TRUE(map.state().restore_own_work);
+}
+
+// The ids of a submission a sync stages before its hello (StageSubmission) are nobody's until
+// BeginSubmission records it: a sync that stops in between leaves rows the next Open deletes;
+// one recorded reads back as pending, its ids written once.
+TEST(AgentLocalMapTest, AStagedSubmissionIsPendingOnceBegunAndPrunedIfNever) {
+  const ScratchDir dir("fleetmap-agent-map");
+  const fs::path robot = dir / "robot";
+  const ElementIds day = IdsOf(SharedMaps().day);
+  {
+    LocalMap map = LocalMap::Open(robot);
+    GraphStore::Open(map.map_uri())->Put(SharedMaps().day);
+    map.StageSubmission(IdsOf(map.Unsynced()));  // and never begun
+  }
+  EXPECT_EQ(CountRows(robot / "map.db", "agent_submission_ids"),
+            static_cast<long long>(day.size()));
+  Uuid id;
+  {
+    LocalMap map = LocalMap::Open(robot);
+    EXPECT_EQ(CountRows(robot / "map.db", "agent_submission_ids"), 0);
+    const ElementIds content = IdsOf(map.Unsynced());
+    const Uuid staged = map.StageSubmission(content);
+    ExpectError(ErrorCode::kInvalidArgument,
+                [&] { map.BeginSubmission(content, Uuid::Generate()); });
+    id = map.BeginSubmission(content, staged).id;
+    EXPECT_EQ(id, staged);
+  }
+  LocalMap map = LocalMap::Open(robot);
+  ASSERT_TRUE(map.state().submission.has_value());
+  EXPECT_EQ(map.state().submission->id, id);
+  EXPECT_EQ(map.state().submission->content, day);
+  EXPECT_EQ(CountRows(robot / "map.db", "agent_submission_ids"),
+            static_cast<long long>(day.size()));
 }
 
 }  // namespace

@@ -780,6 +780,38 @@ TEST_F(AgentSyncTest, ABacklogSyncsAndItsStatusAndSyncAreMeasured) {
   timed({"status", "--map-dir", map_dir_.string(), "--json"}, "status-after");
 }
 
+// `fleetmap-agent status` of a map whose unmerged submission carries 400 000 ids reads none of
+// them: it shows their counts (sync.json's), and its peak RSS is a small process's (the ids
+// alone, read as a set, are over 25 MB; as JSON, several times that).
+TEST_F(AgentSyncTest, AStatusReadsNoIdsOfALargeUnmergedSubmission) {
+  constexpr std::size_t kNodes = 300'000;
+  constexpr std::size_t kEdges = 100'000;
+  {
+    LocalMap map = LocalMap::Open(map_dir_);
+    ElementIds content;
+    for (std::size_t i = 0; i < kNodes; ++i) content.nodes.insert(Uuid::Generate());
+    for (std::size_t i = 0; i < kEdges; ++i) content.edges.insert(Uuid::Generate());
+    map.MarkPushed(map.BeginSubmission(content).id);
+  }
+  const fs::path log = dir_ / "status.log";
+  ChildProcess agent({"/usr/bin/time", "-v", FLEETMAP_AGENT_PATH, "status", "--map-dir",
+                      map_dir_.string(), "--json"},
+                     ChildProcessOptions{.stderr_file = log});
+  const std::string out = agent.ReadRest(milliseconds(60'000));
+  ASSERT_EQ(agent.Wait(milliseconds(10'000)), std::optional<int>(0)) << testing::ReadLog(log);
+  const nlohmann::json status = nlohmann::json::parse(out);
+  ASSERT_EQ(status["unmerged"].size(), 1u) << out;
+  EXPECT_EQ(status["unmerged"][0]["nodes"], kNodes);
+  EXPECT_EQ(status["unmerged"][0]["edges"], kEdges);
+  EXPECT_EQ(status["unsynced_nodes"], 0);
+  const std::string err = testing::ReadLog(log);
+  const std::string key = "Maximum resident set size (kbytes): ";
+  const std::size_t at = err.find(key);
+  ASSERT_NE(at, std::string::npos) << err;
+  const long kb = std::stol(err.substr(at + key.size()));
+  EXPECT_LT(kb, 40 * 1024) << "status peaked at " << kb << " kB";
+}
+
 // A robot with a large backlog never synced. The agent read, selected and
 // encoded its whole backlog after its hello, and the server, hearing no frame within its frame
 // timeout, closed the session; every retry the same. The agent now prepares its submission

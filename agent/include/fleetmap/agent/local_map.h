@@ -4,7 +4,10 @@
 //
 //   DIR/map.db          a SQLite GraphStore (sqlite:DIR/map.db): the installed download plus
 //                       whatever the EBN builder added since
-//   DIR/sync.json       the sync state (SyncState), replaced atomically (tmp, fsync, rename)
+//   DIR/sync.json       the sync state (SyncState), replaced atomically (tmp, fsync, rename):
+//                       its scalars, and the generation and sizes of its id sets, which map.db
+//                       holds in tables of the agent's own (src/id_tables.h), written with the
+//                       map changes they describe
 //   DIR/agent.lock      flock'ed by the one LocalMap that may write the directory
 //   DIR/map.db.new      transient: the next map while an install writes it
 //   DIR/sync.json.next  transient: the state that goes with map.db.new
@@ -16,12 +19,13 @@
 //   map.db.new and sync.json.next      the map rename did not happen: both are deleted;
 //   sync.json.next alone               the map rename happened: sync.json.next is renamed over
 //                                      sync.json (rolled forward).
-// An incremental download is installed in place instead: sync.json.next first, with a token,
-// then one transaction on map.db that applies the changes and records the token, then the
-// rename over sync.json. Open rolls sync.json.next forward when map.db holds its token (the
-// transaction committed) and deletes it otherwise.
-// So map.db and sync.json always describe each other: nothing the server sent is taken for
-// local content (and pushed back), and nothing local is taken for the server's.
+// A new map holds the id sets that go with it. An incremental download is installed in place
+// instead: its id sets first, as a new generation beside the current one, then sync.json.next
+// naming it, with a token, then one transaction on map.db that applies the changes and records
+// the token, then the rename over sync.json. Open rolls sync.json.next forward when map.db holds
+// its token (the transaction committed) and deletes it otherwise. So map.db and sync.json always
+// describe each other: nothing the server sent is taken for local content (and pushed back), and
+// nothing local is taken for the server's.
 //
 // Which elements the server has: the installed selection (what the last download holds) and
 // what this robot pushed and had accepted since. Everything else in map.db is unsynced. Nodes,
@@ -39,6 +43,7 @@
 #include <string>
 #include <vector>
 
+#include "fleetmap/agent/id_set.h"
 #include "fleetmap/core/graph.h"
 #include "fleetmap/core/uuid.h"
 #include "fleetmap/protocol/download_request.h"
@@ -50,15 +55,26 @@ namespace fleetmap {
 // change against the selection these parameters made at the installed revision.
 // UUIDs of nodes, edges and paths.
 struct ElementIds {
-  std::set<Uuid> nodes;
-  std::set<Uuid> edges;
-  std::set<Uuid> paths;
+  IdSet nodes;
+  IdSet edges;
+  IdSet paths;
 
   std::size_t size() const { return nodes.size() + edges.size() + paths.size(); }
   bool Contains(const ElementIds& other) const;
   friend bool operator==(const ElementIds&, const ElementIds&) = default;
 };
 ElementIds IdsOf(const GraphBatch& batch);
+
+// How many ids of each kind a set holds.
+struct ElementCount {
+  std::size_t nodes = 0;
+  std::size_t edges = 0;
+  std::size_t paths = 0;
+
+  std::size_t size() const { return nodes + edges + paths; }
+  friend bool operator==(const ElementCount&, const ElementCount&) = default;
+};
+ElementCount CountOf(const ElementIds& ids);
 
 // A push in progress: its id and exactly what it carries, recorded before the first byte is
 // sent so that a retry (after a dropped link or a restart) sends the same content under the
@@ -130,9 +146,24 @@ struct SyncState {
   // sync.json.next is rolled forward only when map.db holds it. "" for an install that
   // replaced map.db whole.
   std::string install_token;
+  // The generation of map.db's id tables (src/id_tables.h) that holds `installed` and
+  // `pushed`; "" before anything was written there.
+  std::string ids_generation;
 
   friend bool operator==(const SyncState&, const SyncState&) = default;
 };
+
+// The sizes of a SyncState's sets, as sync.json records them: what `status` shows, known
+// without reading the sets (millions of ids for a large backlog).
+struct SyncStateCounts {
+  ElementCount installed;
+  ElementCount pushed;
+  ElementCount submission;             // the pending one's content
+  std::vector<ElementCount> unmerged;  // each one's content, in SyncState::unmerged's order
+
+  friend bool operator==(const SyncStateCounts&, const SyncStateCounts&) = default;
+};
+SyncStateCounts CountsOf(const SyncState& state);
 
 // A download as received (sync.proto DownloadHeader and its chunks, decoded).
 struct MapDownload {
@@ -175,7 +206,8 @@ class LocalMap;
 class GraphStore;
 namespace agent_internal {
 struct Retirement;
-}
+struct StoredSyncState;
+}  // namespace agent_internal
 
 // A full download installed while it arrives (sync.proto version 3, seed 004 §V-B): the next
 // map is written into DIR/map.db.new chunk by chunk, inside one transaction, so that memory
@@ -248,7 +280,10 @@ class LocalMap {
   const std::filesystem::path& dir() const { return dir_; }
   std::filesystem::path map_path() const { return dir_ / "map.db"; }
   std::string map_uri() const { return "sqlite:" + map_path().string(); }
+  // The sync state. Opened read-only, its sets (installed, pushed, the submissions' content)
+  // are not read and stay empty: counts() says how many ids each holds.
   const SyncState& state() const { return state_; }
+  SyncStateCounts counts() const;
 
   // SelectionDigest (map_chunks.h) of the installed selection as map.db holds it now, read
   // back whole: what the robot reports at each hello, so a map damaged since its install shows.
@@ -295,6 +330,14 @@ class LocalMap {
   PendingSubmission BeginSubmission(const GraphBatch& content);
   // The same for content named by its ids (a part of the unsynced content).
   PendingSubmission BeginSubmission(const ElementIds& content);
+  // Writes what a submission will carry into map.db under a new id, for BeginSubmission(content,
+  // id) to record as pending later: a large backlog's millions of ids are written before a
+  // session, not inside it (a server closes a link silent for long). Until then the id is
+  // nobody's, and its ids are deleted at the next Open.
+  Uuid StageSubmission(const ElementIds& content);
+  // BeginSubmission of `content` as staged under `staged` (StageSubmission), without writing
+  // its ids again.
+  PendingSubmission BeginSubmission(const ElementIds& content, const Uuid& staged);
   // Forgets the pending submission without pushing it: its content is unsynced again. Only for
   // one the server can never take (over its limits, so refused at push_begin: the server
   // stored nothing of it). No-op when none is pending.
@@ -340,6 +383,15 @@ class LocalMap {
   LocalMap(std::filesystem::path dir, LocalMapAccess access, int lock_fd);
   void RequireWritable(const char* what) const;
   void SaveState();
+  // Takes the state sync.json holds and fills its sets from map.db (moving them there first
+  // from a sync.json that held them).
+  void LoadIds(agent_internal::StoredSyncState stored);
+  // Records in map.db what a submission carries, before sync.json names it.
+  void WriteSubmissionIds(const Uuid& submission, const ElementIds& content);
+  // Deletes the ids map.db holds for sets and submissions the state no longer names.
+  void PruneIds();
+  // Opened read-only, the sets are read when a call needs them (Unsynced), not at Open.
+  void ReadIdsIfUnread();
   friend class MapInstallation;
   // Installs map.db.new (written, checked and closed) with `next_state`: fsync, then the
   // renames of the file comment. Removes map.db.new and throws when it cannot.
@@ -356,6 +408,13 @@ class LocalMap {
   LocalMapAccess access_;
   int lock_fd_ = -1;
   SyncState state_;
+  SyncStateCounts counts_;  // as sync.json said; read-only opens only
+  bool ids_read_ = false;   // the sets in state_ are read (always, opened exclusive)
+  // Staged by StageSubmission and not yet begun: PruneIds keeps their ids.
+  std::vector<Uuid> staged_;
+  // Submissions whose content map.db no longer held as sync.json counted it (a map.db lost or
+  // replaced): ForgetServerCopy does not take them for whole.
+  std::set<Uuid> lost_submissions_;
 };
 
 }  // namespace fleetmap
