@@ -6,6 +6,7 @@
 #include <memory>
 #include <span>
 #include <unordered_set>
+#include <vector>
 
 #include "fleetmap/agent/local_map.h"
 #include "fleetmap/core/error.h"
@@ -35,6 +36,84 @@ StoredIds ReadStoredIds(GraphStore& store) {
   return ids;
 }
 
+// What map.db holds, by id, and which of it names `robot`: ids in sorted arrays, since a
+// backlog of 10^6 nodes makes sets of hundreds of MB.
+struct HeldIds {
+  std::vector<Uuid> nodes;      // sorted
+  std::vector<Uuid> own_nodes;  // sorted
+  std::unordered_set<Uuid> paths, own_paths;
+
+  bool HasNode(const Uuid& id) const { return std::binary_search(nodes.begin(), nodes.end(), id); }
+  bool OwnNode(const Uuid& id) const {
+    return std::binary_search(own_nodes.begin(), own_nodes.end(), id);
+  }
+};
+
+// Reads the nodes (landmarks unread) and paths map.db holds; other robots' go to `pushed` too.
+HeldIds ReadHeldIds(GraphStore& store, const Uuid& robot, ElementIds& pushed) {
+  HeldIds held;
+  NodeFilter bare;
+  bare.with_landmarks = false;
+  for (const Node& node : store.ListNodes(bare)) {
+    held.nodes.push_back(node.id);
+    if (node.robot == robot) {
+      held.own_nodes.push_back(node.id);
+    } else {
+      pushed.nodes.insert(node.id);
+    }
+  }
+  std::sort(held.nodes.begin(), held.nodes.end());
+  std::sort(held.own_nodes.begin(), held.own_nodes.end());
+  for (const Path& path : store.ListPaths({})) {
+    held.paths.insert(path.id);
+    if (path.robot == robot) {
+      held.own_paths.insert(path.id);
+    } else {
+      pushed.paths.insert(path.id);
+    }
+  }
+  return held;
+}
+
+// Reads map.db's edges a batch of nodes at a time (2 million edges for a backlog of 10^6
+// nodes). An edge between two nodes of other robots came with them and goes to `pushed`; one
+// that touches the robot's nodes, or lies on its path, is its own (a re-push of one the server
+// has is recognised by its UUID). Returns, per submission of `known`, how many of its edges
+// map.db holds. Each edge is counted with the batch that holds its `from` node (its `to`, when
+// map.db lacks the `from`).
+std::vector<std::size_t> SortHeldEdges(GraphStore& store, const HeldIds& held,
+                                       const std::vector<const ElementIds*>& known,
+                                       ElementIds& pushed) {
+  std::vector<std::size_t> edges_held(known.size(), 0);
+  constexpr std::size_t kBatch = 4096;
+  for (std::size_t from = 0; from < held.nodes.size(); from += kBatch) {
+    const std::span<const Uuid> batch =
+        std::span<const Uuid>(held.nodes).subspan(from, std::min(kBatch, held.nodes.size() - from));
+    const auto in_batch = [&](const Uuid& id) {
+      return std::binary_search(batch.begin(), batch.end(), id);
+    };
+    for (const Edge& edge : store.EdgesTouching(batch)) {
+      if (!in_batch(edge.from) && (held.HasNode(edge.from) || !in_batch(edge.to))) continue;
+      const bool own = held.OwnNode(edge.from) || held.OwnNode(edge.to) ||
+                       (!edge.path.IsNil() && held.own_paths.contains(edge.path));
+      if (!own) pushed.edges.insert(edge.id);
+      for (std::size_t i = 0; i < known.size(); ++i) {
+        if (known[i]->edges.contains(edge.id)) ++edges_held[i];
+      }
+    }
+  }
+  return edges_held;
+}
+
+// Whether map.db holds all of `content`, `edges_held` of its edges found there.
+bool HeldWhole(const HeldIds& held, const ElementIds& content, std::size_t edges_held) {
+  return edges_held == content.edges.size() &&
+         std::all_of(content.nodes.begin(), content.nodes.end(),
+                     [&](const Uuid& id) { return held.HasNode(id); }) &&
+         std::all_of(content.paths.begin(), content.paths.end(),
+                     [&](const Uuid& id) { return held.paths.contains(id); });
+}
+
 }  // namespace
 
 void LocalMap::ForgetServerCopy(const Uuid& robot) {
@@ -51,82 +130,20 @@ void LocalMap::ForgetServerCopy(const Uuid& robot) {
   next.restore_own_work = true;
   if (std::filesystem::exists(map_path())) {
     const std::unique_ptr<GraphStore> store = GraphStore::Open(map_uri());
-    // Ids in sorted arrays and edges a batch of nodes at a time: a backlog of 10^6 nodes is 2
-    // million edges, hundreds of MB read at once.
-    std::vector<Uuid> all_nodes;
-    std::vector<Uuid> own_nodes;
-    {
-      NodeFilter bare;
-      bare.with_landmarks = false;
-      for (const Node& node : store->ListNodes(bare)) {
-        all_nodes.push_back(node.id);
-        if (node.robot == robot) {
-          own_nodes.push_back(node.id);
-        } else {
-          next.pushed.nodes.insert(node.id);
-        }
-      }
-    }
-    std::sort(all_nodes.begin(), all_nodes.end());
-    std::sort(own_nodes.begin(), own_nodes.end());
-    const auto has = [](const std::vector<Uuid>& sorted, const Uuid& id) {
-      return std::binary_search(sorted.begin(), sorted.end(), id);
-    };
-    std::unordered_set<Uuid> stored_paths;
-    std::unordered_set<Uuid> own_paths;
-    for (const Path& path : store->ListPaths({})) {
-      stored_paths.insert(path.id);
-      if (path.robot == robot) {
-        own_paths.insert(path.id);
-      } else {
-        next.pushed.paths.insert(path.id);
-      }
-    }
-    // The submissions the state knew, and how many of each one's edges map.db holds.
-    std::vector<const ElementIds*> known_content;
-    if (state_.submission) known_content.push_back(&state_.submission->content);
-    for (const UnmergedSubmission& unmerged : state_.unmerged) {
-      known_content.push_back(&unmerged.content);
-    }
-    std::vector<std::size_t> edges_held(known_content.size(), 0);
-    // An edge between two nodes of other robots came with them; one that touches this
-    // robot's nodes, or lies on its path, is its own (a re-push of one the server has is
-    // recognised by its UUID). Each edge is read with the batch that holds its `from` node (its
-    // `to`, when map.db lacks the `from`).
-    constexpr std::size_t kBatch = 4096;
-    for (std::size_t from = 0; from < all_nodes.size(); from += kBatch) {
-      const std::span<const Uuid> batch =
-          std::span<const Uuid>(all_nodes).subspan(from, std::min(kBatch, all_nodes.size() - from));
-      const auto in_batch = [&](const Uuid& id) {
-        return std::binary_search(batch.begin(), batch.end(), id);
-      };
-      for (const Edge& edge : store->EdgesTouching(batch)) {
-        if (!in_batch(edge.from) && (has(all_nodes, edge.from) || !in_batch(edge.to))) continue;
-        const bool own = has(own_nodes, edge.from) || has(own_nodes, edge.to) ||
-                         (!edge.path.IsNil() && own_paths.contains(edge.path));
-        if (!own) next.pushed.edges.insert(edge.id);
-        for (std::size_t i = 0; i < known_content.size(); ++i) {
-          if (known_content[i]->edges.contains(edge.id)) ++edges_held[i];
-        }
-      }
-    }
+    const HeldIds held = ReadHeldIds(*store, robot, next.pushed);
+    // The submissions the state knew: the pending one first, then the unmerged ones.
+    std::vector<const ElementIds*> known;
+    if (state_.submission) known.push_back(&state_.submission->content);
+    for (const UnmergedSubmission& unmerged : state_.unmerged) known.push_back(&unmerged.content);
+    const std::vector<std::size_t> edges_held = SortHeldEdges(*store, held, known, next.pushed);
     // What the state knew of the robot's own pushes and the map still holds whole stays known:
     // a pending push resumes under its id, an unmerged submission keeps its content through
-    // installs (the restore passes over it). The rest comes back from the server.
-    std::size_t index = 0;
-    const auto whole = [&](const ElementIds& content) {
-      const bool edges = edges_held[index++] == content.edges.size();
-      return edges &&
-             std::all_of(content.nodes.begin(), content.nodes.end(),
-                         [&](const Uuid& id) { return has(all_nodes, id); }) &&
-             std::all_of(content.paths.begin(), content.paths.end(),
-                         [&](const Uuid& id) { return stored_paths.contains(id); });
-    };
-    // (A submission whose ids map.db lost with the map is not whole, whatever it still holds.)
-    // (Called once per submission, in known_content's order.)
+    // installs (the restore passes over it). The rest comes back from the server. A submission
+    // whose ids map.db lost with the map is not whole, whatever it still holds.
+    std::size_t k = 0;
     const auto kept = [&](const Uuid& id, const ElementIds& content) {
-      const bool is_whole = whole(content);
-      return !lost_submissions_.contains(id) && is_whole;
+      const std::size_t held_edges = edges_held[k++];
+      return !lost_submissions_.contains(id) && HeldWhole(held, content, held_edges);
     };
     if (state_.submission && kept(state_.submission->id, state_.submission->content)) {
       next.submission = state_.submission;

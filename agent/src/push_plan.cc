@@ -261,6 +261,38 @@ PlannedSubmission PlanPending(GraphStore& store, const PendingSubmission& pendin
   return submission;
 }
 
+// Only the edges a plan may send (not installed, not pushed: new or pending), ordered by UUID:
+// the pool of them all, from map.db's `all_nodes`. Read a batch of nodes at a time, each edge
+// with the batch holding its `from` node (its `to`, when map.db lacks the `from`): memory holds
+// the pool, not every edge's content.
+std::shared_ptr<std::vector<PlannedEdge>> ReadEdgePool(GraphStore& store,
+                                                       std::vector<Uuid> all_nodes,
+                                                       const SyncState& state) {
+  auto edge_pool = std::make_shared<std::vector<PlannedEdge>>();
+  std::sort(all_nodes.begin(), all_nodes.end());
+  for (std::size_t from = 0; from < all_nodes.size(); from += kPlanEdgeBatch) {
+    const std::span<const Uuid> batch(all_nodes.data() + from,
+                                      std::min(kPlanEdgeBatch, all_nodes.size() - from));
+    const auto in_batch = [&](const Uuid& id) {
+      return std::binary_search(batch.begin(), batch.end(), id);
+    };
+    for (const Edge& edge : store.EdgesTouching(batch)) {
+      const bool here =
+          in_batch(edge.from) ||
+          (!std::binary_search(all_nodes.begin(), all_nodes.end(), edge.from) && in_batch(edge.to));
+      if (!here || OfKind(state.installed, 1).contains(edge.id) ||
+          OfKind(state.pushed, 1).contains(edge.id)) {
+        continue;
+      }
+      edge_pool->push_back(PlannedEdge{edge.id, edge.from, edge.to,
+                                       static_cast<std::uint32_t>(ToProto(edge).ByteSizeLong())});
+    }
+  }
+  SortById(*edge_pool);
+  edge_pool->shrink_to_fit();
+  return edge_pool;
+}
+
 }  // namespace
 
 ServerLimits EffectiveLimits(const ServerLimits& said) {
@@ -305,32 +337,8 @@ PushPlan PlanPush(const LocalMap& map, const ServerLimits& said) {
     }
   }
   std::sort(new_nodes.begin(), new_nodes.end());
-  // Only the edges this plan may send (new or pending), ordered by UUID: the pool of them all.
-  // Read a batch of nodes at a time, each edge with the batch holding its `from` node (its
-  // `to`, when map.db lacks the `from`): memory holds the pool, not every edge's content.
-  auto edge_pool = std::make_shared<std::vector<PlannedEdge>>();
-  std::sort(all_nodes.begin(), all_nodes.end());
-  for (std::size_t from = 0; from < all_nodes.size(); from += kPlanEdgeBatch) {
-    const std::span<const Uuid> batch(all_nodes.data() + from,
-                                      std::min(kPlanEdgeBatch, all_nodes.size() - from));
-    const auto in_batch = [&](const Uuid& id) {
-      return std::binary_search(batch.begin(), batch.end(), id);
-    };
-    for (const Edge& edge : store->EdgesTouching(batch)) {
-      const bool here =
-          in_batch(edge.from) ||
-          (!std::binary_search(all_nodes.begin(), all_nodes.end(), edge.from) && in_batch(edge.to));
-      if (!here || OfKind(state.installed, 1).contains(edge.id) ||
-          OfKind(state.pushed, 1).contains(edge.id)) {
-        continue;
-      }
-      edge_pool->push_back(PlannedEdge{edge.id, edge.from, edge.to,
-                                       static_cast<std::uint32_t>(ToProto(edge).ByteSizeLong())});
-    }
-  }
-  std::vector<Uuid>().swap(all_nodes);
-  SortById(*edge_pool);
-  edge_pool->shrink_to_fit();
+  const std::shared_ptr<std::vector<PlannedEdge>> edge_pool =
+      ReadEdgePool(*store, std::move(all_nodes), state);
   std::vector<Path> paths = store->ListPaths({});
   SortById(paths);
 
