@@ -382,12 +382,13 @@ class SqliteVersionStore final : public VersionStore {
     s->Bind(1, std::min(from, to));
     s->Bind(2, std::max(from, to));
     std::vector<ElementVersionRow> rows;
-    const auto read_rows = [&rows](Statement& s) {
-      while (s.Step()) {
-        const Uuid id = s.UuidAt(0);
+    const auto read_rows = [&rows](Statement& rows_of) {
+      while (rows_of.Step()) {
+        const Uuid id = rows_of.UuidAt(0);
         std::optional<RevisionNumber> hidden;
-        if (!s.IsNull(3)) hidden = s.Int64(3);
-        rows.push_back({id, StoredVersionedKind(s.Int64(1), id), s.Int64(2), hidden, {}});
+        if (!rows_of.IsNull(3)) hidden = rows_of.Int64(3);
+        rows.push_back(
+            {id, StoredVersionedKind(rows_of.Int64(1), id), rows_of.Int64(2), hidden, {}});
       }
     };
     read_rows(*s);
