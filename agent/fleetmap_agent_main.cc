@@ -63,6 +63,7 @@ struct AgentArguments {
   std::string route;  // an outing's UUID, or a file: "anchor UUID" then lines "x y z"
   double route_radius_m = 0.0;
   bool wait_merge = false;
+  bool verify_map = false;
   double merge_timeout_s = 300.0;
   double retry_for_s = 120.0;
   double io_timeout_s = 30.0;
@@ -125,6 +126,7 @@ AgentSyncOptions SyncOptionsOf(const AgentArguments& args, const std::atomic<boo
   options.link.stop = stop;
   options.stop = stop;
   options.wait_merge = args.wait_merge;
+  options.verify_map = args.verify_map;
   options.merge_timeout = Millis(args.merge_timeout_s, "--merge-timeout");
   options.retry_for = Millis(args.retry_for_s, "--retry-for");
 
@@ -583,6 +585,10 @@ void AddSyncOptions(CLI::App& command, AgentArguments& args) {
   command.add_option("--include-node", args.include_nodes,
                      "a node every download keeps (where the robot is docked); repeatable");
   command.add_flag("--wait-merge", args.wait_merge, "wait for the pushed map to be merged");
+  command.add_flag("--verify-map", args.verify_map,
+                   "read every installed landmark byte back before the hello (each sync checks "
+                   "what map.db holds of the installed selection, its elements and their sizes, "
+                   "and reads it back whole after an install or when those differ)");
   command.add_option("--merge-timeout", args.merge_timeout_s, "seconds to wait for the merge")
       ->capture_default_str();
   command.add_option("--retry-for", args.retry_for_s, "seconds to keep retrying a failing link")

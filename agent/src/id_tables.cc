@@ -21,7 +21,10 @@ constexpr const char* kSchema =
     " PRIMARY KEY (generation, role, kind, id)) WITHOUT ROWID;"
     "CREATE TABLE IF NOT EXISTS agent_submission_ids ("
     " submission BLOB NOT NULL, kind INTEGER NOT NULL, id BLOB NOT NULL,"
-    " PRIMARY KEY (submission, kind, id)) WITHOUT ROWID;";
+    " PRIMARY KEY (submission, kind, id)) WITHOUT ROWID;"
+    "CREATE TABLE IF NOT EXISTS agent_verified ("
+    " generation TEXT PRIMARY KEY NOT NULL, nodes INTEGER NOT NULL, edges INTEGER NOT NULL,"
+    " paths INTEGER NOT NULL, landmark_bytes INTEGER NOT NULL);";
 
 class Statement {
  public:
@@ -56,6 +59,8 @@ class Statement {
     return Uuid::FromBytes(std::string_view(static_cast<const char*>(blob), size));
   }
   int ColumnInt(int i) { return sqlite3_column_int(s_, i); }
+  std::int64_t ColumnInt64(int i) { return sqlite3_column_int64(s_, i); }
+  void Int64(int i, std::int64_t value) { sqlite3_bind_int64(s_, i, value); }
   std::string ColumnText(int i) {
     const unsigned char* text = sqlite3_column_text(s_, i);
     return text ? std::string(reinterpret_cast<const char*>(text)) : std::string();
@@ -218,7 +223,73 @@ ElementIds IdTables::ReadSubmission(const Uuid& submission) {
   return ids;
 }
 
+bool IdTables::HasTable(const char* name) {
+  Statement s(db_, "SELECT 1 FROM sqlite_master WHERE type = 'table' AND name = ?1", path_);
+  s.Text(1, name);
+  return s.Step();
+}
+
+std::optional<HeldCount> IdTables::HeldOf(const std::string& generation, IdRole role) {
+  if (!has_tables_ || !HasTable("nodes") || !HasTable("edges") || !HasTable("paths")) {
+    return std::nullopt;
+  }
+  // One pass per kind along the set's keys, each id looked up in its table's unique index.
+  Statement nodes(db_,
+                  "SELECT COUNT(*), TOTAL(length(n.landmarks)) FROM agent_ids a JOIN nodes n "
+                  "ON n.id = a.id WHERE a.generation = ?1 AND a.role = ?2 AND a.kind = 0",
+                  path_);
+  Statement edges(db_,
+                  "SELECT COUNT(*) FROM agent_ids a JOIN edges e ON e.id = a.id "
+                  "WHERE a.generation = ?1 AND a.role = ?2 AND a.kind = 1",
+                  path_);
+  Statement paths(db_,
+                  "SELECT COUNT(*) FROM agent_ids a JOIN paths p ON p.id = a.id "
+                  "WHERE a.generation = ?1 AND a.role = ?2 AND a.kind = 2",
+                  path_);
+  HeldCount held;
+  for (Statement* s : {&nodes, &edges, &paths}) {
+    s->Text(1, generation);
+    s->Int(2, static_cast<int>(role));
+  }
+  if (nodes.Step()) {
+    held.nodes = nodes.ColumnInt64(0);
+    held.landmark_bytes = nodes.ColumnInt64(1);
+  }
+  if (edges.Step()) held.edges = edges.ColumnInt64(0);
+  if (paths.Step()) held.paths = paths.ColumnInt64(0);
+  return held;
+}
+
+std::optional<HeldCount> IdTables::ReadVerified(const std::string& generation) {
+  if (!HasTable("agent_verified")) return std::nullopt;
+  Statement s(db_,
+              "SELECT nodes, edges, paths, landmark_bytes FROM agent_verified "
+              "WHERE generation = ?1",
+              path_);
+  s.Text(1, generation);
+  if (!s.Step()) return std::nullopt;
+  return HeldCount{s.ColumnInt64(0), s.ColumnInt64(1), s.ColumnInt64(2), s.ColumnInt64(3)};
+}
+
+void IdTables::WriteVerified(const std::string& generation, const HeldCount& held) {
+  Statement s(db_,
+              "INSERT OR REPLACE INTO agent_verified (generation, nodes, edges, paths, "
+              "landmark_bytes) VALUES (?1, ?2, ?3, ?4, ?5)",
+              path_);
+  s.Text(1, generation);
+  s.Int64(2, held.nodes);
+  s.Int64(3, held.edges);
+  s.Int64(4, held.paths);
+  s.Int64(5, held.landmark_bytes);
+  s.Step();
+}
+
 void IdTables::Prune(const std::string& generation, const std::vector<Uuid>& submissions) {
+  {
+    Statement drop_verified(db_, "DELETE FROM agent_verified WHERE generation <> ?1", path_);
+    drop_verified.Text(1, generation);
+    drop_verified.Step();
+  }
   // Generations and submissions are found by stepping along the keys' first column: a few
   // index lookups each, not a scan of millions of rows.
   std::vector<std::string> old_generations;

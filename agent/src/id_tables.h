@@ -9,13 +9,18 @@
 //   agent_submission_ids(submission, kind, id)
 //                                           what a pending or unmerged submission carries;
 //                                           written once, before sync.json names it
+//   agent_verified(generation, ...)         what map.db held of a generation's installed set
+//                                           when it was last read back whole and matched the
+//                                           installed digest (HeldCount)
 //
 // Rows sync.json does not name (a generation or a submission) are left over from a crash
 // between the two writes, or from the last install, and are deleted (Prune); nothing reads them.
 // The tables are the agent's own: map.db's GraphStore neither knows nor minds them.
 #pragma once
 
+#include <cstdint>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -27,6 +32,18 @@ struct sqlite3;
 namespace fleetmap::agent_internal {
 
 enum class IdRole { kInstalled = 0, kPushed = 1 };
+
+// What map.db holds of a set: how many of its ids name a stored node, edge and path, and the
+// landmark bytes of those nodes. Counted from the rows' keys and headers (SQLite's length() of a
+// blob reads no overflow page), so it costs the set's size, not its bytes.
+struct HeldCount {
+  std::int64_t nodes = 0;
+  std::int64_t edges = 0;
+  std::int64_t paths = 0;
+  std::int64_t landmark_bytes = 0;
+
+  friend bool operator==(const HeldCount&, const HeldCount&) = default;
+};
 
 class IdTables {
  public:
@@ -53,6 +70,15 @@ class IdTables {
   void WriteSubmission(const Uuid& submission, const ElementIds& ids);
   ElementIds ReadSubmission(const Uuid& submission);
 
+  // What map.db holds of a set (HeldCount). Reads the GraphStore's own tables of map.db (nodes,
+  // edges and paths by id, the nodes' landmarks): none when map.db has none of them (a file
+  // emptied or replaced), as nothing can be counted there.
+  std::optional<HeldCount> HeldOf(const std::string& generation, IdRole role);
+  // The HeldOf of `generation`'s installed set recorded when its content was last read back
+  // whole and matched the installed digest; none when it never was.
+  std::optional<HeldCount> ReadVerified(const std::string& generation);
+  void WriteVerified(const std::string& generation, const HeldCount& held);
+
   // Deletes the rows of every generation but `generation` and of every submission not in
   // `submissions`.
   void Prune(const std::string& generation, const std::vector<Uuid>& submissions);
@@ -60,6 +86,7 @@ class IdTables {
  private:
   explicit IdTables(sqlite3* db, std::string path) : db_(db), path_(std::move(path)) {}
   void Exec(const char* sql);
+  bool HasTable(const char* name);
   void Insert(const char* sql, const std::string* generation, const Uuid* submission, int role,
               const ElementIds& ids);
 

@@ -32,6 +32,8 @@ namespace {
 
 namespace fs = std::filesystem;
 using agent_internal::HasLiveLog;
+using agent_internal::HeldCount;
+using agent_internal::IdRole;
 using agent_internal::IdTables;
 using agent_internal::InAny;
 using agent_internal::kInstallTokenKey;
@@ -58,6 +60,14 @@ using agent_internal::WriteStateIds;
 bool InstalledInPlace(const SyncState& next, const std::string& map_uri) {
   if (next.install_token.empty()) return true;
   return GraphStore::Open(map_uri)->versions().FindSetting(kInstallTokenKey) == next.install_token;
+}
+
+// What map.db holds of an installed selection just written, whose digest the install computed
+// from what it wrote: the record LocalMap::CheckInstalledDigest compares with at each hello.
+void RecordInstalledAsWritten(IdTables& tables, const std::string& generation) {
+  if (const std::optional<HeldCount> held = tables.HeldOf(generation, IdRole::kInstalled)) {
+    tables.WriteVerified(generation, *held);
+  }
 }
 
 // Of `ids`, those `state` has not installed.
@@ -449,6 +459,8 @@ void LocalMap::CommitChangesInPlace(GraphStore& store, const ElementIds& gone,
     store.Put(writes);
     store.versions().PutSetting(kInstallTokenKey, next_state.install_token);
     transaction.Commit();
+    IdTables tables = IdTables::Open(map_path());
+    RecordInstalledAsWritten(tables, next_state.ids_generation);
   } catch (const Error& e) {
     std::error_code ignored;
     fs::remove(next_state_path, ignored);
@@ -479,6 +491,7 @@ void LocalMap::CommitNewMap(SyncState next_state) {
     IdTables tables = IdTables::Open(new_map, /*scratch=*/true);
     tables.Begin();
     WriteStateIds(tables, next_state, /*submissions=*/true);
+    RecordInstalledAsWritten(tables, next_state.ids_generation);
     tables.Commit();
   } catch (...) {
     RemoveDatabaseFiles(new_map);
@@ -530,6 +543,22 @@ std::uint64_t LocalMap::ReadInstalledDigest() const {
     if (state_.installed.paths.contains(path.id)) digest.Add(path);
   }
   return digest.value();
+}
+
+std::uint64_t LocalMap::CheckInstalledDigest(bool read_back) {
+  RequireWritable("check the installed map");
+  if (state_.revision == 0) return 0;
+  if (state_.ids_generation.empty()) return ReadInstalledDigest();
+  IdTables tables = IdTables::Open(map_path());
+  const std::optional<HeldCount> held = tables.HeldOf(state_.ids_generation, IdRole::kInstalled);
+  if (!read_back && held && tables.ReadVerified(state_.ids_generation) == held) {
+    return state_.installed_digest;
+  }
+  const std::uint64_t digest = ReadInstalledDigest();
+  if (held && digest == state_.installed_digest) {
+    tables.WriteVerified(state_.ids_generation, *held);
+  }
+  return digest;
 }
 
 void LocalMap::RecordSyncError(const std::string& error) {

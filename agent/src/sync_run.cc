@@ -150,7 +150,7 @@ ServerLimits SyncRun::CurrentLimits() const {
 void SyncRun::Prepare() {
   if (plan_) return;
   if (!installed_digest_) {
-    installed_digest_ = map_.ReadInstalledDigest();
+    installed_digest_ = map_.CheckInstalledDigest(options_.verify_map);
     StartOverIfLost();
   }
   // A map directory of another robot is refused before anything is read.

@@ -399,6 +399,78 @@ TEST(AgentLocalMapTest, TheInstalledDigestIsTheSelectionsAndSeesADamagedMap) {
   EXPECT_EQ(map.state().last_error, "");
 }
 
+// Runs `sql` on map.db behind the agent's back, as a robot's other software or a bad disk
+// might.
+void ChangeMapBehindTheAgent(const LocalMap& map, const std::string& sql) {
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open(map.map_path().c_str(), &db), SQLITE_OK);
+  char* error = nullptr;
+  EXPECT_EQ(sqlite3_exec(db, sql.c_str(), nullptr, nullptr, &error), SQLITE_OK) << error;
+  sqlite3_free(error);
+  sqlite3_close(db);
+}
+
+// `bytes` as an SQL blob literal.
+std::string BlobLiteral(std::string_view bytes) {
+  static constexpr char kDigits[] = "0123456789abcdef";
+  std::string text = "x'";
+  for (const char c : bytes) {
+    const auto byte = static_cast<unsigned char>(c);
+    text += kDigits[byte >> 4];
+    text += kDigits[byte & 15];
+  }
+  return text + "'";
+}
+
+// The check before each hello compares what map.db holds of the installed selection (its
+// elements, their sizes) with what the install recorded, reading no landmark byte, and still
+// sees a map cut, grown or emptied. A byte changed in place at the same length shows on a forced
+// read-back.
+TEST(AgentLocalMapTest, AnInstalledMapIsCheckedByWhatItHoldsAndReadBackOnDemand) {
+  const ScratchDir dir("fleetmap-agent-map");
+  const GraphBatch& day = SharedMaps().day;
+  SelectionDigest expected;
+  expected.Add(day);
+  LocalMap map = LocalMap::Open(dir / "robot");
+  EXPECT_EQ(map.CheckInstalledDigest(false), 0u) << "nothing installed";
+  map.Install(FullDownload(day, 3));
+
+  // Right after the install, the last landmark byte of an installed node flipped in place: the
+  // same sizes, so the check takes the install's record, and only a read-back sees it.
+  const std::string node = BlobLiteral(day.nodes[1].id.ToBytesString());
+  Node damaged = day.nodes[1];
+  damaged.landmarks_blob.back() ^= 1;
+  const std::string flipped_tail = BlobLiteral(
+      std::string_view(damaged.landmarks_blob).substr(damaged.landmarks_blob.size() - 1));
+  ChangeMapBehindTheAgent(map,
+                          "UPDATE nodes SET landmarks = CAST(substr(landmarks, 1, "
+                          "length(landmarks) - 1) || " +
+                              flipped_tail + " AS BLOB) WHERE id = " + node);
+  SelectionDigest with_damage = expected;
+  with_damage.Remove(day.nodes[1]);
+  with_damage.Add(damaged);
+  ASSERT_EQ(map.ReadInstalledDigest(), with_damage.value()) << "the change did not take";
+  EXPECT_EQ(map.CheckInstalledDigest(false), expected.value());
+  EXPECT_EQ(map.CheckInstalledDigest(true), with_damage.value());
+  // Content the robot built itself changes nothing.
+  GraphStore::Open(map.map_uri())->Put(SharedMaps().night);
+  EXPECT_EQ(map.CheckInstalledDigest(false), expected.value());
+
+  // A byte more: the sizes differ, so the check reads back and gives the digest map.db holds.
+  ChangeMapBehindTheAgent(
+      map, "UPDATE nodes SET landmarks = CAST(landmarks || x'00' AS BLOB) WHERE id = " + node);
+  const std::uint64_t grown = map.CheckInstalledDigest(false);
+  EXPECT_NE(grown, expected.value());
+  EXPECT_NE(grown, with_damage.value());
+  // An installed edge gone, then everything.
+  ChangeMapBehindTheAgent(
+      map, "DELETE FROM edges WHERE id = " + BlobLiteral(day.edges[0].id.ToBytesString()));
+  const std::uint64_t cut = map.CheckInstalledDigest(false);
+  EXPECT_NE(cut, grown);
+  ChangeMapBehindTheAgent(map, "DELETE FROM edges; DELETE FROM nodes; DELETE FROM paths;");
+  EXPECT_EQ(map.CheckInstalledDigest(false), SelectionDigest().value());
+}
+
 // A state file written before failed submissions were kept (merged_revision 0 meant failed)
 // reads as failed, so an upgrade does not drop what the old agent was about to drop.
 TEST(AgentLocalMapTest, OldStateWithMergedRevisionZeroReadsAsFailed) {

@@ -796,7 +796,7 @@ TEST_F(AgentSyncTest, AStatusReadsNoIdsOfALargeUnmergedSubmission) {
   const fs::path log = dir_ / "status.log";
   ChildProcess agent({"/usr/bin/time", "-v", FLEETMAP_AGENT_PATH, "status", "--map-dir",
                       map_dir_.string(), "--json"},
-                     ChildProcessOptions{.stderr_file = log});
+                     ChildProcessOptions{.stderr_file = log, .environment = {}});
   const std::string out = agent.ReadRest(milliseconds(60'000));
   ASSERT_EQ(agent.Wait(milliseconds(10'000)), std::optional<int>(0)) << testing::ReadLog(log);
   const nlohmann::json status = nlohmann::json::parse(out);

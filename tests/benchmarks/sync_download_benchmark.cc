@@ -2,7 +2,8 @@
 // beside the ceiling of the same machine: the same bytes over a plain TCP socket on loopback.
 //
 // Setup, once: a SQLite central store holding a map of about 540 MB of landmarks (random, so
-// nothing compresses), a registered robot, and fleetmapd serving it (a child process). Then:
+// nothing compresses) in 30 revisions, a registered robot, and fleetmapd serving it (a child
+// process). Then:
 //   SyncDownload/warm   a copy download streamed to a bare protocol client that reads every
 //                       frame and keeps none. The first, cold download (reads and encoding from
 //                       a freshly started server once its start-up work is done, which plans
@@ -16,6 +17,8 @@
 //                       (landmark_MBps: landmark bytes over the whole pull; agent_cpu_s and
 //                       server_cpu_s: what each process spent per pull; cpu_ms_per_MB: the
 //                       two together per MB of landmarks);
+//   AgentSyncNothingNew after one pull, syncs with nothing new (agent_cpu_s: the agent's CPU
+//                       per sync); /verify_map with every installed byte read back as well;
 //   RawSqliteInstall    the install's ceiling: the same map written by plain sqlite3 into the
 //                       agent's tables, one transaction, then fsynced (landmark_MBps;
 //                       cpu_ms_per_MB: this process's CPU per MB of landmarks);
@@ -45,6 +48,9 @@
 #include <thread>
 
 #include "fleet_processes.h"
+#include "fleetmap/core/clock.h"
+#include "fleetmap/store/graph_store.h"
+#include "fleetmap/store/version_store.h"
 #include "fleetmap/wire/sync_frame.h"
 #include "random_robot_map.h"
 #include "raw_sync_client.h"
@@ -138,11 +144,22 @@ Fixture& Shared() {
     f->uri = "sqlite:" + (f->dir / "central.db").string();
     f->robot = RegisterRobot(f->uri, "bench", f->dir / "robot");
     {
-      // The map as revision 0 (outside version control), written in batches.
+      // The map in revisions of 2000 nodes each, committed as MERGE commits them, so that a
+      // robot that has installed the head syncs incrementally from it. Built by another robot
+      // of the fleet: what the pulling robot downloads is none of its own work.
       std::unique_ptr<GraphStore> store = GraphStore::Open(f->uri);
+      const Uuid surveyor = Uuid::Generate();
       for (int batch = 0; batch < kNodes / 2000; ++batch) {
-        GraphBatch part = RandomRobotMap(f->robot.id, 2000, 1000 + batch, kLandmarksPerNode);
+        GraphBatch part = RandomRobotMap(surveyor, 2000, 1000 + batch, kLandmarksPerNode);
+        GraphStore::Transaction transaction = store->Begin();
+        Revision revision;
+        revision.number = store->versions().HeadRevision() + 1;
+        revision.created_ns = WallClockNs();
+        revision.author = "bench";
+        revision.submission = Uuid::Generate();
+        store->versions().AppendRevision(revision, part);
         store->Put(part);
+        transaction.Commit();
       }
       f->landmark_bytes = store->Stats().landmark_bytes;
     }
@@ -253,6 +270,55 @@ void AgentPull(benchmark::State& state) {
                                                 : 0.0;
 }
 BENCHMARK(AgentPull)->Unit(benchmark::kMillisecond)->Iterations(2)->UseRealTime();
+
+// A sync with nothing new, as a docked robot holding the whole map makes each time: after one
+// pull (untimed), fleetmap-agent syncs again and again; agent_cpu_s is the agent's CPU per sync
+// (all threads; the bound is 1 s for this map of about 540 MB), server_cpu_s fleetmapd's.
+// /verify_map adds --verify-map: every installed landmark byte read back before the hello, as
+// each sync did before the check by what map.db holds.
+void AgentSyncNothingNew(benchmark::State& state, bool verify_map) {
+  Fixture& f = Shared();
+  TestRobot robot = f.robot;
+  robot.map_dir = f.dir / (verify_map ? "steady-verify" : "steady");
+  std::filesystem::create_directories(robot.map_dir);
+  const std::filesystem::path log = robot.map_dir / "agent.log";
+  const std::vector<std::string> flags = verify_map
+                                             ? std::vector<std::string>{"--quiet", "--verify-map"}
+                                             : std::vector<std::string>{"--quiet"};
+  if (FinishSync(*StartSync(robot, f.server.address, log, {"--quiet"}), log,
+                 std::chrono::milliseconds(600'000))
+          .exit != 0) {
+    state.SkipWithError("the first pull failed");
+    return;
+  }
+  double agent_cpu = 0.0;
+  double server_cpu = 0.0;
+  for (auto _ : state) {
+    const double server_cpu_before = CpuSeconds(f.server.process->pid());
+    const double children_cpu_before = ChildrenCpuSeconds();
+    const SyncOutcome outcome = FinishSync(*StartSync(robot, f.server.address, log, flags), log,
+                                           std::chrono::milliseconds(600'000));
+    agent_cpu += ChildrenCpuSeconds() - children_cpu_before;
+    server_cpu += CpuSeconds(f.server.process->pid()) - server_cpu_before;
+    if (outcome.exit != 0) state.SkipWithError("the agent failed");
+    if (outcome.result.value("downloaded_nodes", 0) != 0) {
+      state.SkipWithError(("not a sync with nothing new: " + outcome.result.dump()).c_str());
+    }
+  }
+  std::filesystem::remove_all(robot.map_dir);
+  const double syncs = static_cast<double>(state.iterations());
+  state.counters["agent_cpu_s"] = agent_cpu / syncs;
+  state.counters["server_cpu_s"] = server_cpu / syncs;
+  state.counters["map_MB"] = static_cast<double>(f.landmark_bytes) / 1e6;
+}
+BENCHMARK_CAPTURE(AgentSyncNothingNew, checked, false)
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(3)
+    ->UseRealTime();
+BENCHMARK_CAPTURE(AgentSyncNothingNew, verify_map, true)
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(3)
+    ->UseRealTime();
 
 // The install's ceiling: the same map (nodes and edges, generated as the fixture's) written
 // through plain sqlite3 into a fresh file as the agent's tables hold it (the node table with

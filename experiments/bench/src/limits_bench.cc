@@ -224,7 +224,8 @@ void Fill(LimitLine& line, const ChildRun& child, const std::string& ours_run,
 
 std::vector<LimitLine> PullLines(const LimitsBenchOptions& o) {
   const ChildRun child =
-      RunChild(o, "sync_download_benchmark", "^(SyncDownload/warm|AgentPull|RawSqliteInstall)");
+      RunChild(o, "sync_download_benchmark",
+               "^(SyncDownload/warm|AgentPull|AgentSyncNothingNew/checked|RawSqliteInstall)");
   // Judged on CPU (the agent's and fleetmapd's together per MB of landmarks, against plain
   // sqlite3's): on a shared machine the wall-clock rate measures the neighbours as much as the
   // pull. The rate is still reported beside it.
@@ -242,7 +243,13 @@ std::vector<LimitLine> PullLines(const LimitsBenchOptions& o) {
       Line("fleetmapd peak memory growth over a download", "MB", "-", LimitLine::Bound::kAtMost, 0);
   growth.bound_on_ours = true;
   Fill(growth, child, "SyncDownload/warm", "server_growth_MB", "", "");
-  return {pull_cpu, pull, cold, growth};
+  // A docked robot's sync that finds nothing new costs what changed, not the map: a bound on
+  // the agent's own CPU seconds.
+  LimitLine steady = Line("agent sync with nothing new, whole map installed", "CPU-s", "-",
+                          LimitLine::Bound::kAtMost, 1.0);
+  steady.bound_on_ours = true;
+  Fill(steady, child, "AgentSyncNothingNew/checked", "agent_cpu_s", "", "");
+  return {pull_cpu, pull, steady, cold, growth};
 }
 
 // Judged against ORB detecting what the front end detects (2 x the kept count in both

@@ -60,6 +60,9 @@ struct AgentSyncOptions {
   SyncLinkOptions link;
   DownloadParams download;
   bool wait_merge = false;
+  // Read every installed landmark byte back before the hello (LocalMap::CheckInstalledDigest),
+  // not only what the map holds of the selection: a map damaged in place shows too.
+  bool verify_map = false;
   std::chrono::milliseconds merge_timeout{300'000};
   // The longest one MergeStatusRequest asks the server to wait (it may cap it lower).
   std::chrono::milliseconds merge_poll{10'000};

@@ -289,6 +289,16 @@ class LocalMap {
   // back whole: what the robot reports at each hello, so a map damaged since its install shows.
   // 0 when nothing is installed. Throws Error(kBackend) for I/O failures.
   std::uint64_t ReadInstalledDigest() const;
+  // The installed selection's digest as map.db holds it, for the hello, at the cost of the
+  // selection's size rather than its bytes. Each install records, beside the digest it computed
+  // from what it wrote, what map.db then holds of the selection (its elements present, their
+  // landmark bytes; a read-back that matched the digest records it too); a check compares
+  // that alone and returns the recorded digest when it matches. A map deleted, emptied, cut or
+  // grown in any installed node since shows (the whole read-back, ReadInstalledDigest,
+  // follows and gives the digest); a landmark byte changed in place at the same length shows on
+  // a read-back only: `read_back` forces one (fleetmap-agent sync --verify-map). Needs the map
+  // opened exclusive.
+  std::uint64_t CheckInstalledDigest(bool read_back);
   // Records the outcome of the last sync for the next hello ("" after one that succeeded);
   // written only when it changed.
   void RecordSyncError(const std::string& error);
