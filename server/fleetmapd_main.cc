@@ -196,7 +196,7 @@ void AddDreamOptions(CLI::App& app, fleetmap::SyncServerOptions& options, std::s
                      Flags& flags) {
   app.add_option("--dream-at", dream_at,
                  std::string("Dream every day at this UTC time of day, ") +
-                     fleetmap::kTimeOfDayGrammar +
+                     fleetmap::kDailyTimeGrammar +
                      " (default: never): the submissions "
                      "merged since the last dream are merged again in every order into the map "
                      "before them, judged by the newest one, which is held out; the best map is "
@@ -225,7 +225,7 @@ void AddRetireOptions(CLI::App& app, Flags& flags) {
       ->check(CLI::Range(0.0, 36'500.0));
   app.add_option("--retire-at", flags.retire_at,
                  std::string("Retire every day at this UTC time of day, ") +
-                     fleetmap::kTimeOfDayGrammar +
+                     fleetmap::kDailyTimeGrammar +
                      " (default: right after each nightly dream, so --dream-at is needed "
                      "without it). A retirement not made since that time last came runs at "
                      "start");
@@ -254,22 +254,22 @@ void AddTestOptions(CLI::App& app, Flags& flags) {
 void ApplyTimeFlags(const std::string& dream_at, const Flags& flags,
                     fleetmap::SyncServerOptions& options) {
   if (!dream_at.empty()) {
-    options.dream_at_minute = fleetmap::ParseTimeOfDay(dream_at, "--dream-at");
+    options.dream_at_second = fleetmap::ParseDailyTime(dream_at, "--dream-at");
   }
   if (!flags.retire_at.empty()) {
-    options.retire_at_minute = fleetmap::ParseTimeOfDay(flags.retire_at, "--retire-at");
+    options.retire_at_second = fleetmap::ParseDailyTime(flags.retire_at, "--retire-at");
   }
   if (flags.retire_after_days > 0.0) {
     fleetmap::RetireOptions retire;
     retire.retire_after_ns =
         std::llround(flags.retire_after_days * static_cast<double>(fleetmap::kNanosecondsPerDay));
     options.retire = retire;
-    if (!options.retire_at_minute && !options.dream_at_minute) {
+    if (!options.retire_at_second && !options.dream_at_second) {
       throw fleetmap::Error(fleetmap::ErrorCode::kInvalidArgument,
                             "--retire-after needs --retire-at HH:MM, or --dream-at to retire "
                             "right after the dream");
     }
-  } else if (options.retire_at_minute) {
+  } else if (options.retire_at_second) {
     throw fleetmap::Error(fleetmap::ErrorCode::kInvalidArgument,
                           "--retire-at without --retire-after: retirement is off");
   }

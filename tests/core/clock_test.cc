@@ -42,5 +42,19 @@ TEST(TimeOfDay, ParsesHoursAndMinutesAndNamesWhatItRefuses) {
   }
 }
 
+// A daily job's time (fleetmapd --dream-at, --retire-at): the same, or with seconds.
+TEST(TimeOfDay, ADailyTimeHasSecondsOrNone) {
+  EXPECT_EQ(ParseDailyTime("00:00", "--dream-at"), 0);
+  EXPECT_EQ(ParseDailyTime("2:30", "--dream-at"), 150 * 60);
+  EXPECT_EQ(ParseDailyTime("02:30:07", "--dream-at"), 150 * 60 + 7);
+  EXPECT_EQ(ParseDailyTime("23:59:59", "--dream-at"), 86'399);
+  for (const char* bad : {"24:00:00", "12:60:00", "12:00:60", "12:00:", "12:00:5", "12:00:005",
+                          "12::00", "12:00:0x", "12:00:00:00", ":00:00", "", "150"}) {
+    ExpectError(
+        ErrorCode::kInvalidArgument, [&] { ParseDailyTime(bad, "--retire-at"); },
+        "--retire-at '" + std::string(bad) + "' is not a time of day: expected HH:MM or HH:MM:SS");
+  }
+}
+
 }  // namespace
 }  // namespace fleetmap

@@ -1,5 +1,5 @@
 // The nightly dream on schedule, across real processes on 127.0.0.1:
-// fleetmapd --dream-at the next minute dreams while five real agents keep
+// fleetmapd --dream-at a few seconds ahead dreams while five real agents keep
 // syncing through it, leaves a candidate without moving the head, reports it in /metrics, and
 // `fleetmap promote` makes it the next revision, which the agents then download.
 #include <gtest/gtest.h>
@@ -25,15 +25,15 @@ namespace {
 
 using std::chrono::steady_clock;
 
-// The UTC HH:MM of the first minute boundary at least `lead` from now.
-std::string MinuteAhead(std::chrono::seconds lead, std::chrono::system_clock::time_point* at) {
+// The UTC HH:MM:SS of the first whole second at least `lead` from now (`lead` may be negative).
+std::string TimeAhead(std::chrono::seconds lead, std::chrono::system_clock::time_point* at) {
   const auto now = std::chrono::system_clock::now();
-  *at = std::chrono::ceil<std::chrono::minutes>(now + lead);
+  *at = std::chrono::ceil<std::chrono::seconds>(now + lead);
   const std::time_t t = std::chrono::system_clock::to_time_t(*at);
   std::tm utc{};
   gmtime_r(&t, &utc);
-  char text[8];
-  std::snprintf(text, sizeof text, "%02d:%02d", utc.tm_hour, utc.tm_min);
+  char text[16];
+  std::snprintf(text, sizeof text, "%02d:%02d:%02d", utc.tm_hour, utc.tm_min, utc.tm_sec);
   return text;
 }
 
@@ -48,7 +48,7 @@ class ScheduledDreamTest : public ::testing::Test {
 };
 TYPED_TEST_SUITE(ScheduledDreamTest, StoreBackends, BackendNames);
 
-TYPED_TEST(ScheduledDreamTest, RunsAMinuteAheadWhileAgentsSyncAndPromoteMakesTheRevision) {
+TYPED_TEST(ScheduledDreamTest, RunsAtItsTimeWhileAgentsSyncAndPromoteMakesTheRevision) {
   const std::string uri = this->backend_.Uri();
   // Five submissions of corridor outings, merged (the repository trains and stores its
   // vocabulary on the first): four groups and the newest, held out.
@@ -69,7 +69,7 @@ TYPED_TEST(ScheduledDreamTest, RunsAMinuteAheadWhileAgentsSyncAndPromoteMakesThe
     WriteLocalMap(robots.back(), RandomRobotMap(robots.back().id, 20, 100 + i));
   }
   std::chrono::system_clock::time_point dream_time;
-  const std::string at = MinuteAhead(std::chrono::seconds(15), &dream_time);
+  const std::string at = TimeAhead(std::chrono::seconds(6), &dream_time);
   Fleetmapd server = StartFleetmapd(uri, this->dir_ / "fleetmapd.log",
                                     {"--dream-at", at, "--http", "127.0.0.1:0"});
   ASSERT_FALSE(server.address.empty());
@@ -97,8 +97,8 @@ TYPED_TEST(ScheduledDreamTest, RunsAMinuteAheadWhileAgentsSyncAndPromoteMakesThe
       }
     });
   }
-  // The dream starts at the minute (bounded: a minute and a half from now at most).
-  const auto deadline = steady_clock::now() + std::chrono::seconds(100);
+  // The dream starts at its time (bounded: a minute from now at most).
+  const auto deadline = steady_clock::now() + std::chrono::seconds(60);
   std::optional<steady_clock::time_point> dream_started, dream_done;
   while (steady_clock::now() < deadline && !dream_done) {
     const std::string log = server.Log();
@@ -203,10 +203,10 @@ TYPED_TEST(ScheduledDreamTest, ADreamKilledMidWayRunsOnceWhenFleetmapdStartsAgai
   }
   ASSERT_EQ(candidates(), 0u);
 
-  // Its time of day passed two minutes ago: the dream runs at start all the same, and is
+  // Its time of day passed two and a half minutes ago: the dream runs at start all the same, and is
   // killed with fleetmapd as it runs.
   std::chrono::system_clock::time_point past;
-  const std::string at = MinuteAhead(-std::chrono::seconds(150), &past);
+  const std::string at = TimeAhead(-std::chrono::seconds(150), &past);
   const std::vector<std::string> args = {"--dream-at", at};
   {
     Fleetmapd first = StartFleetmapd(uri, this->dir_ / "first.log", args);

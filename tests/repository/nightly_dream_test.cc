@@ -417,9 +417,9 @@ TYPED_TEST(NightlyDreamTest, ConcurrentPromotesOfOneCandidateMakeOneRevision) {
   }
 }
 
-// The UTC minute of the day of `ns` (nanoseconds since the epoch).
-int MinuteOfDay(std::int64_t ns) {
-  return static_cast<int>((ns / 60'000'000'000) % (24 * 60));
+// The UTC second of the day of `ns` (nanoseconds since the epoch).
+int SecondOfDay(std::int64_t ns) {
+  return static_cast<int>((ns / 1'000'000'000) % (24 * 60 * 60));
 }
 
 // Which scheduled dream fleetmapd missed, told from the store at any
@@ -430,7 +430,7 @@ TYPED_TEST(NightlyDreamTest, AMissedDreamIsToldFromTheStore) {
   Repository& repository = *this->repository_;
   constexpr std::int64_t kHourNs = 3'600'000'000'000;
   const std::int64_t now = WallNs();
-  EXPECT_FALSE(FindMissedDream(repository, now, MinuteOfDay(now + 2 * kHourNs)));
+  EXPECT_FALSE(FindMissedDream(repository, now, SecondOfDay(now + 2 * kHourNs)));
   this->PushAndMerge(0, 0.0);
   this->PushAndMerge(1, 0.0);
   NightlyDreamOptions options;
@@ -439,7 +439,7 @@ TYPED_TEST(NightlyDreamTest, AMissedDreamIsToldFromTheStore) {
   const std::int64_t done = WallNs();
   // Scheduled two hours ahead: yesterday's time passed before the dream, nothing missed; three
   // hours on, today's time has passed since it.
-  const int later = MinuteOfDay(done + 2 * kHourNs);
+  const int later = SecondOfDay(done + 2 * kHourNs);
   EXPECT_FALSE(FindMissedDream(repository, done, later));
   const std::optional<MissedDream> missed = FindMissedDream(repository, done + 3 * kHourNs, later);
   ASSERT_TRUE(missed);
@@ -452,7 +452,7 @@ TYPED_TEST(NightlyDreamTest, AMissedDreamIsToldFromTheStore) {
   EXPECT_ANY_THROW(RunNightlyDream(
       repository, options, [](std::size_t, std::size_t) { throw std::runtime_error("killed"); }));
   const std::int64_t cut = WallNs();
-  for (const int minute : {later, MinuteOfDay(cut), MinuteOfDay(cut + kHourNs)}) {
+  for (const int minute : {later, SecondOfDay(cut), SecondOfDay(cut + kHourNs)}) {
     const std::optional<MissedDream> again = FindMissedDream(repository, cut, minute);
     ASSERT_TRUE(again) << minute;
     EXPECT_NE(again->why.find("did not finish"), std::string::npos) << again->why;

@@ -5,12 +5,12 @@
 
 namespace fleetmap::daemon {
 std::chrono::system_clock::time_point NextDailyTime(std::chrono::system_clock::time_point now,
-                                                    int minute_of_day) {
+                                                    int second_of_day) {
   using std::chrono::days;
-  using std::chrono::minutes;
+  using std::chrono::seconds;
   // system_clock counts UTC without leap seconds, so days divide it exactly.
   const auto midnight = std::chrono::floor<days>(now);
-  auto next = midnight + minutes(minute_of_day);
+  auto next = midnight + seconds(second_of_day);
   if (next <= now) next += days(1);
   return next;
 }
@@ -19,25 +19,31 @@ std::int64_t UtcNs(std::chrono::system_clock::time_point t) {
   return std::chrono::duration_cast<std::chrono::nanoseconds>(t.time_since_epoch()).count();
 }
 
-std::string TimeOfDayText(int minute_of_day) {
-  char text[24];  // room for any int, though minute_of_day is 0 to 1439
-  std::snprintf(text, sizeof text, "%02d:%02d", minute_of_day / 60, minute_of_day % 60);
+std::string TimeOfDayText(int second_of_day) {
+  char text[40];  // room for any int, though second_of_day is 0 to 86399
+  const int minute = second_of_day / 60;
+  if (second_of_day % 60 == 0) {
+    std::snprintf(text, sizeof text, "%02d:%02d", minute / 60, minute % 60);
+  } else {
+    std::snprintf(text, sizeof text, "%02d:%02d:%02d", minute / 60, minute % 60,
+                  second_of_day % 60);
+  }
   return text;
 }
 
-DailyJob::DailyJob(std::optional<int> minute_of_day, std::function<void()> run,
+DailyJob::DailyJob(std::optional<int> second_of_day, std::function<void()> run,
                    std::function<bool()> missed)
-    : minute_of_day_(minute_of_day), run_(std::move(run)), missed_(std::move(missed)) {}
+    : second_of_day_(second_of_day), run_(std::move(run)), missed_(std::move(missed)) {}
 
 DailyJob::~DailyJob() {
   Stop();
 }
 
 void DailyJob::Start() {
-  if (minute_of_day_) {
+  if (second_of_day_) {
     // Set before the thread starts, so a status read right after Start shows it.
     MutexLock lock(mutex_);
-    next_ns_ = UtcNs(NextDailyTime(std::chrono::system_clock::now(), *minute_of_day_));
+    next_ns_ = UtcNs(NextDailyTime(std::chrono::system_clock::now(), *second_of_day_));
   }
   thread_ = std::thread([this] { Run(); });
 }
@@ -77,11 +83,11 @@ bool DailyJob::WaitForRun() {
       return true;
     }
     const auto woken = [&]() REQUIRES(mutex_) { return stopping_ || run_soon_; };
-    if (!minute_of_day_) {
+    if (!second_of_day_) {
       wake_.Wait(mutex_, woken);
       continue;
     }
-    const auto next = NextDailyTime(std::chrono::system_clock::now(), *minute_of_day_);
+    const auto next = NextDailyTime(std::chrono::system_clock::now(), *second_of_day_);
     next_ns_ = UtcNs(next);
     // Woken early only to stop or to run now; a spurious or clock-change wake-up re-checks the
     // time.

@@ -19,23 +19,23 @@
 
 namespace fleetmap::daemon {
 
-// The first time after `now` whose UTC time of day is `minute_of_day` (today's, when it is
+// The first time after `now` whose UTC time of day is `second_of_day` (today's, when it is
 // still to come, else tomorrow's).
 std::chrono::system_clock::time_point NextDailyTime(std::chrono::system_clock::time_point now,
-                                                    int minute_of_day);
+                                                    int second_of_day);
 
 // `t` as UTC nanoseconds since the epoch.
 std::int64_t UtcNs(std::chrono::system_clock::time_point t);
 
 // "HH:MM", for the log and the status page.
-std::string TimeOfDayText(int minute_of_day);
+std::string TimeOfDayText(int second_of_day);
 
 class DailyJob {
  public:
   // `run` is the job. `missed`, when given, is asked once on the job's thread as it starts
-  // whether a run is due at once (it logs why). Without a `minute_of_day` the job runs only
+  // whether a run is due at once (it logs why). Without a `second_of_day` the job runs only
   // when asked (RunSoon), and after a missed run.
-  DailyJob(std::optional<int> minute_of_day, std::function<void()> run,
+  DailyJob(std::optional<int> second_of_day, std::function<void()> run,
            std::function<bool()> missed = {});
   ~DailyJob();  // Stop()
   DailyJob(const DailyJob&) = delete;
@@ -57,7 +57,7 @@ class DailyJob {
   // Waits until the next run is due (true) or Stop() (false).
   bool WaitForRun();
 
-  const std::optional<int> minute_of_day_;
+  const std::optional<int> second_of_day_;
   const std::function<void()> run_;
   const std::function<bool()> missed_;
 

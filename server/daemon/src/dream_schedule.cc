@@ -16,17 +16,17 @@ struct DreamAbandoned {};
 
 }  // namespace
 
-DreamSchedule::DreamSchedule(std::string store_uri, StoreOptions store_options, int minute_of_day,
+DreamSchedule::DreamSchedule(std::string store_uri, StoreOptions store_options, int second_of_day,
                              NightlyDreamOptions options, std::function<void()> after_each)
     : store_uri_(std::move(store_uri)),
       store_options_(store_options),
-      minute_of_day_(minute_of_day),
+      second_of_day_(second_of_day),
       options_(options),
       after_each_(std::move(after_each)),
       job_(
-          minute_of_day, [this] { RunOnce(); }, [this] { return DueAtStart(); }) {
+          second_of_day, [this] { RunOnce(); }, [this] { return DueAtStart(); }) {
   status_.scheduled = true;
-  status_.at = TimeOfDayText(minute_of_day_);
+  status_.at = TimeOfDayText(second_of_day_);
 }
 
 DreamSchedule::~DreamSchedule() {
@@ -34,7 +34,7 @@ DreamSchedule::~DreamSchedule() {
 }
 
 void DreamSchedule::Start() {
-  spdlog::info("dream: scheduled daily at {} UTC", TimeOfDayText(minute_of_day_));
+  spdlog::info("dream: scheduled daily at {} UTC", TimeOfDayText(second_of_day_));
   job_.Start();
 }
 
@@ -58,7 +58,7 @@ bool DreamSchedule::DueAtStart() const {
     RepositoryOptions repository_options;
     repository_options.store = store_options_;
     const std::unique_ptr<Repository> repository = Repository::Open(store_uri_, repository_options);
-    missed = FindMissedDream(*repository, UtcNs(std::chrono::system_clock::now()), minute_of_day_);
+    missed = FindMissedDream(*repository, UtcNs(std::chrono::system_clock::now()), second_of_day_);
   } catch (const std::exception& error) {
     // The schedule goes on: the next night's dream covers what this one would have.
     spdlog::warn("dream: cannot tell whether a dream was missed: {}", error.what());
@@ -71,7 +71,7 @@ bool DreamSchedule::DueAtStart() const {
   char day[16];
   std::strftime(day, sizeof day, "%Y-%m-%d", &utc);
   spdlog::info("dream: missed the {} UTC dream of {}: {}; running it now",
-               TimeOfDayText(minute_of_day_), day, missed->why);
+               TimeOfDayText(second_of_day_), day, missed->why);
   return true;
 }
 

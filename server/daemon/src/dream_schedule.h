@@ -22,7 +22,7 @@ class DreamSchedule {
  public:
   // `after_each`, when given, is called on the dream's thread after each dream, however it
   // ended, unless the schedule is stopping (fleetmapd retires right after the dream).
-  DreamSchedule(std::string store_uri, StoreOptions store_options, int minute_of_day,
+  DreamSchedule(std::string store_uri, StoreOptions store_options, int second_of_day,
                 NightlyDreamOptions options, std::function<void()> after_each = {});
   ~DreamSchedule();  // Stop()
   DreamSchedule(const DreamSchedule&) = delete;
@@ -42,7 +42,7 @@ class DreamSchedule {
 
   const std::string store_uri_;
   const StoreOptions store_options_;
-  const int minute_of_day_;
+  const int second_of_day_;
   const NightlyDreamOptions options_;
   const std::function<void()> after_each_;
 

@@ -32,15 +32,15 @@ std::string RetirementKeptText(const RetirementPlan& plan) {
 }  // namespace
 
 RetireSchedule::RetireSchedule(std::string store_uri, StoreOptions store_options,
-                               std::optional<int> minute_of_day, RetireOptions options,
+                               std::optional<int> second_of_day, RetireOptions options,
                                std::function<void()> after_retired)
     : store_uri_(std::move(store_uri)),
       store_options_(store_options),
-      minute_of_day_(minute_of_day),
+      second_of_day_(second_of_day),
       options_(options),
       after_retired_(std::move(after_retired)),
       job_(
-          minute_of_day, [this] { RunOnce(); }, [this] { return DueAtStart(); }) {}
+          second_of_day, [this] { RunOnce(); }, [this] { return DueAtStart(); }) {}
 
 RetireSchedule::~RetireSchedule() {
   Stop();
@@ -48,9 +48,9 @@ RetireSchedule::~RetireSchedule() {
 
 void RetireSchedule::Start() {
   const double days = static_cast<double>(options_.retire_after_ns) / kNanosecondsPerDay;
-  if (minute_of_day_) {
+  if (second_of_day_) {
     spdlog::info("retire: scheduled daily at {} UTC, of nodes unused for {:g} days",
-                 TimeOfDayText(*minute_of_day_), days);
+                 TimeOfDayText(*second_of_day_), days);
   } else {
     spdlog::info("retire: scheduled right after each dream, of nodes unused for {:g} days", days);
   }
@@ -67,10 +67,10 @@ void RetireSchedule::RunSoon() {
 
 bool RetireSchedule::DueAtStart() const {
   // Following the dream, it is due when the dream is (the dream's own missed run).
-  if (!minute_of_day_) return false;
+  if (!second_of_day_) return false;
   // The latest time the time of day came, at or before now.
   const std::int64_t scheduled_ns = UtcNs(
-      NextDailyTime(std::chrono::system_clock::now(), *minute_of_day_) - std::chrono::days(1));
+      NextDailyTime(std::chrono::system_clock::now(), *second_of_day_) - std::chrono::days(1));
   try {
     const std::unique_ptr<Repository> repository =
         OpenRetirementRepository(store_uri_, store_options_);
@@ -88,7 +88,7 @@ bool RetireSchedule::DueAtStart() const {
     return false;
   }
   spdlog::info("retire: no retirement since {} UTC came last; running it now",
-               TimeOfDayText(*minute_of_day_));
+               TimeOfDayText(*second_of_day_));
   return true;
 }
 

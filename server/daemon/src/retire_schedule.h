@@ -22,11 +22,11 @@ namespace fleetmap::daemon {
 
 class RetireSchedule {
  public:
-  // `minute_of_day`: daily at that UTC minute; nullopt: only when asked (RunSoon), as after each
-  // dream. `after_retired`, when given, is called on the job's thread after each revision it
-  // appends (fleetmapd reads the new head for its status).
+  // `second_of_day`: daily at that UTC second of the day; nullopt: only when asked (RunSoon), as
+  // after each dream. `after_retired`, when given, is called on the job's thread after each
+  // revision it appends (fleetmapd reads the new head for its status).
   RetireSchedule(std::string store_uri, StoreOptions store_options,
-                 std::optional<int> minute_of_day, RetireOptions options,
+                 std::optional<int> second_of_day, RetireOptions options,
                  std::function<void()> after_retired = {});
   ~RetireSchedule();  // Stop()
   RetireSchedule(const RetireSchedule&) = delete;
@@ -47,7 +47,7 @@ class RetireSchedule {
 
   const std::string store_uri_;
   const StoreOptions store_options_;
-  const std::optional<int> minute_of_day_;
+  const std::optional<int> second_of_day_;
   const RetireOptions options_;
   const std::function<void()> after_retired_;
   DailyJob job_;  // last: its thread uses the members above

@@ -103,7 +103,7 @@ class SyncServer::Impl {
     if (options_.hello_deadline.count() <= 0) {
       throw Error(ErrorCode::kInvalidArgument, "fleetmapd: --hello-timeout must be positive");
     }
-    if (options_.retire && !options_.retire_at_minute && !options_.dream_at_minute) {
+    if (options_.retire && !options_.retire_at_second && !options_.dream_at_second) {
       throw Error(ErrorCode::kInvalidArgument,
                   "--retire-after needs --retire-at HH:MM, or --dream-at to retire right after "
                   "the dream");
@@ -146,17 +146,17 @@ class SyncServer::Impl {
     if (options_.retire) {
       // The head moved under the status page and the warm download plan: read it again.
       retire_ = std::make_unique<daemon::RetireSchedule>(
-          options_.store_uri, store_options, options_.retire_at_minute, *options_.retire,
+          options_.store_uri, store_options, options_.retire_at_second, *options_.retire,
           [this] { RefreshFromStore(); });
     }
-    if (options_.dream_at_minute) {
+    if (options_.dream_at_second) {
       // Without a time of its own, retirement follows each dream.
       std::function<void()> after_dream;
-      if (retire_ && !options_.retire_at_minute) {
+      if (retire_ && !options_.retire_at_second) {
         after_dream = [retire = retire_.get()] { retire->RunSoon(); };
       }
       dream_ = std::make_unique<daemon::DreamSchedule>(options_.store_uri, store_options,
-                                                       *options_.dream_at_minute, options_.dream,
+                                                       *options_.dream_at_second, options_.dream,
                                                        std::move(after_dream));
     }
     context_.emplace(daemon::SessionContext{options_, *store_, *merges_, cache_, activity_,

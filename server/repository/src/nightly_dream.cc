@@ -25,7 +25,8 @@ constexpr std::string_view kLastDreamKey = "dream/since-revision";
 constexpr std::string_view kStartedKey = "dream/last-started-ns";
 constexpr std::string_view kFinishedKey = "dream/last-finished-ns";
 
-constexpr std::int64_t kMinuteNs = 60'000'000'000;
+constexpr std::int64_t kSecondNs = 1'000'000'000;
+constexpr std::int64_t kMinuteNs = 60 * kSecondNs;
 constexpr std::int64_t kDayNs = 24 * 60 * kMinuteNs;
 
 constexpr const char* kHeldOutRule =
@@ -86,9 +87,9 @@ GraphBatch Without(const GraphBatch& content, const GraphBatch& base) {
 }  // namespace
 
 std::optional<MissedDream> FindMissedDream(Repository& repository, std::int64_t now_ns,
-                                           int minute_of_day) {
+                                           int second_of_day) {
   VersionStore& versions = repository.versions();
-  std::int64_t scheduled = now_ns - now_ns % kDayNs + minute_of_day * kMinuteNs;
+  std::int64_t scheduled = now_ns - now_ns % kDayNs + second_of_day * kSecondNs;
   if (scheduled > now_ns) scheduled -= kDayNs;
   const std::optional<std::int64_t> started = NsSetting(versions, kStartedKey);
   std::optional<std::int64_t> finished = NsSetting(versions, kFinishedKey);

@@ -36,4 +36,12 @@ inline constexpr char kTimeOfDayGrammar[] = "HH:MM (or H:MM) on the 24-hour cloc
 // Error(kInvalidArgument) "<what> '<text>' is not a time of day: expected <grammar>".
 int ParseTimeOfDay(std::string_view text, std::string_view what);
 
+// The grammar of a daily job's time (fleetmapd --dream-at, --retire-at), in words.
+inline constexpr char kDailyTimeGrammar[] =
+    "HH:MM or HH:MM:SS (H:MM, H:MM:SS) on the 24-hour clock, 00:00 to 23:59:59";
+
+// A time of day as kDailyTimeGrammar says, as seconds after midnight, 0 to 86399; refused as
+// ParseTimeOfDay refuses, naming kDailyTimeGrammar.
+int ParseDailyTime(std::string_view text, std::string_view what);
+
 }  // namespace fleetmap

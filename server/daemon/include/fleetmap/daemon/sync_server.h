@@ -105,16 +105,16 @@ struct SyncServerOptions {
   // A streamed download is read, encoded and written about this many bytes at a time (two such
   // batches in memory per download at most).
   std::size_t download_batch_bytes = std::size_t{4} << 20;
-  // The nightly dream (nightly_dream.h): run daily at this UTC minute of the day (0 to 1439;
-  // fleetmapd --dream-at, read by ParseTimeOfDay), on a store connection of its own. None: never.
-  std::optional<int> dream_at_minute;
+  // The nightly dream (nightly_dream.h): run daily at this UTC second of the day (0 to 86399;
+  // fleetmapd --dream-at, read by ParseDailyTime), on a store connection of its own. None: never.
+  std::optional<int> dream_at_second;
   NightlyDreamOptions dream;
   // Retirement (retirement.h) on schedule, on a store connection of its own: nodes unused for
   // retire->retire_after_ns are hidden as a revision (fleetmapd --retire-after). None: never.
   std::optional<RetireOptions> retire;
-  // When: daily at this UTC minute of the day (--retire-at); none: right after each nightly
+  // When: daily at this UTC second of the day (--retire-at); none: right after each nightly
   // dream, which then must be scheduled (else the constructor throws).
-  std::optional<int> retire_at_minute;
+  std::optional<int> retire_at_second;
 };
 
 class SyncServer {

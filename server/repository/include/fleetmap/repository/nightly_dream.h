@@ -46,14 +46,14 @@ struct MissedDream {
   std::string why;                // for the log: "the dream started at ... did not finish"
 };
 
-// Whether the dream scheduled daily at `minute_of_day` (UTC) was missed as of `now_ns`: a dream
-// started since the last one that finished (or none finished) did not finish, or the last
+// Whether the dream scheduled daily at `second_of_day` (UTC, 0 to 86399) was missed as of `now_ns`:
+// a dream started since the last one that finished (or none finished) did not finish, or the last
 // dream finished before the latest scheduled time at or before `now_ns`. RunNightlyDream
 // records when it starts and finishes (a skipped dream finishes too); a store from before
 // those records counts its newest candidate as the last dream finished. A store where no dream
 // ever started has missed none. Reads `repository` only.
 std::optional<MissedDream> FindMissedDream(Repository& repository, std::int64_t now_ns,
-                                           int minute_of_day);
+                                           int second_of_day);
 
 // Runs one nightly dream on `repository` (which it reads, and writes only the candidate, the
 // last dream's mark and when the dream started and finished to). Throws Error(kInvalidArgument) for
