@@ -242,9 +242,9 @@ TYPED_TEST(FleetReleaseTest, RobotsFollowTheirChannelAndTheDepotSeesWhatEachRuns
   // after its hello, asking for a channel that is not set), and it is flagged; beta is not.
   DamageOneInstalledNode(alpha, *RevisionNodes(uri, 1).begin());
   {
-    const auto log = this->dir_ / "alpha-unknown-channel.log";
+    const auto failing_log = this->dir_ / "alpha-unknown-channel.log";
     const std::unique_ptr<ChildProcess> failing =
-        StartSync(alpha, server.address, log, {"--channel", "no-such-channel"});
+        StartSync(alpha, server.address, failing_log, {"--channel", "no-such-channel"});
     failing->ReadRest(std::chrono::milliseconds(60'000));
     EXPECT_NE(failing->Wait(std::chrono::milliseconds(10'000)).value_or(0), 0);
   }

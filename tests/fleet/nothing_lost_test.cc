@@ -276,9 +276,11 @@ QueuedBehindALock QueueASubmission(const std::filesystem::path& dir, const std::
   queued.pushed = RandomRobotMap(queued.robot.id, 40, 31);
   WriteLocalMap(queued.robot, queued.pushed);
   queued.agent_log = dir / "agent.log";
-  Fleetmapd first =
-      StartFleetmapd(uri, dir / "fleetmapd-1.log",
-                     {"--debug-merge-delay-ms", "60000", "--instance", kRestartedInstance});
+  // The held merge keeps the store's write lock (on SQLite, the file's): the agent's report
+  // of its install (a hello) waits for it a busy timeout, then goes on without recording it.
+  Fleetmapd first = StartFleetmapd(uri, dir / "fleetmapd-1.log",
+                                   {"--debug-merge-delay-ms", "60000", "--busy-timeout-ms", "1000",
+                                    "--instance", kRestartedInstance});
   EXPECT_FALSE(first.address.empty());
   EXPECT_EQ(
       FinishSync(*StartSync(queued.robot, first.address, queued.agent_log), queued.agent_log).exit,
@@ -298,10 +300,10 @@ TYPED_TEST(NothingLostTest, LockHeldTwiceTheBusyTimeoutDuringAMergeThenMerges) {
   const QueuedBehindALock queued = QueueASubmission(this->dir_.path(), uri);
   constexpr std::chrono::milliseconds kBusyTimeout{1000};
   auto lock = std::make_unique<StoreWriteLock>(uri);
-  Fleetmapd server = StartFleetmapd(
-      uri, this->dir_ / "fleetmapd-2.log",
-      {"--busy-timeout-ms", std::to_string(kBusyTimeout.count()), "--merge-max-retry-ms", "1000",
-       "--instance", kRestartedInstance});
+  Fleetmapd server =
+      StartFleetmapd(uri, this->dir_ / "fleetmapd-2.log",
+                     {"--busy-timeout-ms", std::to_string(kBusyTimeout.count()),
+                      "--merge-max-retry-ms", "1000", "--instance", kRestartedInstance});
   ASSERT_FALSE(server.address.empty());
   // The merge's claim met the lock: it failed transiently and is retried; the submission is
   // still queued, not failed.
@@ -337,10 +339,10 @@ TYPED_TEST(NothingLostTest, LockHeldTenBusyTimeoutsWhileAnAgentWaitsNeitherSpins
   const QueuedBehindALock queued = QueueASubmission(this->dir_.path(), uri);
   constexpr std::chrono::milliseconds kBusyTimeout{500}, kHeld{5000};
   auto lock = std::make_unique<StoreWriteLock>(uri);
-  Fleetmapd server = StartFleetmapd(
-      uri, this->dir_ / "fleetmapd-2.log",
-      {"--busy-timeout-ms", std::to_string(kBusyTimeout.count()), "--merge-max-retry-ms", "1000",
-       "--instance", kRestartedInstance});
+  Fleetmapd server =
+      StartFleetmapd(uri, this->dir_ / "fleetmapd-2.log",
+                     {"--busy-timeout-ms", std::to_string(kBusyTimeout.count()),
+                      "--merge-max-retry-ms", "1000", "--instance", kRestartedInstance});
   ASSERT_FALSE(server.address.empty());
   const auto waited_from = Clock::now();
   std::unique_ptr<ChildProcess> agent =

@@ -330,7 +330,9 @@ TYPED_TEST(RepositoryTest, ANodeWhoseUuidIsStoredWithOtherContentIsRefusedAndBot
   EXPECT_NE(refused->error.find(stored.id.ToString()), std::string::npos);
   EXPECT_EQ(repository.ReadSubmission(id).nodes.front(), colliding.nodes.front());
   for (const Node& node : repository.Checkout().nodes) {
-    if (node.id == stored.id) EXPECT_EQ(node, stored);
+    if (node.id == stored.id) {
+      EXPECT_EQ(node, stored);
+    }
   }
 }
 
