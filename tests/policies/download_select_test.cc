@@ -23,8 +23,6 @@
 namespace fleetmap {
 namespace {
 
-constexpr auto& Id = NumberedUuid;
-
 struct TestMap {
   std::vector<Node> nodes;
   std::vector<Edge> edges;
@@ -33,27 +31,27 @@ struct TestMap {
   // A node of `bytes` landmark bytes (0: bare, as a store returns nodes without landmarks).
   void AddNode(int n, std::int64_t stamp_ns, int bytes = 10) {
     Node node;
-    node.id = Id(n);
+    node.id = NumberedUuid(n);
     node.stamp_ns = stamp_ns;
     node.landmarks_blob = std::string(static_cast<std::size_t>(bytes), 'x');
     nodes.push_back(node);
   }
   void AddMetric(int id, int from, int to) {
     Edge edge;
-    edge.id = Id(id);
-    edge.from = Id(from);
-    edge.to = Id(to);
+    edge.id = NumberedUuid(id);
+    edge.from = NumberedUuid(from);
+    edge.to = NumberedUuid(to);
     edges.push_back(edge);
   }
   void AddPath(int id) {
     Path path;
-    path.id = Id(id);
+    path.id = NumberedUuid(id);
     paths.push_back(path);
   }
   void AddPathEdge(int id, int path, int from, int to) {
     AddMetric(id, from, to);
     edges.back().kind = EdgeKind::kPath;
-    edges.back().path = Id(path);
+    edges.back().path = NumberedUuid(path);
   }
 
   DownloadSelection Select(const DownloadPolicy& policy) const {
@@ -65,7 +63,7 @@ struct TestMap {
 // download, every map edge with both ends kept is kept, the kept paths are those of kept path
 // edges, and the download has exactly as many metric components (own union-find) as the map
 // components it touches.
-class Components {
+class ConnectedParts {
  public:
   const Uuid& Root(const Uuid& id) {
     auto it = parent_.try_emplace(id, id).first;
@@ -82,7 +80,7 @@ class Components {
 void ExpectIntegral(const TestMap& map, const DownloadSelection& download) {
   const std::set<Uuid> kept(download.nodes.begin(), download.nodes.end());
   const std::set<Uuid> kept_edges(download.edges.begin(), download.edges.end());
-  Components whole, part;
+  ConnectedParts whole, part;
   std::set<Uuid> kept_paths;
   for (const Edge& edge : map.edges) {
     const bool both_ends = kept.contains(edge.from) && kept.contains(edge.to);
@@ -828,7 +826,7 @@ TEST(DownloadSelect, IncludedNodesAreKeptWhateverThePolicyPicks) {
   tod.mission_start_min = 12 * 60;
   tod.window_min = 60;
   EXPECT_EQ(map.Select(tod).nodes, NumberedUuids({2, 3, 4, 5}));
-  tod.include = {Id(1)};
+  tod.include = {NumberedUuid(1)};
   const DownloadSelection with_dock = map.Select(tod);
   EXPECT_EQ(with_dock.nodes, NumberedUuids({1, 2, 3, 4, 5}));
   EXPECT_EQ(with_dock.report.picked_nodes, 5u);
@@ -838,19 +836,20 @@ TEST(DownloadSelect, IncludedNodesAreKeptWhateverThePolicyPicks) {
   budget.mission_start_min = 12 * 60;
   budget.window_min = 60;
   budget.budget_bytes = 30;
-  budget.include = {Id(1)};
+  budget.include = {NumberedUuid(1)};
   const DownloadSelection small = map.Select(budget);
-  EXPECT_TRUE(std::find(small.nodes.begin(), small.nodes.end(), Id(1)) != small.nodes.end());
+  EXPECT_TRUE(std::find(small.nodes.begin(), small.nodes.end(), NumberedUuid(1)) !=
+              small.nodes.end());
   EXPECT_LE(small.report.bytes, 30);
   ExpectIntegral(map, small);
   // A node the map does not hold cannot be included.
-  tod.include = {Id(99)};
+  tod.include = {NumberedUuid(99)};
   try {
     map.Select(tod);
     ADD_FAILURE() << "an unknown node was included";
   } catch (const Error& error) {
     EXPECT_EQ(error.code(), ErrorCode::kNotFound);
-    EXPECT_NE(std::string(error.what()).find(Id(99).ToString()), std::string::npos);
+    EXPECT_NE(std::string(error.what()).find(NumberedUuid(99).ToString()), std::string::npos);
   }
 }
 
@@ -865,7 +864,7 @@ TEST(DownloadSelect, RandomMapsKeepTheInvariants) {
     std::map<Uuid, std::int64_t> bytes;
     for (int n = 1; n <= 30; ++n) {
       map.AddNode(n, At(0, minute(rng), n), size(rng));
-      bytes[Id(n)] = static_cast<std::int64_t>(map.nodes.back().landmarks_blob.size());
+      bytes[NumberedUuid(n)] = static_cast<std::int64_t>(map.nodes.back().landmarks_blob.size());
     }
     int edge = 1000;
     for (int n = 1; n < 30; ++n) {
@@ -938,23 +937,27 @@ void ExpectError(const TestMap& map, const DownloadPolicy& policy, ErrorCode cod
 TEST(DownloadSelectErrors, DanglingEdgesAndUnknownPathsAreIntegrityErrors) {
   TestMap map = TwoPartMap();
   map.AddMetric(150, 1, 77);  // n77 is not in the map
-  ExpectError(map, ParseDownloadPolicy("copy"), ErrorCode::kIntegrity, Id(150).ToString());
+  ExpectError(map, ParseDownloadPolicy("copy"), ErrorCode::kIntegrity,
+              NumberedUuid(150).ToString());
 
   map = TwoPartMap();
   map.AddPathEdge(250, 95, 1, 2);  // P95 is not among the paths
-  ExpectError(map, ParseDownloadPolicy("copy"), ErrorCode::kIntegrity, Id(95).ToString());
-  ExpectError(map, ParseDownloadPolicy("tod+paths"), ErrorCode::kIntegrity, Id(250).ToString());
+  ExpectError(map, ParseDownloadPolicy("copy"), ErrorCode::kIntegrity, NumberedUuid(95).ToString());
+  ExpectError(map, ParseDownloadPolicy("tod+paths"), ErrorCode::kIntegrity,
+              NumberedUuid(250).ToString());
 }
 
 TEST(DownloadSelectErrors, BudgetOnBareNodesAndBadPoliciesAreInvalidArguments) {
   TestMap map = TwoPartMap();
   map.nodes[3].landmarks_blob.clear();  // n4
-  ExpectError(map, ParseDownloadPolicy("budget"), ErrorCode::kInvalidArgument, Id(4).ToString());
+  ExpectError(map, ParseDownloadPolicy("budget"), ErrorCode::kInvalidArgument,
+              NumberedUuid(4).ToString());
   EXPECT_NO_THROW(map.Select(ParseDownloadPolicy("paths")));  // no budget: bare is fine
 
   map = TwoPartMap();
   map.nodes.push_back(map.nodes[1]);  // n2 twice
-  ExpectError(map, ParseDownloadPolicy("copy"), ErrorCode::kInvalidArgument, Id(2).ToString());
+  ExpectError(map, ParseDownloadPolicy("copy"), ErrorCode::kInvalidArgument,
+              NumberedUuid(2).ToString());
 
   DownloadPolicy bad = ParseDownloadPolicy("tod");
   bad.window_min = -5;

@@ -13,41 +13,45 @@ namespace fleetmap {
 namespace {
 
 // Short names for the readable test UUIDs.
-constexpr auto& Id = NumberedUuid;
 
 TEST(SegmentDiscovery, EveryBranchOfAlgorithm1) {
   SegmentDiscovery discovery;
-  EXPECT_EQ(discovery.Add(Id(1), Id(2)), SegmentStep::kNew);      // neither end known
-  EXPECT_EQ(discovery.Add(Id(2), Id(3)), SegmentStep::kPrepend);  // source known: target joins
-  EXPECT_EQ(discovery.Add(Id(0), Id(1)), SegmentStep::kAppend);   // target known: source joins
+  EXPECT_EQ(discovery.Add(NumberedUuid(1), NumberedUuid(2)),
+            SegmentStep::kNew);  // neither end known
+  EXPECT_EQ(discovery.Add(NumberedUuid(2), NumberedUuid(3)),
+            SegmentStep::kPrepend);  // source known: target joins
+  EXPECT_EQ(discovery.Add(NumberedUuid(0), NumberedUuid(1)),
+            SegmentStep::kAppend);  // target known: source joins
   ASSERT_EQ(discovery.segment_count(), 1u);
   EXPECT_EQ(discovery.Segments()[0], NumberedUuids({0, 1, 2, 3}));
 
-  EXPECT_EQ(discovery.Add(Id(5), Id(6)), SegmentStep::kNew);
+  EXPECT_EQ(discovery.Add(NumberedUuid(5), NumberedUuid(6)), SegmentStep::kNew);
   EXPECT_EQ(discovery.segment_count(), 2u);
-  EXPECT_EQ(discovery.SegmentOf(Id(6)), 1u);
-  EXPECT_EQ(discovery.Add(Id(3), Id(5)), SegmentStep::kFuse);  // both known: one segment
+  EXPECT_EQ(discovery.SegmentOf(NumberedUuid(6)), 1u);
+  EXPECT_EQ(discovery.Add(NumberedUuid(3), NumberedUuid(5)),
+            SegmentStep::kFuse);  // both known: one segment
   ASSERT_EQ(discovery.segment_count(), 1u);
   EXPECT_EQ(discovery.Segments()[0], NumberedUuids({0, 1, 2, 3, 5, 6}));
-  EXPECT_EQ(discovery.SegmentOf(Id(6)), 0u);
-  EXPECT_FALSE(discovery.SegmentOf(Id(4)).has_value());
+  EXPECT_EQ(discovery.SegmentOf(NumberedUuid(6)), 0u);
+  EXPECT_FALSE(discovery.SegmentOf(NumberedUuid(4)).has_value());
 }
 
 TEST(SegmentDiscovery, FuseKeepsTheSourceSegmentFirst) {
   SegmentDiscovery discovery;
-  discovery.Add(Id(10), Id(11));  // created first
-  discovery.Add(Id(20), Id(21));
-  EXPECT_EQ(discovery.Add(Id(21), Id(10)), SegmentStep::kFuse);  // later segment runs into it
+  discovery.Add(NumberedUuid(10), NumberedUuid(11));  // created first
+  discovery.Add(NumberedUuid(20), NumberedUuid(21));
+  EXPECT_EQ(discovery.Add(NumberedUuid(21), NumberedUuid(10)),
+            SegmentStep::kFuse);  // later segment runs into it
   ASSERT_EQ(discovery.segment_count(), 1u);
   EXPECT_EQ(discovery.Segments()[0], NumberedUuids({20, 21, 10, 11}));
 }
 
 TEST(SegmentDiscovery, LoopInsideOneSegmentChangesNothing) {
   SegmentDiscovery discovery;
-  discovery.Add(Id(1), Id(2));
-  discovery.Add(Id(2), Id(3));
-  EXPECT_EQ(discovery.Add(Id(3), Id(1)), SegmentStep::kFuse);
-  EXPECT_EQ(discovery.Add(Id(2), Id(2)), SegmentStep::kFuse);
+  discovery.Add(NumberedUuid(1), NumberedUuid(2));
+  discovery.Add(NumberedUuid(2), NumberedUuid(3));
+  EXPECT_EQ(discovery.Add(NumberedUuid(3), NumberedUuid(1)), SegmentStep::kFuse);
+  EXPECT_EQ(discovery.Add(NumberedUuid(2), NumberedUuid(2)), SegmentStep::kFuse);
   ASSERT_EQ(discovery.segment_count(), 1u);
   EXPECT_EQ(discovery.Segments()[0], NumberedUuids({1, 2, 3}));
 }
@@ -61,14 +65,14 @@ TEST(SegmentDiscovery, ChainsInAnyEdgeOrderComeOutInChainOrder) {
   for (int trial = 0; trial < 20; ++trial) {
     std::shuffle(edges.begin(), edges.end(), rng);
     SegmentDiscovery discovery;
-    for (const auto& [from, to] : edges) discovery.Add(Id(from), Id(to));
+    for (const auto& [from, to] : edges) discovery.Add(NumberedUuid(from), NumberedUuid(to));
     ASSERT_EQ(discovery.segment_count(), 2u);
     std::vector<std::vector<Uuid>> segments = discovery.Segments();
     std::sort(segments.begin(), segments.end(),
               [](const auto& a, const auto& b) { return a.front() < b.front(); });
     std::vector<Uuid> first, second;
-    for (int i = 0; i <= 39; ++i) first.push_back(Id(i));
-    for (int i = 100; i <= 129; ++i) second.push_back(Id(i));
+    for (int i = 0; i <= 39; ++i) first.push_back(NumberedUuid(i));
+    for (int i = 100; i <= 129; ++i) second.push_back(NumberedUuid(i));
     EXPECT_EQ(segments[0], first);
     EXPECT_EQ(segments[1], second);
   }

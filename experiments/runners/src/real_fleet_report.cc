@@ -12,7 +12,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::string Share(std::int64_t part, std::int64_t whole) {
+std::string PartOfWhole(std::int64_t part, std::int64_t whole) {
   return std::to_string(part) + "/" + std::to_string(whole);
 }
 
@@ -31,7 +31,7 @@ AcceptanceLine RevisitLine(const std::vector<RealFleetForay>& forays) {
     const bool ok = 10 * f.merge_added <= f.frames;
     if (!ok || worst.empty()) {
       worst = "foray " + std::to_string(f.index) + " at " + HourText(f.hour_h) + ": " +
-              Share(f.merge_added, f.frames);
+              PartOfWhole(f.merge_added, f.frames);
     }
     pass = pass && ok;
   }
@@ -60,9 +60,9 @@ AcceptanceLine NewConditionLine(const std::vector<RealFleetForay>& forays) {
         f.merge_added > 0 && next != nullptr && 100 * next->localised_copy >= 95 * next->frames;
     pass = pass && ok;
     seen << (conditions > 1 ? "; " : "") << f.condition << " at " << HourText(f.hour_h)
-         << ": map localised " << Share(f.localised_copy, f.frames) << ", merge added "
+         << ": map localised " << PartOfWhole(f.localised_copy, f.frames) << ", merge added "
          << f.merge_added << ", next robot "
-         << (next ? Share(next->localised_copy, next->frames) : std::string("none"));
+         << (next ? PartOfWhole(next->localised_copy, next->frames) : std::string("none"));
   }
   return {
       "a condition under which the map localises < 50 % gets an experience, after which the "
@@ -120,10 +120,10 @@ std::string DriveText(const RealFleetOptions& options, const RealFleetDrive& d) 
   for (const RealFleetForay& f : d.forays) {
     out << "| " << f.index << (f.first_at_hour ? "" : " (revisit)") << " | " << HourText(f.hour_h)
         << " | " << f.condition << " | " << f.robot << " | " << f.frames << " | "
-        << Share(f.tracked, f.frames > 0 ? f.frames - 1 : 0) << " | " << Fixed(f.mean_landmarks, 0)
-        << " | " << f.copy_nodes << ", " << f.copy_bytes << ", "
-        << Share(f.localised_copy, f.frames) << " | " << f.download_nodes << ", "
-        << f.download_bytes << ", " << Share(f.localised_download, f.frames) << " | "
+        << PartOfWhole(f.tracked, f.frames > 0 ? f.frames - 1 : 0) << " | "
+        << Fixed(f.mean_landmarks, 0) << " | " << f.copy_nodes << ", " << f.copy_bytes << ", "
+        << PartOfWhole(f.localised_copy, f.frames) << " | " << f.download_nodes << ", "
+        << f.download_bytes << ", " << PartOfWhole(f.localised_download, f.frames) << " | "
         << f.built_nodes << " | " << f.merge_added << " |\n";
   }
   out << "\n### Acceptance, " << d.name << "\n\n";

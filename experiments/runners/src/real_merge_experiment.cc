@@ -48,7 +48,7 @@ std::string Percent(std::int64_t part, std::int64_t whole) {
 }
 
 // "N / M (P %)", the form scripts read from the summaries.
-std::string Ratio(std::int64_t part, std::int64_t whole) {
+std::string PartOfWholePercent(std::int64_t part, std::int64_t whole) {
   return std::to_string(part) + " / " + std::to_string(whole) + " (" + Percent(part, whole) + " %)";
 }
 
@@ -198,15 +198,15 @@ std::string SummaryText(const RealMergeOptions& options, const RealMergeResult& 
       << "| nodes of the head (as pulled by B's agent) | " << c.head_nodes << " (" << r.pulled_nodes
       << ") |\n"
       << "| head nodes as % of A + B | " << Percent(c.head_nodes, c.a_nodes + c.b_nodes) << " % |\n"
-      << "| B's overlap nodes omitted by MERGE | " << Ratio(c.b_overlap_omitted, c.b_overlap_nodes)
-      << " |\n"
+      << "| B's overlap nodes omitted by MERGE | "
+      << PartOfWholePercent(c.b_overlap_omitted, c.b_overlap_nodes) << " |\n"
       << "| B's nodes omitted with a stand-in (all of B) | " << r.b_stand_ins << " |\n"
       << "| odd pairs localised against the head, localise-only builder starting lost | "
-      << Ratio(r.builder.localised, r.builder.pairs) << " |\n"
+      << PartOfWholePercent(r.builder.localised, r.builder.pairs) << " |\n"
       << "| pose error, builder: position median / p90, rotation median / p90 | "
       << ErrorText(r.builder) << " |\n"
       << "| odd pairs localised against the head, localiser against every head node | "
-      << Ratio(r.direct.localised, r.direct.pairs) << " |\n"
+      << PartOfWholePercent(r.direct.localised, r.direct.pairs) << " |\n"
       << "| pose error, direct: position median / p90, rotation median / p90 | "
       << ErrorText(r.direct) << " |\n\n"
       << "## Acceptance\n\n";
@@ -446,15 +446,15 @@ std::vector<AcceptanceLine> JudgeRealMerge(const RealMergeCounts& c) {
   lines.push_back(
       {">= 80 % of B's overlap frames omitted (B's nodes made from pairs in the "
        "overlap, not in the head): " +
-           Ratio(c.b_overlap_omitted, c.b_overlap_nodes),
+           PartOfWholePercent(c.b_overlap_omitted, c.b_overlap_nodes),
        c.b_overlap_nodes > 0 && 100 * c.b_overlap_omitted >= 80 * c.b_overlap_nodes});
   const std::int64_t both = c.a_nodes + c.b_nodes;
   lines.push_back({"head nodes <= 85 % of A + B: " + std::to_string(c.head_nodes) + " of " +
                        std::to_string(both) + " (" + Percent(c.head_nodes, both) + " %)",
                    both > 0 && 100 * c.head_nodes <= 85 * both});
-  lines.push_back(
-      {"odd frames >= 95 % localised against the head: " + Ratio(c.odd_localised, c.odd_pairs),
-       c.odd_pairs > 0 && 100 * c.odd_localised >= 95 * c.odd_pairs});
+  lines.push_back({"odd frames >= 95 % localised against the head: " +
+                       PartOfWholePercent(c.odd_localised, c.odd_pairs),
+                   c.odd_pairs > 0 && 100 * c.odd_localised >= 95 * c.odd_pairs});
   return lines;
 }
 
