@@ -119,7 +119,7 @@ Revision ReadRevision(const Statement& s) {
   return v;
 }
 
-SqliteVersionStatements::SqliteVersionStatements(sqlite3* db)
+SubmissionStatements::SubmissionStatements(sqlite3* db)
     : begin_submission(db,
                        "INSERT INTO submissions (id, robot, author, received_ns)"
                        " VALUES (?1, ?2, ?3, ?4) ON CONFLICT (id) DO NOTHING"),
@@ -142,7 +142,21 @@ SqliteVersionStatements::SqliteVersionStatements(sqlite3* db)
       set_submission_state(db,
                            "UPDATE submissions SET state = ?2, revision = ?3, error = ?4"
                            " WHERE id = ?1"),
-      head(db, "SELECT coalesce(max(number), 0) FROM revisions"),
+      first_claimable(db,
+                      "SELECT id FROM submissions WHERE state = 1 AND (claimed_by = ''"
+                      " OR claimed_by = ?1 OR lease_until_ns <= ?2)"
+                      " ORDER BY received_ns, id"),
+      set_claim(db, "UPDATE submissions SET claimed_by = ?2, lease_until_ns = ?3 WHERE id = ?1"),
+      renew_claim(db,
+                  "UPDATE submissions SET lease_until_ns = ?3 WHERE id = ?1"
+                  " AND claimed_by = ?2"),
+      release_claim(db,
+                    "UPDATE submissions SET claimed_by = '', lease_until_ns = 0 WHERE id = ?1"
+                    " AND claimed_by = ?2"),
+      find_claim(db, "SELECT claimed_by, lease_until_ns FROM submissions WHERE id = ?1") {}
+
+RevisionStatements::RevisionStatements(sqlite3* db)
+    : head(db, "SELECT coalesce(max(number), 0) FROM revisions"),
       find_revision(
           db, Sql({"SELECT ", kRevisionColumns, " FROM revisions WHERE number = ?1"}).c_str()),
       list_revisions(db,
@@ -180,8 +194,10 @@ SqliteVersionStatements::SqliteVersionStatements(sqlite3* db)
                   .c_str()),
       hidden_counts(db,
                     "SELECT kind, count(*) FROM element_versions WHERE hidden_rev = ?1"
-                    " GROUP BY kind"),
-      nodes_at(
+                    " GROUP BY kind") {}
+
+CheckoutStatements::CheckoutStatements(sqlite3* db)
+    : nodes_at(
           db,
           Sql({"SELECT n.id, n.stamp_ns, n.robot, n.outing, n.landmarks", kVisibleNodes}).c_str()),
       nodes_at_bare(
@@ -216,8 +232,10 @@ SqliteVersionStatements::SqliteVersionStatements(sqlite3* db)
                  " retirements WHERE id = ?1 AND restored_rev IS NULL) FROM (SELECT id FROM nodes"
                  " WHERE id = ?1 UNION ALL SELECT id FROM edges WHERE id = ?1 UNION ALL"
                  " SELECT id FROM paths WHERE id = ?1) s LEFT JOIN element_versions v"
-                 " ON v.id = s.id LIMIT 1"),
-      any_retirement(db, "SELECT EXISTS (SELECT 1 FROM retirements)"),
+                 " ON v.id = s.id LIMIT 1") {}
+
+RetirementStatements::RetirementStatements(sqlite3* db)
+    : any_retirement(db, "SELECT EXISTS (SELECT 1 FROM retirements)"),
       // A stored node visible at the head, retired by revision ?1.
       retire_node(db, Sql({"INSERT INTO retirements (id, kind, retired_rev) SELECT n.id, 1, ?1"
                            " FROM nodes n WHERE n.id = ?2 AND ",
@@ -251,8 +269,10 @@ SqliteVersionStatements::SqliteVersionStatements(sqlite3* db)
                       " (SELECT DISTINCT id, kind FROM retirements WHERE (retired_rev > ?1"
                       " AND retired_rev <= ?2) OR (restored_rev > ?1 AND restored_rev <= ?2))"
                       " t LEFT JOIN element_versions v ON v.id = t.id ORDER BY t.id"),
-      retirements_of(db, "SELECT retired_rev, restored_rev FROM retirements WHERE id = ?1"),
-      put_node_usage(db,
+      retirements_of(db, "SELECT retired_rev, restored_rev FROM retirements WHERE id = ?1") {}
+
+RecordStatements::RecordStatements(sqlite3* db)
+    : put_node_usage(db,
                      "INSERT INTO node_usage (node, revision, source, frames, last_ns)"
                      " VALUES (?1, ?2, ?3, ?4, ?5) ON CONFLICT (node, revision, source)"
                      " DO UPDATE SET frames = excluded.frames, last_ns = excluded.last_ns"),
@@ -286,18 +306,13 @@ SqliteVersionStatements::SqliteVersionStatements(sqlite3* db)
                    " ON CONFLICT (node) DO NOTHING"),
       find_stand_in(db,
                     "SELECT stand_in, tx, ty, tz, qw, qx, qy, qz, revision FROM stand_ins"
-                    " WHERE node = ?1"),
-      first_claimable(db,
-                      "SELECT id FROM submissions WHERE state = 1 AND (claimed_by = ''"
-                      " OR claimed_by = ?1 OR lease_until_ns <= ?2)"
-                      " ORDER BY received_ns, id"),
-      set_claim(db, "UPDATE submissions SET claimed_by = ?2, lease_until_ns = ?3 WHERE id = ?1"),
-      renew_claim(db,
-                  "UPDATE submissions SET lease_until_ns = ?3 WHERE id = ?1"
-                  " AND claimed_by = ?2"),
-      release_claim(db,
-                    "UPDATE submissions SET claimed_by = '', lease_until_ns = 0 WHERE id = ?1"
-                    " AND claimed_by = ?2"),
-      find_claim(db, "SELECT claimed_by, lease_until_ns FROM submissions WHERE id = ?1") {}
+                    " WHERE node = ?1") {}
+
+SqliteVersionStatements::SqliteVersionStatements(sqlite3* db)
+    : SubmissionStatements(db),
+      RevisionStatements(db),
+      CheckoutStatements(db),
+      RetirementStatements(db),
+      RecordStatements(db) {}
 
 }  // namespace fleetmap::internal
