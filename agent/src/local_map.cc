@@ -459,8 +459,6 @@ void LocalMap::CommitChangesInPlace(GraphStore& store, const ElementIds& gone,
     store.Put(writes);
     store.versions().PutSetting(kInstallTokenKey, next_state.install_token);
     transaction.Commit();
-    IdTables tables = IdTables::Open(map_path());
-    RecordInstalledAsWritten(tables, next_state.ids_generation);
   } catch (const Error& e) {
     std::error_code ignored;
     fs::remove(next_state_path, ignored);
@@ -477,6 +475,14 @@ void LocalMap::CommitChangesInPlace(GraphStore& store, const ElementIds& gone,
   SyncToDisk(dir_);
   state_ = std::move(next_state);
   PruneIds();
+  // After the install, not in it: the map and its state are committed whatever happens here,
+  // and without the record the next check reads the map back whole.
+  try {
+    IdTables tables = IdTables::Open(map_path());
+    RecordInstalledAsWritten(tables, state_.ids_generation);
+  } catch (const Error&) {
+    // Nothing is lost: the record only saves the next check a read-back.
+  }
 }
 
 void LocalMap::CommitNewMap(SyncState next_state) {
