@@ -109,6 +109,45 @@ TEST(MetricContraction, ADerivedEdgeCarriesItsChainsComposedCovariance) {
   }
 }
 
+// A chain is walked whichever way its edges point: an edge walked against its direction gives
+// its inverse pose and the covariance of that inverse. Two sent nodes a metric edge already joins
+// get no derived edge, however short a chain of left-out nodes between them.
+TEST(MetricContraction, AChainWalkedAgainstItsEdgesComposesTheirInversesAndSkipsJoinedPairs) {
+  const auto metric = [](int id, int from, int to, const Se3& pose,
+                         std::optional<PoseCovariance> covariance) {
+    Edge edge;
+    edge.id = NumberedUuid(id);
+    edge.from = NumberedUuid(from);
+    edge.to = NumberedUuid(to);
+    edge.from_T_to = pose;
+    edge.covariance = covariance;
+    return edge;
+  };
+  Se3 step = Se3::Identity();
+  step.translation() = Eigen::Vector3d(1.0, 0.5, 2.0);
+  step.rotate(Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitZ()));
+  PoseCovariance first = PoseCovariance::Zero(), second = PoseCovariance::Zero();
+  first.diagonal() << 1e-4, 2e-4, 3e-4, 0.01, 0.02, 0.03;
+  second.diagonal() << 3e-4, 1e-4, 2e-4, 0.03, 0.01, 0.02;
+  // 1 <- 2 <- 3 (both edges point back towards 1); 1 - 5 - 4 beside a direct edge 1 -> 4.
+  const std::vector<Edge> map = {metric(101, 2, 1, step, first), metric(102, 3, 2, step, second),
+                                 metric(103, 1, 5, step, std::nullopt),
+                                 metric(104, 5, 4, step, std::nullopt),
+                                 metric(105, 1, 4, step * step, std::nullopt)};
+  const std::vector<Edge> derived = ContractMetric(map, Sent({1, 3, 4}), 25.0);
+  ASSERT_EQ(derived.size(), 1u);
+  const Edge& edge = derived.front();
+  EXPECT_EQ(edge.from, NumberedUuid(1));
+  EXPECT_EQ(edge.to, NumberedUuid(3));
+  EXPECT_EQ(edge.id, DerivedMetricEdgeId(NumberedUuid(1), NumberedUuid(3)));
+  const Se3 one_T_two = step.inverse();
+  EXPECT_TRUE(Se3ApproxEqual(edge.from_T_to, one_T_two * step.inverse(), 1e-12, 1e-12));
+  ASSERT_TRUE(edge.covariance.has_value());
+  const PoseCovariance expected =
+      ComposeCovariance(one_T_two, InverseCovariance(step, first), InverseCovariance(step, second));
+  EXPECT_LT((*edge.covariance - expected).cwiseAbs().maxCoeff(), 1e-12) << *edge.covariance;
+}
+
 TEST(PathContraction, AChainOverLeftOutNodesBecomesOneDerivedEdge) {
   const std::vector<Edge> map = Walk(900, {1, 2, 3, 4}, 100);
   const ContractedPaths contracted = ContractPaths(map, Sent({1, 4}));

@@ -1,6 +1,7 @@
 #include "fleetmap/map_management/subset_contraction.h"
 
 #include <algorithm>
+#include <cstdint>
 #include <optional>
 #include <queue>
 #include <set>
@@ -98,21 +99,59 @@ std::vector<Edge> ContractMetric(std::span<const Edge> map_edges, std::span<cons
   const auto is_sent = [&](const Uuid& node) {
     return std::binary_search(sent.begin(), sent.end(), node);
   };
-  struct Link {
-    Uuid to;
-    Se3 from_T_to;
-    std::optional<PoseCovariance> covariance;  // of from_T_to, when the edge carries one
-  };
-  std::unordered_map<Uuid, std::vector<Link>> links;
-  std::unordered_set<NodePair, NodePairHash> direct;
+  // The metric graph in compact form: a whole map's worth of links held as full poses and
+  // covariances (both ways) cost a download's plan more than the landmarks it sends. Nodes are
+  // numbered in UUID order, so a number compares as its UUID does; each node's links keep the
+  // order of `map_edges`, and a link names its edge and direction, its pose read when walked.
+  std::vector<Uuid> ids;
   for (const Edge& edge : map_edges) {
     if (edge.kind != EdgeKind::kMetric || edge.from == edge.to) continue;
-    links[edge.from].push_back({edge.to, edge.from_T_to, edge.covariance.optional()});
-    std::optional<PoseCovariance> reverse;
-    if (edge.covariance) reverse = InverseCovariance(edge.from_T_to, *edge.covariance);
-    links[edge.to].push_back({edge.from, edge.from_T_to.inverse(), reverse});
-    direct.emplace(std::min(edge.from, edge.to), std::max(edge.from, edge.to));
+    ids.push_back(edge.from);
+    ids.push_back(edge.to);
   }
+  std::sort(ids.begin(), ids.end());
+  ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
+  ids.shrink_to_fit();
+  const auto number_of = [&](const Uuid& node) {
+    return static_cast<std::uint32_t>(std::lower_bound(ids.begin(), ids.end(), node) - ids.begin());
+  };
+  struct Link {
+    std::uint32_t to = 0;
+    std::uint32_t edge = 0;  // in map_edges
+    bool reversed = false;   // walked from the edge's `to` to its `from`
+  };
+  std::vector<std::uint32_t> first(ids.size() + 1, 0);
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> ends;  // per metric edge: from, to
+  for (const Edge& edge : map_edges) {
+    if (edge.kind != EdgeKind::kMetric || edge.from == edge.to) continue;
+    ends.emplace_back(number_of(edge.from), number_of(edge.to));
+    ++first[ends.back().first + 1];
+    ++first[ends.back().second + 1];
+  }
+  for (std::size_t n = 0; n < ids.size(); ++n) first[n + 1] += first[n];
+  std::vector<Link> links(first.back());
+  {
+    std::vector<std::uint32_t> fill(first.begin(), first.end() - 1);
+    std::size_t metric = 0;
+    for (std::size_t e = 0; e < map_edges.size(); ++e) {
+      const Edge& edge = map_edges[e];
+      if (edge.kind != EdgeKind::kMetric || edge.from == edge.to) continue;
+      const auto [from, to] = ends[metric++];
+      links[fill[from]++] = {to, static_cast<std::uint32_t>(e), false};
+      links[fill[to]++] = {from, static_cast<std::uint32_t>(e), true};
+    }
+  }
+  ends = {};
+  const auto links_of = [&](std::uint32_t node) {
+    return std::span<const Link>(links.data() + first[node], first[node + 1] - first[node]);
+  };
+  const auto joined_directly = [&](std::uint32_t a, std::uint32_t b) {
+    for (const Link& link : links_of(a)) {
+      if (link.to == b) return true;
+    }
+    return false;
+  };
+
   // A chain's pose, and its covariance once an edge on it carried one (the others add nothing
   // known): the contracted edge says as much of its uncertainty as its chain did.
   struct Chain {
@@ -122,34 +161,37 @@ std::vector<Edge> ContractMetric(std::span<const Edge> map_edges, std::span<cons
   };
   std::vector<Edge> derived;
   std::unordered_set<NodePair, NodePairHash> emitted;
-  for (const Uuid& start : sent) {
-    const auto start_links = links.find(start);
-    if (start_links == links.end()) continue;
+  std::unordered_map<std::uint32_t, Chain> best;
+  std::unordered_set<std::uint32_t> done;
+  for (const Uuid& start_id : sent) {
+    const auto found = std::lower_bound(ids.begin(), ids.end(), start_id);
+    if (found == ids.end() || *found != start_id) continue;
+    const auto start = static_cast<std::uint32_t>(found - ids.begin());
     bool borders_left_out = false;
-    for (const Link& link : start_links->second) borders_left_out |= !is_sent(link.to);
+    for (const Link& link : links_of(start)) borders_left_out |= !is_sent(ids[link.to]);
     if (!borders_left_out) continue;
-    // Dijkstra in metres through left-out nodes only.
-    using Entry = std::pair<double, Uuid>;
+    // Dijkstra in metres through left-out nodes only; ties go to the lower UUID.
+    using Entry = std::pair<double, std::uint32_t>;
     std::priority_queue<Entry, std::vector<Entry>, std::greater<>> queue;
-    std::unordered_map<Uuid, Chain> best;
+    best.clear();
+    done.clear();
     best.emplace(start, Chain{});
     queue.emplace(0.0, start);
-    std::unordered_set<Uuid> done;
     while (!queue.empty()) {
       const auto [distance, at] = queue.top();
       queue.pop();
       if (!done.insert(at).second) continue;
-      if (at != start && is_sent(at)) {
-        const NodePair pair(std::min(start, at), std::max(start, at));
-        if (!direct.contains(pair) && emitted.insert(pair).second) {
+      if (at != start && is_sent(ids[at])) {
+        const NodePair pair(std::min(start_id, ids[at]), std::max(start_id, ids[at]));
+        if (!joined_directly(start, at) && emitted.insert(pair).second) {
           Edge edge;
           edge.from = pair.first;
           edge.to = pair.second;
           edge.kind = EdgeKind::kMetric;
           const Chain& chain = best.at(at);
-          edge.from_T_to = pair.first == start ? chain.start_T_at : chain.start_T_at.inverse();
+          edge.from_T_to = pair.first == start_id ? chain.start_T_at : chain.start_T_at.inverse();
           if (chain.covariance) {
-            edge.covariance = pair.first == start
+            edge.covariance = pair.first == start_id
                                   ? *chain.covariance
                                   : InverseCovariance(chain.start_T_at, *chain.covariance);
           }
@@ -159,15 +201,20 @@ std::vector<Edge> ContractMetric(std::span<const Edge> map_edges, std::span<cons
         continue;  // never expand through a sent node
       }
       const Chain here = best.at(at);
-      for (const Link& link : links[at]) {
-        const double next = distance + link.from_T_to.translation().norm();
+      for (const Link& link : links_of(at)) {
+        const Edge& edge = map_edges[link.edge];
+        const double next = distance + edge.from_T_to.translation().norm();
         if (next > reach_m || done.contains(link.to)) continue;
         const auto it = best.find(link.to);
         if (it != best.end() && it->second.metres <= next) continue;
-        Chain chain{next, here.start_T_at * link.from_T_to, here.covariance};
-        if (link.covariance) {
+        const Se3 step = link.reversed ? edge.from_T_to.inverse() : edge.from_T_to;
+        Chain chain{next, here.start_T_at * step, here.covariance};
+        if (edge.covariance) {
+          const PoseCovariance step_covariance =
+              link.reversed ? InverseCovariance(edge.from_T_to, *edge.covariance)
+                            : *edge.covariance;
           chain.covariance = ComposeCovariance(
-              here.start_T_at, here.covariance.value_or(PoseCovariance::Zero()), *link.covariance);
+              here.start_T_at, here.covariance.value_or(PoseCovariance::Zero()), step_covariance);
         }
         best[link.to] = std::move(chain);
         queue.emplace(next, link.to);
