@@ -62,6 +62,30 @@ TEST(GraphLayoutTest, AChainComposesItsEdgesForwardsAndBackwards) {
   for (int n = 1; n <= 4; ++n) EXPECT_EQ(Placed(layout, n).component, 0);
 }
 
+// Another layout of the same map (a relaxation's) keeps every node's number, component, robot
+// and outing and changes only poses; the references stay the frames, so moving one is refused,
+// as is a pose count that is not the node count.
+TEST(GraphLayoutTest, WithPosesKeepsTheNodesAndTheirFramesAndChangesOnlyPoses) {
+  const std::vector<Node> nodes = {NodeAt(1, 100), NodeAt(2, 200), NodeAt(3, 300)};
+  const std::vector<Edge> edges = {Metric(11, 1, 2, SurveyPose(0.5, {0, 0, 1}, {1, 0, 0}))};
+  const GraphLayout layout = GraphLayout::Compute(nodes, edges);
+  ASSERT_EQ(layout.component_count(), 2u);
+  const Se3 moved = SurveyPose(0.2, {0, 1, 0}, {3, 0, 4});
+  const GraphLayout other = layout.WithPoses({Se3::Identity(), moved, Se3::Identity()});
+  ASSERT_EQ(other.nodes().size(), 3u);
+  EXPECT_EQ(other.references(), layout.references());
+  for (std::size_t i = 0; i < 3; ++i) {
+    EXPECT_EQ(other.nodes()[i].id, layout.nodes()[i].id);
+    EXPECT_EQ(other.nodes()[i].component, layout.nodes()[i].component);
+    EXPECT_EQ(other.nodes()[i].robot, NumberedUuid(900));
+    EXPECT_EQ(other.nodes()[i].outing, NumberedUuid(901));
+  }
+  EXPECT_TRUE(Placed(other, 2).layout_T_node.matrix() == moved.matrix());
+  EXPECT_EQ(other.IndexOf(NumberedUuid(3)), layout.IndexOf(NumberedUuid(3)));
+  EXPECT_THROW(layout.WithPoses({Se3::Identity(), moved}), Error);
+  EXPECT_THROW(layout.WithPoses({Se3::Identity(), moved, moved}), Error);  // node 3: a reference
+}
+
 // A loop whose closing edge disagrees with the rest: breadth first from node 1, node 4 is
 // reached first across the closing edge (one hop, backwards) and node 3 through node 2 (two
 // hops; node 2 is dequeued before node 4 because edge 21 < edge 24). Those poses stand.

@@ -1,5 +1,6 @@
 #include "fleetmap/interchange/g2o_writer.h"
 
+#include <algorithm>
 #include <string>
 #include <vector>
 
@@ -23,7 +24,8 @@ void AppendPose(std::string& line, const Se3& a_T_b) {
 
 }  // namespace
 
-G2oCounts WriteG2oPoseGraph(const GraphBatch& map, const GraphLayout& layout, std::ostream& out) {
+G2oCounts WriteG2oPoseGraph(const GraphBatch& map, const GraphLayout& layout, std::ostream& out,
+                            const std::string& comment) {
   interchange_internal::NodesInLayoutOrder(map, layout);  // only to check they agree
   const std::vector<interchange_internal::OrderedEdge> edges =
       interchange_internal::EdgesInLayoutOrder(map, layout, /*metric_only=*/true);
@@ -38,6 +40,12 @@ G2oCounts WriteG2oPoseGraph(const GraphBatch& map, const GraphLayout& layout, st
 
   G2oCounts counts;
   std::string line;
+  if (!comment.empty()) {
+    line = "# " + comment;
+    std::replace(line.begin(), line.end(), '\n', ' ');
+    std::replace(line.begin(), line.end(), '\r', ' ');
+    out << line << '\n';
+  }
   for (std::size_t i = 0; i < layout.nodes().size(); ++i) {
     line = "VERTEX_SE3:QUAT " + std::to_string(i);
     AppendPose(line, layout.nodes()[i].layout_T_node);

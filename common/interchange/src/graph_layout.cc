@@ -24,7 +24,8 @@ GraphLayout GraphLayout::Compute(const std::vector<Node>& nodes, const std::vect
   GraphLayout layout;
   layout.nodes_.reserve(nodes.size());
   for (const Node& node : nodes) {
-    layout.nodes_.push_back(LaidOutNode{node.id, node.stamp_ns, -1, Se3::Identity()});
+    layout.nodes_.push_back(
+        LaidOutNode{node.id, node.stamp_ns, node.robot, node.outing, -1, Se3::Identity()});
   }
   std::sort(layout.nodes_.begin(), layout.nodes_.end(),
             [](const LaidOutNode& a, const LaidOutNode& b) {
@@ -84,6 +85,24 @@ GraphLayout GraphLayout::Compute(const std::vector<Node>& nodes, const std::vect
       }
     }
   }
+  return layout;
+}
+
+GraphLayout GraphLayout::WithPoses(std::vector<Se3> layout_T_node) const {
+  if (layout_T_node.size() != nodes_.size()) {
+    throw Error(ErrorCode::kInvalidArgument,
+                "graph layout: " + std::to_string(layout_T_node.size()) + " poses for " +
+                    std::to_string(nodes_.size()) + " nodes");
+  }
+  for (const std::size_t reference : references_) {
+    if (layout_T_node[reference].matrix() != Se3::Identity().matrix()) {
+      throw Error(ErrorCode::kInvalidArgument, "graph layout: the reference node " +
+                                                   nodes_[reference].id.ToString() +
+                                                   " of a component must keep the identity pose");
+    }
+  }
+  GraphLayout layout = *this;
+  for (std::size_t i = 0; i < nodes_.size(); ++i) layout.nodes_[i].layout_T_node = layout_T_node[i];
   return layout;
 }
 

@@ -12,8 +12,9 @@
 //                                              order: the measurement is from_T_to (id1 the
 //                                              `from` node), then the upper triangle of the 6x6
 //                                              information matrix row by row (21 numbers)
-// Quaternions are unit, qw >= 0. Path edges have no pose and are not written. Nothing else is
-// written: g2o itself skips '#' lines, but not every reader of the format does, so the UUIDs
+// Quaternions are unit, qw >= 0. Path edges have no pose and are not written. Before them, when
+// a comment is given, one line "# comment" (which layout the poses are, graph_layout.h): g2o
+// itself skips '#' lines. Nothing else: not every reader of the format skips them, so the UUIDs
 // are not in the file. Vertex i is the i-th node by (stamp_ns, UUID); `fleetmap export
 // --format graphml` writes each node's UUID beside the same pose.
 //
@@ -26,6 +27,7 @@
 
 #include <cstddef>
 #include <ostream>
+#include <string>
 
 #include "fleetmap/core/graph.h"
 #include "fleetmap/interchange/graph_layout.h"
@@ -44,6 +46,8 @@ struct G2oCounts {
 // Writes the pose graph of `map` to `out` and returns what it wrote.
 // REQUIRES: `layout` is GraphLayout::Compute(map.nodes, map.edges); an edge end missing from it
 // throws Error(kInvalidArgument). Stream failures are the caller's to check.
-G2oCounts WriteG2oPoseGraph(const GraphBatch& map, const GraphLayout& layout, std::ostream& out);
+// `comment` is one line (a newline in it is written as a space); empty writes none.
+G2oCounts WriteG2oPoseGraph(const GraphBatch& map, const GraphLayout& layout, std::ostream& out,
+                            const std::string& comment = "");
 
 }  // namespace fleetmap

@@ -35,6 +35,8 @@ namespace fleetmap {
 struct LaidOutNode {
   Uuid id;
   std::int64_t stamp_ns = 0;
+  Uuid robot;
+  Uuid outing;
   int component = 0;  // 0-based, in the order of the components' reference nodes
   Se3 layout_T_node = Se3::Identity();
 };
@@ -49,6 +51,12 @@ class GraphLayout {
 
   // Every node in (stamp_ns, UUID) order: a node's index here is its number.
   const std::vector<LaidOutNode>& nodes() const { return nodes_; }
+  // This layout with other poses for its nodes (by number): the same nodes, numbers, components
+  // and references, as a relaxation of it gives (fleetmap/relaxation/relaxed_layout.h).
+  // Throws Error(kInvalidArgument) unless there is one pose per node and every reference's is
+  // the identity (a component's frame is its reference's camera frame).
+  GraphLayout WithPoses(std::vector<Se3> layout_T_node) const;
+
   // The number of `id` in nodes(); nullopt for a node not in the layout.
   std::optional<std::size_t> IndexOf(const Uuid& id) const;
   std::size_t component_count() const { return references_.size(); }
