@@ -1,8 +1,8 @@
 // `fleetmap export`: a revision of the map in the formats other robotics tools read: its
 // landmarks as a PLY point cloud, its pose graph as g2o, the whole graph as
-// GraphML, one outing's trajectory as TUM lines. Poses come from the graph layout
-// (fleetmap/interchange/graph_layout.h): metric edges composed from the earliest node of each
-// connected component.
+// GraphML, one outing's trajectory as TUM lines. Poses come from a layout of the graph,
+// relaxed (fleetmap/relaxation/relaxed_layout.h) or composed (fleetmap/interchange/
+// graph_layout.h), named in each file's header or comment.
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
@@ -17,6 +17,7 @@
 #include "fleetmap/interchange/graphml_writer.h"
 #include "fleetmap/interchange/ply_writer.h"
 #include "fleetmap/interchange/tum_writer.h"
+#include "fleetmap/relaxation/relaxed_layout.h"
 #include "repository_arguments.h"
 #include "staged_output_file.h"
 
@@ -40,6 +41,7 @@ struct ExportArgs {
   std::optional<RevisionNumber> revision;
   std::string outing;
   std::string out;
+  std::string layout = "relaxed";
 };
 
 std::string DescribeOuting(const OutingSummary& outing) {
@@ -86,6 +88,7 @@ Uuid ChooseOuting(const std::optional<Uuid>& requested, const std::vector<Outing
 
 void RunExport(const ExportArgs& args) {
   const ExportFormat format = ParseExportFormat(args.format);
+  const LayoutKind layout_kind = ParseLayoutKind(args.layout);
   std::optional<Uuid> outing;
   if (!args.outing.empty()) {
     if (format != ExportFormat::kTum) {
@@ -102,8 +105,14 @@ void RunExport(const ExportArgs& args) {
   // Opened before the map is read, so an --out that cannot be written fails at once.
   StagedOutputFile file(args.out);
   const GraphBatch map = repository->Checkout(revision);
-  const GraphLayout layout = GraphLayout::Compute(map.nodes, map.edges);
-  const std::string description = "fleetmap export of " + where;
+  RelaxationReport relaxation;
+  const GraphLayout layout = LayOutGraph(map.nodes, map.edges, layout_kind, &relaxation);
+  if (!relaxation.failure.empty()) {
+    std::fprintf(stderr, "fleetmap: warning: the relaxation failed (%s); the poses are composed\n",
+                 relaxation.failure.c_str());
+  }
+  const LayoutKind written = relaxation.failure.empty() ? layout_kind : LayoutKind::kComposed;
+  const std::string description = "fleetmap export of " + where + "; " + DescribeLayout(written);
 
   std::string summary;
   switch (format) {
@@ -114,7 +123,7 @@ void RunExport(const ExportArgs& args) {
       break;
     }
     case ExportFormat::kG2o: {
-      const G2oCounts counts = WriteG2oPoseGraph(map, layout, file.stream());
+      const G2oCounts counts = WriteG2oPoseGraph(map, layout, file.stream(), description);
       summary = Count(static_cast<std::int64_t>(counts.vertices), "vertex", "vertices") + ", " +
                 Count(static_cast<std::int64_t>(counts.edges), "metric edge") + ", " +
                 std::to_string(counts.fixed) + " fixed";
@@ -141,8 +150,16 @@ void RunExport(const ExportArgs& args) {
   }
   file.Commit();
   std::printf("exported %s as %s into %s\n", where.c_str(), args.format.c_str(), args.out.c_str());
-  std::printf("  %s; %s\n", summary.c_str(),
-              Count(static_cast<std::int64_t>(layout.component_count()), "component").c_str());
+  std::printf("  %s; %s; layout %s\n", summary.c_str(),
+              Count(static_cast<std::int64_t>(layout.component_count()), "component").c_str(),
+              std::string(LayoutName(written)).c_str());
+  if (written == LayoutKind::kRelaxed) {
+    std::printf(
+        "  relaxed %zu nodes over %zu metric edges (%zu between outings, robust) in %d "
+        "iterations, %.2f s\n",
+        relaxation.nodes, relaxation.edges, relaxation.edges_between_outings, relaxation.iterations,
+        relaxation.seconds);
+  }
 }
 
 }  // namespace
@@ -152,11 +169,17 @@ void AddExportCommand(CLI::App& app) {
   CLI::App* command = app.add_subcommand(
       "export", "Write the map at a revision as PLY, g2o, GraphML or a TUM trajectory");
   command->footer(
-      "Poses come from the graph layout: each connected component of the graph over metric "
-      "edges has its own frame, the camera frame of its earliest node (by stamp, then UUID); "
-      "every other node's pose layout_T_node composes the metric edges (from_T_to) breadth "
-      "first from there, the first pose reached winning around a loop. Path edges carry no "
-      "pose.\n"
+      "Poses come from a layout of the graph: each connected component of the graph over "
+      "metric edges has its own frame, the camera frame of its earliest node (by stamp, then "
+      "UUID). --layout chooses how every other node's pose layout_T_node is found:\n"
+      "  relaxed   (default) a pose-graph relaxation (Ceres Solver) of the metric edges: a "
+      "loop's disagreement spread over its edges instead of left where it closes; edges "
+      "between outings under a robust (Cauchy) loss, so one wrong match does not bend the "
+      "map. For display and export only: the stored map keeps its relative poses.\n"
+      "  composed  the metric edges (from_T_to) composed breadth first from the earliest node, "
+      "the first pose reached winning around a loop.\n"
+      "Each file says which: PLY and GraphML in their header, TUM and g2o in a '#' comment "
+      "line. Path edges carry no pose.\n"
       "  ply      every landmark of every node in its component's frame (layout_T_node * "
       "p_camera), encoded binary_little_endian 1.0: vertex properties float x, y, z (metres) "
       "and int component.\n"
@@ -179,6 +202,8 @@ void AddExportCommand(CLI::App& app) {
   command->add_option("--outing", args->outing,
                       "The outing to export (--format tum; default: the map's only outing)");
   command->add_option("--out", args->out, "The file to write (replaced if it exists)")->required();
+  command->add_option("--layout", args->layout, "Node poses: relaxed or composed")
+      ->capture_default_str();
   command->callback([args] { RunExport(*args); });
 }
 

@@ -1,6 +1,6 @@
-// `fleetmap render`: a picture of the map at a revision, seen from above:
-// the graph layout (fleetmap/interchange/graph_layout.h) drawn by the map picture
-// (map_picture.h) as SVG text or, through OpenCV, as PNG pixels: the same picture either way.
+// `fleetmap render`: a picture of the map at a revision, seen from above: its layout, relaxed or
+// composed (fleetmap/relaxation/relaxed_layout.h), drawn by the map picture (map_picture.h) as
+// SVG text or, through OpenCV, as PNG pixels: the same picture either way.
 #include <algorithm>
 #include <cctype>
 #include <cstdio>
@@ -48,18 +48,26 @@ struct RenderArgs {
   std::optional<RevisionNumber> revision;
   std::string out;
   std::string colour = "time-of-day";
+  std::string layout = "relaxed";
 };
 
 void RunRender(const RenderArgs& args) {
   const PictureFormat format = FormatOf(args.out);
   const NodeColouring colouring = ParseColouring(args.colour);
+  const LayoutKind layout = ParseLayoutKind(args.layout);
   const std::unique_ptr<Repository> repository = OpenExistingRepository(args.store);
   const RevisionNumber revision = args.revision.value_or(repository->Head());
   RequireRevision(*repository, revision);
   const std::string where = "revision " + std::to_string(revision) + " of " + repository->uri();
   // Opened before the map is read, so an --out that cannot be written fails at once.
   StagedOutputFile file(args.out);
-  const MapPicture picture = ComposeRevisionPicture(*repository, revision, colouring, where);
+  RelaxationReport relaxation;
+  const MapPicture picture =
+      ComposeRevisionPicture(*repository, revision, colouring, where, layout, &relaxation);
+  if (!relaxation.failure.empty()) {
+    std::fprintf(stderr, "fleetmap: warning: the relaxation failed (%s); the layout is composed\n",
+                 relaxation.failure.c_str());
+  }
   // A picture of nothing is almost always the wrong store or revision: say so rather than
   // write a file that looks like a success. (fleetmapd's status page does draw the empty
   // picture: a new server has no map yet, and its page must show something.)
@@ -82,6 +90,15 @@ void RunRender(const RenderArgs& args) {
       Count(static_cast<std::int64_t>(picture.node_positions().size()), "node").c_str(),
       Count(static_cast<std::int64_t>(picture.component_boxes().size()), "component").c_str(),
       picture.width_px(), picture.height_px(), picture.scale_bar_m(), picture.pixels_per_metre());
+  if (layout == LayoutKind::kRelaxed && relaxation.failure.empty()) {
+    std::printf(
+        "  layout relaxed: %zu nodes over %zu metric edges (%zu between outings) in %d "
+        "iterations, %.2f s\n",
+        relaxation.nodes, relaxation.edges, relaxation.edges_between_outings, relaxation.iterations,
+        relaxation.seconds);
+  } else {
+    std::printf("  layout composed\n");
+  }
 }
 
 }  // namespace
@@ -91,9 +108,12 @@ void AddRenderCommand(CLI::App& app) {
   CLI::App* command =
       app.add_subcommand("render", "Draw the map at a revision from above, as PNG or SVG");
   command->footer(
-      "The picture: the graph layout (as `fleetmap export` uses: each connected component of "
-      "the graph over metric edges in its own frame, the camera frame of its earliest node, "
-      "poses composed breadth first along metric edges) seen from above, x to the right and z "
+      "The picture: the map's layout (as `fleetmap export` uses: each connected component of "
+      "the graph over metric edges in its own frame, the camera frame of its earliest node; "
+      "--layout relaxed (default) places nodes by a pose-graph relaxation of the metric edges, "
+      "so a loop closes where the robots drove it, --layout composed by composing the edges "
+      "breadth first, so a loop's drift shows where it closes) seen from above, x to the right and "
+      "z "
       "up the picture (camera frames: x right, y down, z forward, so for a camera looking "
       "ahead x/z is the ground). Components sit side by side in their own boxes; where one box "
       "lies beside another means nothing, since nothing measured joins them. One scale for "
@@ -116,6 +136,8 @@ void AddRenderCommand(CLI::App& app) {
   command->add_option("--revision", args->revision, "Revision (default: the head)");
   command->add_option("--out", args->out, "The picture to write: FILE.png or FILE.svg")->required();
   command->add_option("--colour", args->colour, "Node colours: time-of-day or revision")
+      ->capture_default_str();
+  command->add_option("--layout", args->layout, "Node places: relaxed or composed")
       ->capture_default_str();
   command->callback([args] { RunRender(*args); });
 }

@@ -205,6 +205,59 @@ TEST_F(CliExportTest, ExportsEveryFormatFromPostgres) {
   EXPECT_FALSE(std::filesystem::exists(out));
 }
 
+// --layout chooses the poses and every file says which it holds; a relaxed export is the same
+// bytes every time, and its g2o reads back with the composed one's vertices and edges.
+TEST_F(CliExportTest, EachFileSaysItsLayoutAndARelaxedExportIsTheSameBytesTwice) {
+  MakeRepository();
+  const auto export_to = [&](const std::string& format, const std::string& layout,
+                             const std::string& name) {
+    const std::filesystem::path file = dir_ / name;
+    std::vector<std::string> args = {"export", "--format", format, "--out", file.string()};
+    if (!layout.empty()) args.insert(args.end(), {"--layout", layout});
+    if (format == "tum") args.insert(args.end(), {"--outing", outing_a_.ToString()});
+    const testing::CliRun run = RunOn(args);
+    EXPECT_TRUE(Contains(run.out, "layout " + (layout.empty() ? "relaxed" : layout))) << run.out;
+    return ReadWholeFile(file);
+  };
+  const std::string relaxed = export_to("g2o", "", "relaxed.g2o");  // the default
+  EXPECT_EQ(export_to("g2o", "relaxed", "again.g2o"), relaxed);
+  const std::string composed = export_to("g2o", "composed", "composed.g2o");
+  EXPECT_EQ(relaxed.rfind("# fleetmap export of revision 2 of ", 0), 0u) << relaxed;
+  EXPECT_TRUE(Contains(relaxed.substr(0, relaxed.find('\n')), "layout relaxed"));
+  EXPECT_TRUE(Contains(composed.substr(0, composed.find('\n')), "layout composed"));
+  const testing::G2oGraph a = testing::ReadG2o(relaxed), b = testing::ReadG2o(composed);
+  ASSERT_EQ(a.vertices.size(), b.vertices.size());
+  EXPECT_EQ(a.fixed, b.fixed);
+  ASSERT_EQ(a.edges.size(), b.edges.size());
+  for (std::size_t i = 0; i < a.edges.size(); ++i) {
+    EXPECT_EQ(std::tie(a.edges[i].from, a.edges[i].to), std::tie(b.edges[i].from, b.edges[i].to));
+    EXPECT_LT((a.edges[i].measurement.translation - b.edges[i].measurement.translation).norm(),
+              1e-12);
+  }
+  // The two robots' chains agree with themselves: relaxed, every vertex stays where composing
+  // its edges puts it.
+  for (const auto& [id, pose] : b.vertices) {
+    EXPECT_LT((a.vertices.at(id).translation - pose.translation).norm(), 1e-6) << id;
+  }
+
+  const testing::PlyFile ply = testing::ReadPly(export_to("ply", "composed", "map.ply"));
+  EXPECT_TRUE(std::any_of(ply.comments.begin(), ply.comments.end(), [](const std::string& c) {
+    return Contains(c, "layout composed");
+  })) << ::testing::PrintToString(ply.comments);
+  const testing::TumTrajectory tum = testing::ReadTum(export_to("tum", "relaxed", "a.tum"));
+  EXPECT_TRUE(std::any_of(tum.comments.begin(), tum.comments.end(), [](const std::string& c) {
+    return Contains(c, "layout relaxed");
+  })) << ::testing::PrintToString(tum.comments);
+  const testing::GraphMlGraph graphml =
+      testing::ReadGraphMl(export_to("graphml", "relaxed", "map.graphml"));
+  EXPECT_TRUE(Contains(graphml.description, "layout relaxed")) << graphml.description;
+
+  const std::filesystem::path out = dir_ / "out.g2o";
+  ExpectRefusedWithoutOutput(
+      {"export", "--format", "g2o", "--layout", "optimised", "--out", out.string()}, out,
+      {"unknown layout 'optimised'", "relaxed or composed"});
+}
+
 TEST_F(CliExportTest, BadInputIsNamedAndLeavesNoOutputFile) {
   MakeRepository();
   const std::filesystem::path out = dir_ / "out.ply";

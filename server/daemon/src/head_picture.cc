@@ -56,9 +56,13 @@ void HeadPicture::Refresh(Repository& repository) {
     drawing_ = true;
   }
   try {
+    // Relaxed, unless the map is too large to relax on a store thread in seconds.
+    RelaxationOptions relaxation;
+    relaxation.max_nodes = kMaxRelaxedPictureNodes;
     const MapPicture picture =
         ComposeRevisionPicture(repository, head, NodeColouring::kTimeOfDay,
-                               "revision " + std::to_string(head) + " (the head)");
+                               "revision " + std::to_string(head) + " (the head)",
+                               LayoutKind::kRelaxed, nullptr, relaxation);
     SvgCanvas canvas("fleetmap: the map at revision " + std::to_string(head));
     picture.Draw(canvas);
     auto svg = std::make_shared<const std::string>(canvas.svg());
