@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <map>
 #include <set>
@@ -142,7 +143,20 @@ TEST_F(FleetExperimentTest, EveryFigureIsBuiltAndLocalisedOnTheHeldOutFrames) {
   // Every download of a subset carries edges contracted over what it left out
   // whenever it left something out.
   for (const FleetDownload& d : result.downloads) {
-    if (d.nodes == d.copy_nodes) EXPECT_EQ(d.derived_edges, 0u) << d.policy;
+    if (d.nodes == d.copy_nodes) {
+      EXPECT_EQ(d.derived_edges, 0u) << d.policy;
+    }
+  }
+
+  // Each fold's single-agent and merged maps laid out both ways and measured against the truth:
+  // the largest component, at least a few metres of map, errors that are finite and ordered.
+  ASSERT_EQ(result.layout_errors.size(), 4u * 2u * 2u);
+  for (const FleetLayoutError& e : result.layout_errors) {
+    EXPECT_TRUE(e.layout == "composed" || e.layout == "relaxed") << e.layout;
+    EXPECT_GT(e.nodes, 100u) << e.map << " " << e.layout << " fold " << e.fold;
+    EXPECT_TRUE(std::isfinite(e.ate_rmse_m));
+    EXPECT_LE(e.ate_rmse_m, e.max_m);
+    EXPECT_GT(e.max_m, 0.0);
   }
 
   // The merge diagnosis per fold, and EBN's cost per frame per single-agent outing.

@@ -16,6 +16,7 @@ void FleetRun::SingleAgent(FoldState& fold) {
   HeldOutRun run = LocaliseContent("single", fold.number, single.content, fold.test);
   fold.single_places = Places(single.content);
   RecordEdgeErrors(fold.number, "single", single.content);
+  RecordLayoutErrors(fold.number, "single", single.content);
   fold.single_localised = run.localised;
   RecordRun(std::move(run));
   // How much of it MERGE finds redundant: merged into an empty map, what does it keep? This

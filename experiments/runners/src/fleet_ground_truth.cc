@@ -1,7 +1,8 @@
 // The fleet experiment's ground truth (fleet_run.h): where each node and frame truly was, the
 // error of the maps' edges against it, and the diagnoses of why the merged map and the
 // downloads lose frames (per stretch, per download, and whether the localiser could reach the
-// experience it needed).
+// experience it needed), and how far the map's layouts put its nodes from where they were.
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -10,7 +11,9 @@
 
 #include "fleet_run.h"
 #include "fleetmap/ebn/localiser.h"
+#include "fleetmap/interchange/graph_layout.h"
 #include "fleetmap/ranking/time_of_day.h"
+#include "fleetmap/relaxation/relaxed_layout.h"
 #include "outing_runs.h"
 
 namespace fleetmap::fleet_internal {
@@ -56,6 +59,53 @@ void FleetRun::RecordEdgeErrors(int fold, const std::string& name, const GraphBa
   }
   const std::lock_guard lock(result_mutex_);
   result_.edge_errors.push_back(std::move(errors));
+}
+
+void FleetRun::RecordLayoutErrors(int fold, const std::string& name, const GraphBatch& map) {
+  std::unordered_map<Uuid, const Node*> node_of;
+  for (const Node& node : map.nodes) node_of.emplace(node.id, &node);
+  std::vector<FleetLayoutError> errors;
+  for (const LayoutKind kind : {LayoutKind::kComposed, LayoutKind::kRelaxed}) {
+    const Clock::time_point start = Clock::now();
+    const GraphLayout layout = LayOutGraph(map.nodes, map.edges, kind);
+    FleetLayoutError error{
+        fold, name, std::string(LayoutName(kind)), 0, 0.0, 0.0, SecondsSince(start)};
+    // The largest component: the others are in frames of their own.
+    std::vector<std::size_t> sizes(layout.component_count(), 0);
+    for (const LaidOutNode& node : layout.nodes()) ++sizes[node.component];
+    if (sizes.empty()) continue;
+    const int largest =
+        static_cast<int>(std::max_element(sizes.begin(), sizes.end()) - sizes.begin());
+    std::vector<Eigen::Vector3d> laid_out, truth;
+    for (const LaidOutNode& node : layout.nodes()) {
+      if (node.component != largest) continue;
+      const std::optional<Eigen::Vector3d> place = TruePlace(*node_of.at(node.id));
+      if (!place) continue;
+      laid_out.push_back(node.layout_T_node.translation());
+      truth.push_back(*place);
+    }
+    if (laid_out.size() < 3) continue;
+    Eigen::Matrix3Xd from(3, static_cast<Eigen::Index>(laid_out.size()));
+    Eigen::Matrix3Xd to(3, from.cols());
+    for (Eigen::Index i = 0; i < from.cols(); ++i) {
+      from.col(i) = laid_out[static_cast<std::size_t>(i)];
+      to.col(i) = truth[static_cast<std::size_t>(i)];
+    }
+    const Eigen::Matrix4d truth_T_layout = Eigen::umeyama(from, to, /*with_scaling=*/false);
+    double squares = 0.0;
+    for (Eigen::Index i = 0; i < from.cols(); ++i) {
+      const Eigen::Vector3d aligned = truth_T_layout.topLeftCorner<3, 3>() * from.col(i) +
+                                      truth_T_layout.topRightCorner<3, 1>();
+      const double e = (aligned - to.col(i)).norm();
+      squares += e * e;
+      error.max_m = std::max(error.max_m, e);
+    }
+    error.nodes = static_cast<std::size_t>(from.cols());
+    error.ate_rmse_m = std::sqrt(squares / static_cast<double>(from.cols()));
+    errors.push_back(std::move(error));
+  }
+  const std::lock_guard lock(result_mutex_);
+  result_.layout_errors.insert(result_.layout_errors.end(), errors.begin(), errors.end());
 }
 
 std::vector<Eigen::Vector3d> FleetRun::Places(const GraphBatch& map) const {

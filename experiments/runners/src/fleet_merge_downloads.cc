@@ -117,6 +117,7 @@ void FleetRun::RecordMergeDecisions(const FoldState& fold, Repository& repositor
 
 void FleetRun::LocaliseMerged(FoldState& fold, const GraphBatch& merged) {
   RecordEdgeErrors(fold.number, "merged", merged);
+  RecordLayoutErrors(fold.number, "merged", merged);
   std::unordered_set<Uuid> group_edges;
   for (const BuiltMap& group : fold.group_maps) {
     for (const Edge& edge : group.content.edges) group_edges.insert(edge.id);

@@ -281,6 +281,10 @@ void FleetRun::Sort() {
             [](const auto& a, const auto& b) {
               return std::tie(a.map, a.fold) < std::tie(b.map, b.fold);
             });
+  std::sort(result_.layout_errors.begin(), result_.layout_errors.end(),
+            [](const auto& a, const auto& b) {
+              return std::tie(a.map, a.fold, a.layout) < std::tie(b.map, b.fold, b.layout);
+            });
 }
 
 }  // namespace fleetmap::fleet_internal

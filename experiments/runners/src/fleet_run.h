@@ -171,6 +171,9 @@ class FleetRun {
   void RecordEdgeErrors(int fold, const std::string& name, const GraphBatch& map,
                         const std::unordered_set<Uuid>& skip = {});
 
+  // FleetLayoutError of `map`'s composed and relaxed layouts.
+  void RecordLayoutErrors(int fold, const std::string& name, const GraphBatch& map);
+
   std::vector<Eigen::Vector3d> Places(const GraphBatch& map) const;
 
   // The held-out frames of `outing` in order, with their true places.

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "fleet_edge_errors.h"
+#include "fleet_layout_errors.h"
 #include "fleet_measures.h"
 #include "fleet_seed_report.h"
 #include "fleetmap/core/error.h"
@@ -81,6 +82,7 @@ void WriteBuildsAndRuns(const FleetExperimentResult& result, const std::filesyst
   }
   Save(dir / "fig7_builds.csv", builds.str());
   Save(dir / "fig7_edge_errors.csv", EdgeErrorCsv(result));
+  Save(dir / "layout_errors.csv", LayoutErrorCsv(result));
 
   std::ostringstream runs;
   runs << "map,fold,map_nodes,frames,localised_frames,p_gap_10m\n";

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "fleet_edge_errors.h"
+#include "fleet_layout_errors.h"
 #include "fleet_measures.h"
 #include "fleet_seed_report.h"
 #include "fleetmap/map_management/download_policy.h"
@@ -361,6 +362,7 @@ void SeedSections(std::ostringstream& md, const FleetExperimentResult& result,
                   const std::string& h) {
   Fig7Section(md, result, v, h);
   WriteEdgeErrorTable(md, result);
+  WriteLayoutErrorTable(md, result);
   MergeWhy(md, result, options);
   FrameCostWhy(md, result);
   Fig8Section(md, result, h);

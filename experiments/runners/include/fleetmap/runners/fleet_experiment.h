@@ -226,6 +226,19 @@ struct FleetEdgeErrors {
   std::vector<float> sigmas_m;
 };
 
+// How far a layout of a map (fleetmap/relaxation/relaxed_layout.h) puts its nodes from where
+// they were captured: the largest metric component's nodes, their layout positions aligned to
+// the true ones by the rigid motion that fits best (Umeyama, no scale).
+struct FleetLayoutError {
+  int fold = 0;
+  std::string map;     // "single" or "merged"
+  std::string layout;  // "composed" or "relaxed"
+  std::size_t nodes = 0;
+  double ate_rmse_m = 0.0;  // root mean square of the aligned position errors
+  double max_m = 0.0;       // the largest of them
+  double seconds = 0.0;     // laying the map out
+};
+
 // Fig. 10: one order of one fold.
 struct FleetDreamOrder {
   int fold = 0;
@@ -257,6 +270,7 @@ struct FleetExperimentResult {
   std::vector<FleetFrameCost> frame_costs;
   std::vector<FleetFrontierPoint> frontier;  // empty unless options.frontier
   std::vector<FleetEdgeErrors> edge_errors;
+  std::vector<FleetLayoutError> layout_errors;
   // With options.deterministic_ids: every merge's decisions, a line each, sorted: the nodes each
   // revision kept, the edges it added (ends and pose in hex floats) and the stand-ins of the
   // nodes it omitted. Two runs decide alike exactly when these are equal.
