@@ -178,6 +178,26 @@ TEST(RelaxedLayout, OneMapRelaxesToTheSamePosesEveryTime) {
   }
 }
 
+// A map larger than max_nodes is not relaxed (its solve would take too long where a picture is
+// drawn): the composed layout comes back and the report says why.
+TEST(RelaxedLayout, AMapBeyondMaxNodesStaysComposedAndSaysWhy) {
+  const Map map = DriftedLoop(60, 0.004);
+  const GraphLayout composed = GraphLayout::Compute(map.nodes, map.edges);
+  RelaxationOptions options;
+  options.max_nodes = 60;  // the loop has 61
+  RelaxationReport report;
+  const GraphLayout layout = RelaxLayout(composed, map.edges, options, &report);
+  EXPECT_EQ(report.failure, "61 nodes, more than the 60 relaxed here");
+  EXPECT_EQ(report.iterations, 0);
+  for (std::size_t i = 0; i < layout.nodes().size(); ++i) {
+    EXPECT_EQ(layout.nodes()[i].layout_T_node.matrix(), composed.nodes()[i].layout_T_node.matrix());
+  }
+  options.max_nodes = 61;
+  RelaxLayout(composed, map.edges, options, &report);
+  EXPECT_TRUE(report.failure.empty()) << report.failure;
+  EXPECT_GT(report.iterations, 0);
+}
+
 TEST(RelaxedLayout, AnEdgeOfNoFinitePoseGivesTheComposedLayoutAndSaysWhy) {
   Map map = DriftedLoop(10, 0.0);
   map.edges.front().from_T_to.translation().x() = std::numeric_limits<double>::quiet_NaN();

@@ -27,8 +27,9 @@ using Matrix6 = Eigen::Matrix<double, 6, 6>;
 // whitened: residual = S * (omega, v) with S^T S the edge's information.
 class EdgeResidual {
  public:
+  // REQUIRES: sqrt_information is upper triangular.
   EdgeResidual(const Se3& a_T_b, const Matrix6& sqrt_information)
-      : q_ab_(Eigen::Quaterniond(a_T_b.rotation()).normalized()),
+      : q_ab_inverse_(Eigen::Quaterniond(a_T_b.rotation()).normalized().conjugate()),
         p_ab_(a_T_b.translation()),
         sqrt_information_(sqrt_information) {}
 
@@ -42,17 +43,24 @@ class EdgeResidual {
     const Eigen::Matrix<T, 3, 1> p_ab = q_a_inverse * (p_b - p_a);
     // layout a_T_b = exp(xi) * measured a_T_b: the rotation part from q_ab * q_measured^-1, the
     // translation what is left once that rotation has moved the measured translation.
-    const Eigen::Quaternion<T> q_error = q_ab * q_ab_.conjugate().template cast<T>();
-    Eigen::Matrix<T, 6, 1> xi;
-    xi.template head<3>() = T(2.0) * q_error.vec();
-    xi.template tail<3>() = p_ab - q_error * p_ab_.template cast<T>();
-    Eigen::Map<Eigen::Matrix<T, 6, 1>> residual(residual_out);
-    residual = sqrt_information_.template cast<T>() * xi;
+    const Eigen::Quaternion<T> q_error = q_ab * q_ab_inverse_.template cast<T>();
+    const Eigen::Matrix<T, 3, 1> rotation = T(2.0) * q_error.vec();
+    const Eigen::Matrix<T, 3, 1> translation = p_ab - q_error * p_ab_.template cast<T>();
+    const T xi[6] = {rotation[0],    rotation[1],    rotation[2],
+                     translation[0], translation[1], translation[2]};
+    // S is upper triangular (a Cholesky factor): multiplied by hand, in doubles where it can be,
+    // rather than as a 6x6 matrix of derivatives.
+    for (int row = 0; row < 6; ++row) {
+      residual_out[row] = sqrt_information_(row, row) * xi[row];
+      for (int column = row + 1; column < 6; ++column) {
+        residual_out[row] += sqrt_information_(row, column) * xi[column];
+      }
+    }
     return true;
   }
 
  private:
-  Eigen::Quaterniond q_ab_;
+  Eigen::Quaterniond q_ab_inverse_;
   Eigen::Vector3d p_ab_;
   Matrix6 sqrt_information_;
 };
@@ -213,6 +221,7 @@ GraphLayout RelaxLayout(const GraphLayout& composed, std::span<const Edge> edges
     solver.num_threads = 1;  // the same poses, to the bit, every time
     solver.max_num_iterations = options.max_iterations;
     solver.logging_type = ceres::SILENT;
+    solver.function_tolerance = options.function_tolerance;
     solver.minimizer_progress_to_stdout = false;
     problem.Evaluate(ceres::Problem::EvaluateOptions(), &out.initial_cost, nullptr, nullptr,
                      nullptr);
