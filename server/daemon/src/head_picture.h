@@ -5,8 +5,8 @@
 // moved since the picture it holds, reads the head's nodes without landmarks and its edges,
 // lays them out and writes SVG (about 80 bytes of SVG per node and per edge drawn). The layout
 // is relaxed (fleetmap/relaxation/relaxed_layout.h) up to kMaxRelaxedPictureNodes nodes, whose
-// solve takes a few seconds of the worker (tests/benchmarks/relaxation_benchmark.cc: about 2.5
-// CPU-s at 10^4 nodes, growing faster than the map); a larger map is drawn composed (time
+// solve takes a few seconds of the worker (tests/benchmarks/relaxation_benchmark.cc: 2.8 CPU-s
+// at 10^4 nodes, growing faster than the map); a larger map is drawn composed (time
 // O(nodes + edges)) and its title says why, plus the last FleetStatus::kRecentRevisions revisions
 // and the robots. At most one drawing runs at a time; a refresh that finds one running returns at
 // once and the next refresh (a merge, or the status page's periodic look at the store) catches up.
@@ -27,7 +27,7 @@
 namespace fleetmap::daemon {
 
 // The largest map the status page relaxes: beyond it the picture is composed.
-inline constexpr std::size_t kMaxRelaxedPictureNodes = 20'000;
+inline constexpr std::size_t kMaxRelaxedPictureNodes = 10'000;
 
 class HeadPicture {
  public:
