@@ -196,6 +196,21 @@ TEST_P(RealMergeKittiTest, ExcerptThroughRealProcessesIsSelfConsistentAndPasses)
   for (std::string line; std::getline(csv, line);) ++lines;
   EXPECT_EQ(lines, 1 + 51);
 
+  // KITTI has ground truth: the head is laid out both ways and measured against it, in the
+  // summary too.
+  ASSERT_EQ(r.layouts.size(), 2u) << r.summary;
+  EXPECT_EQ(r.layouts[0].layout, "composed");
+  EXPECT_EQ(r.layouts[1].layout, "relaxed");
+  for (const RealMergeLayoutError& e : r.layouts) {
+    EXPECT_GE(e.nodes, 3u);
+    EXPECT_LE(static_cast<std::int64_t>(e.nodes), c.head_nodes);
+    EXPECT_LE(e.rmse_m, e.max_m);
+    EXPECT_TRUE(std::isfinite(e.rmse_m));
+  }
+  EXPECT_NE(r.summary.find("| relaxed | " + std::to_string(r.layouts[1].nodes) + " | "),
+            std::string::npos)
+      << r.summary;
+
   // The server's store agrees: two merge revisions, the head's nodes.
   const auto central = GraphStore::Open("sqlite:" + (r.work_dir / "central.db").string());
   EXPECT_EQ(central->versions().HeadRevision(), 2);

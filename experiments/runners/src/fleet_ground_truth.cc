@@ -2,7 +2,6 @@
 // error of the maps' edges against it, and the diagnoses of why the merged map and the
 // downloads lose frames (per stretch, per download, and whether the localiser could reach the
 // experience it needed), and how far the map's layouts put its nodes from where they were.
-#include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -14,6 +13,7 @@
 #include "fleetmap/interchange/graph_layout.h"
 #include "fleetmap/ranking/time_of_day.h"
 #include "fleetmap/relaxation/relaxed_layout.h"
+#include "layout_accuracy.h"
 #include "outing_runs.h"
 
 namespace fleetmap::fleet_internal {
@@ -68,41 +68,12 @@ void FleetRun::RecordLayoutErrors(int fold, const std::string& name, const Graph
   for (const LayoutKind kind : {LayoutKind::kComposed, LayoutKind::kRelaxed}) {
     const Clock::time_point start = Clock::now();
     const GraphLayout layout = LayOutGraph(map.nodes, map.edges, kind);
-    FleetLayoutError error{
-        fold, name, std::string(LayoutName(kind)), 0, 0.0, 0.0, SecondsSince(start)};
-    // The largest component: the others are in frames of their own.
-    std::vector<std::size_t> sizes(layout.component_count(), 0);
-    for (const LaidOutNode& node : layout.nodes()) ++sizes[node.component];
-    if (sizes.empty()) continue;
-    const int largest =
-        static_cast<int>(std::max_element(sizes.begin(), sizes.end()) - sizes.begin());
-    std::vector<Eigen::Vector3d> laid_out, truth;
-    for (const LaidOutNode& node : layout.nodes()) {
-      if (node.component != largest) continue;
-      const std::optional<Eigen::Vector3d> place = TruePlace(*node_of.at(node.id));
-      if (!place) continue;
-      laid_out.push_back(node.layout_T_node.translation());
-      truth.push_back(*place);
-    }
-    if (laid_out.size() < 3) continue;
-    Eigen::Matrix3Xd from(3, static_cast<Eigen::Index>(laid_out.size()));
-    Eigen::Matrix3Xd to(3, from.cols());
-    for (Eigen::Index i = 0; i < from.cols(); ++i) {
-      from.col(i) = laid_out[static_cast<std::size_t>(i)];
-      to.col(i) = truth[static_cast<std::size_t>(i)];
-    }
-    const Eigen::Matrix4d truth_T_layout = Eigen::umeyama(from, to, /*with_scaling=*/false);
-    double squares = 0.0;
-    for (Eigen::Index i = 0; i < from.cols(); ++i) {
-      const Eigen::Vector3d aligned = truth_T_layout.topLeftCorner<3, 3>() * from.col(i) +
-                                      truth_T_layout.topRightCorner<3, 1>();
-      const double e = (aligned - to.col(i)).norm();
-      squares += e * e;
-      error.max_m = std::max(error.max_m, e);
-    }
-    error.nodes = static_cast<std::size_t>(from.cols());
-    error.ate_rmse_m = std::sqrt(squares / static_cast<double>(from.cols()));
-    errors.push_back(std::move(error));
+    const double seconds = SecondsSince(start);
+    const LayoutAccuracy accuracy = MeasureLayoutAccuracy(
+        layout, [&](const LaidOutNode& node) { return TruePlace(*node_of.at(node.id)); });
+    if (accuracy.nodes == 0) continue;
+    errors.push_back({fold, name, std::string(LayoutName(kind)), accuracy.nodes, accuracy.rmse_m,
+                      accuracy.max_m, seconds});
   }
   const std::lock_guard lock(result_mutex_);
   result_.layout_errors.insert(result_.layout_errors.end(), errors.begin(), errors.end());

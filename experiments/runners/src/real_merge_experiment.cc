@@ -16,11 +16,13 @@
 #include "fleetmap/ebn/experience_map.h"
 #include "fleetmap/ebn/localiser.h"
 #include "fleetmap/ranking/distance_ranking.h"
+#include "fleetmap/relaxation/relaxed_layout.h"
 #include "fleetmap/repository/repository.h"
 #include "fleetmap/runners/fleet_processes.h"
 #include "fleetmap/stereo/stereo_sequence.h"
 #include "fleetmap/store/graph_store.h"
 #include "fleetmap/store/version_store.h"
+#include "layout_accuracy.h"
 #include "report_text.h"
 #include "task_queue.h"
 
@@ -208,8 +210,18 @@ std::string SummaryText(const RealMergeOptions& options, const RealMergeResult& 
       << "| odd pairs localised against the head, localiser against every head node | "
       << PartOfWholePercent(r.direct.localised, r.direct.pairs) << " |\n"
       << "| pose error, direct: position median / p90, rotation median / p90 | "
-      << ErrorText(r.direct) << " |\n\n"
-      << "## Acceptance\n\n";
+      << ErrorText(r.direct) << " |\n\n";
+  if (!r.layouts.empty()) {
+    out << "The head laid out (fleetmap render and export), its largest component against the "
+           "ground truth of the pairs that made its nodes, after the best rigid alignment:\n\n"
+           "| layout | nodes | RMS error m | largest error m | seconds |\n|---|---|---|---|---|\n";
+    for (const RealMergeLayoutError& e : r.layouts) {
+      out << "| " << e.layout << " | " << e.nodes << " | " << Fixed(e.rmse_m, 3) << " | "
+          << Fixed(e.max_m, 3) << " | " << Fixed(e.seconds, 3) << " |\n";
+    }
+    out << "\n";
+  }
+  out << "## Acceptance\n\n";
   for (const AcceptanceLine& line : r.acceptance) {
     out << "- " << (line.pass ? "PASS" : "FAIL") << ": " << line.text << "\n";
   }
@@ -332,12 +344,36 @@ std::unordered_map<Uuid, int> ReadCentralHead(const std::string& store_uri, cons
 }
 
 // The head as B's agent pulled it: its map, and each node's landmarks and making pair in the
-// order of the pulled nodes.
+// order of the pulled nodes; and its graph, to lay out.
 struct PulledHead {
   ExperienceMap map;
   std::vector<Landmarks> landmarks;
   std::vector<int> node_pair;
+  GraphBatch graph;  // landmarks left out
 };
+
+// The head's composed and relaxed layouts against the ground truth of the pairs that made its
+// nodes (none without ground truth).
+void MeasureLayouts(const ProcessedStereoSequence& processed, const PulledHead& head,
+                    const std::unordered_map<Uuid, int>& head_pair, RealMergeResult& result) {
+  const auto true_place = [&](const LaidOutNode& node) -> std::optional<Eigen::Vector3d> {
+    const auto pair = head_pair.find(node.id);
+    if (pair == head_pair.end()) return std::nullopt;
+    const auto& truth =
+        processed.pairs[static_cast<std::size_t>(pair->second)].first_T_camera_truth;
+    if (!truth) return std::nullopt;
+    return truth->translation();
+  };
+  for (const LayoutKind kind : {LayoutKind::kComposed, LayoutKind::kRelaxed}) {
+    const auto start = std::chrono::steady_clock::now();
+    const GraphLayout layout = LayOutGraph(head.graph.nodes, head.graph.edges, kind);
+    const double seconds = SecondsSince(start);
+    const LayoutAccuracy accuracy = MeasureLayoutAccuracy(layout, true_place);
+    if (accuracy.nodes == 0) continue;
+    result.layouts.push_back(
+        {std::string(LayoutName(kind)), accuracy.nodes, accuracy.rmse_m, accuracy.max_m, seconds});
+  }
+}
 
 PulledHead ReadPulledHead(const RealMergeOptions& options, const FleetRobot& robot_b,
                           const std::unordered_map<Uuid, int>& head_pair, RealMergeResult& result) {
@@ -364,8 +400,14 @@ PulledHead ReadPulledHead(const RealMergeOptions& options, const FleetRobot& rob
   }
   const auto vocabulary =
       std::make_shared<const AppearanceVocabulary>(AppearanceVocabulary::Train(sample));
-  return {ExperienceMap::FromGraph(pulled.nodes, pulled.edges, vocabulary),
-          std::move(head_landmarks), std::move(head_node_pair)};
+  ExperienceMap map = ExperienceMap::FromGraph(pulled.nodes, pulled.edges, vocabulary);
+  GraphBatch graph;
+  graph.edges = pulled.edges;
+  for (const Node& node : pulled.nodes) {
+    graph.nodes.push_back(node);
+    graph.nodes.back().landmarks_blob.clear();
+  }
+  return {std::move(map), std::move(head_landmarks), std::move(head_node_pair), std::move(graph)};
 }
 
 // One localise-only outing over the odd pairs, starting lost.
@@ -512,6 +554,7 @@ RealMergeResult RunRealMergeExperiment(const RealMergeOptions& options) {
                    std::to_string(head.map.size()) + " nodes)");
   LocaliseWithBuilder(options, processed, robot_b, split.odd, head_pair, head.map, result);
   LocaliseDirectly(options, processed, split.odd, head, result);
+  MeasureLayouts(processed, head, head_pair, result);
 
   // 7. Measures, judgement, files.
   SummariseAndWrite(options, result);

@@ -28,6 +28,10 @@
 // >= 95 % of odd pairs localised against the head (the builder's run). Judged in code
 // (JudgeRealMerge); the run never fails on them.
 //
+// With ground truth, the head as pulled is also laid out both ways (composed, relaxed:
+// fleetmap/relaxation/relaxed_layout.h) and each layout's node positions compared with where
+// their pairs were (RealMergeLayoutError).
+//
 // Files in out_dir: summary.md (also returned), real_merge.csv (a row per pair), and work/
 // (the central store, both robots' map directories, the processes' logs), replaced each run.
 #pragma once
@@ -108,6 +112,15 @@ struct RealMergePair {
   int direct_inliers = 0;
 };
 
+// How near a layout of the merged head puts its nodes to the ground truth of the pairs that
+// made them (the largest component, after the best rigid alignment).
+struct RealMergeLayoutError {
+  std::string layout;  // "composed" or "relaxed"
+  std::size_t nodes = 0;
+  double rmse_m = 0.0, max_m = 0.0;
+  double seconds = 0.0;  // laying the head out
+};
+
 struct RealMergeResult {
   std::string dataset;  // the folder and layout, and whom to credit
   int pairs = 0;
@@ -119,6 +132,8 @@ struct RealMergeResult {
   std::int64_t b_stand_ins = 0;           // B's nodes omitted with a stand-in
   std::int64_t pulled_nodes = 0;          // the head as B's agent pulled it
   RealMergeLocalisation builder, direct;
+  // The head's composed and relaxed layouts against ground truth; empty without it.
+  std::vector<RealMergeLayoutError> layouts;
   std::vector<RealMergePair> rows;
   std::vector<AcceptanceLine> acceptance;
   std::string summary;  // summary.md's text
