@@ -5,7 +5,7 @@
 // moved since the picture it holds, reads the head's nodes without landmarks and its edges,
 // lays them out and writes SVG (about 80 bytes of SVG per node and per edge drawn). The layout
 // is relaxed (fleetmap/relaxation/relaxed_layout.h) up to kMaxRelaxedPictureNodes nodes, whose
-// solve takes a few seconds of the worker (tests/benchmarks/relaxation_benchmark.cc: 2.8 CPU-s
+// solve takes a few seconds of the worker (tests/benchmarks/relaxation_benchmark.cc: 3-4 CPU-s
 // at 10^4 nodes, growing faster than the map); a larger map is drawn composed (time
 // O(nodes + edges)) and its title says why, plus the last FleetStatus::kRecentRevisions revisions
 // and the robots. At most one drawing runs at a time; a refresh that finds one running returns at
