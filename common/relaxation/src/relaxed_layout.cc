@@ -130,6 +130,11 @@ std::vector<Se3> StartPoses(const GraphLayout& composed, std::span<const Edge* c
   return poses;
 }
 
+std::string TooLargeToRelax(std::size_t nodes, std::size_t max_nodes) {
+  return std::to_string(nodes) + " nodes, more than the " + std::to_string(max_nodes) +
+         " relaxed here";
+}
+
 }  // namespace
 
 GraphLayout RelaxLayout(const GraphLayout& composed, std::span<const Edge> edges,
@@ -140,8 +145,7 @@ GraphLayout RelaxLayout(const GraphLayout& composed, std::span<const Edge> edges
   RelaxationReport& out = report ? *report : local;
   out = {};
   if (options.max_nodes > 0 && nodes.size() > options.max_nodes) {
-    out.failure = std::to_string(nodes.size()) + " nodes, more than the " +
-                  std::to_string(options.max_nodes) + " relaxed here";
+    out.failure = TooLargeToRelax(nodes.size(), options.max_nodes);
     return composed;
   }
 
@@ -295,6 +299,14 @@ GraphLayout LayOutGraph(const std::vector<Node>& nodes, const std::vector<Edge>&
                         const RelaxationOptions& options) {
   GraphLayout composed = GraphLayout::Compute(nodes, edges);
   if (kind == LayoutKind::kComposed) return composed;
+  if (options.max_nodes > 0 && composed.nodes().size() > options.max_nodes) {
+    // Not relaxed: the composed layout itself, not a copy of it (a large map's picture is drawn
+    // beside a download plan of the same map; two layouts of it would be held at once).
+    RelaxationReport skipped;
+    skipped.failure = TooLargeToRelax(composed.nodes().size(), options.max_nodes);
+    if (report) *report = std::move(skipped);
+    return composed;
+  }
   return RelaxLayout(composed, edges, options, report);
 }
 
