@@ -94,64 +94,108 @@ Uuid DerivedMetricEdgeId(const Uuid& from, const Uuid& to) {
   return Uuid::NameBased(kDerivedEdgeNamespace, name);
 }
 
-std::vector<Edge> ContractMetric(std::span<const Edge> map_edges, std::span<const Uuid> sent,
-                                 double reach_m) {
-  const auto is_sent = [&](const Uuid& node) {
-    return std::binary_search(sent.begin(), sent.end(), node);
-  };
-  // The metric graph in compact form: a whole map's worth of links held as full poses and
-  // covariances (both ways) cost a download's plan more than the landmarks it sends. Nodes are
-  // numbered in UUID order, so a number compares as its UUID does; each node's links keep the
-  // order of `map_edges`, and a link names its edge and direction, its pose read when walked.
-  std::vector<Uuid> ids;
-  for (const Edge& edge : map_edges) {
-    if (edge.kind != EdgeKind::kMetric || edge.from == edge.to) continue;
-    ids.push_back(edge.from);
-    ids.push_back(edge.to);
-  }
-  std::sort(ids.begin(), ids.end());
-  ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
-  ids.shrink_to_fit();
-  const auto number_of = [&](const Uuid& node) {
-    return static_cast<std::uint32_t>(std::lower_bound(ids.begin(), ids.end(), node) - ids.begin());
-  };
+namespace {
+
+bool IsMetricLink(const Edge& edge) {
+  return edge.kind == EdgeKind::kMetric && edge.from != edge.to;
+}
+
+// The metric graph in compact form: a whole map's worth of links held as full poses and
+// covariances (both ways) cost a download's plan more than the landmarks it sends. Nodes are
+// numbered in UUID order, so a number compares as its UUID does; each node's links keep the
+// order of the edges, and a link names its edge and direction, its pose read when walked.
+class NumberedMetricGraph {
+ public:
   struct Link {
     std::uint32_t to = 0;
-    std::uint32_t edge = 0;  // in map_edges
+    std::uint32_t edge = 0;  // in the edges given
     bool reversed = false;   // walked from the edge's `to` to its `from`
   };
-  std::vector<std::uint32_t> first(ids.size() + 1, 0);
-  std::vector<std::pair<std::uint32_t, std::uint32_t>> ends;  // per metric edge: from, to
-  for (const Edge& edge : map_edges) {
-    if (edge.kind != EdgeKind::kMetric || edge.from == edge.to) continue;
-    ends.emplace_back(number_of(edge.from), number_of(edge.to));
-    ++first[ends.back().first + 1];
-    ++first[ends.back().second + 1];
-  }
-  for (std::size_t n = 0; n < ids.size(); ++n) first[n + 1] += first[n];
-  std::vector<Link> links(first.back());
-  {
-    std::vector<std::uint32_t> fill(first.begin(), first.end() - 1);
-    std::size_t metric = 0;
-    for (std::size_t e = 0; e < map_edges.size(); ++e) {
-      const Edge& edge = map_edges[e];
-      if (edge.kind != EdgeKind::kMetric || edge.from == edge.to) continue;
-      const auto [from, to] = ends[metric++];
-      links[fill[from]++] = {to, static_cast<std::uint32_t>(e), false};
-      links[fill[to]++] = {from, static_cast<std::uint32_t>(e), true};
-    }
-  }
-  ends = {};
-  const auto links_of = [&](std::uint32_t node) {
-    return std::span<const Link>(links.data() + first[node], first[node + 1] - first[node]);
-  };
-  const auto joined_directly = [&](std::uint32_t a, std::uint32_t b) {
-    for (const Link& link : links_of(a)) {
-      if (link.to == b) return true;
-    }
-    return false;
-  };
 
+  explicit NumberedMetricGraph(std::span<const Edge> edges) {
+    for (const Edge& edge : edges) {
+      if (!IsMetricLink(edge)) continue;
+      ids_.push_back(edge.from);
+      ids_.push_back(edge.to);
+    }
+    std::sort(ids_.begin(), ids_.end());
+    ids_.erase(std::unique(ids_.begin(), ids_.end()), ids_.end());
+    ids_.shrink_to_fit();
+    // Links by node, counted then filled (compressed rows).
+    first_.assign(ids_.size() + 1, 0);
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> ends;  // per metric edge: from, to
+    for (const Edge& edge : edges) {
+      if (!IsMetricLink(edge)) continue;
+      ends.emplace_back(*NumberOf(edge.from), *NumberOf(edge.to));
+      ++first_[ends.back().first + 1];
+      ++first_[ends.back().second + 1];
+    }
+    for (std::size_t n = 0; n < ids_.size(); ++n) first_[n + 1] += first_[n];
+    links_.resize(first_.back());
+    std::vector<std::uint32_t> fill(first_.begin(), first_.end() - 1);
+    std::size_t metric = 0;
+    for (std::size_t e = 0; e < edges.size(); ++e) {
+      if (!IsMetricLink(edges[e])) continue;
+      const auto [from, to] = ends[metric++];
+      links_[fill[from]++] = {to, static_cast<std::uint32_t>(e), false};
+      links_[fill[to]++] = {from, static_cast<std::uint32_t>(e), true};
+    }
+  }
+
+  std::optional<std::uint32_t> NumberOf(const Uuid& node) const {
+    const auto found = std::lower_bound(ids_.begin(), ids_.end(), node);
+    if (found == ids_.end() || *found != node) return std::nullopt;
+    return static_cast<std::uint32_t>(found - ids_.begin());
+  }
+  const Uuid& IdOf(std::uint32_t node) const { return ids_[node]; }
+  std::span<const Link> LinksOf(std::uint32_t node) const {
+    return {links_.data() + first_[node], first_[node + 1] - first_[node]};
+  }
+  bool JoinedDirectly(std::uint32_t a, std::uint32_t b) const {
+    const std::span<const Link> links = LinksOf(a);
+    return std::any_of(links.begin(), links.end(), [&](const Link& link) { return link.to == b; });
+  }
+
+ private:
+  std::vector<Uuid> ids_;
+  std::vector<std::uint32_t> first_;  // node n's links are links_[first_[n], first_[n + 1])
+  std::vector<Link> links_;
+};
+
+// The contracted metric edges from one sent node: Dijkstra in metres through left-out nodes only
+// (ties to the lower UUID), each sent node it reaches within reach_m and joined to `start` by no
+// edge of the map giving one edge, unless `emitted` already holds the pair.
+class ChainSearch {
+ public:
+  ChainSearch(std::span<const Edge> edges, const NumberedMetricGraph& graph,
+              std::span<const Uuid> sent, double reach_m)
+      : edges_(edges), graph_(graph), sent_(sent), reach_m_(reach_m) {}
+
+  void From(std::uint32_t start, std::unordered_set<NodePair, NodePairHash>& emitted,
+            std::vector<Edge>& derived) {
+    using Entry = std::pair<double, std::uint32_t>;
+    std::priority_queue<Entry, std::vector<Entry>, std::greater<>> queue;
+    best_.clear();
+    done_.clear();
+    best_.emplace(start, Chain{});
+    queue.emplace(0.0, start);
+    while (!queue.empty()) {
+      const auto [distance, at] = queue.top();
+      queue.pop();
+      if (!done_.insert(at).second) continue;
+      if (at != start && IsSent(graph_.IdOf(at))) {
+        Emit(start, at, emitted, derived);
+        continue;  // never expand through a sent node
+      }
+      Expand(at, distance, queue);
+    }
+  }
+
+  bool IsSent(const Uuid& node) const {
+    return std::binary_search(sent_.begin(), sent_.end(), node);
+  }
+
+ private:
   // A chain's pose, and its covariance once an edge on it carried one (the others add nothing
   // known): the contracted edge says as much of its uncertainty as its chain did.
   struct Chain {
@@ -159,67 +203,73 @@ std::vector<Edge> ContractMetric(std::span<const Edge> map_edges, std::span<cons
     Se3 start_T_at = Se3::Identity();
     std::optional<PoseCovariance> covariance;
   };
+
+  void Emit(std::uint32_t start, std::uint32_t at,
+            std::unordered_set<NodePair, NodePairHash>& emitted, std::vector<Edge>& derived) {
+    const Uuid& start_id = graph_.IdOf(start);
+    const NodePair pair(std::min(start_id, graph_.IdOf(at)), std::max(start_id, graph_.IdOf(at)));
+    if (graph_.JoinedDirectly(start, at) || !emitted.insert(pair).second) return;
+    Edge edge;
+    edge.from = pair.first;
+    edge.to = pair.second;
+    edge.kind = EdgeKind::kMetric;
+    const Chain& chain = best_.at(at);
+    edge.from_T_to = pair.first == start_id ? chain.start_T_at : chain.start_T_at.inverse();
+    if (chain.covariance) {
+      edge.covariance = pair.first == start_id
+                            ? *chain.covariance
+                            : InverseCovariance(chain.start_T_at, *chain.covariance);
+    }
+    edge.id = DerivedMetricEdgeId(edge.from, edge.to);
+    derived.push_back(edge);
+  }
+
+  template <typename Queue>
+  void Expand(std::uint32_t at, double distance, Queue& queue) {
+    const Chain here = best_.at(at);
+    for (const NumberedMetricGraph::Link& link : graph_.LinksOf(at)) {
+      const Edge& edge = edges_[link.edge];
+      const double next = distance + edge.from_T_to.translation().norm();
+      if (next > reach_m_ || done_.contains(link.to)) continue;
+      const auto it = best_.find(link.to);
+      if (it != best_.end() && it->second.metres <= next) continue;
+      const Se3 step = link.reversed ? edge.from_T_to.inverse() : edge.from_T_to;
+      Chain chain{next, here.start_T_at * step, here.covariance};
+      if (edge.covariance) {
+        const PoseCovariance step_covariance =
+            link.reversed ? InverseCovariance(edge.from_T_to, *edge.covariance) : *edge.covariance;
+        chain.covariance = ComposeCovariance(
+            here.start_T_at, here.covariance.value_or(PoseCovariance::Zero()), step_covariance);
+      }
+      best_[link.to] = std::move(chain);
+      queue.emplace(next, link.to);
+    }
+  }
+
+  std::span<const Edge> edges_;
+  const NumberedMetricGraph& graph_;
+  std::span<const Uuid> sent_;
+  double reach_m_;
+  std::unordered_map<std::uint32_t, Chain> best_;
+  std::unordered_set<std::uint32_t> done_;
+};
+
+}  // namespace
+
+std::vector<Edge> ContractMetric(std::span<const Edge> map_edges, std::span<const Uuid> sent,
+                                 double reach_m) {
+  const NumberedMetricGraph graph(map_edges);
+  ChainSearch search(map_edges, graph, sent, reach_m);
   std::vector<Edge> derived;
   std::unordered_set<NodePair, NodePairHash> emitted;
-  std::unordered_map<std::uint32_t, Chain> best;
-  std::unordered_set<std::uint32_t> done;
   for (const Uuid& start_id : sent) {
-    const auto found = std::lower_bound(ids.begin(), ids.end(), start_id);
-    if (found == ids.end() || *found != start_id) continue;
-    const auto start = static_cast<std::uint32_t>(found - ids.begin());
-    bool borders_left_out = false;
-    for (const Link& link : links_of(start)) borders_left_out |= !is_sent(ids[link.to]);
-    if (!borders_left_out) continue;
-    // Dijkstra in metres through left-out nodes only; ties go to the lower UUID.
-    using Entry = std::pair<double, std::uint32_t>;
-    std::priority_queue<Entry, std::vector<Entry>, std::greater<>> queue;
-    best.clear();
-    done.clear();
-    best.emplace(start, Chain{});
-    queue.emplace(0.0, start);
-    while (!queue.empty()) {
-      const auto [distance, at] = queue.top();
-      queue.pop();
-      if (!done.insert(at).second) continue;
-      if (at != start && is_sent(ids[at])) {
-        const NodePair pair(std::min(start_id, ids[at]), std::max(start_id, ids[at]));
-        if (!joined_directly(start, at) && emitted.insert(pair).second) {
-          Edge edge;
-          edge.from = pair.first;
-          edge.to = pair.second;
-          edge.kind = EdgeKind::kMetric;
-          const Chain& chain = best.at(at);
-          edge.from_T_to = pair.first == start_id ? chain.start_T_at : chain.start_T_at.inverse();
-          if (chain.covariance) {
-            edge.covariance = pair.first == start_id
-                                  ? *chain.covariance
-                                  : InverseCovariance(chain.start_T_at, *chain.covariance);
-          }
-          edge.id = DerivedMetricEdgeId(edge.from, edge.to);
-          derived.push_back(edge);
-        }
-        continue;  // never expand through a sent node
-      }
-      const Chain here = best.at(at);
-      for (const Link& link : links_of(at)) {
-        const Edge& edge = map_edges[link.edge];
-        const double next = distance + edge.from_T_to.translation().norm();
-        if (next > reach_m || done.contains(link.to)) continue;
-        const auto it = best.find(link.to);
-        if (it != best.end() && it->second.metres <= next) continue;
-        const Se3 step = link.reversed ? edge.from_T_to.inverse() : edge.from_T_to;
-        Chain chain{next, here.start_T_at * step, here.covariance};
-        if (edge.covariance) {
-          const PoseCovariance step_covariance =
-              link.reversed ? InverseCovariance(edge.from_T_to, *edge.covariance)
-                            : *edge.covariance;
-          chain.covariance = ComposeCovariance(
-              here.start_T_at, here.covariance.value_or(PoseCovariance::Zero()), step_covariance);
-        }
-        best[link.to] = std::move(chain);
-        queue.emplace(next, link.to);
-      }
-    }
+    const std::optional<std::uint32_t> start = graph.NumberOf(start_id);
+    if (!start) continue;
+    const auto links = graph.LinksOf(*start);
+    const bool borders_left_out = std::any_of(
+        links.begin(), links.end(),
+        [&](const NumberedMetricGraph::Link& link) { return !search.IsSent(graph.IdOf(link.to)); });
+    if (borders_left_out) search.From(*start, emitted, derived);
   }
   std::sort(derived.begin(), derived.end(),
             [](const Edge& a, const Edge& b) { return a.id < b.id; });
