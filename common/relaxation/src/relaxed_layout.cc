@@ -130,149 +130,188 @@ std::vector<Se3> StartPoses(const GraphLayout& composed, std::span<const Edge* c
   return poses;
 }
 
-std::string TooLargeToRelax(std::size_t nodes, std::size_t max_nodes) {
-  return std::to_string(nodes) + " nodes, more than the " + std::to_string(max_nodes) +
-         " relaxed here";
+// Says so in `out` and returns true when `layout` has more nodes than options.max_nodes allows.
+bool TooLargeToRelax(const GraphLayout& layout, const RelaxationOptions& options,
+                     RelaxationReport& out) {
+  if (options.max_nodes == 0 || layout.nodes().size() <= options.max_nodes) return false;
+  out.failure = std::to_string(layout.nodes().size()) + " nodes, more than the " +
+                std::to_string(options.max_nodes) + " relaxed here";
+  return true;
 }
+
+// The metric edges between two different nodes, by UUID, and their ends' numbers in the layout.
+struct OrderedMetricEdges {
+  std::vector<const Edge*> edges;
+  std::vector<std::pair<std::size_t, std::size_t>> ends;
+};
+
+OrderedMetricEdges MetricEdgesOf(const GraphLayout& layout, std::span<const Edge> edges) {
+  OrderedMetricEdges metric;
+  for (const Edge& edge : edges) {
+    if (edge.kind == EdgeKind::kMetric && edge.from != edge.to) metric.edges.push_back(&edge);
+  }
+  std::sort(metric.edges.begin(), metric.edges.end(),
+            [](const Edge* a, const Edge* b) { return a->id < b->id; });
+  metric.ends.reserve(metric.edges.size());
+  for (const Edge* edge : metric.edges) {
+    const std::optional<std::size_t> a = layout.IndexOf(edge->from);
+    const std::optional<std::size_t> b = layout.IndexOf(edge->to);
+    if (!a || !b) {
+      throw Error(ErrorCode::kIntegrity, "relaxed layout: metric edge " + edge->id.ToString() +
+                                             " ends outside the layout");
+    }
+    metric.ends.emplace_back(*a, *b);
+  }
+  return metric;
+}
+
+// The least-squares problem over the layout's poses: each node's pose as Ceres' parameter blocks,
+// a quaternion (x, y, z, w, as Eigen stores it) and a position; a residual per metric edge.
+class PoseGraphProblem {
+ public:
+  PoseGraphProblem(const GraphLayout& composed, const OrderedMetricEdges& metric,
+                   const RelaxationOptions& options, RelaxationReport& out)
+      : composed_(composed),
+        options_(options),
+        problem_(ProblemOptions()),
+        between_outings_(new ceres::CauchyLoss(options.between_outings_loss_scale),
+                         ceres::TAKE_OWNERSHIP) {
+    const std::vector<LaidOutNode>& nodes = composed.nodes();
+    const std::vector<Se3> start_poses = StartPoses(composed, metric.edges, metric.ends);
+    rotation_.resize(nodes.size());
+    position_.resize(nodes.size());
+    for (std::size_t i = 0; i < nodes.size(); ++i) {
+      rotation_[i] = Eigen::Quaterniond(start_poses[i].rotation()).normalized();
+      position_[i] = start_poses[i].translation();
+    }
+    solved_.assign(nodes.size(), 0);
+    for (std::size_t e = 0; e < metric.edges.size(); ++e) {
+      AddEdge(*metric.edges[e], metric.ends[e].first, metric.ends[e].second, out);
+    }
+    // Each component stays in its reference's frame.
+    for (const std::size_t reference : composed.references()) {
+      if (!solved_[reference]) continue;
+      problem_.SetParameterBlockConstant(rotation_[reference].coeffs().data());
+      problem_.SetParameterBlockConstant(position_[reference].data());
+    }
+  }
+
+  // Solves; false (and out.failure) when Ceres gives nothing usable.
+  bool Solve(RelaxationReport& out) {
+    if (out.edges == 0) return true;
+    ceres::Solver::Options solver;
+    solver.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
+    solver.num_threads = 1;  // the same poses, to the bit, every time
+    solver.max_num_iterations = options_.max_iterations;
+    solver.logging_type = ceres::SILENT;
+    solver.function_tolerance = options_.function_tolerance;
+    solver.minimizer_progress_to_stdout = false;
+    problem_.Evaluate(ceres::Problem::EvaluateOptions(), &out.initial_cost, nullptr, nullptr,
+                      nullptr);
+    for (const double scale : LossScales()) {
+      between_outings_.Reset(new ceres::CauchyLoss(scale), ceres::TAKE_OWNERSHIP);
+      ceres::Solver::Summary summary;
+      ceres::Solve(solver, &problem_, &summary);
+      if (!summary.IsSolutionUsable()) {
+        out.failure = summary.message;
+        return false;
+      }
+      out.iterations += static_cast<int>(summary.iterations.size()) - 1;
+      out.final_cost = summary.final_cost;
+      out.converged = summary.termination_type == ceres::CONVERGENCE;
+    }
+    return true;
+  }
+
+  // Every node's pose: solved, or as composed for a node of no metric edge (a component's
+  // reference); the references exactly the identity, as the layout requires (they were held).
+  std::vector<Se3> Poses() const {
+    const std::vector<LaidOutNode>& nodes = composed_.nodes();
+    std::vector<Se3> poses(nodes.size());
+    for (std::size_t i = 0; i < nodes.size(); ++i) {
+      poses[i] = solved_[i] ? Se3FromTranslationQuaternion(position_[i], rotation_[i].normalized())
+                            : nodes[i].layout_T_node;
+    }
+    for (const std::size_t reference : composed_.references()) poses[reference] = Se3::Identity();
+    return poses;
+  }
+
+ private:
+  static ceres::Problem::Options ProblemOptions() {
+    ceres::Problem::Options options;
+    // The problem outlives nothing it is given: the manifold and the loss are owned here.
+    options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+    options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+    return options;
+  }
+
+  void AddEdge(const Edge& edge, std::size_t a, std::size_t b, RelaxationReport& out) {
+    const bool across = composed_.nodes()[a].outing != composed_.nodes()[b].outing;
+    auto* residual = new EdgeResidual(edge.from_T_to, SqrtInformation(edge, options_));
+    if (across) {
+      Eigen::Matrix<double, 6, 1> r;
+      (*residual)(rotation_[a].coeffs().data(), position_[a].data(), rotation_[b].coeffs().data(),
+                  position_[b].data(), r.data());
+      across_at_start_.push_back(r.norm());
+    }
+    auto* cost = new ceres::AutoDiffCostFunction<EdgeResidual, 6, 4, 3, 4, 3>(residual);
+    problem_.AddResidualBlock(cost, across ? &between_outings_ : nullptr,
+                              rotation_[a].coeffs().data(), position_[a].data(),
+                              rotation_[b].coeffs().data(), position_[b].data());
+    for (const std::size_t end : {a, b}) {
+      if (solved_[end]) continue;
+      solved_[end] = 1;
+      problem_.SetManifold(rotation_[end].coeffs().data(), &quaternion_manifold_);
+      ++out.nodes;
+    }
+    ++out.edges;
+    if (across) ++out.edges_between_outings;
+  }
+
+  // Two solves. At the start an outing's drift leaves its true loop closures many standard
+  // deviations off, where the robust loss would ignore them and the loop stay open. So the first
+  // solve widens the loss to the median of those edges' residuals: the typical closure counts,
+  // one far beyond it (a wrong match) still does not. The second, from there, uses the loss as
+  // set. One solve when the median is within it.
+  std::vector<double> LossScales() {
+    double widened = options_.between_outings_loss_scale;
+    if (!across_at_start_.empty()) {
+      const auto middle =
+          across_at_start_.begin() + static_cast<std::ptrdiff_t>(across_at_start_.size() / 2);
+      std::nth_element(across_at_start_.begin(), middle, across_at_start_.end());
+      widened = std::max(widened, *middle);
+    }
+    std::vector<double> scales = {options_.between_outings_loss_scale};
+    if (widened > scales.front()) scales.insert(scales.begin(), widened);
+    return scales;
+  }
+
+  const GraphLayout& composed_;
+  const RelaxationOptions& options_;
+  std::vector<Eigen::Quaterniond> rotation_;
+  std::vector<Eigen::Vector3d> position_;
+  std::vector<char> solved_;             // by node: has a metric edge, so is solved for
+  std::vector<double> across_at_start_;  // whitened residual norms of the edges between outings
+  ceres::Problem problem_;
+  ceres::EigenQuaternionManifold quaternion_manifold_;
+  ceres::LossFunctionWrapper between_outings_;
+};
 
 }  // namespace
 
 GraphLayout RelaxLayout(const GraphLayout& composed, std::span<const Edge> edges,
                         const RelaxationOptions& options, RelaxationReport* report) {
   const auto start = std::chrono::steady_clock::now();
-  const std::vector<LaidOutNode>& nodes = composed.nodes();
   RelaxationReport local;
   RelaxationReport& out = report ? *report : local;
   out = {};
-  if (options.max_nodes > 0 && nodes.size() > options.max_nodes) {
-    out.failure = TooLargeToRelax(nodes.size(), options.max_nodes);
-    return composed;
-  }
-
-  std::vector<const Edge*> metric;
-  for (const Edge& edge : edges) {
-    if (edge.kind != EdgeKind::kMetric || edge.from == edge.to) continue;
-    metric.push_back(&edge);
-  }
-  std::sort(metric.begin(), metric.end(),
-            [](const Edge* a, const Edge* b) { return a->id < b->id; });
-
-  std::vector<std::pair<std::size_t, std::size_t>> ends;
-  ends.reserve(metric.size());
-  for (const Edge* edge : metric) {
-    const std::optional<std::size_t> a = composed.IndexOf(edge->from);
-    const std::optional<std::size_t> b = composed.IndexOf(edge->to);
-    if (!a || !b) {
-      throw Error(ErrorCode::kIntegrity, "relaxed layout: metric edge " + edge->id.ToString() +
-                                             " ends outside the layout");
-    }
-    ends.emplace_back(*a, *b);
-  }
-
-  // Each node's pose as Ceres' parameter blocks: a quaternion (x, y, z, w, as Eigen stores it)
-  // and a position.
-  const std::vector<Se3> start_poses = StartPoses(composed, metric, ends);
-  std::vector<Eigen::Quaterniond> rotation(nodes.size());
-  std::vector<Eigen::Vector3d> position(nodes.size());
-  for (std::size_t i = 0; i < nodes.size(); ++i) {
-    rotation[i] = Eigen::Quaterniond(start_poses[i].rotation()).normalized();
-    position[i] = start_poses[i].translation();
-  }
-
-  ceres::Problem::Options problem_options;
-  // The problem outlives nothing it is given: the manifold and the loss are owned here.
-  problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
-  problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
-  ceres::Problem problem(problem_options);
-  ceres::EigenQuaternionManifold quaternion_manifold;
-  ceres::LossFunctionWrapper between_outings(
-      new ceres::CauchyLoss(options.between_outings_loss_scale), ceres::TAKE_OWNERSHIP);
-  std::vector<char> solved(nodes.size(), 0);
-  std::vector<double> across_at_start;  // whitened residual norms of the edges between outings
-  for (std::size_t e = 0; e < metric.size(); ++e) {
-    const Edge* edge = metric[e];
-    const auto [a, b] = ends[e];
-    const bool across = nodes[a].outing != nodes[b].outing;
-    auto* residual = new EdgeResidual(edge->from_T_to, SqrtInformation(*edge, options));
-    if (across) {
-      Eigen::Matrix<double, 6, 1> r;
-      (*residual)(rotation[a].coeffs().data(), position[a].data(), rotation[b].coeffs().data(),
-                  position[b].data(), r.data());
-      across_at_start.push_back(r.norm());
-    }
-    auto* cost = new ceres::AutoDiffCostFunction<EdgeResidual, 6, 4, 3, 4, 3>(residual);
-    problem.AddResidualBlock(cost, across ? &between_outings : nullptr, rotation[a].coeffs().data(),
-                             position[a].data(), rotation[b].coeffs().data(), position[b].data());
-    for (const std::size_t end : {a, b}) {
-      if (solved[end]) continue;
-      solved[end] = 1;
-      problem.SetManifold(rotation[end].coeffs().data(), &quaternion_manifold);
-      ++out.nodes;
-    }
-    ++out.edges;
-    if (across) ++out.edges_between_outings;
-  }
-  // Each component stays in its reference's frame.
-  for (const std::size_t reference : composed.references()) {
-    if (!solved[reference]) continue;
-    problem.SetParameterBlockConstant(rotation[reference].coeffs().data());
-    problem.SetParameterBlockConstant(position[reference].data());
-  }
-
-  if (out.edges > 0) {
-    ceres::Solver::Options solver;
-    solver.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
-    solver.num_threads = 1;  // the same poses, to the bit, every time
-    solver.max_num_iterations = options.max_iterations;
-    solver.logging_type = ceres::SILENT;
-    solver.function_tolerance = options.function_tolerance;
-    solver.minimizer_progress_to_stdout = false;
-    problem.Evaluate(ceres::Problem::EvaluateOptions(), &out.initial_cost, nullptr, nullptr,
-                     nullptr);
-    // Two solves. At the start an outing's drift leaves its true loop closures many standard
-    // deviations off, where the robust loss would ignore them and the loop stay open. So the first
-    // solve widens the loss to the median of those edges' residuals: the typical closure counts,
-    // one far beyond it (a wrong match) still does not. The second, from there, uses the loss as
-    // set.
-    double widened = options.between_outings_loss_scale;
-    if (!across_at_start.empty()) {
-      std::nth_element(
-          across_at_start.begin(),
-          across_at_start.begin() + static_cast<std::ptrdiff_t>(across_at_start.size() / 2),
-          across_at_start.end());
-      widened = std::max(widened, across_at_start[across_at_start.size() / 2]);
-    }
-    std::vector<double> scales = {options.between_outings_loss_scale};
-    if (widened > scales.front()) scales.insert(scales.begin(), widened);
-    for (const double scale : scales) {
-      between_outings.Reset(new ceres::CauchyLoss(scale), ceres::TAKE_OWNERSHIP);
-      ceres::Solver::Summary summary;
-      ceres::Solve(solver, &problem, &summary);
-      if (!summary.IsSolutionUsable()) {
-        // A picture must still be drawn: the composed layout, said so.
-        out.failure = summary.message;
-        out.seconds =
-            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-        return composed;
-      }
-      out.iterations += static_cast<int>(summary.iterations.size()) - 1;
-      out.final_cost = summary.final_cost;
-      out.converged = summary.termination_type == ceres::CONVERGENCE;
-    }
-  }
-
-  std::vector<Se3> poses(nodes.size());
-  for (std::size_t i = 0; i < nodes.size(); ++i) {
-    if (!solved[i]) {
-      poses[i] = nodes[i].layout_T_node;  // a node of no metric edge: a component's reference
-      continue;
-    }
-    poses[i] = Se3FromTranslationQuaternion(position[i], rotation[i].normalized());
-  }
-  // The references were held: their poses are the identity exactly, as the layout requires.
-  for (const std::size_t reference : composed.references()) poses[reference] = Se3::Identity();
+  if (TooLargeToRelax(composed, options, out)) return composed;
+  PoseGraphProblem problem(composed, MetricEdgesOf(composed, edges), options, out);
+  const bool solved = problem.Solve(out);
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  return composed.WithPoses(std::move(poses));
+  // A picture must still be drawn: when the solve fails, the composed layout, said so.
+  if (!solved) return composed;
+  return composed.WithPoses(problem.Poses());
 }
 
 std::string_view LayoutName(LayoutKind kind) {
@@ -299,11 +338,10 @@ GraphLayout LayOutGraph(const std::vector<Node>& nodes, const std::vector<Edge>&
                         const RelaxationOptions& options) {
   GraphLayout composed = GraphLayout::Compute(nodes, edges);
   if (kind == LayoutKind::kComposed) return composed;
-  if (options.max_nodes > 0 && composed.nodes().size() > options.max_nodes) {
-    // Not relaxed: the composed layout itself, not a copy of it (a large map's picture is drawn
-    // beside a download plan of the same map; two layouts of it would be held at once).
-    RelaxationReport skipped;
-    skipped.failure = TooLargeToRelax(composed.nodes().size(), options.max_nodes);
+  // Not relaxed: the composed layout itself, not a copy of it (a large map's picture is drawn
+  // beside a download plan of the same map; two layouts of it would be held at once).
+  RelaxationReport skipped;
+  if (TooLargeToRelax(composed, options, skipped)) {
     if (report) *report = std::move(skipped);
     return composed;
   }
