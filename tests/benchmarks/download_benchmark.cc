@@ -14,6 +14,7 @@
 
 #include "fleetmap/map_management/download_policy.h"
 #include "fleetmap/map_management/integral_selection.h"
+#include "seeded_uuid.h"
 
 namespace fleetmap {
 namespace {
@@ -30,16 +31,6 @@ struct DownloadScene {
   std::vector<Uuid> node_ids;
 };
 
-// Seeded, so every run sees the same map and breaks the same ties.
-Uuid NextId(std::mt19937_64& rng) {
-  Uuid::Bytes bytes;
-  for (std::size_t i = 0; i < bytes.size(); i += 8) {
-    const std::uint64_t word = rng();
-    for (std::size_t b = 0; b < 8; ++b) bytes[i + b] = static_cast<std::uint8_t>(word >> (8 * b));
-  }
-  return Uuid(bytes);
-}
-
 DownloadScene MakeDownloadScene() {
   DownloadScene scene;
   std::mt19937_64 rng(11);
@@ -51,7 +42,7 @@ DownloadScene MakeDownloadScene() {
   const auto add_edge = [&scene, &rng](const Uuid& from, const Uuid& to, EdgeKind kind,
                                        const Uuid& path) {
     Edge edge;
-    edge.id = NextId(rng);
+    edge.id = SeededUuid(rng);
     edge.from = from;
     edge.to = to;
     edge.kind = kind;
@@ -62,7 +53,7 @@ DownloadScene MakeDownloadScene() {
     outing_minute.push_back(minute_of_day(rng));
     for (int place = 0; place < kDownloadPlaces; ++place) {
       Node node;
-      node.id = NextId(rng);
+      node.id = SeededUuid(rng);
       node.stamp_ns = (outing * 1440 + outing_minute.back()) * kDownloadNsPerMinute +
                       std::int64_t{place} * 2'000'000'000;
       node.landmarks_blob.assign(1000, 'x');
@@ -78,7 +69,7 @@ DownloadScene MakeDownloadScene() {
   }
   for (int p = 0; p < kDownloadPaths; ++p) {
     Path path;
-    path.id = NextId(rng);
+    path.id = SeededUuid(rng);
     scene.paths.push_back(path);
     // The outings captured within two hours of this path's time of day, or any.
     const int minute = minute_of_day(rng);

@@ -15,6 +15,7 @@
 
 #include "fleetmap/interchange/graph_layout.h"
 #include "fleetmap/relaxation/relaxed_layout.h"
+#include "seeded_uuid.h"
 
 namespace fleetmap {
 namespace {
@@ -26,15 +27,6 @@ struct LoopFleet {
   std::vector<Node> nodes;
   std::vector<Edge> edges;
 };
-
-Uuid SeededId(std::mt19937_64& rng) {
-  Uuid::Bytes bytes;
-  for (std::size_t i = 0; i < bytes.size(); i += 8) {
-    const std::uint64_t word = rng();
-    for (std::size_t b = 0; b < 8; ++b) bytes[i + b] = static_cast<std::uint8_t>(word >> (8 * b));
-  }
-  return Uuid(bytes);
-}
 
 Se3 OnLoop(double angle, double offset_m) {
   const double r = kLoopRadius_m + offset_m;
@@ -57,7 +49,7 @@ LoopFleet MakeLoopFleet(std::int64_t nodes) {
   std::vector<Se3> previous_truth;
   std::vector<std::size_t> previous_index;
   for (int o = 0; o < outings; ++o) {
-    const Uuid robot = SeededId(rng), outing = SeededId(rng);
+    const Uuid robot = SeededUuid(rng), outing = SeededUuid(rng);
     const double lane = 0.5 * (o % 3);  // outings a little apart on the road
     std::vector<Se3> truth;
     std::vector<std::size_t> index;
@@ -65,7 +57,7 @@ LoopFleet MakeLoopFleet(std::int64_t nodes) {
       const double angle = 2.0 * M_PI * (i + 0.37 * o) / kNodesPerOuting;
       truth.push_back(OnLoop(angle, lane));
       Node node;
-      node.id = SeededId(rng);
+      node.id = SeededUuid(rng);
       node.stamp_ns = (static_cast<std::int64_t>(o) * kNodesPerOuting + i) * 1'000'000'000;
       node.robot = robot;
       node.outing = outing;
@@ -73,7 +65,7 @@ LoopFleet MakeLoopFleet(std::int64_t nodes) {
       fleet.nodes.push_back(node);
       if (i > 0) {
         Edge odometry;
-        odometry.id = SeededId(rng);
+        odometry.id = SeededUuid(rng);
         odometry.from = fleet.nodes[index[i - 1]].id;
         odometry.to = node.id;
         odometry.from_T_to = truth[i - 1].inverse() * truth[i] * Noise(rng, 0.01, 0.002);
@@ -81,7 +73,7 @@ LoopFleet MakeLoopFleet(std::int64_t nodes) {
       }
       if (o > 0 && i % 5 == 0) {
         Edge match;
-        match.id = SeededId(rng);
+        match.id = SeededUuid(rng);
         match.from = fleet.nodes[previous_index[i]].id;
         match.to = node.id;
         match.from_T_to = previous_truth[i].inverse() * truth[i] * Noise(rng, 0.05, 0.01);

@@ -57,6 +57,18 @@ PathMemory MemoryOf(const std::vector<Edge>& edges) {
   return memory;
 }
 
+// A metric edge between numbered nodes.
+Edge MetricEdge(int id, int from, int to, const Se3& pose,
+                std::optional<PoseCovariance> covariance) {
+  Edge edge;
+  edge.id = NumberedUuid(id);
+  edge.from = NumberedUuid(from);
+  edge.to = NumberedUuid(to);
+  edge.from_T_to = pose;
+  edge.covariance = covariance;
+  return edge;
+}
+
 // The download's path edges: the map's kept ones and the derived ones.
 std::vector<Edge> DownloadEdges(const std::vector<Edge>& map, const ContractedPaths& contracted) {
   std::vector<Edge> edges;
@@ -73,16 +85,6 @@ std::vector<Edge> DownloadEdges(const std::vector<Edge>& map, const ContractedPa
 // stands for: the covariances along it composed (pose_covariance.h), none when no edge of the
 // chain carried one; read from either end, the same edge.
 TEST(MetricContraction, ADerivedEdgeCarriesItsChainsComposedCovariance) {
-  const auto metric = [](int id, int from, int to, const Se3& pose,
-                         std::optional<PoseCovariance> covariance) {
-    Edge edge;
-    edge.id = NumberedUuid(id);
-    edge.from = NumberedUuid(from);
-    edge.to = NumberedUuid(to);
-    edge.from_T_to = pose;
-    edge.covariance = covariance;
-    return edge;
-  };
   Se3 step = Se3::Identity();
   step.translation() = Eigen::Vector3d(0.0, 0.0, 2.0);
   step.rotate(Eigen::AngleAxisd(0.1, Eigen::Vector3d::UnitY()));
@@ -90,8 +92,8 @@ TEST(MetricContraction, ADerivedEdgeCarriesItsChainsComposedCovariance) {
   link.diagonal() << 1e-4, 2e-4, 3e-4, 0.01, 0.02, 0.03;
   // 1 -> 2 -> 3 with only the second edge uncertain; 4 -> 5 -> 6 with neither.
   const std::vector<Edge> map = {
-      metric(101, 1, 2, step, std::nullopt), metric(102, 2, 3, step, link),
-      metric(103, 4, 5, step, std::nullopt), metric(104, 5, 6, step, std::nullopt)};
+      MetricEdge(101, 1, 2, step, std::nullopt), MetricEdge(102, 2, 3, step, link),
+      MetricEdge(103, 4, 5, step, std::nullopt), MetricEdge(104, 5, 6, step, std::nullopt)};
   const std::vector<Edge> derived = ContractMetric(map, Sent({1, 3, 4, 6}), 25.0);
   ASSERT_EQ(derived.size(), 2u);
   for (const Edge& edge : derived) {
@@ -113,16 +115,6 @@ TEST(MetricContraction, ADerivedEdgeCarriesItsChainsComposedCovariance) {
 // its inverse pose and the covariance of that inverse. Two sent nodes a metric edge already joins
 // get no derived edge, however short a chain of left-out nodes between them.
 TEST(MetricContraction, AChainWalkedAgainstItsEdgesComposesTheirInversesAndSkipsJoinedPairs) {
-  const auto metric = [](int id, int from, int to, const Se3& pose,
-                         std::optional<PoseCovariance> covariance) {
-    Edge edge;
-    edge.id = NumberedUuid(id);
-    edge.from = NumberedUuid(from);
-    edge.to = NumberedUuid(to);
-    edge.from_T_to = pose;
-    edge.covariance = covariance;
-    return edge;
-  };
   Se3 step = Se3::Identity();
   step.translation() = Eigen::Vector3d(1.0, 0.5, 2.0);
   step.rotate(Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitZ()));
@@ -130,10 +122,10 @@ TEST(MetricContraction, AChainWalkedAgainstItsEdgesComposesTheirInversesAndSkips
   first.diagonal() << 1e-4, 2e-4, 3e-4, 0.01, 0.02, 0.03;
   second.diagonal() << 3e-4, 1e-4, 2e-4, 0.03, 0.01, 0.02;
   // 1 <- 2 <- 3 (both edges point back towards 1); 1 - 5 - 4 beside a direct edge 1 -> 4.
-  const std::vector<Edge> map = {metric(101, 2, 1, step, first), metric(102, 3, 2, step, second),
-                                 metric(103, 1, 5, step, std::nullopt),
-                                 metric(104, 5, 4, step, std::nullopt),
-                                 metric(105, 1, 4, step * step, std::nullopt)};
+  const std::vector<Edge> map = {
+      MetricEdge(101, 2, 1, step, first), MetricEdge(102, 3, 2, step, second),
+      MetricEdge(103, 1, 5, step, std::nullopt), MetricEdge(104, 5, 4, step, std::nullopt),
+      MetricEdge(105, 1, 4, step * step, std::nullopt)};
   const std::vector<Edge> derived = ContractMetric(map, Sent({1, 3, 4}), 25.0);
   ASSERT_EQ(derived.size(), 1u);
   const Edge& edge = derived.front();
