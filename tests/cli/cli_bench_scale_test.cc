@@ -65,7 +65,9 @@ TEST(CliBenchScaleTest, MeasuresMergeDownloadAndStoreOnBothBackends) {
     EXPECT_EQ(D(row, "merge_runs"), 2);
     EXPECT_EQ(D(row, "merge_nodes_pushed"), 200);
     EXPECT_LT(D(row, "merge_nodes_added"), 100) << "the revisit should mostly localise";
-    EXPECT_GT(D(row, "merge_peak_rss_bytes"), D(row, "merge_rss_before_bytes"));
+    // A peak is never below the RSS read before the merge (the kernel's high-water mark alone
+    // could be: it is brought up to date lazily).
+    EXPECT_GE(D(row, "merge_peak_rss_bytes"), D(row, "merge_rss_before_bytes"));
     // The merge loaded the revisited place, not the map; the index beside the store has it.
     EXPECT_GE(D(row, "merge_region_nodes"), 200);
     EXPECT_LT(D(row, "merge_region_nodes"), nodes / 2);
