@@ -317,11 +317,11 @@ TYPED_TEST(FrozenInstanceTest, AnInstanceFrozenPastItsLeaseRollsBackInsteadOfCom
   const TestRobot robot = RegisterRobot(uri, "frozen", this->dir_ / "robot");
   const GraphBatch pushed = RandomRobotMap(robot.id, 20, 31);
   WriteLocalMap(robot, pushed);
-  // The merge pauses 1.5 s after its claim; the lease is 600 ms, renewed every 200 ms while
+  // The merge pauses 3 s after its claim; the lease is 600 ms, renewed every 200 ms while
   // the process runs. The other instance starts only once the frozen one holds the claim: two
   // instances polling one queue race for it, and under load the other could win it first.
   Instance frozen = StartInstance(uri, "frozen", this->dir_ / "frozen.log",
-                                  {"--debug-merge-pause-ms", "1500"}, "600");
+                                  {"--debug-merge-pause-ms", "3000"}, "600");
   ASSERT_FALSE(frozen.server.address.empty());
   const auto log = this->dir_ / "agent.log";
   std::unique_ptr<ChildProcess> agent =
@@ -331,7 +331,15 @@ TYPED_TEST(FrozenInstanceTest, AnInstanceFrozenPastItsLeaseRollsBackInsteadOfCom
   ASSERT_TRUE(frozen.server.LogContains("merging", std::chrono::milliseconds(30'000)))
       << frozen.server.Log();
   std::this_thread::sleep_for(milliseconds(200));  // into the pause
+  // Frozen between writes: stopped inside one (its lease renewal, every 200 ms), it would
+  // hold the store's lock, and no instance could take the submission over until it ran again.
   frozen.server.process->Signal(SIGSTOP);
+  for (int attempt = 0; attempt < 50 && this->backend_.SubmissionsHeldByAWriter(); ++attempt) {
+    frozen.server.process->Signal(SIGCONT);
+    std::this_thread::sleep_for(milliseconds(10));
+    frozen.server.process->Signal(SIGSTOP);
+  }
+  ASSERT_FALSE(this->backend_.SubmissionsHeldByAWriter()) << "frozen inside a write 50 times";
   // Past its lease: the other instance claims the submission and merges it.
   Instance other =
       StartInstance(uri, "other", this->dir_ / "other.log", {"--busy-timeout-ms", "500"}, "600");

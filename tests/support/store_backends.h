@@ -75,6 +75,19 @@ class SqliteBackend {
     return text;
   }
 
+  // Whether a writer holds the submissions (here: the database's write lock) at this moment,
+  // asked without waiting: a process stopped (SIGSTOP) inside a write keeps everyone else out
+  // until it runs again.
+  bool SubmissionsHeldByAWriter() const {
+    sqlite3* db = nullptr;
+    sqlite3_open((dir_ / "store.sqlite").string().c_str(), &db);
+    sqlite3_busy_timeout(db, 0);
+    const bool held = sqlite3_exec(db, "BEGIN IMMEDIATE", nullptr, nullptr, nullptr) == SQLITE_BUSY;
+    if (!held) sqlite3_exec(db, "ROLLBACK", nullptr, nullptr, nullptr);
+    sqlite3_close(db);
+    return held;
+  }
+
   // Everything the store consists of, to compare before and after a call that must not change
   // it: the name and bytes of every file in its directory (the database, and a -wal or -shm
   // file if there is one).
@@ -151,6 +164,19 @@ class PostgresBackend {
     pqxx::nontransaction txn(c);
     const pqxx::result r = txn.exec(sql);
     return r.empty() || r[0][0].is_null() ? std::string() : r[0][0].as<std::string>();
+  }
+
+  // Whether a writer holds a submission's row lock at this moment, asked without waiting.
+  bool SubmissionsHeldByAWriter() const {
+    pqxx::connection c(Uri());
+    pqxx::work txn(c);
+    try {
+      txn.exec("SELECT id FROM submissions FOR UPDATE NOWAIT");
+      return false;
+    } catch (const pqxx::sql_error& error) {
+      if (error.sqlstate() == "55P03") return true;  // lock_not_available
+      throw;
+    }
   }
 
   // Every table of the database (all schemas but the system ones): its name, its columns with
