@@ -21,10 +21,7 @@ set(FLEETMAP_PCH_STD_HEADERS <algorithm> <chrono> <cstdint> <filesystem> <functi
 # runs in the programs, built -O2 as ever. Not for binaries that run library code in-process:
 # the linker keeps the first copy of an inline function it meets, the test's unoptimised one,
 # and the library would run it (the fleet experiment's test took 1.5x as long).
-set(FLEETMAP_PROCESS_TEST_OPTIONS -O0 -g0)
-# No debug information in any test binary (the libraries they link keep their line tables, so a
-# backtrace into fleetmap code still has its files and lines): 14 % of a unit's compile time.
-set(FLEETMAP_TEST_OPTIONS -g0)
+set(FLEETMAP_PROCESS_TEST_OPTIONS -O0)
 
 # fleetmap_define_pch_donors(): the donors, after find_package of Eigen and GoogleTest.
 function(fleetmap_define_pch_donors)
@@ -47,7 +44,6 @@ function(fleetmap_define_pch_donors)
     target_precompile_headers(${donor} PRIVATE ${FLEETMAP_PCH_STD_HEADERS} <Eigen/Core>
                               <Eigen/Geometry> <gtest/gtest.h> <nlohmann/json.hpp>)
   endforeach()
-  target_compile_options(fleetmap_test_pch PRIVATE ${FLEETMAP_TEST_OPTIONS})
   target_compile_options(fleetmap_process_test_pch PRIVATE ${FLEETMAP_PROCESS_TEST_OPTIONS})
 endfunction()
 
