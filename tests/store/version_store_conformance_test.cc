@@ -592,6 +592,28 @@ TYPED_TEST(VersionStoreConformance, StandInsAreKeptWithTheirPoseAndFirstOneWins)
   EXPECT_EQ(this->versions().FindStandIn(Uuid::Generate()), std::nullopt);
 }
 
+TYPED_TEST(VersionStoreConformance, StandInsOfARevisionAreListedByOmittedNode) {
+  const GraphBatch map = StampedChain(2, 100);
+  this->Commit(map);
+  std::vector<NodeStandIn> stand_ins;
+  for (int i = 0; i < 3; ++i) {
+    stand_ins.push_back(NodeStandIn{
+        Uuid::Generate(), map.nodes[i % 2].id,
+        Se3FromTranslationQuaternion(Eigen::Vector3d(i, 0.5, -1.0), Eigen::Quaterniond::Identity()),
+        1});
+  }
+  {
+    auto txn = this->store_->Begin();
+    this->versions().PutStandIns(stand_ins);
+    txn.Commit();
+  }
+  std::sort(stand_ins.begin(), stand_ins.end(),
+            [](const NodeStandIn& a, const NodeStandIn& b) { return a.node < b.node; });
+  EXPECT_EQ(this->versions().StandInsOf(1), stand_ins);
+  EXPECT_TRUE(this->versions().StandInsOf(2).empty());
+  EXPECT_TRUE(this->versions().StandInsOf(0).empty());
+}
+
 // --- Appending revisions ------------------------------------------------------------------
 
 TYPED_TEST(VersionStoreConformance, AppendRevisionRecordsWhatItAdds) {

@@ -213,6 +213,9 @@ void PrepareSeenNodes(pqxx::connection& c) {
   c.prepare("version_find_stand_in",
             "SELECT stand_in, tx, ty, tz, qw, qx, qy, qz, revision FROM stand_ins"
             " WHERE node = $1");
+  c.prepare("version_stand_ins_of",
+            "SELECT stand_in, tx, ty, tz, qw, qx, qy, qz, revision, node FROM stand_ins"
+            " WHERE revision = $1 ORDER BY node");
 }
 
 // Retirement (0009_retirement.sql) and the use it reads.

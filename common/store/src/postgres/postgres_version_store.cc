@@ -50,6 +50,19 @@ Submission ReadSubmission(const pqxx::row& r) {
   return s;
 }
 
+// The stand-in of `node` from a row of (stand_in, tx, ty, tz, qw, qx, qy, qz, revision).
+NodeStandIn StandInAt(const pqxx::row& r, const Uuid& node) {
+  NodeStandIn found;
+  found.node = node;
+  found.stand_in = UuidField(r[0]);
+  found.stand_in_T_node = Se3FromTranslationQuaternion(
+      Eigen::Vector3d(r[1].as<double>(), r[2].as<double>(), r[3].as<double>()),
+      Eigen::Quaterniond(r[4].as<double>(), r[5].as<double>(), r[6].as<double>(),
+                         r[7].as<double>()));
+  found.revision = r[8].as<std::int64_t>();
+  return found;
+}
+
 Revision ReadRevision(const pqxx::row& r) {
   Revision v;
   v.number = r[0].as<std::int64_t>();
@@ -466,20 +479,23 @@ class PostgresVersionStore final : public VersionStore {
   }
 
   std::optional<NodeStandIn> FindStandIn(const Uuid& node) override {
+    return session_.Autocommit("stand-in of " + node.ToString(),
+                               [&](pqxx::transaction_base& t) -> std::optional<NodeStandIn> {
+                                 const pqxx::result r =
+                                     t.exec_prepared("version_find_stand_in", node.ToString());
+                                 if (r.empty()) return std::nullopt;
+                                 return StandInAt(r[0], node);
+                               });
+  }
+
+  std::vector<NodeStandIn> StandInsOf(RevisionNumber revision) override {
     return session_.Autocommit(
-        "stand-in of " + node.ToString(),
-        [&](pqxx::transaction_base& t) -> std::optional<NodeStandIn> {
-          const pqxx::result r = t.exec_prepared("version_find_stand_in", node.ToString());
-          if (r.empty()) return std::nullopt;
-          NodeStandIn found;
-          found.node = node;
-          found.stand_in = UuidField(r[0][0]);
-          found.stand_in_T_node = Se3FromTranslationQuaternion(
-              Eigen::Vector3d(r[0][1].as<double>(), r[0][2].as<double>(), r[0][3].as<double>()),
-              Eigen::Quaterniond(r[0][4].as<double>(), r[0][5].as<double>(), r[0][6].as<double>(),
-                                 r[0][7].as<double>()));
-          found.revision = r[0][8].as<std::int64_t>();
-          return found;
+        "stand-ins of revision " + std::to_string(revision), [&](pqxx::transaction_base& t) {
+          std::vector<NodeStandIn> stand_ins;
+          for (const pqxx::row& row : t.exec_prepared("version_stand_ins_of", revision)) {
+            stand_ins.push_back(StandInAt(row, UuidField(row[9])));
+          }
+          return stand_ins;
         });
   }
 

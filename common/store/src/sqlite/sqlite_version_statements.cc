@@ -306,7 +306,10 @@ RecordStatements::RecordStatements(sqlite3* db)
                    " ON CONFLICT (node) DO NOTHING"),
       find_stand_in(db,
                     "SELECT stand_in, tx, ty, tz, qw, qx, qy, qz, revision FROM stand_ins"
-                    " WHERE node = ?1") {}
+                    " WHERE node = ?1"),
+      stand_ins_of(db,
+                   "SELECT stand_in, tx, ty, tz, qw, qx, qy, qz, revision, node FROM stand_ins"
+                   " WHERE revision = ?1 ORDER BY node") {}
 
 SqliteVersionStatements::SqliteVersionStatements(sqlite3* db)
     : SubmissionStatements(db),

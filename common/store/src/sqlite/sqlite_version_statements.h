@@ -51,7 +51,7 @@ struct RecordStatements {
   explicit RecordStatements(sqlite3* db);
   Statement put_node_usage, usage_at, find_setting, put_setting, insert_setting_if_absent,
       replace_setting, list_settings, put_submission_node, submissions_with_node, put_stand_in,
-      find_stand_in;
+      find_stand_in, stand_ins_of;
 };
 
 // Every statement the SQLite VersionStore runs, prepared once on its connection, by concern.

@@ -28,6 +28,18 @@ namespace fleetmap::internal {
 
 namespace {
 
+// The stand-in of `node` from a row of (stand_in, tx, ty, tz, qw, qx, qy, qz, revision).
+NodeStandIn StandInAt(Statement& row, const Uuid& node) {
+  NodeStandIn found;
+  found.node = node;
+  found.stand_in = row.UuidAt(0);
+  found.stand_in_T_node = Se3FromTranslationQuaternion(
+      Eigen::Vector3d(row.Double(1), row.Double(2), row.Double(3)),
+      Eigen::Quaterniond(row.Double(4), row.Double(5), row.Double(6), row.Double(7)));
+  found.revision = row.Int64(8);
+  return found;
+}
+
 class SqliteVersionStore final : public VersionStore {
  public:
   explicit SqliteVersionStore(sqlite3* db) : db_(db), s_(db) {}
@@ -472,14 +484,15 @@ class SqliteVersionStore final : public VersionStore {
     StatementUse s(s_.find_stand_in);
     s->Bind(1, node);
     if (!s->Step()) return std::nullopt;
-    NodeStandIn found;
-    found.node = node;
-    found.stand_in = s->UuidAt(0);
-    found.stand_in_T_node = Se3FromTranslationQuaternion(
-        Eigen::Vector3d(s->Double(1), s->Double(2), s->Double(3)),
-        Eigen::Quaterniond(s->Double(4), s->Double(5), s->Double(6), s->Double(7)));
-    found.revision = s->Int64(8);
-    return found;
+    return StandInAt(*s, node);
+  }
+
+  std::vector<NodeStandIn> StandInsOf(RevisionNumber revision) override {
+    StatementUse s(s_.stand_ins_of);
+    s->Bind(1, revision);
+    std::vector<NodeStandIn> stand_ins;
+    while (s->Step()) stand_ins.push_back(StandInAt(*s, s->UuidAt(9)));
+    return stand_ins;
   }
 
   // ---- Settings ----

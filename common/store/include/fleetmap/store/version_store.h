@@ -227,6 +227,9 @@ class VersionStore {
   virtual void PutStandIns(const std::vector<NodeStandIn>& stand_ins) = 0;
   // The stand-in of an omitted node; nullopt when MERGE never omitted it.
   virtual std::optional<NodeStandIn> FindStandIn(const Uuid& node) = 0;
+  // Every stand-in the merge that made `revision` recorded, by omitted node (ascending); empty
+  // for a revision that recorded none or does not exist.
+  virtual std::vector<NodeStandIn> StandInsOf(RevisionNumber revision) = 0;
 
   // ---- Revisions: a linear history. ----
 
