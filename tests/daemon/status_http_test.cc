@@ -19,8 +19,10 @@
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
+#include <ctime>
 #include <filesystem>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <optional>
@@ -29,11 +31,15 @@
 #include <string>
 #include <vector>
 
+#include "chromedriver_session.h"
 #include "expect_error.h"
 #include "fleet_processes.h"
 #include "fleetmap/interchange/graph_layout.h"
 #include "fleetmap/interchange/map_picture.h"
 #include "fleetmap/interchange/svg_canvas.h"
+#include "fleetmap/repository/channel_registry.h"
+#include "fleetmap/repository/repository.h"
+#include "fleetmap/repository/revision_picture.h"
 #include "headless_chromium.h"
 #include "random_robot_map.h"
 #include "scratch_dir.h"
@@ -290,10 +296,13 @@ TEST_F(StatusHttpTest, PageShowsTheFactsWithRobotStringsEscaped) {
   EXPECT_NE(html.find("&lt;r&amp;d&gt;"), std::string::npos);
   EXPECT_EQ(html.find("<r&d>"), std::string::npos) << "unescaped robot name in the page";
   EXPECT_NE(html.find("scout &quot;two&quot;"), std::string::npos);
-  // Self-contained: no scripts, no external assets.
-  EXPECT_EQ(html.find("<script"), std::string::npos);
+  // Self-contained: one inline script, no external script or other asset (a depot network has
+  // no internet).
+  EXPECT_EQ(Count(html, "<script"), 1u);
+  EXPECT_EQ(html.find("<script src"), std::string::npos);
   EXPECT_EQ(html.find("<link"), std::string::npos);
   EXPECT_EQ(html.find("http://"), std::string::npos);
+  EXPECT_EQ(html.find("https://"), std::string::npos);
 
   const std::string table = RobotsTable(html);
   ASSERT_FALSE(table.empty()) << html;
@@ -548,7 +557,9 @@ TEST(StatusPageInChromiumTest, ShowsTheHeadsPictureAndHistoryAfterAPush) {
 
   const std::string url = "http://127.0.0.1:" + std::to_string(port) + "/";
   const std::string dom = RunChromium(scratch, "--dump-dom", url);
-  EXPECT_NE(dom.find("<img src=\"/map.svg?r=1\""), std::string::npos) << dom.substr(0, 4000);
+  // The explorer shows revision 1 (as the server's <img>, or the SVG the script put inline).
+  EXPECT_NE(dom.find("id=\"explorer\" data-kind=\"map\" data-revision=\"1\""), std::string::npos)
+      << dom.substr(0, 4000);
   const std::string history = HistoryTable(dom);
   ASSERT_FALSE(history.empty()) << dom.substr(0, 4000);
   const auto body = history.find("<tbody>");
@@ -581,6 +592,162 @@ TEST(StatusPageInChromiumTest, ShowsTheHeadsPictureAndHistoryAfterAPush) {
     }
   }
   EXPECT_GT(coloured, 8 * 15) << "the nodes' discs (and the legend's colour bar)";
+}
+
+// The fleetmapd behind a status-page browser test: a store with a robot's two pushes merged
+// (revisions 1 and 2) and the channel "stable" at revision 1, and the status server's port.
+struct ExploredFleet {
+  std::string store;
+  testing::Fleetmapd server;
+  std::uint16_t port = 0;
+  std::string robot_name = "scout-1";
+};
+
+ExploredFleet StartExploredFleet(const ScratchDir& scratch) {
+  ExploredFleet fleet{"sqlite:" + (scratch / "fleet.db").string(), {}, 0};
+  GraphStore::Open(fleet.store);
+  const testing::TestRobot robot =
+      testing::RegisterRobot(fleet.store, fleet.robot_name, scratch / "robot");
+  fleet.server =
+      testing::StartFleetmapd(fleet.store, scratch / "fleetmapd.log", {"--http", "127.0.0.1:0"});
+  if (fleet.server.address.empty()) return fleet;
+  const std::optional<std::string> line =
+      fleet.server.process->ReadLineContaining("http on", std::chrono::milliseconds(10'000));
+  if (!line) return fleet;
+  fleet.port = static_cast<std::uint16_t>(std::stoi(line->substr(line->rfind(':') + 1)));
+  const GraphBatch first = testing::RandomRobotMap(robot.id, 8, 5, 20);
+  for (const GraphBatch& map :
+       {first, testing::RandomChainFrom(robot.id, first.nodes.back().id, 6, 6, 20)}) {
+    testing::WriteLocalMap(robot, map);
+    const auto agent = testing::StartSync(robot, fleet.server.address, scratch / "agent.log",
+                                          {"--wait-merge", "--merge-timeout", "60"});
+    const testing::SyncOutcome synced = testing::FinishSync(*agent, scratch / "agent.log");
+    if (synced.exit != 0) return fleet;
+  }
+  const std::unique_ptr<Repository> repository = Repository::Open(fleet.store);
+  ChannelRegistry(*repository).Set("stable", 1, "ops", "known good", 1'700'000'000'000'000'000);
+  // The status reads channels from the store every few seconds, and the head's picture is
+  // drawn off the HTTP thread after the merge: wait (bounded) for both.
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+  while (std::chrono::steady_clock::now() < deadline) {
+    if (MustGet(fleet.port, "/").body().find("href=\"/?r=1\"") != std::string::npos &&
+        MustGet(fleet.port, "/map.svg?r=2").result() == http::status::ok) {
+      break;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  }
+  return fleet;
+}
+
+// The explorer in real Chromium, driven by ChromeDriver as a user would: the map zooms on a
+// button and on the wheel (its viewBox changes), a click on a node shows that node's outing,
+// robot, time of day and revision as the store has them, the channel's link shows the
+// channel's revision, and a history row's link shows what its revision changed, counted as
+// the revision's merge recorded it.
+TEST(StatusPageInChromiumTest, TheMapZoomsExplainsANodeShowsAChannelAndWhatARevisionChanged) {
+  ScratchDir scratch("fleetmap-status-explore");
+  ExploredFleet fleet = StartExploredFleet(scratch);
+  ASSERT_NE(fleet.port, 0) << fleet.server.Log();
+  const std::unique_ptr<Repository> repository = Repository::Open(fleet.store);
+  ASSERT_EQ(repository->Head(), 2) << fleet.server.Log();
+  const std::string url = "http://127.0.0.1:" + std::to_string(fleet.port) + "/";
+  testing::ChromeDriverSession browser(scratch);
+  const std::string ready =
+      "const m = document.getElementById('map'); return !!m && m.dataset.ready !== undefined;";
+  const std::string view_box = "return document.querySelector('#map svg').getAttribute('viewBox');";
+  browser.Navigate(url);
+  ASSERT_TRUE(browser.WaitFor(ready, std::chrono::seconds(30))) << fleet.server.Log();
+  EXPECT_EQ(browser.Run("return document.getElementById('explorer').dataset.revision;"), "2");
+
+  // Zoom: a button, then the wheel over the map; each changes the viewBox, narrower.
+  const auto width = [](const nlohmann::json& box) {
+    std::istringstream in(box.get<std::string>());
+    double x = 0, y = 0, w = 0;
+    in >> x >> y >> w;
+    return w;
+  };
+  const nlohmann::json whole = browser.Run(view_box);
+  browser.Click("#zoom-in");
+  const nlohmann::json zoomed = browser.Run(view_box);
+  EXPECT_NE(zoomed, whole);
+  EXPECT_LT(width(zoomed), width(whole) * 0.9);
+  browser.Wheel("#map svg", -300);
+  ASSERT_TRUE(browser.WaitFor(
+      "return document.querySelector('#map svg').getAttribute('viewBox') !== " + zoomed.dump() +
+          ";",
+      std::chrono::seconds(5)));
+  EXPECT_LT(width(browser.Run(view_box)), width(zoomed) * 0.9);
+  browser.Click("#zoom-reset");
+  EXPECT_EQ(width(browser.Run(view_box)), width(whole));
+
+  // A node's facts on a click: the last disc, as the store has that node.
+  const nlohmann::json discs =
+      browser.Run("return document.querySelectorAll('#map #nodes circle').length;");
+  ASSERT_EQ(discs, 14);
+  browser.Click("#map #nodes circle:last-of-type");
+  ASSERT_TRUE(browser.WaitFor("return !!document.getElementById('node-details').dataset.node;",
+                              std::chrono::seconds(5)));
+  const Uuid clicked =
+      Uuid::Parse(browser.Run("return document.getElementById('node-details').dataset.node;")
+                      .get<std::string>());
+  const auto field = [&](const std::string& name) {
+    return browser
+        .Run("return document.querySelector('#node-details dd[data-field=\"" + name +
+             "\"]').textContent;")
+        .get<std::string>();
+  };
+  std::optional<Node> node;
+  for (const Node& n : repository->versions().NodesAt(2, false)) {
+    if (n.id == clicked) node = n;
+  }
+  ASSERT_TRUE(node.has_value()) << clicked.ToString();
+  EXPECT_EQ(field("robot"), fleet.robot_name);
+  EXPECT_EQ(field("outing"), node->outing.ToString());
+  const std::time_t captured = static_cast<std::time_t>(node->stamp_ns / 1'000'000'000);
+  std::tm utc{};
+  gmtime_r(&captured, &utc);
+  char iso[32];
+  std::strftime(iso, sizeof iso, "%Y-%m-%dT%H:%M:%SZ", &utc);
+  EXPECT_EQ(field("captured"), iso);
+  EXPECT_EQ(field("time of day"), std::string(iso).substr(11, 5) + " UTC");
+  EXPECT_EQ(field("revision"), "r" + std::to_string(NodesAddedBy(*repository, 2).at(clicked)));
+
+  // A channel's map: its link shows revision 1, the first push's 8 nodes.
+  browser.Click("#explorer nav a[href=\"/?r=1\"]");
+  ASSERT_TRUE(browser.WaitFor(
+      "const e = document.getElementById('explorer'); return !!e && e.dataset.revision === '1' "
+      "&& document.getElementById('map').dataset.ready !== undefined;",
+      std::chrono::seconds(30)))
+      << fleet.server.Log();
+  EXPECT_EQ(browser.Run("return document.querySelectorAll('#map #nodes circle').length;"), 8);
+  EXPECT_NE(browser.Run("return document.querySelector('#map svg title').textContent;")
+                .get<std::string>()
+                .find("revision 1"),
+            std::string::npos);
+
+  // What revision 2 changed, from its history row: its added nodes coloured, as many as its
+  // merge recorded (and the history row says), none hidden, its stand-ins squared.
+  browser.Navigate(url);
+  ASSERT_TRUE(browser.WaitFor(ready, std::chrono::seconds(30)));
+  browser.Click("#history a.change[href=\"/?change=2\"]");
+  ASSERT_TRUE(browser.WaitFor(
+      "const e = document.getElementById('explorer'); return !!e && e.dataset.kind === 'change' "
+      "&& document.getElementById('map').dataset.ready !== undefined;",
+      std::chrono::seconds(30)))
+      << fleet.server.Log();
+  const Revision second = *repository->inspect().FindRevision(2);
+  const auto filled = [&](Rgb colour) {
+    char hex[8];
+    std::snprintf(hex, sizeof hex, "#%02x%02x%02x", colour.r, colour.g, colour.b);
+    return browser.Run("return document.querySelectorAll('#map #nodes circle[fill=\"" +
+                       std::string(hex) + "\"]').length;");
+  };
+  EXPECT_EQ(filled(MapPicture::kAddedNode), second.nodes_added);
+  EXPECT_EQ(second.nodes_added, 6);
+  EXPECT_EQ(filled(MapPicture::kHiddenNode), second.nodes_hidden);
+  EXPECT_EQ(filled(MapPicture::kUnchangedNode), 8);
+  EXPECT_EQ(browser.Run("return document.querySelectorAll('#map #stand-ins rect').length;"),
+            repository->versions().StandInsOf(2).size());
 }
 
 }  // namespace

@@ -7,8 +7,11 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <set>
 
 #include "fleetmap/interchange/map_picture.h"
 #include "fleetmap/repository/repository.h"
@@ -17,9 +20,93 @@
 #include "fleetmap/store/version_store.h"
 #include "fleetmap_cli_run.h"
 #include "scratch_dir.h"
+#include "xml_reader.h"
 
 namespace fleetmap {
 namespace {
+
+std::string Hex(Rgb colour) {
+  char text[8];
+  std::snprintf(text, sizeof text, "#%02x%02x%02x", colour.r, colour.g, colour.b);
+  return text;
+}
+
+const testing::XmlElement& Group(const testing::XmlElement& svg, const std::string& id) {
+  for (const testing::XmlElement& child : svg.children) {
+    if (child.name == "g" && child.attributes.count("id") && child.Attribute("id") == id) {
+      return child;
+    }
+  }
+  throw std::runtime_error("no <g id=\"" + id + "\"> in the SVG");
+}
+
+// The discs of the SVG's nodes filled with `colour`.
+std::size_t NodesFilled(const testing::XmlElement& svg, Rgb colour) {
+  std::size_t n = 0;
+  for (const testing::XmlElement& disc : Group(svg, "nodes").children) {
+    n += disc.Attribute("fill") == Hex(colour) ? 1 : 0;
+  }
+  return n;
+}
+
+// `fleetmap render --diff R` of every merge of the demo's store, and of a revert made on it:
+// the picture's added, hidden and squared nodes are what the revision records (its merge
+// report's stand-ins), and the printed counts say the same.
+void ExpectEachChangePictureCountsWhatItsRevisionDid(const ScratchDir& dir,
+                                                     const std::string& uri) {
+  std::unique_ptr<Repository> repository = Repository::Open(uri);
+  RevisionNumber added_last = 0;  // the latest merge that added nodes: its revert hides them
+  for (const Revision& revision : repository->History()) {
+    if (revision.kind == RevisionKind::kMerge && revision.nodes_added > 0) {
+      added_last = revision.number;
+    }
+  }
+  repository.reset();
+  ASSERT_GT(added_last, 0);
+  const std::vector<std::string> revert = {"revert", "--store", uri, std::to_string(added_last)};
+  const testing::CliRun reverted = testing::RunFleetmapCli(dir.path(), revert);
+  ASSERT_EQ(reverted.exit_code, 0) << testing::DescribeCliRun(revert, reverted);
+  repository = Repository::Open(uri);
+  std::size_t omitted_seen = 0, hidden_seen = 0;
+  for (const Revision& revision : repository->History()) {
+    const std::filesystem::path svg_file =
+        dir / ("diff-" + std::to_string(revision.number) + ".svg");
+    const std::vector<std::string> args = {
+        "render", "--store",        uri, "--diff", std::to_string(revision.number),
+        "--out",  svg_file.string()};
+    const testing::CliRun run = testing::RunFleetmapCli(dir.path(), args);
+    ASSERT_EQ(run.exit_code, 0) << testing::DescribeCliRun(args, run);
+    const testing::XmlElement svg = testing::XmlReader::Parse(testing::ReadWholeFile(svg_file));
+    const std::vector<NodeStandIn> stand_ins = repository->versions().StandInsOf(revision.number);
+    std::set<Uuid> standing_in;
+    for (const NodeStandIn& stand_in : stand_ins) standing_in.insert(stand_in.stand_in);
+    std::size_t reported_omitted = 0;
+    if (revision.kind == RevisionKind::kMerge) {
+      reported_omitted = nlohmann::json::parse(revision.report).at("stand_ins").get<std::size_t>();
+    }
+    const std::string what = "revision " + std::to_string(revision.number) + "\n" + run.out;
+    EXPECT_EQ(NodesFilled(svg, MapPicture::kAddedNode),
+              static_cast<std::size_t>(revision.nodes_added))
+        << what;
+    EXPECT_EQ(NodesFilled(svg, MapPicture::kHiddenNode),
+              static_cast<std::size_t>(revision.nodes_hidden))
+        << what;
+    EXPECT_EQ(Group(svg, "stand-ins").children.size(), standing_in.size()) << what;
+    EXPECT_EQ(stand_ins.size(), reported_omitted) << what;
+    const std::string printed = std::to_string(revision.nodes_added) + " nodes added, " +
+                                std::to_string(revision.nodes_hidden) + " hidden, ";
+    EXPECT_NE(run.out.find(printed), std::string::npos) << what;
+    EXPECT_NE(run.out.find(std::to_string(reported_omitted) + " omitted nodes stood in for by " +
+                           std::to_string(standing_in.size()) + " nodes"),
+              std::string::npos)
+        << what;
+    omitted_seen += reported_omitted;
+    hidden_seen += static_cast<std::size_t>(revision.nodes_hidden);
+  }
+  // The demo's robots revisit what the fleet mapped, so its merges omit; the revert hides.
+  EXPECT_GT(omitted_seen, 0u);
+  EXPECT_GT(hidden_seen, 0u);
+}
 
 TEST(FleetDemo, TwoRobotsShareWhatTheyLearnAndTheServerStopsCleanly) {
   const ScratchDir dir("fleetmap-demo-test");
@@ -108,6 +195,7 @@ TEST(FleetDemo, TwoRobotsShareWhatTheyLearnAndTheServerStopsCleanly) {
         << "component " << c << " of " << picture.component_boxes().size()
         << " shows no coloured nodes";
   }
+  ExpectEachChangePictureCountsWhatItsRevisionDid(dir, uri);
 }
 
 }  // namespace

@@ -26,7 +26,8 @@ constexpr Rgb kQuietText{91, 107, 124};
 constexpr Rgb kFrameFill{247, 249, 251};
 constexpr Rgb kFrameOutline{213, 220, 228};
 constexpr Rgb kMetricEdge{91, 103, 115};
-constexpr Rgb kPathEdge{196, 204, 212};  // faint: path memory has no pose, only an order
+constexpr Rgb kPathEdge{196, 204, 212};       // faint: path memory has no pose, only an order
+constexpr Rgb kHiddenOutline{206, 211, 217};  // a hidden node is faded, outline and all
 constexpr double kMetricEdgeWidth = 1.3, kPathEdgeWidth = 1.0;
 
 constexpr double kNsPerHour = 3600.0 * 1e9;
@@ -194,6 +195,17 @@ std::vector<Rgb> NodeColours(const std::vector<LaidOutNode>& laid_out,
     first_revision = std::numeric_limits<std::int64_t>::max();
     last_revision = std::numeric_limits<std::int64_t>::min();
   }
+  if (options.colouring == NodeColouring::kChange) {
+    for (const LaidOutNode& node : laid_out) {
+      const auto found = options.node_change.find(node.id);
+      const NodeChange change =
+          found == options.node_change.end() ? NodeChange::kUnchanged : found->second;
+      colours.push_back(change == NodeChange::kAdded    ? MapPicture::kAddedNode
+                        : change == NodeChange::kHidden ? MapPicture::kHiddenNode
+                                                        : MapPicture::kUnchangedNode);
+    }
+    return colours;
+  }
   std::vector<std::int64_t> revision(laid_out.size(), 0);
   for (std::size_t i = 0; i < laid_out.size(); ++i) {
     if (options.colouring == NodeColouring::kRevision) {
@@ -259,9 +271,20 @@ MapPicture MapPicture::Compose(const GraphLayout& layout, const std::vector<Edge
     const Eigen::Vector3d p = node.layout_T_node.translation();
     picture.node_xy_.push_back(CanvasPoint{box.left + kBoxPadding + (p.x() - e.min_u) * ppm,
                                            box.top + kBoxPadding + (e.max_v - p.z()) * ppm});
+    picture.drawn_.push_back(DrawnNode{node.id, node.robot, node.outing, node.stamp_ns});
   }
   picture.node_colour_ =
       NodeColours(laid_out, options, picture.first_revision_, picture.last_revision_);
+  picture.node_change_.assign(laid_out.size(), NodeChange::kUnchanged);
+  if (options.colouring == NodeColouring::kChange) {
+    for (std::size_t i = 0; i < laid_out.size(); ++i) {
+      const auto found = options.node_change.find(laid_out[i].id);
+      if (found != options.node_change.end()) picture.node_change_[i] = found->second;
+      if (options.stand_ins.contains(laid_out[i].id)) picture.stand_in_nodes_.push_back(i);
+    }
+    picture.omitted_nodes_ = options.omitted_nodes;
+    picture.change_range_ = options.change_range;
+  }
 
   // Edges. A path edge between two nodes a metric edge joins would lie hidden under it.
   std::set<std::pair<std::size_t, std::size_t>> joined;
@@ -318,9 +341,19 @@ void MapPicture::Draw(Canvas& canvas) const {
   canvas.EndGroup();
   canvas.BeginGroup("nodes");
   for (std::size_t i = 0; i < node_xy_.size(); ++i) {
-    canvas.Disc(node_xy_[i], kNodeRadiusPx, node_colour_[i], Darker(node_colour_[i]));
+    canvas.Disc(node_xy_[i], kNodeRadiusPx, node_colour_[i],
+                node_change_[i] == NodeChange::kHidden ? kHiddenOutline : Darker(node_colour_[i]));
   }
   canvas.EndGroup();
+  if (colouring_ == NodeColouring::kChange) {
+    canvas.BeginGroup("stand-ins");
+    constexpr double kHalf = 2.0 * kNodeRadiusPx;
+    for (const std::size_t i : stand_in_nodes_) {
+      canvas.Rectangle({node_xy_[i].x - kHalf, node_xy_[i].y - kHalf}, 2 * kHalf, 2 * kHalf,
+                       std::nullopt, kStandInMark);
+    }
+    canvas.EndGroup();
+  }
   if (!empty()) {
     DrawScaleBar(canvas);
     DrawLegend(canvas);
@@ -341,8 +374,47 @@ void MapPicture::DrawScaleBar(Canvas& canvas) const {
   canvas.EndGroup();
 }
 
+std::size_t MapPicture::nodes_with(NodeChange change) const {
+  return static_cast<std::size_t>(std::count(node_change_.begin(), node_change_.end(), change));
+}
+
+void MapPicture::DrawChangeLegend(Canvas& canvas) const {
+  const double left = kMargin + 200.0, top = footer_top_ + 16.0;
+  canvas.Text({left, top}, "nodes: what " + change_range_ + " changed", kTextHeight, kText,
+              TextAnchor::kStart);
+  struct Entry {
+    Rgb fill, outline;
+    std::string label;
+  };
+  const std::vector<Entry> entries = {
+      {kAddedNode, Darker(kAddedNode), Count(nodes_with(NodeChange::kAdded), "added", "added")},
+      {kHiddenNode, kHiddenOutline,
+       Count(nodes_with(NodeChange::kHidden), "hidden (faded)", "hidden (faded)")},
+      {kUnchangedNode, Darker(kUnchangedNode),
+       Count(nodes_with(NodeChange::kUnchanged), "unchanged", "unchanged")},
+  };
+  for (std::size_t k = 0; k < entries.size(); ++k) {
+    const CanvasPoint at{left + 6.0 + 150.0 * static_cast<double>(k), top + 20.0};
+    canvas.Disc(at, kNodeRadiusPx, entries[k].fill, entries[k].outline);
+    canvas.Text({at.x + 10.0, at.y + 4.0}, entries[k].label, kTextHeight, kText,
+                TextAnchor::kStart);
+  }
+  const CanvasPoint mark{left + 6.0, top + 44.0};
+  canvas.Rectangle({mark.x - 2 * kNodeRadiusPx, mark.y - 2 * kNodeRadiusPx}, 4 * kNodeRadiusPx,
+                   4 * kNodeRadiusPx, std::nullopt, kStandInMark);
+  canvas.Text({mark.x + 10.0, mark.y + 4.0},
+              Count(stand_in_nodes_.size(), "node stands", "nodes stand") + " in for " +
+                  Count(omitted_nodes_, "omitted node", "omitted nodes") + " (squared)",
+              kTextHeight, kText, TextAnchor::kStart);
+}
+
 void MapPicture::DrawLegend(Canvas& canvas) const {
   canvas.BeginGroup("legend");
+  if (colouring_ == NodeColouring::kChange) {
+    DrawChangeLegend(canvas);
+    canvas.EndGroup();
+    return;
+  }
   // Node colours: a bar of the colour map with its stops labelled.
   const double bar_left = kMargin + 200.0, bar_width = 240.0, bar_top = footer_top_ + 24.0;
   const double bar_height = 12.0;

@@ -1,5 +1,6 @@
 #include "status_page.h"
 
+#include <algorithm>
 #include <ctime>
 #include <string>
 
@@ -18,7 +19,7 @@ body { font: 15px/1.45 system-ui, -apple-system, "Segoe UI", Roboto, "DejaVu San
 header { background: #1f3a5f; color: #fff; padding: 18px 32px; }
 header h1 { margin: 0; font-size: 24px; font-weight: 600; }
 header p { margin: 4px 0 0; color: #c9d6e6; font-size: 13px; }
-main { padding: 20px 32px 32px; max-width: 1200px; }
+main { padding: 20px 32px 32px; }
 h2 { font-size: 17px; margin: 26px 0 10px; }
 .banner { background: #fff4d6; border: 1px solid #e8c66a; padding: 8px 12px; border-radius: 6px; }
 .cards { display: flex; flex-wrap: wrap; gap: 12px; }
@@ -44,9 +45,127 @@ dl.totals dd { margin: 0; font-variant-numeric: tabular-nums; }
 .empty { color: #5b6b7c; font-style: italic; }
 figure.map { margin: 0; background: #fff; border: 1px solid #dde3ea; border-radius: 8px;
   padding: 8px; }
-figure.map img { display: block; max-width: 100%; max-height: 70vh; width: auto; height: auto; }
-figure.map figcaption { font-size: 13px; color: #5b6b7c; margin-top: 4px; }
+figure.map img { display: block; max-width: 100%; max-height: 75vh; width: auto; height: auto; }
+figure.map svg { display: block; width: 100%; height: 75vh; touch-action: none; cursor: grab; }
+figure.map svg #nodes circle { cursor: pointer; }
+.explorer-bar { display: flex; flex-wrap: wrap; gap: 8px 16px; align-items: center;
+  margin-bottom: 8px; font-size: 14px; }
+.explorer-bar a { color: #1f3a5f; }
+.explorer-bar a.current { font-weight: 600; text-decoration: none; color: #1d2733; }
+.explorer-bar button { font: inherit; min-width: 2.2em; padding: 2px 8px; }
+.caption { font-size: 13px; color: #5b6b7c; margin: 4px 0 0; }
+#node-details { background: #fff; border: 1px solid #dde3ea; border-radius: 8px;
+  padding: 8px 12px; margin-top: 8px; font-size: 14px; }
+#node-details dl { display: grid; grid-template-columns: max-content auto; gap: 2px 16px;
+  margin: 0; }
+#node-details dt { color: #5b6b7c; }
+#node-details dd { margin: 0; font-family: ui-monospace, "DejaVu Sans Mono", monospace; }
 )css";
+
+// The explorer's script: the picture inline, zoom and pan by its viewBox, a node's facts on a
+// click (set as text, never as markup), and the page's periodic reload until someone explores.
+constexpr const char* kExplorerScript = R"js(
+(function () {
+  var explorer = document.getElementById('explorer');
+  var figure = document.getElementById('map');
+  if (!explorer || !figure || figure.tagName !== 'FIGURE') return;
+  var base = explorer.dataset.kind === 'change' ? '/change' : '/map';
+  var revision = explorer.dataset.revision;
+  var details = document.getElementById('node-details');
+  var svg = null, nodes = [], box = null, full = null, touched = false, drag = null;
+  function show() { svg.setAttribute('viewBox', box.map(function (v) { return v.toFixed(2); }).join(' ')); }
+  function zoom(factor, x, y) {
+    box = [x - (x - box[0]) * factor, y - (y - box[1]) * factor, box[2] * factor, box[3] * factor];
+    touched = true;
+    show();
+  }
+  function centre() { return [box[0] + box[2] / 2, box[1] + box[3] / 2]; }
+  function at(event) {
+    var p = svg.createSVGPoint();
+    p.x = event.clientX;
+    p.y = event.clientY;
+    return p.matrixTransform(svg.getScreenCTM().inverse());
+  }
+  function describe(i) {
+    var n = nodes[i];
+    if (!n) return;
+    touched = true;
+    var list = document.createElement('dl');
+    [['node', n.id], ['robot', n.robot], ['outing', n.outing], ['captured', n.captured],
+     ['time of day', n.time_of_day + ' UTC'],
+     ['revision', n.revision === null ? 'unversioned' : 'r' + n.revision]].forEach(function (f) {
+      var dt = document.createElement('dt'), dd = document.createElement('dd');
+      dt.textContent = f[0];
+      dd.textContent = f[1];
+      dd.dataset.field = f[0];
+      list.append(dt, dd);
+    });
+    details.replaceChildren(list);
+    details.dataset.node = n.id;
+  }
+  function hook() {
+    svg.addEventListener('wheel', function (event) {
+      event.preventDefault();
+      var p = at(event);
+      zoom(event.deltaY < 0 ? 0.8 : 1.25, p.x, p.y);
+    }, { passive: false });
+    svg.addEventListener('pointerdown', function (event) {
+      drag = { x: event.clientX, y: event.clientY, box: box.slice() };
+    });
+    window.addEventListener('pointerup', function () { drag = null; });
+    svg.addEventListener('pointermove', function (event) {
+      if (!drag || (event.clientX === drag.x && event.clientY === drag.y)) return;
+      var m = svg.getScreenCTM();
+      box = [drag.box[0] - (event.clientX - drag.x) / m.a, drag.box[1] - (event.clientY - drag.y) / m.d,
+             box[2], box[3]];
+      touched = true;
+      show();
+    });
+    svg.querySelectorAll('#nodes circle').forEach(function (disc, i) {
+      disc.addEventListener('click', function () { describe(i); });
+    });
+  }
+  function fail(why) { details.textContent = 'The picture could not be loaded: ' + why; }
+  function load(tries) {
+    fetch(base + '.svg?r=' + revision).then(function (response) {
+      if (response.status === 503 && tries < 120) {
+        setTimeout(function () { load(tries + 1); }, 1000);
+        return null;
+      }
+      if (!response.ok) throw new Error('HTTP ' + response.status);
+      return response.text();
+    }).then(function (text) {
+      if (text === null) return null;
+      var doc = new DOMParser().parseFromString(text, 'image/svg+xml');
+      svg = document.importNode(doc.documentElement, true);
+      svg.removeAttribute('width');
+      svg.removeAttribute('height');
+      full = svg.getAttribute('viewBox').split(' ').map(Number);
+      box = full.slice();
+      figure.replaceChildren(svg);
+      hook();
+      return fetch(base + '.json?r=' + revision).then(function (response) {
+        if (!response.ok) throw new Error('HTTP ' + response.status);
+        return response.json();
+      }).then(function (facts) {
+        nodes = facts;
+        figure.dataset.ready = String(facts.length);
+      });
+    }).catch(function (error) { fail(error.message); });
+  }
+  document.getElementById('zoom-in').addEventListener('click', function () {
+    if (svg) zoom(0.8, centre()[0], centre()[1]);
+  });
+  document.getElementById('zoom-out').addEventListener('click', function () {
+    if (svg) zoom(1.25, centre()[0], centre()[1]);
+  });
+  document.getElementById('zoom-reset').addEventListener('click', function () {
+    if (svg) { box = full.slice(); show(); }
+  });
+  setInterval(function () { if (!touched) location.reload(); }, 30000);
+  load(0);
+})();
+)js";
 
 void Card(std::string& html, std::string_view label, std::string_view value,
           std::string_view note = {}) {
@@ -140,34 +259,72 @@ void RobotsTable(std::string& html, const FleetStatus& status) {
   }
   html +=
       "<table id=\"channels\">\n<thead><tr><th>Channel</th><th class=\"num\">Revision</th>"
-      "</tr></thead>\n<tbody>\n";
+      "<th>Map</th></tr></thead>\n<tbody>\n";
   for (const auto& [name, revision] : status.channels) {
     html += "<tr><td>" + EscapeHtml(name) + "</td><td class=\"num\">" + std::to_string(revision) +
-            "</td></tr>\n";
+            "</td><td><a href=\"/?r=" + std::to_string(revision) + "\">its map</a></td></tr>\n";
   }
   html += "</tbody>\n</table>\n";
 }
 
-// The head's picture (GET /map.svg). Its address names the revision it shows, so a browser
-// fetches a picture once per revision, as the page reloads, and never shows an older one from
-// its cache.
-void MapFigure(std::string& html, const FleetStatus& status) {
-  html += "<h2>Map</h2>\n";
-  if (!status.head_picture_svg) {
-    html += "<p class=\"empty\" id=\"map\">The picture of revision " +
-            std::to_string(status.head_revision) + " is being drawn.</p>\n";
-    return;
+// The map explorer (status_page.h). The picture's address names its revision, so a browser
+// fetches each revision's once and never shows an older one from its cache.
+void MapExplorer(std::string& html, const FleetStatus& status, const PageView& view) {
+  const bool head = view.kind == PictureKind::kMap && view.revision < 0;
+  const std::int64_t shown = head ? status.picture_revision : view.revision;
+  const std::string r = std::to_string(shown);
+  const bool change = view.kind == PictureKind::kChange;
+  html += "<h2>Map</h2>\n<section id=\"explorer\" data-kind=\"" +
+          std::string(change ? "change" : "map") + "\" data-revision=\"" + r + "\">\n";
+  // The views: the head, each channel's revision, and the change shown (if one is).
+  html += "<nav class=\"explorer-bar\"><span>Show:</span>";
+  const auto view_link = [&](const std::string& href, const std::string& label, bool current) {
+    html += "<a href=\"" + href + "\"" + (current ? " class=\"current\"" : "") + ">" +
+            EscapeHtml(label) + "</a>";
+  };
+  view_link("/", "head (r" + std::to_string(status.head_revision) + ")", head);
+  for (const auto& [name, revision] : status.channels) {
+    view_link("/?r=" + std::to_string(revision), name + " (r" + std::to_string(revision) + ")",
+              !head && !change && revision == view.revision);
   }
-  const std::string revision = std::to_string(status.picture_revision);
-  html += "<figure class=\"map\" id=\"map\"><img src=\"/map.svg?r=" + revision +
-          "\" alt=\"the map at revision " + revision + " seen from above\"><figcaption>Revision " +
-          revision;
-  if (status.picture_revision != status.head_revision) {
-    html += " (revision " + std::to_string(status.head_revision) + " is being drawn)";
+  if (change) view_link("/?change=" + r, "what r" + r + " changed", true);
+  if (!head && !change &&
+      std::none_of(status.channels.begin(), status.channels.end(),
+                   [&](const auto& c) { return c.second == view.revision; })) {
+    view_link("/?r=" + r, "r" + r, true);
   }
   html +=
-      ": each connected component in its own frame, nodes coloured by the UTC time of day "
-      "they were captured, metric edges dark, path-memory edges faint.</figcaption></figure>\n";
+      "<span>Zoom:</span><button type=\"button\" id=\"zoom-in\" title=\"zoom in\">+</button>"
+      "<button type=\"button\" id=\"zoom-out\" title=\"zoom out\">&minus;</button>"
+      "<button type=\"button\" id=\"zoom-reset\" title=\"the whole map\">reset</button>"
+      "</nav>\n";
+  if (head && !status.head_picture_svg) {
+    html += "<p class=\"empty\" id=\"map\">The picture of revision " +
+            std::to_string(status.head_revision) + " is being drawn.</p>\n</section>\n";
+    return;
+  }
+  const std::string file = change ? "/change.svg?r=" : "/map.svg?r=";
+  const std::string alt =
+      change ? "what revision " + r + " changed" : "the map at revision " + r + " seen from above";
+  html += "<figure class=\"map\" id=\"map\"><img src=\"" + file + r + "\" alt=\"" + alt +
+          "\"></figure>\n";
+  html += "<p class=\"caption\">";
+  if (change) {
+    html += "What revision " + r +
+            " changed: nodes it added orange, nodes it hid faded where they were, the rest "
+            "grey; a blue square around each node that stands in for a node its merge omitted.";
+  } else {
+    html += "Revision " + r;
+    if (head && status.picture_revision != status.head_revision) {
+      html += " (revision " + std::to_string(status.head_revision) + " is being drawn)";
+    }
+    html +=
+        ": each connected component in its own frame, nodes coloured by the UTC time of day "
+        "they were captured, metric edges dark, path-memory edges faint.";
+  }
+  html +=
+      " Wheel or buttons to zoom, drag to pan, click a node for its outing, robot, time of day "
+      "and revision.</p>\n<div id=\"node-details\">No node chosen.</div>\n</section>\n";
 }
 
 // The latest revisions, newest first: who made each, when, and what it added and hid (a
@@ -178,7 +335,7 @@ void HistoryTable(std::string& html, const FleetStatus& status) {
   html +=
       "<table id=\"history\">\n<thead><tr><th class=\"num\">Revision</th><th>Kind</th>"
       "<th>Robot</th><th>Author</th><th>When (UTC)</th><th class=\"num\">Nodes added</th>"
-      "<th class=\"num\">Nodes hidden</th></tr></thead>\n<tbody>\n";
+      "<th class=\"num\">Nodes hidden</th><th>Picture</th></tr></thead>\n<tbody>\n";
   for (const RevisionRow& row : status.recent_revisions) {
     const std::string when = UtcIsoTime(row.created_ns);
     const std::string of =
@@ -188,7 +345,9 @@ void HistoryTable(std::string& html, const FleetStatus& status) {
             EscapeHtml(row.author) + "</td><td><time datetime=\"" + when + "\">" + when +
             "</time><span class=\"ago\">" + TimeAgo(row.created_ns, status.now_ns) +
             "</span></td><td class=\"num\">" + std::to_string(row.nodes_added) +
-            "</td><td class=\"num\">" + std::to_string(row.nodes_hidden) + "</td></tr>\n";
+            "</td><td class=\"num\">" + std::to_string(row.nodes_hidden) +
+            "</td><td><a class=\"change\" href=\"/?change=" + std::to_string(row.revision) +
+            "\">what it changed</a></td></tr>\n";
   }
   html += "</tbody>\n</table>\n";
   if (status.recent_revisions.empty()) {
@@ -224,14 +383,15 @@ std::string TimeAgo(std::int64_t then_ns, std::int64_t now_ns) {
   return std::to_string(minutes / (24 * 60)) + " d ago";
 }
 
-std::string FleetStatusPage(const FleetStatus& status) {
+std::string FleetStatusPage(const FleetStatus& status, const PageView& view) {
   std::string html;
   html.reserve(8192 + status.robots.size() * 256);
   html +=
       "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n"
       "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n"
-      // A status page is left open on a screen: reload now and then, without any script.
-      "<meta http-equiv=\"refresh\" content=\"30\">\n";
+      // A status page is left open on a screen: reload now and then (the script does, until
+      // someone explores the map).
+      "<noscript><meta http-equiv=\"refresh\" content=\"30\"></noscript>\n";
   html += "<title>fleetmapd — revision " + std::to_string(status.head_revision) + "</title>\n";
   html += "<style>";
   html += kStyle;
@@ -271,7 +431,7 @@ std::string FleetStatusPage(const FleetStatus& status) {
        std::to_string(status.sessions_total) + " since start");
   html += "</section>\n";
 
-  MapFigure(html, status);
+  MapExplorer(html, status, view);
   HistoryTable(html, status);
   RobotsTable(html, status);
 
@@ -301,7 +461,9 @@ std::string FleetStatusPage(const FleetStatus& status) {
     }
     Total(html, "Errors sent", errors);
   }
-  html += "</dl>\n</main>\n</body>\n</html>\n";
+  html += "</dl>\n</main>\n<script>";
+  html += kExplorerScript;
+  html += "</script>\n</body>\n</html>\n";
   return html;
 }
 

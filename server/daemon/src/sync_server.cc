@@ -23,12 +23,12 @@
 #include "fleetmap/repository/channel_registry.h"
 #include "fleetmap/repository/robot_registry.h"
 #include "fleetmap/wire/secret_file.h"
-#include "head_picture.h"
 #include "merge_queue.h"
 #include "retire_schedule.h"
 #include "robot_allowance.h"
 #include "server_activity.h"
 #include "session_tracker.h"
+#include "status_pictures.h"
 #include "store_workers.h"
 #include "sync_session.h"
 
@@ -221,6 +221,12 @@ class SyncServer::Impl {
     status.merge_backing_off = merges_->backing_off();
     if (dream_) status.dream = dream_->Status();
     picture_.AddTo(status);
+    status.find_picture = [this](PictureKind kind, std::int64_t revision) {
+      bool asked = false;
+      std::shared_ptr<const ServedPicture> picture = picture_.Find(kind, revision, &asked);
+      if (asked) RefreshPicture();
+      return picture;
+    };
     if (const auto running = merges_->Merging()) {
       status.merging = MergingSubmission{running->submission.ToString(),
                                          activity_.RobotName(running->robot), running->started_ns};
@@ -323,14 +329,15 @@ class SyncServer::Impl {
     }
   }
 
-  // The status page's picture of the head, drawn on a store thread when the head has moved
-  // (head_picture.h), in a job of its own so the robots and counts above never wait for it.
+  // The status page's pictures, drawn on a store thread when the head has moved or the page
+  // asked for one (status_pictures.h), in a job of their own so the robots and counts above
+  // never wait for them.
   void RefreshPicture() {
     store_->Post([this](Repository& repository) {
       try {
         picture_.Refresh(repository);
       } catch (const std::exception& error) {
-        spdlog::error("drawing the head's picture for the status page: {}", error.what());
+        spdlog::error("drawing a picture for the status page: {}", error.what());
       }
     });
   }
@@ -403,7 +410,7 @@ class SyncServer::Impl {
 
   SyncServerOptions options_;
   daemon::ServerActivity activity_;
-  daemon::HeadPicture picture_;
+  daemon::StatusPictures picture_;
   daemon::SessionTracker tracker_;
   daemon::DownloadCache cache_;
   daemon::ConnectionAdmission admission_;

@@ -20,14 +20,15 @@
 //   (nothing measured joins them), so the boxes' places relative to each other mean nothing.
 // - Times of day are UTC, of the node's capture stamp.
 // - Groups (SVG ids): "components" (one frame per component, in component order), "path-edges",
-//   "metric-edges", "nodes" (one disc per node, in node number order), "legend", "scale-bar",
-//   "title".
+//   "metric-edges", "nodes" (one disc per node, in node number order), "stand-ins" (kChange: a
+//   square around each node that stands in for an omitted one), "legend", "scale-bar", "title".
 #pragma once
 
 #include <cstddef>
 #include <cstdint>
 #include <string>
 #include <unordered_map>
+#include <unordered_set>
 #include <vector>
 
 #include "fleetmap/core/graph.h"
@@ -40,6 +41,14 @@ namespace fleetmap {
 enum class NodeColouring {
   kTimeOfDay,  // the UTC time of day of the node's stamp, on a colour wheel (00:00 = 24:00)
   kRevision,   // the revision that added the node, from the earliest shown to the latest
+  kChange,     // what one revision range changed (NodeChange): added, hidden or neither
+};
+
+// What a range of revisions A..B did to a node (NodeColouring::kChange).
+enum class NodeChange {
+  kUnchanged,  // at A and at B: grey
+  kAdded,      // at B, not at A: coloured
+  kHidden,     // at A, not at B: faded
 };
 
 struct MapPictureOptions {
@@ -47,9 +56,24 @@ struct MapPictureOptions {
   // kRevision: the revision that added each node; a node not listed counts as revision 0
   // (written outside version control).
   std::unordered_map<Uuid, std::int64_t> node_revision;
+  // kChange: what the range did to each node (a node not listed is kUnchanged), the nodes that
+  // stand in for nodes the range's merges omitted (marked), how many omitted nodes they stand
+  // in for, and the range's name for the legend ("r6" or "r3..r6").
+  std::unordered_map<Uuid, NodeChange> node_change;
+  std::unordered_set<Uuid> stand_ins;
+  std::size_t omitted_nodes = 0;
+  std::string change_range;
   std::string title;            // the first line, e.g. "revision 7 of sqlite:fleet.db"
   int max_map_width_px = 1200;  // the components' rows are at most this wide
   int max_map_height_px = 800;  // the scale is reduced until they fit this high (if it can)
+};
+
+// What a node's disc stands for (MapPicture::drawn_nodes), for a reader that explains a disc.
+struct DrawnNode {
+  Uuid id;
+  Uuid robot;
+  Uuid outing;
+  std::int64_t stamp_ns = 0;  // capture time, UTC
 };
 
 // A box in picture pixels.
@@ -75,6 +99,8 @@ class MapPicture {
   // Where node i of the layout (layout.nodes()[i]) is drawn, and its colour.
   const std::vector<CanvasPoint>& node_positions() const { return node_xy_; }
   const std::vector<Rgb>& node_colours() const { return node_colour_; }
+  // The node each disc is, in the same order ("nodes" group's order).
+  const std::vector<DrawnNode>& drawn_nodes() const { return drawn_; }
   // The box of each component c (its frame; its nodes lie inside).
   const std::vector<PictureBox>& component_boxes() const { return component_box_; }
   double pixels_per_metre() const { return pixels_per_metre_; }
@@ -84,6 +110,15 @@ class MapPicture {
   // The radius of a node's disc and the colour behind everything, for readers of the pixels.
   static constexpr double kNodeRadiusPx = 3.5;
   static constexpr Rgb kBackground{255, 255, 255};
+  // kChange's node fills, for readers of the pictures (each is unlike every other colour of a
+  // kChange picture) and the square around a stand-in.
+  static constexpr Rgb kAddedNode{217, 72, 1};
+  static constexpr Rgb kUnchangedNode{163, 170, 178};
+  static constexpr Rgb kHiddenNode{234, 237, 240};
+  static constexpr Rgb kStandInMark{33, 102, 172};
+  // The nodes of each NodeChange (kChange; all kUnchanged otherwise), and the stand-ins marked.
+  std::size_t nodes_with(NodeChange change) const;
+  std::size_t stand_ins_marked() const { return stand_in_nodes_.size(); }
 
  private:
   struct EdgeLine {
@@ -95,12 +130,18 @@ class MapPicture {
   };
 
   void DrawLegend(Canvas& canvas) const;
+  void DrawChangeLegend(Canvas& canvas) const;
   void DrawScaleBar(Canvas& canvas) const;
 
   int width_px_ = 0, height_px_ = 0;
   std::string title_, subtitle_;
   std::vector<CanvasPoint> node_xy_;
   std::vector<Rgb> node_colour_;
+  std::vector<DrawnNode> drawn_;
+  std::vector<NodeChange> node_change_;
+  std::vector<std::size_t> stand_in_nodes_;  // node numbers, ascending
+  std::size_t omitted_nodes_ = 0;
+  std::string change_range_;
   std::vector<PictureBox> component_box_;
   std::vector<EdgeLine> metric_, path_;
   double pixels_per_metre_ = 0.0;

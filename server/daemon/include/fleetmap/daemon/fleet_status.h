@@ -7,6 +7,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <memory>
 #include <optional>
@@ -85,6 +86,25 @@ struct DreamStatus {
   double last_p_gap_exceeds = 0.0;
 };
 
+// What the status page draws of a revision: its map, or what it changed (render --diff R).
+enum class PictureKind { kMap, kChange };
+
+// A picture as the status server serves it: the SVG (map_picture.h) and, in the order of its
+// "nodes" group, what each disc is, as a JSON array of {"id", "robot" (its name when
+// registered), "outing", "captured" (UTC ISO time), "time_of_day" ("HH:MM" UTC), "revision"
+// (the one that added it)} — what the page shows of a node clicked.
+struct ServedPicture {
+  PictureKind kind = PictureKind::kMap;
+  std::int64_t revision = 0;
+  std::string svg;
+  std::string nodes_json;
+};
+
+// The picture of `kind` at `revision` when drawn; else null, after asking for it to be drawn
+// (off the caller's thread, so ask again in a moment).
+using PictureLookup =
+    std::function<std::shared_ptr<const ServedPicture>(PictureKind kind, std::int64_t revision)>;
+
 struct FleetStatus {
   std::int64_t now_ns = 0;      // when the snapshot was taken
   std::int64_t started_ns = 0;  // when the server started
@@ -104,6 +124,10 @@ struct FleetStatus {
   // lag head_revision while the next is drawn).
   std::shared_ptr<const std::string> head_picture_svg;
   std::int64_t picture_revision = -1;
+  std::shared_ptr<const std::string> head_picture_nodes;  // its ServedPicture::nodes_json
+  // Any revision's pictures (a channel's map, what a revision changed); unset: none but the
+  // head's map is served.
+  PictureLookup find_picture;
   // The latest revisions, newest first (at most kRecentRevisions), read with the picture.
   std::vector<RevisionRow> recent_revisions;
   static constexpr std::size_t kRecentRevisions = 20;

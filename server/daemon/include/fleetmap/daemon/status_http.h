@@ -2,13 +2,17 @@
 // (Boost.Beast) that shows a person and a Prometheus scraper what the sync server is doing.
 //
 // Routes (GET only; any other method is answered 405, any other path 404):
-//   GET /         the status page: self-contained HTML (status_page.h)
+//   GET /         the status page: self-contained HTML (status_page.h); ?r=R shows the map of
+//                 revision R, ?change=R what revision R changed
 //   GET /metrics  Prometheus text exposition format 0.0.4, metrics named fleetmap_*
 //                 (Content-Type "text/plain; version=0.0.4; charset=utf-8")
 //   GET /healthz  "ok"
 //   GET /map.svg  the picture of the head (FleetStatus::head_picture_svg, drawn once per
-//                 revision; 503 until the first is drawn), image/svg+xml
-// A query string is ignored for routing.
+//                 revision), or of revision R with ?r=R; image/svg+xml
+//   GET /map.json the same picture's nodes' facts (fleet_status.h ServedPicture)
+//   GET /change.svg, /change.json   what revision R (?r=R, default the head) changed
+// A picture not drawn yet is 503 with Retry-After (it is drawn off this thread: ask again).
+// The rest of a query string is ignored for routing.
 //
 // Who may read it: the page and /metrics name every robot, its UUID, channel and last error.
 // So, as the sync server refuses plain text off loopback, an address other than loopback is
@@ -27,7 +31,7 @@
 //
 // Threading: the server runs on its own io_context and one thread, started by the
 // constructor; each connection has its own strand. `status_source` is called on that thread,
-// once per request to /, /metrics or /map.svg, and must be thread-safe with respect to the sync
+// once per request to any path but /healthz, and must be thread-safe with respect to the sync
 // server (SyncServer::Status() is); if it throws, the request gets 500 with the message. Stop() and
 // the destructor may be called from any one thread other than the server's own.
 #pragma once

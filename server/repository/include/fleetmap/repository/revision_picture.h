@@ -8,6 +8,7 @@
 #pragma once
 
 #include <string>
+#include <unordered_map>
 
 #include "fleetmap/interchange/map_picture.h"
 #include "fleetmap/relaxation/relaxed_layout.h"
@@ -23,5 +24,32 @@ MapPicture ComposeRevisionPicture(Repository& repository, RevisionNumber r, Node
                                   LayoutKind layout = LayoutKind::kRelaxed,
                                   RelaxationReport* report = nullptr,
                                   const RelaxationOptions& relaxation = {});
+
+// The revision that added each node of the map at `r` (one query per revision up to r that
+// added nodes; a node not listed was written outside version control).
+std::unordered_map<Uuid, RevisionNumber> NodesAddedBy(Repository& repository, RevisionNumber r);
+
+// What the revisions after `from` up to `to` changed, counted as the picture of it shows them.
+struct RevisionDiff {
+  RevisionNumber from = 0, to = 0;
+  std::size_t added = 0;      // nodes at `to`, not at `from`
+  std::size_t hidden = 0;     // nodes at `from`, not at `to`
+  std::size_t unchanged = 0;  // nodes at both
+  // Nodes the merges in the range omitted (seed 004 §V-A) and the nodes standing in for them.
+  std::size_t omitted = 0, stand_ins = 0;
+};
+
+// The picture of what changed from `from` to `to` (NodeColouring::kChange): the nodes at `to`
+// and those `from` had that `to` hid, laid out together with the edges of both (so a hidden
+// node is drawn where it was), added nodes coloured, hidden ones faded, the nodes standing in
+// for nodes the range's merges omitted squared, the rest grey. `diff`, when given, gets the
+// counts. REQUIRES: from < to, both in the repository's history (else Error(kInvalidArgument)
+// or the store's kNotFound).
+MapPicture ComposeRevisionDiffPicture(Repository& repository, RevisionNumber from,
+                                      RevisionNumber to, const std::string& title,
+                                      LayoutKind layout = LayoutKind::kRelaxed,
+                                      RelaxationReport* report = nullptr,
+                                      RevisionDiff* diff = nullptr,
+                                      const RelaxationOptions& relaxation = {});
 
 }  // namespace fleetmap
