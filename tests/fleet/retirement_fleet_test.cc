@@ -469,7 +469,8 @@ TYPED_TEST(RetirementFleetTest, FleetmapdRetiresOnScheduleOnceAndSaysSo) {
     return false;
   };
   EXPECT_TRUE(page_shows("<td>retire</td><td></td><td>fleetmapd</td>")) << HttpGet(http, "/");
-  EXPECT_TRUE(page_shows("<td class=\"num\">" + std::to_string(retired) + "</td></tr>"))
+  EXPECT_TRUE(page_shows("<td class=\"num\">" + std::to_string(retired) +
+                         "</td><td><a class=\"change\" href=\"/?change=4\">"))
       << HttpGet(http, "/");
   this->Cli({"revert", "4"});
   EXPECT_TRUE(page_shows("<td>revert <span class=\"of\">restores revision 4</span></td>"))
