@@ -26,6 +26,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <optional>
+#include <set>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -526,8 +527,9 @@ TEST(StatusPageInChromiumTest, ShowsTheHeadsPictureAndHistoryAfterAPush) {
   GraphStore::Open(store);  // created and migrated before the robot is registered in it
   const testing::TestRobot robot = testing::RegisterRobot(store, "scout-1", scratch / "robot");
   testing::WriteLocalMap(robot, testing::RandomRobotMap(robot.id, 8, 5, 20));
-  testing::Fleetmapd server =
-      testing::StartFleetmapd(store, scratch / "fleetmapd.log", {"--http", "127.0.0.1:0"});
+  // Never relaxed here: the picture says its layout is composed.
+  testing::Fleetmapd server = testing::StartFleetmapd(
+      store, scratch / "fleetmapd.log", {"--http", "127.0.0.1:0", "--picture-relax-nodes", "0"});
   ASSERT_FALSE(server.address.empty());
   const std::optional<std::string> line =
       server.process->ReadLineContaining("http on", std::chrono::milliseconds(10'000));
@@ -554,6 +556,7 @@ TEST(StatusPageInChromiumTest, ShowsTheHeadsPictureAndHistoryAfterAPush) {
   }
   ASSERT_FALSE(svg.empty()) << "no picture of revision 1 within 20 s\n" << server.Log();
   EXPECT_EQ(Count(svg, "<circle"), 8u) << "one disc per node";
+  EXPECT_NE(svg.find("revision 1 (the head), composed layout"), std::string::npos) << svg;
 
   const std::string url = "http://127.0.0.1:" + std::to_string(port) + "/";
   const std::string dom = RunChromium(scratch, "--dump-dom", url);
@@ -658,6 +661,9 @@ TEST(StatusPageInChromiumTest, TheMapZoomsExplainsANodeShowsAChannelAndWhatARevi
   browser.Navigate(url);
   ASSERT_TRUE(browser.WaitFor(ready, std::chrono::seconds(30))) << fleet.server.Log();
   EXPECT_EQ(browser.Run("return document.getElementById('explorer').dataset.revision;"), "2");
+  EXPECT_NE(MustGet(fleet.port, "/map.svg").body().find("(the head), relaxed layout"),
+            std::string::npos)
+      << "relaxed by default";
 
   // Zoom: a button, then the wheel over the map; each changes the viewBox, narrower.
   const auto width = [](const nlohmann::json& box) {
@@ -746,7 +752,12 @@ TEST(StatusPageInChromiumTest, TheMapZoomsExplainsANodeShowsAChannelAndWhatARevi
   EXPECT_EQ(second.nodes_added, 6);
   EXPECT_EQ(filled(MapPicture::kHiddenNode), second.nodes_hidden);
   EXPECT_EQ(filled(MapPicture::kUnchangedNode), 8);
+  // The squares: one per node standing in for a node the merge omitted (its report's count).
+  std::set<Uuid> standing_in;
+  for (const NodeStandIn& s : repository->versions().StandInsOf(2)) standing_in.insert(s.stand_in);
   EXPECT_EQ(browser.Run("return document.querySelectorAll('#map #stand-ins rect').length;"),
+            standing_in.size());
+  EXPECT_EQ(nlohmann::json::parse(second.report).at("stand_ins"),
             repository->versions().StandInsOf(2).size());
 }
 

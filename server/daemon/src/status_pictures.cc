@@ -87,19 +87,21 @@ std::string NodesJson(const MapPicture& picture,
 
 std::shared_ptr<const ServedPicture> Draw(Repository& repository, PictureKind kind,
                                           RevisionNumber revision, RevisionNumber head,
-                                          const std::map<Uuid, std::string>& robot_names) {
+                                          const std::map<Uuid, std::string>& robot_names,
+                                          std::size_t relax_max_nodes) {
   // Relaxed, unless the map is too large to relax on a store thread in seconds.
   RelaxationOptions relaxation;
-  relaxation.max_nodes = kMaxRelaxedPictureNodes;
+  relaxation.max_nodes = relax_max_nodes;
+  const LayoutKind layout = relax_max_nodes == 0 ? LayoutKind::kComposed : LayoutKind::kRelaxed;
   const std::string name =
       "revision " + std::to_string(revision) + (revision == head ? " (the head)" : "");
   const MapPicture picture =
       kind == PictureKind::kMap
-          ? ComposeRevisionPicture(repository, revision, NodeColouring::kTimeOfDay, name,
-                                   LayoutKind::kRelaxed, nullptr, relaxation)
+          ? ComposeRevisionPicture(repository, revision, NodeColouring::kTimeOfDay, name, layout,
+                                   nullptr, relaxation)
           : ComposeRevisionDiffPicture(repository, revision - 1, revision,
-                                       "what " + name + " changed", LayoutKind::kRelaxed, nullptr,
-                                       nullptr, relaxation);
+                                       "what " + name + " changed", layout, nullptr, nullptr,
+                                       relaxation);
   SvgCanvas canvas(kind == PictureKind::kMap
                        ? "fleetmap: the map at revision " + std::to_string(revision)
                        : "fleetmap: what revision " + std::to_string(revision) + " changed");
@@ -145,7 +147,7 @@ bool StatusPictures::DrawHead(Repository& repository) {
   }
   const std::map<Uuid, std::string> robot_names = RobotNames(repository);
   std::shared_ptr<const ServedPicture> picture =
-      Draw(repository, PictureKind::kMap, head, head, robot_names);
+      Draw(repository, PictureKind::kMap, head, head, robot_names, relax_max_nodes_);
   std::vector<RevisionRow> history = RecentRevisions(repository, head, robot_names);
   MutexLock lock(mutex_);
   head_ = std::move(picture);
@@ -166,7 +168,8 @@ void StatusPictures::DrawAsked(Repository& repository) {
     }
     std::shared_ptr<const ServedPicture> picture;
     try {
-      picture = Draw(repository, next.kind, next.revision, head, RobotNames(repository));
+      picture = Draw(repository, next.kind, next.revision, head, RobotNames(repository),
+                     relax_max_nodes_);
     } catch (...) {
       MutexLock lock(mutex_);
       asked_.erase(asked_.begin());

@@ -6,9 +6,9 @@
 // the picture held, it reads the head's nodes without landmarks and its edges, lays them out and
 // writes SVG (about 80 bytes per node and per edge drawn) and the nodes' facts (about 250 bytes
 // a node). The layout is relaxed (fleetmap/relaxation/relaxed_layout.h) up to
-// kMaxRelaxedPictureNodes nodes, whose solve takes a few seconds of the worker
-// (tests/benchmarks/relaxation_benchmark.cc: 3-4 CPU-s at 10^4 nodes, growing faster than the
-// map); a larger map is drawn composed (time O(nodes + edges)) and its title says why. Then it
+// relax_max_nodes nodes (fleetmapd --picture-relax-nodes), whose solve takes a few seconds of the
+// worker (tests/benchmarks/relaxation_benchmark.cc: 3-4 CPU-s at 10^4 nodes, growing faster than
+// the map); a larger map is drawn composed (time O(nodes + edges)) and its title says why. Then it
 // draws the pictures asked for since (Find), at most kMaxAsked waiting at once, each costing what
 // the head's does, plus, for a change, the earlier revision's nodes when the change hid any.
 // At most kKept pictures besides the head's are held; the oldest asked goes first. At most one
@@ -30,11 +30,11 @@
 
 namespace fleetmap::daemon {
 
-// The largest map the status page relaxes: beyond it the picture is composed.
-inline constexpr std::size_t kMaxRelaxedPictureNodes = 10'000;
-
 class StatusPictures {
  public:
+  // Pictures of maps of more than `relax_max_nodes` nodes are composed, not relaxed.
+  explicit StatusPictures(std::size_t relax_max_nodes) : relax_max_nodes_(relax_max_nodes) {}
+
   static constexpr std::size_t kKept = 8;      // pictures held besides the head's map
   static constexpr std::size_t kMaxAsked = 4;  // asked for and not yet drawn
 
@@ -58,6 +58,7 @@ class StatusPictures {
   bool DrawHead(Repository& repository);
   void DrawAsked(Repository& repository);
 
+  const std::size_t relax_max_nodes_;
   mutable Mutex mutex_;
   bool drawing_ GUARDED_BY(mutex_) = false;
   std::int64_t drawn_ GUARDED_BY(mutex_) = -1;

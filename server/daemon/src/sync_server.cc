@@ -91,6 +91,7 @@ class SyncServer::Impl {
  public:
   explicit Impl(SyncServerOptions options)
       : options_(std::move(options)),
+        picture_(options_.picture_relax_max_nodes),
         cache_(options_.download_cache_bytes, options_.download_cache_entry_bytes),
         admission_(LimitsOf(options_)),
         robots_(daemon::RobotLimits{options_.max_sessions_per_robot,

@@ -102,6 +102,11 @@ struct SyncServerOptions {
   // download_cache_bytes together.
   std::uint64_t download_cache_bytes = std::uint64_t{256} << 20;
   std::uint64_t download_cache_entry_bytes = std::uint64_t{32} << 20;
+  // The status page's pictures are relaxed (fleetmap/relaxation/relaxed_layout.h) up to this many
+  // nodes and composed beyond (0: always composed). The relaxation runs on a store thread: about
+  // 3-4 s and little memory at 10^4 nodes, 80 s and 0.75 GB at 10^5
+  // (tests/benchmarks/relaxation_benchmark.cc).
+  std::size_t picture_relax_max_nodes = 10'000;
   // A streamed download is read, encoded and written about this many bytes at a time (two such
   // batches in memory per download at most).
   std::size_t download_batch_bytes = std::size_t{4} << 20;
