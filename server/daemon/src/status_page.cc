@@ -129,6 +129,7 @@ constexpr const char* kExplorerScript = R"js(
   function load(tries) {
     fetch(base + '.svg?r=' + revision).then(function (response) {
       if (response.status === 503 && tries < 120) {
+        figure.textContent = 'The picture of revision ' + revision + ' is being drawn.';
         setTimeout(function () { load(tries + 1); }, 1000);
         return null;
       }
