@@ -647,49 +647,39 @@ ExploredFleet StartExploredFleet(const ScratchDir& scratch) {
 // robot, time of day and revision as the store has them, the channel's link shows the
 // channel's revision, and a history row's link shows what its revision changed, counted as
 // the revision's merge recorded it.
-TEST(StatusPageInChromiumTest, TheMapZoomsExplainsANodeShowsAChannelAndWhatARevisionChanged) {
-  ScratchDir scratch("fleetmap-status-explore");
-  ExploredFleet fleet = StartExploredFleet(scratch);
-  ASSERT_NE(fleet.port, 0) << fleet.server.Log();
-  const std::unique_ptr<Repository> repository = Repository::Open(fleet.store);
-  ASSERT_EQ(repository->Head(), 2) << fleet.server.Log();
-  const std::string url = "http://127.0.0.1:" + std::to_string(fleet.port) + "/";
-  testing::ChromeDriverSession browser(scratch);
-  const std::string ready =
-      "const m = document.getElementById('map'); return !!m && m.dataset.ready !== undefined;";
-  const std::string view_box = "return document.querySelector('#map svg').getAttribute('viewBox');";
-  browser.Navigate(url);
-  ASSERT_TRUE(browser.WaitFor(ready, std::chrono::seconds(30))) << fleet.server.Log();
-  EXPECT_EQ(browser.Run("return document.getElementById('explorer').dataset.revision;"), "2");
-  EXPECT_NE(MustGet(fleet.port, "/map.svg").body().find("(the head), relaxed layout"),
-            std::string::npos)
-      << "relaxed by default";
+constexpr const char* kMapReady =
+    "const m = document.getElementById('map'); return !!m && m.dataset.ready !== undefined;";
 
-  // Zoom: a button, then the wheel over the map; each changes the viewBox, narrower.
-  const auto width = [](const nlohmann::json& box) {
-    std::istringstream in(box.get<std::string>());
-    double x = 0, y = 0, w = 0;
-    in >> x >> y >> w;
-    return w;
-  };
+// The width of an SVG viewBox ("x y w h").
+double ViewBoxWidth(const nlohmann::json& box) {
+  std::istringstream in(box.get<std::string>());
+  double x = 0, y = 0, w = 0;
+  in >> x >> y >> w;
+  return w;
+}
+
+// Zoom: a button, then the wheel over the map; each changes the viewBox, narrower; reset.
+void ExpectTheMapZooms(testing::ChromeDriverSession& browser) {
+  const std::string view_box = "return document.querySelector('#map svg').getAttribute('viewBox');";
   const nlohmann::json whole = browser.Run(view_box);
   browser.Click("#zoom-in");
   const nlohmann::json zoomed = browser.Run(view_box);
   EXPECT_NE(zoomed, whole);
-  EXPECT_LT(width(zoomed), width(whole) * 0.9);
+  EXPECT_LT(ViewBoxWidth(zoomed), ViewBoxWidth(whole) * 0.9);
   browser.Wheel("#map svg", -300);
   ASSERT_TRUE(browser.WaitFor(
       "return document.querySelector('#map svg').getAttribute('viewBox') !== " + zoomed.dump() +
           ";",
       std::chrono::seconds(5)));
-  EXPECT_LT(width(browser.Run(view_box)), width(zoomed) * 0.9);
+  EXPECT_LT(ViewBoxWidth(browser.Run(view_box)), ViewBoxWidth(zoomed) * 0.9);
   browser.Click("#zoom-reset");
-  EXPECT_EQ(width(browser.Run(view_box)), width(whole));
+  EXPECT_EQ(ViewBoxWidth(browser.Run(view_box)), ViewBoxWidth(whole));
+}
 
-  // A node's facts on a click: the last disc, as the store has that node.
-  const nlohmann::json discs =
-      browser.Run("return document.querySelectorAll('#map #nodes circle').length;");
-  ASSERT_EQ(discs, 14);
+// A node's facts on a click on the last disc, as the store has that node.
+void ExpectAClickedNodesFacts(testing::ChromeDriverSession& browser, Repository& repository,
+                              const std::string& robot_name) {
+  ASSERT_EQ(browser.Run("return document.querySelectorAll('#map #nodes circle').length;"), 14);
   browser.Click("#map #nodes circle:last-of-type");
   ASSERT_TRUE(browser.WaitFor("return !!document.getElementById('node-details').dataset.node;",
                               std::chrono::seconds(5)));
@@ -703,11 +693,11 @@ TEST(StatusPageInChromiumTest, TheMapZoomsExplainsANodeShowsAChannelAndWhatARevi
         .get<std::string>();
   };
   std::optional<Node> node;
-  for (const Node& n : repository->versions().NodesAt(2, false)) {
+  for (const Node& n : repository.versions().NodesAt(2, false)) {
     if (n.id == clicked) node = n;
   }
   ASSERT_TRUE(node.has_value()) << clicked.ToString();
-  EXPECT_EQ(field("robot"), fleet.robot_name);
+  EXPECT_EQ(field("robot"), robot_name);
   EXPECT_EQ(field("outing"), node->outing.ToString());
   const std::time_t captured = static_cast<std::time_t>(node->stamp_ns / 1'000'000'000);
   std::tm utc{};
@@ -716,7 +706,53 @@ TEST(StatusPageInChromiumTest, TheMapZoomsExplainsANodeShowsAChannelAndWhatARevi
   std::strftime(iso, sizeof iso, "%Y-%m-%dT%H:%M:%SZ", &utc);
   EXPECT_EQ(field("captured"), iso);
   EXPECT_EQ(field("time of day"), std::string(iso).substr(11, 5) + " UTC");
-  EXPECT_EQ(field("revision"), "r" + std::to_string(NodesAddedBy(*repository, 2).at(clicked)));
+  EXPECT_EQ(field("revision"), "r" + std::to_string(NodesAddedBy(repository, 2).at(clicked)));
+}
+
+// What revision 2 changed, from its history row: its added nodes coloured, as many as its
+// merge recorded, none hidden, the rest grey, its stand-ins squared.
+void ExpectRevisionTwosChange(testing::ChromeDriverSession& browser, Repository& repository) {
+  browser.Click("#history a.change[href=\"/?change=2\"]");
+  ASSERT_TRUE(browser.WaitFor(
+      "const e = document.getElementById('explorer'); return !!e && e.dataset.kind === 'change' "
+      "&& document.getElementById('map').dataset.ready !== undefined;",
+      std::chrono::seconds(30)));
+  const Revision second = *repository.inspect().FindRevision(2);
+  const auto filled = [&](Rgb colour) {
+    char hex[8];
+    std::snprintf(hex, sizeof hex, "#%02x%02x%02x", colour.r, colour.g, colour.b);
+    return browser.Run("return document.querySelectorAll('#map #nodes circle[fill=\"" +
+                       std::string(hex) + "\"]').length;");
+  };
+  EXPECT_EQ(filled(MapPicture::kAddedNode), second.nodes_added);
+  EXPECT_EQ(second.nodes_added, 6);
+  EXPECT_EQ(filled(MapPicture::kHiddenNode), second.nodes_hidden);
+  EXPECT_EQ(filled(MapPicture::kUnchangedNode), 8);
+  // The squares: one per node standing in for a node the merge omitted (its report's count).
+  std::set<Uuid> standing_in;
+  for (const NodeStandIn& s : repository.versions().StandInsOf(2)) standing_in.insert(s.stand_in);
+  EXPECT_EQ(browser.Run("return document.querySelectorAll('#map #stand-ins rect').length;"),
+            standing_in.size());
+  EXPECT_EQ(nlohmann::json::parse(second.report).at("stand_ins"),
+            repository.versions().StandInsOf(2).size());
+}
+
+TEST(StatusPageInChromiumTest, TheMapZoomsExplainsANodeShowsAChannelAndWhatARevisionChanged) {
+  ScratchDir scratch("fleetmap-status-explore");
+  ExploredFleet fleet = StartExploredFleet(scratch);
+  ASSERT_NE(fleet.port, 0) << fleet.server.Log();
+  const std::unique_ptr<Repository> repository = Repository::Open(fleet.store);
+  ASSERT_EQ(repository->Head(), 2) << fleet.server.Log();
+  const std::string url = "http://127.0.0.1:" + std::to_string(fleet.port) + "/";
+  testing::ChromeDriverSession browser(scratch);
+  browser.Navigate(url);
+  ASSERT_TRUE(browser.WaitFor(kMapReady, std::chrono::seconds(30))) << fleet.server.Log();
+  EXPECT_EQ(browser.Run("return document.getElementById('explorer').dataset.revision;"), "2");
+  EXPECT_NE(MustGet(fleet.port, "/map.svg").body().find("(the head), relaxed layout"),
+            std::string::npos)
+      << "relaxed by default";
+  ExpectTheMapZooms(browser);
+  ExpectAClickedNodesFacts(browser, *repository, fleet.robot_name);
 
   // A channel's map: its link shows revision 1, the first push's 8 nodes.
   browser.Click("#explorer nav a[href=\"/?r=1\"]");
@@ -731,34 +767,9 @@ TEST(StatusPageInChromiumTest, TheMapZoomsExplainsANodeShowsAChannelAndWhatARevi
                 .find("revision 1"),
             std::string::npos);
 
-  // What revision 2 changed, from its history row: its added nodes coloured, as many as its
-  // merge recorded (and the history row says), none hidden, its stand-ins squared.
   browser.Navigate(url);
-  ASSERT_TRUE(browser.WaitFor(ready, std::chrono::seconds(30)));
-  browser.Click("#history a.change[href=\"/?change=2\"]");
-  ASSERT_TRUE(browser.WaitFor(
-      "const e = document.getElementById('explorer'); return !!e && e.dataset.kind === 'change' "
-      "&& document.getElementById('map').dataset.ready !== undefined;",
-      std::chrono::seconds(30)))
-      << fleet.server.Log();
-  const Revision second = *repository->inspect().FindRevision(2);
-  const auto filled = [&](Rgb colour) {
-    char hex[8];
-    std::snprintf(hex, sizeof hex, "#%02x%02x%02x", colour.r, colour.g, colour.b);
-    return browser.Run("return document.querySelectorAll('#map #nodes circle[fill=\"" +
-                       std::string(hex) + "\"]').length;");
-  };
-  EXPECT_EQ(filled(MapPicture::kAddedNode), second.nodes_added);
-  EXPECT_EQ(second.nodes_added, 6);
-  EXPECT_EQ(filled(MapPicture::kHiddenNode), second.nodes_hidden);
-  EXPECT_EQ(filled(MapPicture::kUnchangedNode), 8);
-  // The squares: one per node standing in for a node the merge omitted (its report's count).
-  std::set<Uuid> standing_in;
-  for (const NodeStandIn& s : repository->versions().StandInsOf(2)) standing_in.insert(s.stand_in);
-  EXPECT_EQ(browser.Run("return document.querySelectorAll('#map #stand-ins rect').length;"),
-            standing_in.size());
-  EXPECT_EQ(nlohmann::json::parse(second.report).at("stand_ins"),
-            repository->versions().StandInsOf(2).size());
+  ASSERT_TRUE(browser.WaitFor(kMapReady, std::chrono::seconds(30)));
+  ExpectRevisionTwosChange(browser, *repository);
 }
 
 }  // namespace
