@@ -66,6 +66,12 @@ class HostileTextTest : public ::testing::Test {
 };
 TYPED_TEST_SUITE(HostileTextTest, StoreBackends, BackendNames);
 
+// The status page holds its own inline script and no other: nothing a robot said became one.
+bool HasOnlyItsOwnScript(const std::string& page) {
+  const std::size_t script = page.find("<script");
+  return script != std::string::npos && page.find("<script", script + 1) == std::string::npos;
+}
+
 TYPED_TEST(HostileTextTest, EveryOutputOfARobotsTextsIsValidAndOneLinePerRecord) {
   const std::string uri = this->backend_.Uri();
   GraphStore::Open(uri);
@@ -154,11 +160,7 @@ TYPED_TEST(HostileTextTest, EveryOutputOfARobotsTextsIsValidAndOneLinePerRecord)
     EXPECT_TRUE(IsValidUtf8(page));
     EXPECT_EQ(page.find("\u202e"), std::string::npos);
     EXPECT_EQ(page.find("\u0085"), std::string::npos);
-    // The page's own inline script and nothing a robot said.
-    const std::size_t script = page.find("<script>");
-    ASSERT_NE(script, std::string::npos);
-    EXPECT_EQ(page.find("<script", script + 1), std::string::npos);
-    EXPECT_EQ(page.rfind("<script", script - 1), std::string::npos);
+    EXPECT_TRUE(HasOnlyItsOwnScript(page));
   }
   // The log: one line per record, all of it valid UTF-8.
   const std::string log = server.Log();
