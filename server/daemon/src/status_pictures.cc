@@ -106,11 +106,8 @@ std::shared_ptr<const ServedPicture> Draw(Repository& repository, PictureKind ki
                        ? "fleetmap: the map at revision " + std::to_string(revision)
                        : "fleetmap: what revision " + std::to_string(revision) + " changed");
   picture.Draw(canvas);
-  std::unordered_map<Uuid, RevisionNumber> added = NodesAddedBy(repository, revision);
-  if (kind == PictureKind::kChange) {
-    // The nodes it hid were added before it.
-    for (const auto& [node, by] : NodesAddedBy(repository, revision - 1)) added.emplace(node, by);
-  }
+  // Every node added up to `revision`, so also those a change hid (added before it).
+  const std::unordered_map<Uuid, RevisionNumber> added = NodesAddedBy(repository, revision);
   auto served = std::make_shared<ServedPicture>();
   served->kind = kind;
   served->revision = revision;
@@ -139,11 +136,11 @@ void StatusPictures::Refresh(Repository& repository) {
   }
 }
 
-bool StatusPictures::DrawHead(Repository& repository) {
+void StatusPictures::DrawHead(Repository& repository) {
   const RevisionNumber head = repository.Head();
   {
     MutexLock lock(mutex_);
-    if (head == drawn_) return false;
+    if (head == drawn_) return;
   }
   const std::map<Uuid, std::string> robot_names = RobotNames(repository);
   std::shared_ptr<const ServedPicture> picture =
@@ -153,7 +150,6 @@ bool StatusPictures::DrawHead(Repository& repository) {
   head_ = std::move(picture);
   history_ = std::move(history);
   drawn_ = head;
-  return true;
 }
 
 void StatusPictures::DrawAsked(Repository& repository) {

@@ -55,7 +55,7 @@ class StatusPictures {
     PictureKind kind;
     std::int64_t revision;
   };
-  bool DrawHead(Repository& repository);
+  void DrawHead(Repository& repository);
   void DrawAsked(Repository& repository);
 
   const std::size_t relax_max_nodes_;

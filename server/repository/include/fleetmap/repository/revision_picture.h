@@ -25,8 +25,8 @@ MapPicture ComposeRevisionPicture(Repository& repository, RevisionNumber r, Node
                                   RelaxationReport* report = nullptr,
                                   const RelaxationOptions& relaxation = {});
 
-// The revision that added each node of the map at `r` (one query per revision up to r that
-// added nodes; a node not listed was written outside version control).
+// The revision that added each node added up to `r`, also those hidden since (one query per
+// revision up to r that added nodes; a node not listed was written outside version control).
 std::unordered_map<Uuid, RevisionNumber> NodesAddedBy(Repository& repository, RevisionNumber r);
 
 // What the revisions after `from` up to `to` changed, counted as the picture of it shows them.
