@@ -12,7 +12,6 @@
 #include <memory>
 #include <opencv2/core.hpp>
 #include <opencv2/features2d.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <optional>
 #include <string>
 #include <vector>
@@ -21,6 +20,7 @@
 #include "fleetmap/conditions/apply_condition.h"
 #include "fleetmap/conditions/condition_schedule.h"
 #include "fleetmap/core/error.h"
+#include "fleetmap/images/image_codec.h"
 #include "fleetmap/stereo/euroc_sequence.h"
 #include "fleetmap/stereo/stereo_front_end.h"
 #include "fleetmap/stereo/stereo_sequence.h"
@@ -28,6 +28,14 @@
 
 namespace fleetmap::cli {
 namespace {
+
+// One picture of the report, as a PNG file; Error(kBackend) naming it when it cannot be written.
+void WritePngFile(const std::filesystem::path& file, const cv::Mat& pixels) {
+  const std::string png = EncodePng(pixels);
+  std::ofstream out(file, std::ios::binary | std::ios::trunc);
+  out.write(png.data(), static_cast<std::streamsize>(png.size()));
+  if (!out.flush()) throw Error(ErrorCode::kBackend, "cannot write " + file.string());
+}
 
 struct ConditionsArgs {
   // Where the shared data sits beside a checkout (docs/experiments.md).
@@ -136,7 +144,7 @@ std::vector<ConditionRow> RenderConditions(const ConditionsArgs& args,
   original.name = "recording";
   original.hour = "-";
   original.png = "recording.png";
-  cv::imwrite((std::filesystem::path(args.out_dir) / original.png).string(), recorded.left);
+  WritePngFile(std::filesystem::path(args.out_dir) / original.png, recorded.left);
   rows.push_back(original);
   for (const double hour : args.hours) {
     for (const std::string& weather_name : args.weathers) {
@@ -154,7 +162,7 @@ std::vector<ConditionRow> RenderConditions(const ConditionsArgs& args,
       row.extinction_per_m = c.haze.extinction_per_m;
       row.glare_peak = c.glare.peak;
       row.png = "cond-" + row.hour + "h-" + weather_name + ".png";
-      cv::imwrite((std::filesystem::path(args.out_dir) / row.png).string(), images.left);
+      WritePngFile(std::filesystem::path(args.out_dir) / row.png, images.left);
       rows.push_back(row);
     }
   }

@@ -11,7 +11,6 @@
 #include <fstream>
 #include <map>
 #include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <set>
 
 #include "fleetmap/interchange/graph_layout.h"
@@ -20,6 +19,7 @@
 #include "fleetmap/repository/revision_picture.h"
 #include "fleetmap/store/graph_store.h"
 #include "fleetmap_cli_run.h"
+#include "image_files.h"
 #include "scratch_dir.h"
 #include "store_backends.h"
 #include "surveyed_map.h"
@@ -153,7 +153,7 @@ class CliRenderTest : public testing::FleetmapCliTest {
     EXPECT_TRUE(Contains(png_run.out, "rendered revision 3 of ")) << png_run.out;
     EXPECT_TRUE(Contains(png_run.out, "12 nodes, 3 components")) << png_run.out;
     EXPECT_FALSE(std::filesystem::exists(png_file.string() + ".tmp"));
-    const cv::Mat image = cv::imread(png_file.string(), cv::IMREAD_COLOR);
+    const cv::Mat image = testing::ReadImageFile(png_file, ImagePixels::kBgr8);
     ASSERT_FALSE(image.empty()) << "the PNG does not decode";
     EXPECT_EQ(image.cols, picture.width_px());
     EXPECT_EQ(image.rows, picture.height_px());
@@ -318,7 +318,7 @@ TEST_F(CliRenderTest, ASymbolicLinkAtTheStagingNameIsNeverWrittenThrough) {
     EXPECT_FALSE(std::filesystem::exists(staging));
     EXPECT_GT(std::filesystem::file_size(out), 100u);
   }
-  EXPECT_FALSE(cv::imread((dir_ / "map.png").string()).empty());
+  EXPECT_FALSE(testing::ReadImageFile(dir_ / "map.png", ImagePixels::kBgr8).empty());
   EXPECT_EQ(ReadWholeFile(victim), "precious\n");
 }
 

@@ -24,7 +24,6 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <optional>
 #include <set>
 #include <sstream>
@@ -42,6 +41,7 @@
 #include "fleetmap/repository/repository.h"
 #include "fleetmap/repository/revision_picture.h"
 #include "headless_chromium.h"
+#include "image_files.h"
 #include "random_robot_map.h"
 #include "scratch_dir.h"
 
@@ -487,7 +487,7 @@ TEST_F(StatusHttpTest, ChromiumRendersAPageThatIsNotBlank) {
   if (const char* keep = std::getenv("FLEETMAP_STATUS_PAGE_PNG")) {
     std::filesystem::copy_file(png, keep, std::filesystem::copy_options::overwrite_existing);
   }
-  const cv::Mat gray = cv::imread(png.string(), cv::IMREAD_GRAYSCALE);
+  const cv::Mat gray = testing::ReadImageFile(png, ImagePixels::kGray8);
   ASSERT_FALSE(gray.empty()) << "the screenshot does not decode: " << png;
   EXPECT_EQ(gray.cols, 1200);
   EXPECT_EQ(gray.rows, 800);
@@ -576,7 +576,7 @@ TEST(StatusPageInChromiumTest, ShowsTheHeadsPictureAndHistoryAfterAPush) {
   // shows coloured nodes (the rest of the picture is white and greys).
   const auto page_png = scratch / "page.png";
   RunChromium(scratch, "--screenshot=" + page_png.string(), url);
-  const cv::Mat page = cv::imread(page_png.string(), cv::IMREAD_GRAYSCALE);
+  const cv::Mat page = testing::ReadImageFile(page_png, ImagePixels::kGray8);
   ASSERT_FALSE(page.empty()) << "the screenshot does not decode: " << page_png;
   std::vector<int> histogram(256, 0);
   for (int y = 0; y < page.rows; ++y) {
@@ -585,7 +585,7 @@ TEST(StatusPageInChromiumTest, ShowsTheHeadsPictureAndHistoryAfterAPush) {
   EXPECT_GT(std::count_if(histogram.begin(), histogram.end(), [](int n) { return n > 0; }), 32);
   const auto map_png = scratch / "map.png";
   RunChromium(scratch, "--screenshot=" + map_png.string(), url + "map.svg");
-  const cv::Mat map = cv::imread(map_png.string(), cv::IMREAD_COLOR);
+  const cv::Mat map = testing::ReadImageFile(map_png, ImagePixels::kBgr8);
   ASSERT_FALSE(map.empty()) << "the screenshot does not decode: " << map_png;
   int coloured = 0;
   for (int y = 0; y < map.rows; ++y) {

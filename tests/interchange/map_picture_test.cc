@@ -6,8 +6,8 @@
 #include <gtest/gtest.h>
 
 #include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
 
+#include "fleetmap/images/image_codec.h"
 #include "fleetmap/interchange/graph_layout.h"
 #include "fleetmap/interchange/svg_canvas.h"
 #include "fleetmap/raster/png_canvas.h"
@@ -125,9 +125,7 @@ TEST(MapPictureTest, SvgAndPngDrawTheSamePicture) {
   PngCanvas png_canvas;
   picture.Draw(png_canvas);
   const std::string png = png_canvas.EncodePng();
-  const cv::Mat image =
-      cv::imdecode(cv::Mat(1, static_cast<int>(png.size()), CV_8UC1, const_cast<char*>(png.data())),
-                   cv::IMREAD_COLOR);
+  const cv::Mat image = DecodeImage(png, ImagePixels::kBgr8, "the map picture");
   ASSERT_FALSE(image.empty());
   EXPECT_EQ(image.cols, picture.width_px());
   EXPECT_EQ(image.rows, picture.height_px());

@@ -24,13 +24,13 @@
 #include <iostream>
 #include <map>
 #include <numeric>
-#include <opencv2/imgcodecs.hpp>
 #include <string>
 #include <vector>
 
 #include "expect_error.h"
 #include "fleetmap/rosbag/recording_reader.h"
 #include "fleetmap/rosbag/ros2_sensor_msgs.h"
+#include "image_files.h"
 #include "mcap_test_files.h"
 #include "peak_memory.h"
 #include "scratch_dir.h"
@@ -91,7 +91,8 @@ std::string ExpectedImageData(const json& m) {
     for (const int v : m.at("pixels").get<std::vector<int>>()) out += static_cast<char>(v);
     return out;
   }
-  const cv::Mat pixels = cv::imread(m.at("png").get<std::string>(), cv::IMREAD_GRAYSCALE);
+  const cv::Mat pixels =
+      testing::ReadImageFile(m.at("png").get<std::string>(), ImagePixels::kGray8);
   const auto step = m.at("step").get<std::size_t>();
   std::string out(step * pixels.rows, '\xEE');
   for (int r = 0; r < pixels.rows; ++r) {

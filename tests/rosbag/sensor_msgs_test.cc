@@ -6,11 +6,11 @@
 
 #include <gtest/gtest.h>
 
-#include <opencv2/imgcodecs.hpp>
 #include <string>
 #include <vector>
 
 #include "expect_error.h"
+#include "fleetmap/images/image_codec.h"
 #include "ros_test_bag.h"
 
 namespace fleetmap {
@@ -77,8 +77,7 @@ TEST(RosSensorMsgs, CompressedImageComesBackFieldByField) {
   m.format = "mono8; png compressed mono8";
   cv::Mat pixels(6, 8, CV_8UC1);
   cv::randu(pixels, 0, 255);
-  std::vector<unsigned char> png;
-  ASSERT_TRUE(cv::imencode(".png", pixels, png));
+  const std::string png = EncodePng(pixels);
   m.data.assign(png.begin(), png.end());
   const std::string bytes = SerialiseWithRos(m);
   const RosCompressedImage image = DecodeRosCompressedImage(bytes);

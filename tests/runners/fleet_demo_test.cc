@@ -10,7 +10,6 @@
 #include <cstdio>
 #include <fstream>
 #include <nlohmann/json.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <set>
 
 #include "fleetmap/interchange/map_picture.h"
@@ -19,6 +18,7 @@
 #include "fleetmap/store/graph_store.h"
 #include "fleetmap/store/version_store.h"
 #include "fleetmap_cli_run.h"
+#include "image_files.h"
 #include "scratch_dir.h"
 #include "xml_reader.h"
 
@@ -166,7 +166,7 @@ TEST(FleetDemo, TwoRobotsShareWhatTheyLearnAndTheServerStopsCleanly) {
   const std::vector<std::string> args = {"render", "--store", uri, "--out", png.string()};
   const testing::CliRun render = testing::RunFleetmapCli(dir.path(), args);
   ASSERT_EQ(render.exit_code, 0) << testing::DescribeCliRun(args, render);
-  const cv::Mat image = cv::imread(png.string(), cv::IMREAD_COLOR);
+  const cv::Mat image = testing::ReadImageFile(png, ImagePixels::kBgr8);
   ASSERT_FALSE(image.empty()) << "the PNG does not decode";
   const std::unique_ptr<Repository> repository = Repository::Open(uri);
   const MapPicture picture =

@@ -8,13 +8,13 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
-#include <opencv2/imgcodecs.hpp>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "euroc_test_data.h"
 #include "expect_error.h"
+#include "image_files.h"
 #include "scratch_dir.h"
 #include "synthetic_euroc.h"
 
@@ -192,7 +192,7 @@ TEST_F(EurocSequenceTest, NoImagesListed) {
 TEST_F(EurocSequenceTest, ReadMonoImageDecodesToGrey) {
   const cv::Mat image = ReadMonoImage(folder_.Image(0, 2), kEurocWidthPx, kEurocHeightPx);
   ASSERT_EQ(image.type(), CV_8UC1);
-  const cv::Mat written = cv::imread(folder_.Image(0, 2).string(), cv::IMREAD_UNCHANGED);
+  const cv::Mat written = testing::ReadImageFile(folder_.Image(0, 2), ImagePixels::kAsStored);
   EXPECT_EQ(cv::norm(image, written, cv::NORM_INF), 0.0);
   // The same from bytes in memory.
   const cv::Mat decoded = DecodeMonoImage(testing::ReadFileBytes(folder_.Image(0, 2)), "pair 2",
@@ -202,8 +202,8 @@ TEST_F(EurocSequenceTest, ReadMonoImageDecodesToGrey) {
 
 TEST_F(EurocSequenceTest, ColourImagesBecomeGrey) {
   const fs::path file = scratch_ / "colour.png";
-  cv::imwrite(file.string(),
-              cv::Mat(kEurocHeightPx, kEurocWidthPx, CV_8UC3, cv::Scalar(10, 200, 30)));
+  testing::WritePngFile(file,
+                        cv::Mat(kEurocHeightPx, kEurocWidthPx, CV_8UC3, cv::Scalar(10, 200, 30)));
   const cv::Mat image = ReadMonoImage(file, kEurocWidthPx, kEurocHeightPx);
   EXPECT_EQ(image.type(), CV_8UC1);
   EXPECT_GT(image.at<unsigned char>(0, 0), 100);  // mostly green: a bright grey

@@ -20,6 +20,8 @@
 #include "fleetmap/stereo/stereo_image_log.h"
 #include "fleetmap/store/graph_store.h"
 #include "fleetmap_cli_run.h"
+#include "image_files.h"
+#include "jpeg_test_file.h"
 #include "kitti_test_data.h"
 #include "scratch_dir.h"
 #include "synthetic_euroc.h"
@@ -117,7 +119,7 @@ TEST_F(ImageIngestTest, WritesOneRecordPerPairAndIndexesIt) {
     EXPECT_EQ(pair.left_image(), ReadFileBytes(folder_.Image(0, i)));
     EXPECT_EQ(pair.right_image(), ReadFileBytes(folder_.Image(1, i)));
     const cv::Mat left = DecodeMonoImage(pair.left_image(), "left", kEurocWidthPx, kEurocHeightPx);
-    const cv::Mat source = cv::imread(folder_.Image(0, i).string(), cv::IMREAD_UNCHANGED);
+    const cv::Mat source = testing::ReadImageFile(folder_.Image(0, i), ImagePixels::kAsStored);
     EXPECT_EQ(cv::norm(left, source, cv::NORM_INF), 0.0);
   }
 
@@ -177,9 +179,9 @@ TEST_F(ImageIngestTest, WrongSizeImageLeavesNothing) {
 }
 
 TEST_F(ImageIngestTest, NonPngImageLeavesNothing) {
-  cv::imwrite((scratch_ / "frame.bmp").string(),
-              cv::Mat(kEurocHeightPx, kEurocWidthPx, CV_8UC1, cv::Scalar(7)));
-  fs::copy_file(scratch_ / "frame.bmp", folder_.Image(0, 1), fs::copy_options::overwrite_existing);
+  testing::WriteFileBytes(
+      folder_.Image(0, 1),
+      testing::EncodeJpegForTest(cv::Mat(kEurocHeightPx, kEurocWidthPx, CV_8UC1, cv::Scalar(7))));
   ExpectIngestFailsCleanly(ErrorCode::kInvalidArgument, "is not a PNG");
 }
 

@@ -17,7 +17,6 @@
 #include <fstream>
 #include <iostream>
 #include <map>
-#include <opencv2/imgcodecs.hpp>
 #include <string>
 #include <vector>
 
@@ -28,6 +27,7 @@
 #include "fleetmap/stereo/stereo_calibration.h"
 #include "fleetmap/stereo/stereo_image_log.h"
 #include "fleetmap_cli_run.h"
+#include "image_files.h"
 #include "imported_files.h"
 #include "mcap_test_files.h"
 #include "scratch_dir.h"
@@ -43,9 +43,7 @@ using testing::WrittenMcapFiles;
 
 // A stereo log's PNG as the packed mono8 pixels it holds.
 std::string PngPixels(const std::string& png) {
-  const cv::Mat m =
-      cv::imdecode(cv::Mat(1, static_cast<int>(png.size()), CV_8UC1, const_cast<char*>(png.data())),
-                   cv::IMREAD_UNCHANGED);
+  const cv::Mat m = DecodeImage(png, ImagePixels::kAsStored, "a stereo log's PNG");
   std::string out;
   for (int r = 0; r < m.rows; ++r) out.append(m.ptr<char>(r), m.cols * m.elemSize());
   return out;
@@ -53,7 +51,7 @@ std::string PngPixels(const std::string& png) {
 
 // The packed pixels of the EuRoC frame an Image message was written from.
 std::string FramePixels(const json& image) {
-  const cv::Mat m = cv::imread(image.at("png").get<std::string>(), cv::IMREAD_GRAYSCALE);
+  const cv::Mat m = testing::ReadImageFile(image.at("png").get<std::string>(), ImagePixels::kGray8);
   std::string out;
   for (int r = 0; r < m.rows; ++r) out.append(m.ptr<char>(r), m.cols);
   return out;

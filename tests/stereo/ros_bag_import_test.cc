@@ -20,7 +20,6 @@
 #include <fstream>
 #include <iostream>
 #include <map>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <string>
 #include <vector>
@@ -32,7 +31,9 @@
 #include "fleetmap/stereo/stereo_calibration.h"
 #include "fleetmap/stereo/stereo_image_log.h"
 #include "fleetmap_cli_run.h"
+#include "image_files.h"
 #include "imported_files.h"
+#include "jpeg_test_file.h"
 #include "peak_memory.h"
 #include "ros_test_bag.h"
 #include "scratch_dir.h"
@@ -55,7 +56,7 @@ std::vector<cv::Mat> EurocFrames(int camera) {
   }
   std::sort(files.begin(), files.end());
   for (std::size_t i = 0; i < 10 && i < files.size(); ++i) {
-    const cv::Mat full = cv::imread(files[i * 5].string(), cv::IMREAD_GRAYSCALE);
+    const cv::Mat full = testing::ReadImageFile(files[i * 5], ImagePixels::kGray8);
     frames.push_back(full(cv::Rect(full.cols / 2 - 48, full.rows / 2 - 32, 96, 64)).clone());
   }
   return frames;
@@ -63,9 +64,7 @@ std::vector<cv::Mat> EurocFrames(int camera) {
 
 // The PNG's pixels as the bag's bytes: rows packed, in the message's channel order.
 std::string PixelBytes(const std::string& png, const std::string& encoding) {
-  cv::Mat m =
-      cv::imdecode(cv::Mat(1, static_cast<int>(png.size()), CV_8UC1, const_cast<char*>(png.data())),
-                   cv::IMREAD_UNCHANGED);
+  cv::Mat m = DecodeImage(png, ImagePixels::kAsStored, "an imported PNG");
   if (encoding == "rgb8") cv::cvtColor(m, m, cv::COLOR_BGR2RGB);
   std::string out;
   for (int r = 0; r < m.rows; ++r) {
@@ -83,15 +82,14 @@ std::string Packed(const testing::TestImage& m, std::size_t bytes_per_pixel) {
 }
 
 // A sensor_msgs/CompressedImage as image_transport's compressed plugin makes one: `pixels` as
-// the file OpenCV encodes for `ext` (".png", ".jpg").
+// a PNG file (EncodePng) or a JPEG file (libjpeg's encoder), as `ext` says (".png", ".jpg").
 testing::TestCompressedImage CompressedImageMessage(const cv::Mat& pixels,
                                                     const std::string& format,
                                                     const std::string& ext, std::int64_t stamp_ns) {
   testing::TestCompressedImage m;
   m.stamp_ns = stamp_ns;
   m.format = format;
-  std::vector<unsigned char> file;
-  EXPECT_TRUE(cv::imencode(ext, pixels, file));
+  const std::string file = ext == ".jpg" ? testing::EncodeJpegForTest(pixels) : EncodePng(pixels);
   m.data.assign(file.begin(), file.end());
   return m;
 }
@@ -578,12 +576,10 @@ std::string PngDeclaring(std::uint32_t width, std::uint32_t height) {
          PngChunk("IDAT", zlib) + PngChunk("IEND", "");
 }
 
-// A real 8x8 grey JPEG (OpenCV's encoder) whose baseline frame header (SOF0) is made to declare
+// A real 8x8 grey JPEG (libjpeg's encoder) whose baseline frame header (SOF0) is made to declare
 // `width` x `height`: a few hundred bytes that libjpeg would decode into width x height pixels.
 std::string JpegDeclaring(std::uint16_t width, std::uint16_t height) {
-  std::vector<unsigned char> file;
-  EXPECT_TRUE(cv::imencode(".jpg", cv::Mat(8, 8, CV_8UC1, cv::Scalar(128)), file));
-  std::string jpeg(file.begin(), file.end());
+  std::string jpeg = testing::EncodeJpegForTest(cv::Mat(8, 8, CV_8UC1, cv::Scalar(128)));
   const std::size_t sof = jpeg.find("\xff\xc0");
   EXPECT_NE(sof, std::string::npos);
   EXPECT_EQ(jpeg.substr(sof + 4, 5), std::string("\x08\0\x08\0\x08", 5));  // 8 bits, 8x8
@@ -677,9 +673,7 @@ TYPED_TEST(RosBagImportTest, ImageBombsAreRefusedBeforeDecoding) {
   // A real PNG of 16x12 where the camera's CameraInfo, recorded before it, says 8x6.
   write([&](auto& c) {
     for (auto* infos : {&c.left_info, &c.right_info}) infos->front().header.stamp_ns -= 1'000'000;
-    std::vector<unsigned char> png;
-    ASSERT_TRUE(cv::imencode(".png", cv::Mat(12, 16, CV_8UC1, cv::Scalar(9)), png));
-    compressed(c, "png", std::string(png.begin(), png.end()));
+    compressed(c, "png", EncodePng(cv::Mat(12, 16, CV_8UC1, cv::Scalar(9))));
   });
   expect_refused_small(ErrorCode::kCorrupt,
                        {"topic /stereo/left/image_raw/compressed, message 1",

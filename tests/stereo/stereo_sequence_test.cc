@@ -21,6 +21,7 @@
 #include "euroc_test_data.h"
 #include "expect_error.h"
 #include "fleetmap/stereo/stereo_front_end.h"
+#include "image_files.h"
 #include "kitti_test_data.h"
 #include "scratch_dir.h"
 #include "synthetic_euroc.h"
@@ -401,8 +402,8 @@ class KittiRawTest : public ::testing::Test {
     for (int camera = 0; camera < 2; ++camera) {
       for (int i = 0; i < kPairs; ++i) {
         // Flat images: this reader only looks at their size.
-        cv::imwrite(Image(camera, i).string(),
-                    cv::Mat(height_px, width_px, CV_8UC1, cv::Scalar(40 * i + camera)));
+        testing::WritePngFile(Image(camera, i),
+                              cv::Mat(height_px, width_px, CV_8UC1, cv::Scalar(40 * i + camera)));
       }
     }
   }

@@ -15,11 +15,12 @@
 #include <filesystem>
 #include <fstream>
 #include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <optional>
 #include <string>
 #include <system_error>
 #include <vector>
+
+#include "image_files.h"
 
 namespace fleetmap::testing {
 
@@ -69,7 +70,7 @@ inline void WriteNoiseImage(const std::filesystem::path& file, int width_px, int
   cv::Mat image(height_px, width_px, CV_8UC1);
   cv::RNG rng(static_cast<std::uint64_t>(seed) + 1);
   rng.fill(image, cv::RNG::UNIFORM, 0, 256);
-  cv::imwrite(file.string(), image);
+  WritePngFile(file, image);
 }
 
 // Numbers as KITTI prints them ("7.070912000000e+02").

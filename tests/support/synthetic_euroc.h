@@ -9,23 +9,15 @@
 #include <fstream>
 #include <iterator>
 #include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <string>
 #include <vector>
+
+#include "image_files.h"
 
 namespace fleetmap::testing {
 
 inline constexpr int kEurocWidthPx = 752;
 inline constexpr int kEurocHeightPx = 480;
-
-inline std::string ReadFileBytes(const std::filesystem::path& file) {
-  std::ifstream in(file, std::ios::binary);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
-
-inline void WriteFileBytes(const std::filesystem::path& file, const std::string& bytes) {
-  std::ofstream(file, std::ios::binary | std::ios::trunc) << bytes;
-}
 
 class SyntheticEuroc {
  public:
@@ -60,7 +52,7 @@ class SyntheticEuroc {
     cv::Mat image(height_px, width_px, CV_8UC1);
     cv::RNG rng(static_cast<std::uint64_t>(seed) + 1);
     rng.fill(image, cv::RNG::UNIFORM, 0, 256);
-    cv::imwrite(file.string(), image);
+    WritePngFile(file, image);
   }
 
   const std::filesystem::path& dir() const { return dir_; }

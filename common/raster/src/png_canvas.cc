@@ -2,11 +2,11 @@
 
 #include <cmath>
 #include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <vector>
 
 #include "fleetmap/core/error.h"
+#include "fleetmap/images/image_codec.h"
 
 namespace fleetmap {
 namespace {
@@ -87,11 +87,8 @@ void PngCanvas::Text(CanvasPoint baseline, std::string_view text, double height_
 void PngCanvas::End() {}
 
 std::string PngCanvas::EncodePng() const {
-  std::vector<unsigned char> bytes;
-  if (pixels_->image.empty() || !cv::imencode(".png", pixels_->image, bytes)) {
-    throw Error(ErrorCode::kBackend, "cannot encode the picture as PNG");
-  }
-  return std::string(bytes.begin(), bytes.end());
+  if (pixels_->image.empty()) throw Error(ErrorCode::kBackend, "no picture to encode as PNG");
+  return ::fleetmap::EncodePng(pixels_->image);
 }
 
 }  // namespace fleetmap

@@ -7,13 +7,13 @@
 #include <fstream>
 #include <iterator>
 #include <limits>
-#include <opencv2/imgcodecs.hpp>
 #include <string>
 #include <string_view>
 #include <system_error>
 
 #include "dataset_files.h"
 #include "fleetmap/core/error.h"
+#include "fleetmap/images/image_codec.h"
 
 namespace fleetmap {
 namespace {
@@ -261,16 +261,10 @@ cv::Mat DecodeMonoImage(const std::string& bytes, const std::string& what, int e
   }
   cv::Mat image;
   try {
-    // imdecode only reads its input; cv::Mat has no const constructor over foreign data.
-    const cv::Mat encoded(1, static_cast<int>(bytes.size()), CV_8UC1,
-                          const_cast<char*>(bytes.data()));
-    image = cv::imdecode(encoded, cv::IMREAD_GRAYSCALE);
-  } catch (const cv::Exception& e) {
-    throw Error(ErrorCode::kCorrupt, "image " + what + " does not decode: " + e.what());
-  }
-  if (image.empty()) {
-    throw Error(ErrorCode::kCorrupt,
-                "image " + what + " does not decode (not an image OpenCV reads, or truncated)");
+    image = DecodeImage(bytes, ImagePixels::kGray8, what);
+  } catch (const Error& e) {
+    if (e.code() != ErrorCode::kCorrupt) throw;
+    throw Error(ErrorCode::kCorrupt, "image " + what + " does not decode: " + e.message());
   }
   if (image.cols != expected_width_px || image.rows != expected_height_px) {
     throw Error(ErrorCode::kInvalidArgument,

@@ -26,8 +26,8 @@ namespace fleetmap::internal {
 
 struct EncodedImageHeader {
   std::uint32_t width_px = 0, height_px = 0;
-  // What OpenCV's imdecode(IMREAD_UNCHANGED) makes of the file: channels of pixels and bytes a
-  // sample, at most (a PNG palette with transparency becomes 4 channels).
+  // What DecodeImage(kAsStored) (fleetmap/images/image_codec.h) makes of the file: channels of
+  // pixels and bytes a sample, at most (a PNG palette with transparency becomes 4 channels).
   int channels = 0;
   int bytes_per_sample = 0;
   // Non-empty: pixels the import does not store (alpha, 16-bit colour), said so.

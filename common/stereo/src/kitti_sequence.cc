@@ -14,7 +14,6 @@
 #include <fstream>
 #include <initializer_list>
 #include <map>
-#include <opencv2/imgcodecs.hpp>
 #include <sstream>
 #include <string>
 #include <string_view>
@@ -25,6 +24,8 @@
 
 #include "dataset_files.h"
 #include "fleetmap/core/error.h"
+#include "fleetmap/images/image_codec.h"
+#include "fleetmap/stereo/euroc_sequence.h"
 
 namespace fleetmap {
 namespace {
@@ -184,21 +185,16 @@ std::vector<StereoPairFiles> PairImages(const fs::path& left_dir, const fs::path
   return pairs;
 }
 
-// An image's size, decoding it (OpenCV has no header-only reader); Error(kCorrupt) if it does not.
+// An image's size, decoding it (a whole file, not only its header, so a damaged first pair is
+// found when the sequence loads); Error(kCorrupt) if it does not decode.
 cv::Size ImageSize(const fs::path& file) {
   RequireFile(file, "image");
-  cv::Mat image;
   try {
-    image = cv::imread(file.string(), cv::IMREAD_UNCHANGED);
-  } catch (const cv::Exception& e) {
-    throw Error(ErrorCode::kCorrupt, "image " + file.string() + " does not decode: " + e.err);
+    return DecodeImage(ReadImageBytes(file), ImagePixels::kAsStored, file.string()).size();
+  } catch (const Error& e) {
+    if (e.code() != ErrorCode::kCorrupt) throw;
+    throw Error(ErrorCode::kCorrupt, "image " + file.string() + " does not decode: " + e.message());
   }
-  if (image.empty()) {
-    throw Error(ErrorCode::kCorrupt, "image " + file.string() +
-                                         " does not decode (not an image OpenCV reads, or "
-                                         "truncated)");
-  }
-  return image.size();
 }
 
 // The pair's two images must be of one size; returns it.

@@ -4,12 +4,12 @@
 #include <cctype>
 #include <cstring>
 #include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <string_view>
 #include <vector>
 
 #include "fleetmap/core/error.h"
+#include "fleetmap/images/image_codec.h"
 #include "fleetmap/stereo/ros_bag_import.h"
 #include "image_header.h"
 
@@ -91,7 +91,7 @@ DecodedRosImage RosCompressedImageToPng(const RosCompressedImage& image,
                 "sensor_msgs/CompressedImage format '" + image.format +
                     "' is not supported (supported: " + kSupportedRosCompressedFormats + ")");
   }
-  // Only the decoder the format names sees the bytes (imdecode would try every codec it has).
+  // Only the decoder the format names sees the bytes.
   if (!BeginsAs(image.data, codec) || image.data.size() > std::size_t{INT32_MAX}) {
     throw Error(ErrorCode::kCorrupt, "sensor_msgs/CompressedImage of format '" + image.format +
                                          "': its " + std::to_string(image.data.size()) +
@@ -115,17 +115,12 @@ DecodedRosImage RosCompressedImageToPng(const RosCompressedImage& image,
   }
   cv::Mat pixels;
   try {
-    // imdecode reads the buffer only; the const_cast is for cv::Mat's constructor.
-    const cv::Mat buffer(1, static_cast<int>(image.data.size()), CV_8UC1,
-                         const_cast<char*>(image.data.data()));
-    pixels = cv::imdecode(buffer, cv::IMREAD_UNCHANGED);
-  } catch (const cv::Exception&) {
-    pixels.release();  // a decoder that threw on these bytes: as undecodable
-  }
-  if (pixels.empty()) {
-    throw Error(ErrorCode::kCorrupt, "sensor_msgs/CompressedImage of format '" + image.format +
-                                         "': its " + std::to_string(image.data.size()) +
-                                         " bytes do not decode as " + codec);
+    pixels = DecodeImage(image.data, ImagePixels::kAsStored, what);
+  } catch (const Error& e) {
+    if (e.code() != ErrorCode::kCorrupt) throw;
+    throw Error(ErrorCode::kCorrupt, what + ": its " + std::to_string(image.data.size()) +
+                                         " bytes do not decode as " + codec + " (" + e.message() +
+                                         ")");
   }
   const int type = pixels.type();
   if (type != CV_8UC1 && type != CV_16UC1 && type != CV_8UC3) {
@@ -136,14 +131,7 @@ DecodedRosImage RosCompressedImageToPng(const RosCompressedImage& image,
                     " bits, which is not supported (supported: the pixels of " +
                     kSupportedRosImageEncodings + ")");
   }
-  std::vector<unsigned char> png;
-  if (!cv::imencode(".png", pixels, png)) {
-    throw Error(ErrorCode::kBackend, "cannot encode a decoded " + codec + " image of " +
-                                         std::to_string(pixels.cols) + "x" +
-                                         std::to_string(pixels.rows) + " as PNG");
-  }
-  return DecodedRosImage{std::string(png.begin(), png.end()),
-                         static_cast<std::uint32_t>(pixels.cols),
+  return DecodedRosImage{EncodePng(pixels), static_cast<std::uint32_t>(pixels.cols),
                          static_cast<std::uint32_t>(pixels.rows)};
 }
 
@@ -176,15 +164,9 @@ std::string RosImageToPng(const RosImage& image, const RosCameraInfo* camera_inf
       }
     }
   } else if (image.encoding == "rgb8") {
-    cv::cvtColor(pixels, pixels, cv::COLOR_RGB2BGR);  // imencode takes BGR
+    cv::cvtColor(pixels, pixels, cv::COLOR_RGB2BGR);  // EncodePng takes BGR
   }
-  std::vector<unsigned char> png;
-  if (!cv::imencode(".png", pixels, png)) {
-    throw Error(ErrorCode::kBackend, "cannot encode a " + image.encoding + " image of " +
-                                         std::to_string(image.width) + "x" +
-                                         std::to_string(image.height) + " as PNG");
-  }
-  return std::string(png.begin(), png.end());
+  return EncodePng(pixels);
 }
 
 }  // namespace fleetmap::internal
