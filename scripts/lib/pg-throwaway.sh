@@ -1,5 +1,5 @@
 # Sourced, not run: a throwaway PostgreSQL cluster on 127.0.0.1 for tests and benchmarks.
-#   pg_throwaway_start   initdb in a temp dir, start on a free port, export
+#   pg_throwaway_start   initdb in a temp dir (tmpfs if there is one), start on a free port, export
 #                        FLEETMAP_TEST_PG_URI (a superuser "fleetmap", trust auth, loopback only)
 #   pg_throwaway_stop    stop it and delete the directory (safe to call twice)
 # As root, the server runs as the unprivileged user "nobody" (postgres refuses root).
@@ -11,7 +11,12 @@ pg_throwaway_start() {
     echo "pg: no PostgreSQL server binaries under /usr/lib/postgresql (run scripts/setup)" >&2
     return 1
   fi
-  PG_THROWAWAY_DIR=$(mktemp -d /tmp/fleetmap-pg.XXXXXX)
+  # In memory (tmpfs) where there is one: every test makes and drops a database of ~300 files,
+  # and on a well-used ext4 disk CREATE DATABASE took 370 ms, most of it in the kernel finding
+  # free inodes (perf), against 23 ms on tmpfs. The cluster is thrown away: nothing is lost.
+  local parent=${TMPDIR:-/tmp}
+  if [ -d /dev/shm ] && [ -w /dev/shm ]; then parent=/dev/shm; fi
+  PG_THROWAWAY_DIR=$(mktemp -d "$parent/fleetmap-pg.XXXXXX")
   PG_THROWAWAY_RUN=()
   if [ "$(id -u)" -eq 0 ]; then
     chown nobody "$PG_THROWAWAY_DIR"

@@ -68,6 +68,11 @@ provided_by() {
 }
 # Depends as package names: "a (>= 1), b | c" -> a b c.
 depends_names=" $(echo "$depends" | tr ',|' '\n\n' | sed 's/(.*)//; s/ //g' | tr '\n' ' ') "
+# Each program's libraries as ldd resolves them, and the paths dpkg may know each by (/lib or
+# /usr/lib: merged /usr). One dpkg-query for them all: each call reads dpkg's whole file list
+# (0.15 s), and one call per library took 12 of this test's 22 s.
+declare -A library_path=()
+candidates=()
 for program in fleetmap fleetmapd fleetmap-agent; do
   binary=$root/usr/bin/$program
   ldd "$binary" >"$log" 2>&1 || fail "ldd $program"
@@ -75,25 +80,32 @@ for program in fleetmap fleetmapd fleetmap-agent; do
   for needed in $(readelf -d "$binary" | sed -n 's/.*(NEEDED).*\[\(.*\)\]/\1/p'); do
     path=$(awk -v lib="$needed" '$1 == lib && $2 == "=>" {print $3}' "$log")
     [ -n "$path" ] || fail "$program: ldd does not resolve $needed"
-    # dpkg knows a file by the path its package ships (/lib or /usr/lib: merged /usr).
-    # (No `| head` or `| grep -q` here: under pipefail, the writer they cut off fails the step.)
-    owner=""
-    for candidate in "$path" "$(readlink -f "$path")" "${path#/usr}" "/usr$path"; do
-      found=$(dpkg-query -S "$candidate" 2>/dev/null || true)
-      if [ -n "$found" ]; then
-        owner=${found%%:*}
-        break
-      fi
-    done
-    [ -n "$owner" ] || fail "$program: no package ships $path ($needed)"
-    # Depends may name the package or a name it provides (libspdlog1.10 provides
-    # libspdlog1.10-fmt9, the name its shlibs file gives).
-    named=""
-    for name in $owner $(provided_by "$owner"); do
-      case "$depends_names" in *" $name "*) named=$name ;; esac
-    done
-    [ -n "$named" ] || fail "$program loads $needed from $owner, which Depends does not name"
+    library_path["$program $needed"]=$path
+    candidates+=("$path" "$(readlink -f "$path")" "${path#/usr}" "/usr$path")
   done
+done
+# "libpng16-16:amd64: /usr/lib/x86_64-linux-gnu/libpng16.so.16" -> owner_of[path]=libpng16-16
+declare -A owner_of=()
+while IFS= read -r line; do
+  case "$line" in *": /"*) owner_of["${line##*: }"]=${line%%:*} ;; esac
+done < <(dpkg-query -S "${candidates[@]}" 2>/dev/null || true)
+for key in "${!library_path[@]}"; do
+  program=${key%% *} needed=${key#* } path=${library_path[$key]}
+  owner=""
+  for candidate in "$path" "$(readlink -f "$path")" "${path#/usr}" "/usr$path"; do
+    if [ -n "${owner_of[$candidate]:-}" ]; then
+      owner=${owner_of[$candidate]}
+      break
+    fi
+  done
+  [ -n "$owner" ] || fail "$program: no package ships $path ($needed)"
+  # Depends may name the package or a name it provides (libspdlog1.10 provides
+  # libspdlog1.10-fmt9, the name its shlibs file gives).
+  named=""
+  for name in $owner $(provided_by "$owner"); do
+    case "$depends_names" in *" $name "*) named=$name ;; esac
+  done
+  [ -n "$named" ] || fail "$program loads $needed from $owner, which Depends does not name"
 done
 
 step="every Depends is installed in a version it allows"
