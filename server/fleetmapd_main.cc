@@ -94,10 +94,12 @@ void AddServiceOptions(CLI::App& app, fleetmap::SyncServerOptions& options, Flag
                  "\"Authorization: Bearer TOKEN\" (or ?token=TOKEN from a browser, which then "
                  "gets a cookie), else 401")
       ->check(CLI::ExistingFile);
-  app.add_option("--picture-relax-nodes", options.picture_relax_max_nodes,
-                 "The status page's pictures are relaxed (a loop closes where it was driven) up "
-                 "to this many nodes and composed beyond (0: always composed); relaxing takes a "
-                 "store thread about 4 s at 10^4 nodes and 80 s and 0.75 GB at 10^5")
+  app.add_option(
+         "--picture-relax-nodes", options.picture_relax_max_nodes,
+         "The status page's pictures are relaxed (a loop closes where it was driven) up "
+         "to this many nodes and composed beyond (0: always composed); relaxing takes a "
+         "store thread about 4 s at 10^4 nodes and 80 s and 0.75 GB at 10^5; none are drawn "
+         "without --http")
       ->capture_default_str()
       ->check(CLI::Range(std::size_t{0}, std::size_t{10'000'000}));
   app.add_option("--threads", options.io_threads, "IO threads for sessions")
@@ -300,6 +302,7 @@ void ApplyFlags(const Flags& flags, fleetmap::SyncServerOptions& options) {
   options.download_cache_bytes = flags.download_cache_mib << 20;
   options.download_cache_entry_bytes = flags.download_cache_entry_mib << 20;
   options.download_batch_bytes = flags.download_batch_kib << 10;
+  options.draw_status_pictures = !flags.http.empty();
 }
 
 void StartLogging() {

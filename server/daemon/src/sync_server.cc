@@ -334,6 +334,7 @@ class SyncServer::Impl {
   // asked for one (status_pictures.h), in a job of their own so the robots and counts above
   // never wait for them.
   void RefreshPicture() {
+    if (!options_.draw_status_pictures) return;
     store_->Post([this](Repository& repository) {
       try {
         picture_.Refresh(repository);

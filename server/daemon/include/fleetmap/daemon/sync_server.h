@@ -107,6 +107,11 @@ struct SyncServerOptions {
   // 3-4 s and little memory at 10^4 nodes, 80 s and 0.75 GB at 10^5
   // (tests/benchmarks/relaxation_benchmark.cc).
   std::size_t picture_relax_max_nodes = 10'000;
+  // Whether the status page's pictures are drawn at all: only where a status page shows them
+  // (fleetmapd --http). Each is drawn when the head moves, on a store thread beside the copy's
+  // plan, and holds the map's layout, SVG and facts of every node while it is drawn: a server
+  // without a page neither spends that CPU on each merge nor adds that peak to its memory.
+  bool draw_status_pictures = false;
   // A streamed download is read, encoded and written about this many bytes at a time (two such
   // batches in memory per download at most).
   std::size_t download_batch_bytes = std::size_t{4} << 20;
