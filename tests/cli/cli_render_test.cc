@@ -91,9 +91,12 @@ class CliRenderTest : public testing::FleetmapCliTest {
   }
 
   // The picture the CLI must have drawn, composed by the library from the same revision.
+  // The picture `fleetmap render` draws of revision r, titled as it titles it (the title's
+  // length is part of the picture's width).
   MapPicture Expected(NodeColouring colouring, RevisionNumber r = 3) {
     const auto repository = Repository::Open(store_);
-    return ComposeRevisionPicture(*repository, r, colouring, "");
+    return ComposeRevisionPicture(*repository, r, colouring,
+                                  "revision " + std::to_string(r) + " of " + repository->uri());
   }
 
   // The layout's pose of `node` (x, z): relative to its component's first node, from the survey.

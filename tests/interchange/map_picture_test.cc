@@ -1,10 +1,12 @@
 // The map picture (map_picture.h) and its two back ends: colour maps, the empty picture, many
 // components packed without overlap, and one picture drawn as SVG (read back with the tests'
-// XML reader) and as PNG (decoded with OpenCV) with every node in the same place.
+// XML reader) and as PNG (decoded with OpenCV) with every node in the same place, and a long title
+// that widens the picture.
 #include "fleetmap/interchange/map_picture.h"
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <opencv2/core.hpp>
 
 #include "fleetmap/images/image_codec.h"
@@ -138,6 +140,63 @@ TEST(MapPictureTest, SvgAndPngDrawTheSamePicture) {
     EXPECT_NEAR(px[2], want.r, 40) << n;
     EXPECT_NEAR(px[1], want.g, 40) << n;
     EXPECT_NEAR(px[0], want.b, 40) << n;
+  }
+}
+
+// The rightmost column with a dark pixel in rows [top, bottom), or -1.
+int RightmostInk(const cv::Mat& bgr, int top, int bottom) {
+  int rightmost = -1;
+  for (int y = top; y < bottom; ++y) {
+    for (int x = 0; x < bgr.cols; ++x) {
+      const cv::Vec3b px = bgr.at<cv::Vec3b>(y, x);
+      if (px[0] < 128 && px[1] < 128 && px[2] < 128) rightmost = std::max(rightmost, x);
+    }
+  }
+  return rightmost;
+}
+
+// A title longer than the map is wide (a long store path, why a layout stayed composed) widens
+// the picture instead of running off its right edge; checked on the PNG canvas, whose font is
+// drawn here. A short title leaves the width to the map.
+TEST(MapPictureTest, ALongTitleWidensThePictureInsteadOfBeingCut) {
+  testing::SurveyedMap surveyed;
+  testing::AddSurveyedOuting(surveyed, Uuid::Generate(), Uuid::Generate(), 5 * kHourNs,
+                             testing::WindingRoute(7, 0.0), 1);
+  const GraphLayout layout = GraphLayout::Compute(surveyed.map.nodes, surveyed.map.edges);
+  const int map_width = MapPicture::Compose(layout, surveyed.map.edges, {}).width_px();
+
+  MapPictureOptions options;
+  options.title =
+      "revision 18 of sqlite:/var/lib/fleetmap/Warehouse-MMW-2/depot_mmww-0123456789/central.db, "
+      "composed layout (not relaxed: 40000 nodes, more than 10000 [--picture-relax-nodes])";
+  const MapPicture picture = MapPicture::Compose(layout, surveyed.map.edges, options);
+  EXPECT_GT(picture.width_px(), map_width);
+  PngCanvas canvas;
+  picture.Draw(canvas);
+  const cv::Mat image = DecodeImage(canvas.EncodePng(), ImagePixels::kBgr8, "the map picture");
+  ASSERT_EQ(image.cols, picture.width_px());
+  const int title_ink = RightmostInk(image, 0, 34);  // the title's line, descenders and all
+  EXPECT_LT(title_ink, image.cols - 8) << "the title runs to the picture's edge";
+  EXPECT_GT(title_ink, image.cols * 2 / 3) << "the picture is far wider than its title";
+
+  options.title = "revision 18";
+  EXPECT_EQ(MapPicture::Compose(layout, surveyed.map.edges, options).width_px(), map_width);
+}
+
+// The title's room is reckoned per character: a line of any one printable character fits.
+TEST(MapPictureTest, ATitleOfAnyPrintableCharacterFits) {
+  testing::SurveyedMap surveyed;
+  testing::AddSurveyedOuting(surveyed, Uuid::Generate(), Uuid::Generate(), 5 * kHourNs,
+                             testing::WindingRoute(2, 0.0), 1);
+  const GraphLayout layout = GraphLayout::Compute(surveyed.map.nodes, surveyed.map.edges);
+  for (char c = ' '; c <= '~'; ++c) {
+    MapPictureOptions options;
+    options.title = std::string(60, c);
+    const MapPicture picture = MapPicture::Compose(layout, surveyed.map.edges, options);
+    PngCanvas canvas;
+    picture.Draw(canvas);
+    const cv::Mat image = DecodeImage(canvas.EncodePng(), ImagePixels::kBgr8, "the map picture");
+    EXPECT_LT(RightmostInk(image, 0, 34), image.cols - 8) << "'" << c << "' runs to the edge";
   }
 }
 

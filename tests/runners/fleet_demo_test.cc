@@ -169,8 +169,9 @@ TEST(FleetDemo, TwoRobotsShareWhatTheyLearnAndTheServerStopsCleanly) {
   const cv::Mat image = testing::ReadImageFile(png, ImagePixels::kBgr8);
   ASSERT_FALSE(image.empty()) << "the PNG does not decode";
   const std::unique_ptr<Repository> repository = Repository::Open(uri);
-  const MapPicture picture =
-      ComposeRevisionPicture(*repository, second.server_revision, NodeColouring::kTimeOfDay, "");
+  const MapPicture picture = ComposeRevisionPicture(
+      *repository, second.server_revision, NodeColouring::kTimeOfDay,
+      "revision " + std::to_string(second.server_revision) + " of " + repository->uri());
   EXPECT_EQ(image.cols, picture.width_px());
   EXPECT_EQ(image.rows, picture.height_px());
   ASSERT_FALSE(picture.component_boxes().empty());

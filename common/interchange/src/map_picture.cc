@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <limits>
 #include <set>
+#include <string_view>
 #include <utility>
 
 namespace fleetmap {
@@ -90,6 +91,40 @@ Rgb Darker(Rgb colour) {
 
 std::string Count(std::size_t n, const char* one, const char* many) {
   return std::to_string(n) + " " + (n == 1 ? one : many);
+}
+
+// At least the width of a line of text on either canvas, whose fonts this file cannot measure:
+// the PNG canvas's Hershey simplex and the SVG's sans-serif (DejaVu Sans, or a narrower Arial).
+// Each character class advances by the wider of the two fonts, in capital heights, rounded up.
+double TextWidthBound(std::string_view text, double cap_height_px) {
+  const auto in = [](std::string_view set, char c) { return set.find(c) != set.npos; };
+  double advances = 0.0;
+  for (const char c : text) {
+    if (in("il.,:;'|Ij", c)) {
+      advances += 0.5;
+    } else if (in("!ftr()[]", c)) {
+      advances += 0.65;
+    } else if (in(" \"*`", c)) {
+      advances += 0.7;
+    } else if (in("mwMW@%&", c)) {
+      advances += 1.4;
+    } else if (in("-+=<>~#^", c)) {
+      advances += 1.2;
+    } else if (in("/\\", c) || (c >= 'A' && c <= 'Z')) {
+      advances += 1.1;
+    } else {
+      advances += 0.9;  // other letters, digits, braces, a byte of UTF-8
+    }
+  }
+  return advances * cap_height_px;
+}
+
+// The picture's width: at least `least_px`, and room for its title and subtitle.
+int WidthForText(int least_px, std::string_view title, std::string_view subtitle,
+                 double subtitle_height) {
+  const double text =
+      std::max(TextWidthBound(title, kTitleHeight), TextWidthBound(subtitle, subtitle_height));
+  return std::max(least_px, static_cast<int>(std::ceil(text + 2 * kMargin)));
 }
 
 }  // namespace
@@ -242,7 +277,7 @@ MapPicture MapPicture::Compose(const GraphLayout& layout, const std::vector<Edge
   const std::vector<LaidOutNode>& laid_out = layout.nodes();
   if (laid_out.empty()) {
     picture.subtitle_ = "no nodes: nothing to draw";
-    picture.width_px_ = 640;
+    picture.width_px_ = WidthForText(640, picture.title_, picture.subtitle_, kTitleHeight);
     picture.height_px_ = 140;
     return picture;
   }
@@ -310,6 +345,8 @@ MapPicture MapPicture::Compose(const GraphLayout& layout, const std::vector<Edge
                       Count(path_edges, "path edge", "path edges") + ", " +
                       Count(layout.component_count(), "component", "components") +
                       " (each in its own frame); seen from above: x right, z up";
+  picture.width_px_ =
+      WidthForText(picture.width_px_, picture.title_, picture.subtitle_, kTextHeight);
   picture.scale_bar_m_ = RoundLength(160.0 / ppm);
   return picture;
 }

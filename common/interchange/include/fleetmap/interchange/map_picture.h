@@ -19,6 +19,8 @@
 //   (1, 2 or 5 times a power of ten metres). Frames of different components are unrelated
 //   (nothing measured joins them), so the boxes' places relative to each other mean nothing.
 // - Times of day are UTC, of the node's capture stamp.
+// - The picture is at least wide enough for its legend, and for its title and subtitle as either
+//   back end's font draws them (a long store path or reason is not cut at the right edge).
 // - Groups (SVG ids): "components" (one frame per component, in component order), "path-edges",
 //   "metric-edges", "nodes" (one disc per node, in node number order), "stand-ins" (kChange: a
 //   square around each node that stands in for an omitted one), "legend", "scale-bar", "title".
