@@ -90,9 +90,8 @@ class CliRenderTest : public testing::FleetmapCliTest {
     RunOn({"merge", "--all"});
   }
 
-  // The picture the CLI must have drawn, composed by the library from the same revision.
-  // The picture `fleetmap render` draws of revision r, titled as it titles it (the title's
-  // length is part of the picture's width).
+  // The picture the CLI must have drawn, composed by the library from the same revision and
+  // titled as `fleetmap render` titles it (the title's length is part of the picture's width).
   MapPicture Expected(NodeColouring colouring, RevisionNumber r = 3) {
     const auto repository = Repository::Open(store_);
     return ComposeRevisionPicture(*repository, r, colouring,
